@@ -1,0 +1,3 @@
+from mdl.cli import main
+
+main()

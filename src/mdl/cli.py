@@ -1,0 +1,235 @@
+"""The `mdl` command: options -> one library call -> diagnostics -> exit status (SPEC section 1)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from mdl import __version__
+from mdl.diagnostics import EXIT_INVALID, MdlError
+
+SCHEMAS = click.Choice(["0.9b", "1.0"])
+
+
+def _fail(exc: MdlError) -> None:
+    for diag in exc.diagnostics:
+        click.echo(str(diag), err=True)
+    sys.exit(exc.exit_code)
+
+
+class Group(click.Group):
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except MdlError as exc:
+            _fail(exc)
+        except KeyboardInterrupt:
+            click.echo("mdl: interrupted", err=True)
+            sys.exit(130)
+
+
+@click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="mdl")
+def main():
+    """mdl: vendor register tables -> MDL (Modbus Definition Language) -> drivers.
+
+    \b
+    Example, end to end:
+      mdl csv2xml examples/temco_tstat/temco_tstat.ini
+      mdl validate examples/temco_tstat/temco_tstat.xml
+      mdl gen examples/temco_tstat/temco_tstat.xml --lang python -o out/
+      mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 &
+      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020
+    """
+
+
+@main.command()
+@click.argument("source", type=click.Path(path_type=Path))
+@click.option("--ini", "ini", type=click.Path(path_type=Path), help="Device INI file (ORNL format).")
+@click.option("-o", "--output", type=click.Path(path_type=Path), help="Output MDL file (default: stdout, or the INI's output_xml_file).")
+@click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
+@click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
+@click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
+def csv2xml(source, ini, output, interactive, threshold, emit_all):
+    """Convert a vendor register table (CSV) to MDL XML.
+
+    SOURCE is the CSV (with --ini) or the INI file itself, which names the CSV and the output.
+
+    \b
+    Examples:
+      mdl csv2xml tempco_device.ini
+      mdl csv2xml map.csv --ini device.ini -o device.xml
+      mdl csv2xml map.csv --ini device.ini -i
+    """
+    from mdl.csvmap.convert import run_csv2xml
+
+    run_csv2xml(source, ini, output, interactive, threshold, emit_all)
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--schema", "version", type=SCHEMAS, default="1.0", show_default=True,
+              help="Schema to validate against; 1.0 accepts every 0.9b document.")
+def validate(files, version):
+    """Validate MDL files against the XSD and the semantic rules.
+
+    \b
+    Example:
+      mdl validate device.xml --schema 0.9b
+    """
+    from mdl.mdlxml import validate_file
+
+    bad = False
+    for path in files:
+        device, diagnostics = validate_file(path, version)
+        for diag in diagnostics:
+            click.echo(str(diag), err=True)
+        if device is None or any(d.severity == "error" for d in diagnostics):
+            bad = True
+            continue
+        used = device.extensions()
+        if used:
+            click.echo(f"{path}: valid MDL 1.0 (extensions: {', '.join(used)})")
+        else:
+            click.echo(f"{path}: valid MDL 0.9b")
+    sys.exit(EXIT_INVALID if bad else 0)
+
+
+@main.command()
+@click.argument("file", type=click.Path(path_type=Path))
+@click.option("--lang", type=click.Choice(["cpp", "python", "all"]), default="all", show_default=True)
+@click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
+              show_default=True, help="Directory for the generated files.")
+@click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
+def gen(file, lang, outdir, check):
+    """Generate drivers: <stem>.py (pymodbus) and/or <stem>.h/.cc (libmodbus).
+
+    Files are written only when their content changes (Makefile friendly).
+
+    \b
+    Example:
+      mdl gen device.xml --lang python -o drivers/
+    """
+    from mdl.gen import generate
+    from mdl.mdlxml import load_device
+
+    device = load_device(file)
+    changed = generate(device, file, lang, outdir, check)
+    for path in changed:
+        click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
+    if check and changed:
+        sys.exit(EXIT_INVALID)
+
+
+@main.command()
+@click.argument("file", type=click.Path(path_type=Path))
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", type=click.IntRange(0, 65535), default=5020, show_default=True, help="0 picks a free port.")
+@click.option("--unit", type=click.IntRange(0, 247), default=1, show_default=True, help="Unit id served (0: any).")
+@click.option("--registers", type=click.Path(path_type=Path), help="Initial raw values (JSON).")
+@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Initial value of a function.")
+@click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
+def sim(file, host, port, unit, registers, settings, permissive):
+    """Serve the device as a Modbus TCP slave until SIGINT/SIGTERM.
+
+    \b
+    Example:
+      mdl sim device.xml --port 0 --set temperature=21.5
+    """
+    from mdl import sim as simulator
+    from mdl.mdlxml import load_device
+
+    device = load_device(file)
+    regs = simulator.Registers(device, permissive)
+    if registers:
+        regs.load_json(registers)
+    for item in settings:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
+        regs.set_value(name.strip(), value.strip())
+    simulator.run(regs, host, port, unit)
+
+
+def _select(device, names, want_write=False):
+    from mdl.diagnostics import error
+
+    by_name = {fn.name: fn for fn in device.functions}
+    out = []
+    for name in names:
+        fn = by_name.get(name)
+        if fn is None:
+            raise error(f"the device has no function '{name}'")
+        if want_write and not fn.writable:
+            raise error(f"function '{name}' is read-only")
+        if not want_write and not fn.readable:
+            raise error(f"function '{name}' is write-only")
+        out.append(fn)
+    return out
+
+
+def _connection_options(f):
+    f = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True)(f)
+    f = click.option("--port", type=click.IntRange(1, 65535), default=502, show_default=True)(f)
+    f = click.option("--host", required=True, help="Device address.")(f)
+    f = click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True, help="Seconds.")(f)
+    return f
+
+
+@main.command()
+@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("names", nargs=-1)
+@_connection_options
+@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table", show_default=True)
+def read(file, names, host, port, unit, timeout, fmt):
+    """Read functions (all readable ones by default) with the coalesced read plan.
+
+    \b
+    Example:
+      mdl read device.xml --host 192.0.2.10 temperature fan_speed --format json
+    """
+    from mdl import output
+    from mdl.mdlxml import load_device
+    from mdl.runtime import Session
+
+    device = load_device(file)
+    functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
+    with Session(device, host, port, unit, timeout) as session:
+        values = session.read(functions)
+    click.echo(output.render(functions, values, fmt), nl=False)
+
+
+@main.command()
+@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("assignments", nargs=-1, required=True, metavar="NAME=VALUE...")
+@_connection_options
+def write(file, assignments, host, port, unit, timeout):
+    """Encode and write values; read-only functions and values outside minimum/maximum are refused.
+
+    \b
+    Example:
+      mdl write device.xml --host 192.0.2.10 temperature_set_point=22.5
+    """
+    from mdl import codec
+    from mdl.diagnostics import error
+    from mdl.mdlxml import load_device
+    from mdl.runtime import Session
+
+    device = load_device(file)
+    todo = []
+    for item in assignments:
+        name, sep, text = item.partition("=")
+        if not sep:
+            raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="NAME=VALUE")
+        (fn,) = _select(device, [name.strip()], want_write=True)
+        try:
+            value = codec.parse_value(fn, text.strip())
+            codec.encode(fn, value)
+        except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
+            raise error(f"{fn.name}={text}: {exc}") from None
+        todo.append((fn, value))
+    with Session(device, host, port, unit, timeout) as session:
+        for fn, value in todo:
+            session.write(fn, value)

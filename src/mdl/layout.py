@@ -1,0 +1,103 @@
+"""Where a function's value lives and how wide it is (SPEC section 2.3).
+
+One rule for every consumer (codec, read plan, simulator, generators):
+- a function reads `n` units: one register (or bit) each; a unit is a full word, the lower or
+  upper byte of a register, or one coil/discrete bit;
+- `n` is the number of listed addresses, or, where one address is given, the larger of `count`
+  and what the format needs; the following consecutive addresses are then read;
+- integers are `n * unit` bits wide, except that one full word holding an 8-bit format is read
+  as that 8-bit type (C's conversion keeps the lower byte);
+- FLOAT32/FLOAT64 must span exactly 32/64 bits; STRING spans all its units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mdl.model import BIT_TABLES, Function
+
+MAX_REGISTERS = 125
+MAX_BITS = 2000
+MAX_ADDRESS = 65535
+
+FORMAT_BITS = {
+    "INT8": 8, "UINT8": 8, "INT16": 16, "UINT16": 16, "INT32": 32, "UINT32": 32,
+    "INT64": 64, "UINT64": 64, "FLOAT32": 32, "FLOAT64": 64, "STRING": 8, "BIT": 1,
+}
+UNIT_FOR_LENGTH = {"Full word": "word", "Lower byte": "low", "Upper byte": "high"}
+
+
+class LayoutError(ValueError):
+    """The function cannot be read as written; the message says why."""
+
+
+@dataclass(frozen=True)
+class Layout:
+    table: str
+    addresses: tuple[int, ...]
+    unit: str  # word | low | high | bit
+    kind: str  # int | float | string | bool
+    bits: int
+    signed: bool
+    byte_order: str
+    word_order: str
+
+    @property
+    def unit_bits(self) -> int:
+        return {"word": 16, "low": 8, "high": 8, "bit": 1}[self.unit]
+
+
+def layout(fn: Function) -> Layout:
+    fmt = fn.eff_format
+    table = fn.table
+    bit_table = table in BIT_TABLES
+    if bit_table and fmt != "BIT" and fn.format is not None:
+        raise LayoutError(f"a {table} holds one bit; format {fmt} needs registers (use BIT)")
+    if bit_table or fmt == "BIT":
+        unit = "bit" if bit_table else "word"
+        needed = 1
+    else:
+        unit = UNIT_FOR_LENGTH[fn.eff_length]
+        unit_bits = 16 if unit == "word" else 8
+        needed = max(fn.eff_count, -(-FORMAT_BITS[fmt] // unit_bits))
+    if not fn.addresses:
+        raise LayoutError("no address")
+    if len(fn.addresses) > 1:
+        if len(fn.addresses) < needed:
+            raise LayoutError(f"needs {needed} registers but lists {len(fn.addresses)} addresses")
+        if len(set(fn.addresses)) != len(fn.addresses):
+            raise LayoutError("an address is listed twice")
+        addresses = tuple(fn.addresses)
+    else:
+        addresses = tuple(range(fn.addresses[0], fn.addresses[0] + needed))
+    n = len(addresses)
+    too_high = [a for a in addresses if a > MAX_ADDRESS]
+    if too_high:
+        raise LayoutError(f"address {too_high[0]} is over {MAX_ADDRESS}")
+    limit = MAX_BITS if unit == "bit" else MAX_REGISTERS
+    if n > limit:
+        raise LayoutError(f"the value needs {n} registers; one request reads at most {limit}")
+    if bit_table or fmt == "BIT":
+        if n != 1:
+            raise LayoutError("a BIT value is one coil or discrete input")
+        return Layout(table, addresses, unit, "bool", 1, False, "big", "big")
+    span = n * (16 if unit == "word" else 8)
+    byte_order, word_order = fn.eff_byte_order, fn.eff_word_order
+    if fmt == "STRING":
+        return Layout(table, addresses, unit, "string", span, False, byte_order, word_order)
+    if fmt.startswith("FLOAT"):
+        if span != FORMAT_BITS[fmt]:
+            raise LayoutError(f"{fmt} needs exactly {FORMAT_BITS[fmt]} bits; the function spans {span}")
+        return Layout(table, addresses, unit, "float", span, True, byte_order, word_order)
+    bits = FORMAT_BITS[fmt] if (unit == "word" and n == 1 and FORMAT_BITS[fmt] == 8) else span
+    if bits > 64:
+        raise LayoutError(f"an integer of {bits} bits is wider than 64 (format {fmt}, {n} units)")
+    return Layout(table, addresses, unit, "int", bits, not fmt.startswith("U"), byte_order, word_order)
+
+
+def int_type_bits(bits: int) -> int:
+    """The C integer width that holds `bits` bits."""
+    for width in (8, 16, 32, 64):
+        if bits <= width:
+            return width
+    raise LayoutError(f"{bits} bits do not fit a 64-bit integer")

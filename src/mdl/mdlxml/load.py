@@ -1,0 +1,79 @@
+"""XML -> model, and the checks an XSD cannot make (names, layouts, fragments)."""
+
+from __future__ import annotations
+
+from lxml import etree
+
+from mdl.diagnostics import Diagnostic, MdlError
+from mdl.mdlxml.parse import NS, parse_file, schema_errors
+from mdl.model import Device, Function
+from mdl.semantics import check_device
+
+_Q = "{%s}%s" % (NS, "%s")
+_FLOATS = ("multiplier", "offset", "minimum", "maximum")
+_STRINGS = ("length", "format", "units", "read_function_code", "write_function_code",
+            "register_type", "byte_order", "word_order", "access")
+
+
+def _text(el) -> str:
+    return el.text or ""
+
+
+def _float(text: str) -> float:
+    t = text.strip()
+    return float({"INF": "inf", "-INF": "-inf", "NaN": "nan"}.get(t, t))
+
+
+def _function(el) -> Function:
+    kw: dict = {"block_labels": [], "line": el.sourceline}
+    for child in el:
+        if not isinstance(child.tag, str):
+            continue
+        tag = etree.QName(child).localname
+        text = _text(child)
+        if tag in ("name", "description"):
+            kw[tag] = text
+        elif tag == "addresses":
+            kw["addresses"] = [int(a) for a in text.split()]
+        elif tag == "count":
+            kw["count"] = int(text.strip())
+        elif tag == "block_label":
+            kw["block_labels"].append(text)
+        elif tag in _FLOATS:
+            kw[tag] = _float(text)
+        elif tag in _STRINGS:
+            kw[tag] = text.strip() if tag not in ("units", "read_function_code", "write_function_code") else text
+        elif tag == "not_implemented":
+            kw["not_implemented"] = text.split()
+        elif tag == "values":
+            kw["values"] = {int(v.get("key")): _text(v) for v in child if isinstance(v.tag, str)}
+    return Function(**kw)
+
+
+def tree_to_device(tree, source=None) -> Device:
+    root = tree.getroot()
+    name = root.find(_Q % "name")
+    desc = root.find(_Q % "description")
+    functions = [_function(el) for el in root.findall(_Q % "function")]
+    return Device(_text(name), _text(desc), functions, root.get("version"), source)
+
+
+def validate_file(path, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
+    """(device, diagnostics): every problem of the file; device is None if it did not load."""
+    try:
+        tree = parse_file(path)
+    except MdlError as exc:
+        return None, exc.diagnostics
+    errors = schema_errors(tree, path, version)
+    if errors:
+        return None, errors
+    device = tree_to_device(tree, str(path))
+    return device, check_device(device, str(path))
+
+
+def load_device(path, version: str = "1.0") -> Device:
+    device, diagnostics = validate_file(path, version)
+    errors = [d for d in diagnostics if d.severity == "error"]
+    if errors or device is None:
+        raise MdlError(errors)
+    return device

@@ -1,0 +1,44 @@
+"""Printing values read from a device: table, json, csv."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+
+from mdl.model import Function
+
+
+def shown(fn: Function, value):
+    """The value as users see it: enumeration text where `values` names it."""
+    if fn.values and isinstance(value, (int, float)) and not isinstance(value, bool):
+        if float(value).is_integer() and int(value) in fn.values:
+            return fn.values[int(value)]
+    return value
+
+
+def _json_value(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+def render(functions: list[Function], values: dict, fmt: str) -> str:
+    rows = [(fn, shown(fn, values[fn.name])) for fn in functions]
+    if fmt == "json":
+        return json.dumps({fn.name: _json_value(v) for fn, v in rows}, indent=2, ensure_ascii=False) + "\n"
+    if fmt == "csv":
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(["name", "value", "units"])
+        for fn, v in rows:
+            writer.writerow([fn.name, "" if v is None else v, (fn.units or "").strip()])
+        return buf.getvalue()
+    width = max((len(fn.name) for fn, _ in rows), default=4)
+    lines = []
+    for fn, v in rows:
+        text = "null" if v is None else str(v)
+        units = (fn.units or "").strip()
+        lines.append(f"{fn.name:<{width}}  {text}{' ' + units if units else ''}")
+    return "\n".join(lines) + ("\n" if lines else "")

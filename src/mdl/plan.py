@@ -1,0 +1,81 @@
+"""The read plan (SPEC section 8): the functions a read needs -> the fewest requests.
+
+A request covers consecutive addresses of one table, up to 125 registers or 2000 bits, and never
+an address the device does not define. Greedy from the lowest needed address is optimal for
+covering points with intervals of bounded length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mdl.layout import MAX_BITS, MAX_REGISTERS, layout
+from mdl.model import Device, Function
+
+TABLE_ORDER = ("coil", "discrete", "holding", "input")
+
+
+@dataclass(frozen=True)
+class Request:
+    table: str
+    start: int
+    count: int
+    functions: tuple[str, ...]  # names of the functions whose registers it carries
+
+    @property
+    def end(self) -> int:
+        return self.start + self.count
+
+
+def defined_addresses(device: Device) -> dict[str, set[int]]:
+    tables: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
+    for fn in device.functions:
+        lay = layout(fn)
+        tables[lay.table].update(lay.addresses)
+    return tables
+
+
+def plan_reads(device: Device, functions: list[Function] | None = None, max_registers: int = MAX_REGISTERS) -> list[Request]:
+    if functions is None:
+        functions = [fn for fn in device.functions if fn.readable]
+    defined = defined_addresses(device)
+    needed: dict[str, dict[int, list[str]]] = {t: {} for t in TABLE_ORDER}
+    for fn in functions:
+        lay = layout(fn)
+        for a in lay.addresses:
+            needed[lay.table].setdefault(a, []).append(fn.name)
+    requests = []
+    for table in TABLE_ORDER:
+        limit = MAX_BITS if table in ("coil", "discrete") else max_registers
+        points = sorted(needed[table])
+        i = 0
+        while i < len(points):
+            start = end = points[i]
+            names: list[str] = []
+            while i < len(points) and points[i] - start < limit and all(
+                a in defined[table] for a in range(end + 1, points[i] + 1)
+            ):
+                end = points[i]
+                names += [n for n in needed[table][end] if n not in names]
+                i += 1
+            requests.append(Request(table, start, end - start + 1, tuple(names)))
+    return requests
+
+
+def split_request(device: Device, request: Request) -> list[Request]:
+    """Smaller requests for a group the device refused with exception 2: one run per function."""
+    by_name = {fn.name: fn for fn in device.functions}
+    out = []
+    for name in request.functions:
+        addrs = sorted(layout(by_name[name]).addresses)
+        run = [addrs[0]]
+        for a in addrs[1:] + [None]:
+            if a is not None and a == run[-1] + 1:
+                run.append(a)
+                continue
+            sub = Request(request.table, run[0], len(run), (name,))
+            if sub not in out:
+                out.append(sub)
+            if a is not None:
+                run = [a]
+    return out

@@ -1,0 +1,46 @@
+"""Checks an XSD cannot make: duplicate names, where values live, fragments, ranges."""
+
+from __future__ import annotations
+
+from mdl.cfrag import FragmentError, check
+from mdl.diagnostics import Diagnostic
+from mdl.layout import LayoutError, layout
+from mdl.model import READ_ONLY_TABLES, Device
+
+
+def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
+    out: list[Diagnostic] = []
+
+    def err(fn, message, severity="error"):
+        out.append(Diagnostic(path, fn.line, None, f"function '{fn.name}': {message}", severity))
+
+    seen: dict[str, int | None] = {}
+    for fn in device.functions:
+        if fn.name in seen:
+            err(fn, f"duplicate function name (first defined on line {seen[fn.name]})")
+        else:
+            seen[fn.name] = fn.line
+        try:
+            lay = layout(fn)
+        except LayoutError as exc:
+            err(fn, str(exc))
+            continue
+        if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
+            err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
+        for attr, wanted in (("read_function_code", fn.readable), ("write_function_code", fn.writable)):
+            code = getattr(fn, attr)
+            if code is None:
+                continue
+            try:
+                check(code, len(lay.addresses))
+            except FragmentError as exc:
+                err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""))
+        if fn.read_function_code is not None and lay.kind in ("string", "bool"):
+            err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
+        if fn.minimum is not None and fn.maximum is not None and fn.minimum > fn.maximum:
+            err(fn, f"minimum {fn.minimum:g} is above maximum {fn.maximum:g}")
+        for token in fn.not_implemented or ():
+            digits = len(token) - 2
+            if digits > 4 and digits > 4 * len(lay.addresses):
+                err(fn, f"not_implemented value {token} is wider than the function's {len(lay.addresses)} register(s)")
+    return out

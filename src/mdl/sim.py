@@ -1,0 +1,156 @@
+"""`mdl sim`: the device as a Modbus TCP server holding exactly the addresses it uses.
+
+The datastore is our own (a ModbusServerContext that answers itself), so that every address the
+device does not define gets exception 2 (ILLEGAL DATA ADDRESS), bits included, and writes to
+functions the description marks read-only are refused with exception 2 as well.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import sys
+
+from pymodbus.constants import ExcCodes
+from pymodbus.datastore import ModbusServerContext
+from pymodbus.exceptions import NoSuchIdException
+from pymodbus.server import ModbusTcpServer
+
+from mdl import codec
+from mdl.diagnostics import error
+from mdl.fileio import read_text
+from mdl.layout import layout
+from mdl.model import Device
+from mdl.plan import TABLE_ORDER, defined_addresses
+
+FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
+            3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
+
+
+class Registers:
+    """The four tables of a simulated device: address -> value for defined addresses only."""
+
+    def __init__(self, device: Device, permissive: bool = False):
+        self.device = device
+        self.permissive = permissive
+        self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
+        self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
+        for fn in device.functions:
+            if not fn.writable:
+                lay = layout(fn)
+                self.read_only[lay.table].update(lay.addresses)
+        for fn in device.functions:  # an address shared with a writable function stays writable
+            if fn.writable:
+                lay = layout(fn)
+                self.read_only[lay.table].difference_update(lay.addresses)
+
+    def defined(self, table: str, address: int, count: int) -> bool:
+        return self.permissive or all(a in self.tables[table] for a in range(address, address + count))
+
+    def get(self, table: str, address: int, count: int) -> list[int]:
+        return [self.tables[table].get(a, 0) for a in range(address, address + count)]
+
+    def put(self, table: str, address: int, values) -> None:
+        for i, v in enumerate(values):
+            self.tables[table][address + i] = int(v) & (1 if table in ("coil", "discrete") else 0xFFFF)
+
+    def load_json(self, path) -> None:
+        text = read_text(path)
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise error(f"invalid JSON: {exc.msg}", path, exc.lineno, exc.colno) from None
+        if not isinstance(data, dict):
+            raise error("expected an object with keys holding, input, coil, discrete", path)
+        for table, values in data.items():
+            if table not in self.tables or not isinstance(values, dict):
+                raise error(f"unknown table '{table}' (expected holding, input, coil, discrete)", path)
+            for key, value in values.items():
+                try:
+                    address = int(key, 0)
+                    value = int(value)
+                except (TypeError, ValueError):
+                    raise error(f"{table} {key!r}: expected a wire address and an integer value", path) from None
+                if not self.defined(table, address, 1):
+                    raise error(f"{table} address {address} is not defined by the device", path)
+                limit = 1 if table in ("coil", "discrete") else 0xFFFF
+                if not 0 <= value <= limit:
+                    raise error(f"{table} {address}: value {value} is out of range 0..{limit}", path)
+                self.put(table, address, [value])
+
+    def set_value(self, name: str, text: str) -> None:
+        fns = {fn.name: fn for fn in self.device.functions}
+        if name not in fns:
+            raise error(f"--set {name}: the device has no function '{name}'")
+        fn = fns[name]
+        try:
+            regs = codec.encode(fn, codec.parse_value(fn, text))
+        except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
+            raise error(f"--set {name}={text}: {exc}") from None
+        lay = layout(fn)
+        for address, value in zip(lay.addresses, regs):
+            self.tables[lay.table][address] = value
+
+
+class SimContext(ModbusServerContext):
+    """Answers requests from `Registers`; pymodbus calls async_getValues/async_setValues."""
+
+    def __init__(self, registers: Registers, unit: int):  # pylint: disable=super-init-not-called
+        self.registers = registers
+        self.unit = unit
+        self.old_simulator = True
+        self.simdevices = []
+
+    def device_ids(self):
+        return [self.unit]
+
+    def _table(self, device_id: int, func_code: int) -> str:
+        if device_id != self.unit and self.unit != 0:
+            raise NoSuchIdException(f"unit {device_id} is not served")
+        return FC_TABLE.get(func_code, "")
+
+    async def async_getValues(self, device_id, func_code, address, count=1):
+        table = self._table(device_id, func_code)
+        if not table:
+            return ExcCodes.ILLEGAL_FUNCTION
+        if not self.registers.defined(table, address, count):
+            return ExcCodes.ILLEGAL_ADDRESS
+        values = self.registers.get(table, address, count)
+        return [bool(v) for v in values] if table in ("coil", "discrete") else values
+
+    async def async_setValues(self, device_id, func_code, address, values):
+        table = self._table(device_id, func_code)
+        if table not in ("coil", "holding"):
+            return ExcCodes.ILLEGAL_FUNCTION
+        if not self.registers.defined(table, address, len(values)):
+            return ExcCodes.ILLEGAL_ADDRESS
+        if any(a in self.registers.read_only[table] for a in range(address, address + len(values))):
+            return ExcCodes.ILLEGAL_ADDRESS
+        self.registers.put(table, address, values)
+        return None
+
+
+async def serve(registers: Registers, host: str, port: int, unit: int, out=sys.stdout) -> None:
+    server = ModbusTcpServer(SimContext(registers, unit), address=(host, port))
+    await server.serve_forever(background=True)
+    sockets = getattr(server.transport, "sockets", None) or []
+    bound = sockets[0].getsockname()[1] if sockets else port
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    print(f"mdl sim: serving {registers.device.name} on {host}:{bound} unit {unit}", file=out, flush=True)
+    try:
+        await stop.wait()
+    finally:
+        await server.shutdown()
+
+
+def run(registers: Registers, host: str, port: int, unit: int) -> None:
+    try:
+        asyncio.run(serve(registers, host, port, unit))
+    except RuntimeError as exc:
+        raise error(f"cannot serve on {host}:{port}: {exc}") from None
+    except OSError as exc:
+        raise error(f"cannot serve on {host}:{port}: {exc.strerror or exc}") from None
