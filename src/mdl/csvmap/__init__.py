@@ -1,0 +1,1 @@
+"""`mdl csv2xml`: vendor register tables (CSV) + device INI -> MDL."""
