@@ -90,8 +90,8 @@ def validate(files, version):
             bad = True
             continue
         used = device.extensions()
-        if used:
-            click.echo(f"{path}: valid MDL 1.0 (extensions: {', '.join(used)})")
+        if device.schema_version == "1.0":
+            click.echo(f"{path}: valid MDL 1.0 (extensions: {', '.join(used) or 'none'})")
         else:
             click.echo(f"{path}: valid MDL 0.9b")
     sys.exit(EXIT_INVALID if bad else 0)

@@ -118,8 +118,6 @@ class Device:
 
     def extensions(self) -> list[str]:
         used: list[str] = []
-        if self.version:
-            used.append("version")
         for fn in self.functions:
             for ext in fn.extensions():
                 if ext not in used:
@@ -128,4 +126,4 @@ class Device:
 
     @property
     def schema_version(self) -> str:
-        return "1.0" if self.extensions() else "0.9b"
+        return "1.0" if self.version or self.extensions() else "0.9b"

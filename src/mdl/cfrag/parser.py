@@ -9,6 +9,7 @@ Nodes: ("num", type, value) ("var", type, name) ("cast", type, target, node)
 from __future__ import annotations
 
 import re
+import struct
 
 from mdl.cfrag.lexer import FragmentError, Token, tokenize
 
@@ -61,6 +62,8 @@ def _literal(tok: Token):
             raise FragmentError(f"float suffix in '{text}' is not supported (use f or none)", tok.col)
         single = low.endswith("f")
         value = float(low.rstrip("f"))
+        if single:  # a float literal is rounded to single precision where it stands
+            value = struct.unpack("<f", struct.pack("<f", value))[0]
         return ("num", "float" if single else "double", value)
     digits = low.rstrip("ul")
     suffix = low[len(digits):]

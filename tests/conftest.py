@@ -1,0 +1,134 @@
+"""Shared fixtures: run the CLI as a user does, and serve devices with `mdl sim` on free ports."""
+
+from __future__ import annotations
+
+import os
+import selectors
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = ROOT.parent / "shared"
+ORNL = SHARED / "conformance" / "ornl"
+EXAMPLE = ROOT / "examples" / "temco_tstat"
+DATA = Path(__file__).resolve().parent / "data"
+
+MDL_NS = "http://www.ornl.gov/ModbusXMLSchema"
+
+
+def mdl_cmd(*args) -> list[str]:
+    return [sys.executable, "-m", "mdl", *map(str, args)]
+
+
+def run_mdl(*args, input=None, cwd=None, timeout=60) -> subprocess.CompletedProcess:
+    return subprocess.run(mdl_cmd(*args), input=input, capture_output=True, text=True, cwd=cwd,
+                          timeout=timeout, env={**os.environ, "PYTHONWARNINGS": "ignore"})
+
+
+def assert_clean_error(proc, code: int, *fragments: str) -> None:
+    """Exit status as the spec says, a message naming what is wrong, never a traceback."""
+    assert proc.returncode == code, (proc.returncode, proc.stdout, proc.stderr)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    for fragment in fragments:
+        assert fragment in proc.stderr, (fragment, proc.stderr)
+
+
+def device_xml(functions: str, name: str = "Test Device", version: str | None = "1.0") -> str:
+    attr = f' version="{version}"' if version else ""
+    return (f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}"{attr}>\n'
+            f"  <name>{name}</name>\n  <description>test</description>\n{functions}</device>\n")
+
+
+def fn_xml(name: str, addresses, **fields) -> str:
+    """A <function> with the given fields in schema order."""
+    order = ["length", "count", "format", "block_label", "multiplier", "units", "read_function_code",
+             "write_function_code", "register_type", "byte_order", "word_order", "offset", "access",
+             "minimum", "maximum", "not_implemented", "values"]
+    body = f"    <name>{name}</name>\n    <description>{name}</description>\n    <addresses>{addresses}</addresses>\n"
+    for key in order:
+        if key in fields:
+            value = fields[key]
+            if key == "values":
+                inner = "".join(f'<value key="{k}">{v}</value>' for k, v in value.items())
+                body += f"    <values>{inner}</values>\n"
+            else:
+                body += f"    <{key}>{value}</{key}>\n"
+    return f"  <function>\n{body}  </function>\n"
+
+
+class Sim:
+    """A running `mdl sim`; stops it with SIGTERM and checks it stopped cleanly."""
+
+    def __init__(self, path, *extra, timeout: float = 30):
+        self.proc = subprocess.Popen(mdl_cmd("sim", path, "--port", "0", *extra), stdout=subprocess.PIPE,
+                                     stderr=subprocess.PIPE, text=True)
+        sel = selectors.DefaultSelector()
+        sel.register(self.proc.stdout, selectors.EVENT_READ)
+        deadline = time.monotonic() + timeout
+        line = ""
+        while time.monotonic() < deadline:
+            if sel.select(timeout=0.5):
+                line = self.proc.stdout.readline()
+                break
+            if self.proc.poll() is not None:
+                break
+        sel.close()
+        if not line.startswith("mdl sim: serving"):
+            self.proc.kill()
+            out, err = self.proc.communicate()
+            raise RuntimeError(f"mdl sim did not start: {line!r} {out!r} {err!r}")
+        self.ready_line = line.rstrip("\n")
+        self.port = int(line.rsplit(":", 1)[1].split()[0])
+        self.host = "127.0.0.1"
+
+    def stop(self, sig=signal.SIGTERM) -> int:
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+            try:
+                self.proc.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+                raise AssertionError("mdl sim did not stop on a signal")
+        self.stderr = self.proc.stderr.read()
+        self.proc.stdout.close()
+        self.proc.stderr.close()
+        return self.proc.returncode
+
+
+@pytest.fixture
+def sim_factory():
+    started: list[Sim] = []
+
+    def start(path, *extra) -> Sim:
+        sim = Sim(path, *extra)
+        started.append(sim)
+        return sim
+
+    yield start
+    for sim in started:
+        sim.stop()
+
+
+@pytest.fixture
+def write_device(tmp_path):
+    def write(functions: str, name: str = "Test Device", version: str | None = "1.0", filename="device.xml") -> Path:
+        path = tmp_path / filename
+        path.write_text(device_xml(functions, name, version), encoding="ascii")
+        return path
+
+    return write
+
+
+def import_generated(path: Path, module_name: str):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
