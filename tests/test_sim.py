@@ -1,0 +1,106 @@
+"""`mdl sim`: strict addresses, seeding, the ready line, clean stop."""
+
+from __future__ import annotations
+
+import json
+import signal
+
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+from conftest import DATA, EXAMPLE, Sim, assert_clean_error, run_mdl
+
+ALL = DATA / "all_tables.xml"
+
+
+@pytest.fixture
+def client_for():
+    clients = []
+
+    def connect(sim):
+        c = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+        assert c.connect()
+        clients.append(c)
+        return c
+
+    yield connect
+    for c in clients:
+        c.close()
+
+
+def test_ready_line_and_clean_stop_on_sigint():
+    sim = Sim(ALL, "--unit", "7")
+    assert sim.ready_line == f"mdl sim: serving All Tables on 127.0.0.1:{sim.port} unit 7"
+    assert sim.stop(signal.SIGINT) == 0
+    assert "Traceback" not in sim.stderr
+
+
+def test_clean_stop_on_sigterm():
+    sim = Sim(EXAMPLE / "temco_tstat.xml")
+    assert sim.stop(signal.SIGTERM) == 0
+    assert "Traceback" not in sim.stderr
+
+
+def test_only_defined_addresses_answer(sim_factory, client_for):
+    c = client_for(sim_factory(ALL))
+    assert c.read_holding_registers(100, count=6, device_id=1).registers == [0] * 6
+    for call, address, count in [("read_holding_registers", 99, 1), ("read_holding_registers", 100, 7),
+                                 ("read_holding_registers", 51, 1), ("read_input_registers", 4, 1),
+                                 ("read_coils", 2, 1), ("read_discrete_inputs", 0, 3)]:
+        rr = getattr(c, call)(address, count=count, device_id=1)
+        assert rr.isError() and rr.exception_code == 2, (call, address, count)
+    assert c.read_coils(0, count=2, device_id=1).bits[:2] == [False, False]
+
+
+def test_writes_to_read_only_functions_are_refused(sim_factory, client_for):
+    c = client_for(sim_factory(ALL))
+    rr = c.write_register(110, 5, device_id=1)  # status_bit has access read
+    assert rr.isError() and rr.exception_code == 2
+    assert not c.write_register(100, 215, device_id=1).isError()
+    assert c.read_holding_registers(100, count=1, device_id=1).registers == [215]
+
+
+def test_other_unit_ids_get_no_answer_from_this_device(sim_factory, client_for):
+    c = client_for(sim_factory(ALL, "--unit", "3"))
+    assert not c.read_holding_registers(100, count=1, device_id=3).isError()
+    rr = c.read_holding_registers(100, count=1, device_id=4)
+    assert rr.isError()
+
+
+def test_registers_json_then_set(tmp_path, sim_factory, client_for):
+    raw = tmp_path / "raw.json"
+    raw.write_text(json.dumps({"holding": {"100": 215, "101": 2}, "input": {"10": 2301}, "coil": {"1": 1},
+                               "discrete": {"0": 1}}))
+    sim = sim_factory(ALL, "--registers", raw, "--set", "setpoint=19.5", "--set", "label=AB",
+                      "--set", "energy=1234.567")
+    c = client_for(sim)
+    assert c.read_holding_registers(100, count=3, device_id=1).registers == [195, 2, 0x4142]
+    assert c.read_input_registers(10, count=1, device_id=1).registers == [2301]
+    assert c.read_input_registers(0, count=2, device_id=1).registers == [1234567 & 0xFFFF, 1234567 >> 16]
+    assert c.read_coils(1, count=1, device_id=1).bits[0] is True
+    assert c.read_discrete_inputs(0, count=1, device_id=1).bits[0] is True
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--set", "nosuch=1"], "no function 'nosuch'"),
+    (["--set", "setpoint=99"], "above the maximum"),
+    (["--set", "setpoint"], "NAME=VALUE"),
+])
+def test_bad_settings(args, message):
+    proc = run_mdl("sim", ALL, "--port", "0", *args, timeout=30)
+    assert proc.returncode in (1, 2)
+    assert_clean_error(proc, proc.returncode, message)
+
+
+def test_bad_registers_file(tmp_path):
+    raw = tmp_path / "raw.json"
+    raw.write_text('{"holding": {"999": 1}}')
+    assert_clean_error(run_mdl("sim", ALL, "--port", "0", "--registers", raw), 1, "999", "not defined")
+    raw.write_text('{"holding": {"100": 1}')
+    assert_clean_error(run_mdl("sim", ALL, "--port", "0", "--registers", raw), 1, f"{raw}:1:")
+
+
+def test_port_in_use_is_a_clean_error(sim_factory):
+    sim = sim_factory(ALL)
+    proc = run_mdl("sim", ALL, "--port", sim.port, timeout=30)
+    assert_clean_error(proc, 1, "cannot serve")
