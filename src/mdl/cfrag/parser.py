@@ -218,11 +218,11 @@ class _Parser:
 
 def parse(src: str, nregs: int):
     """Statements of a fragment, each (target, op, typed tree); FragmentError if outside the subset."""
-    for bad, why in (("#", "preprocessor lines"), ("\\", "backslashes"), ('"', "string literals"),
-                     ("'", "character literals"), ("{", "braces"), ("}", "braces")):
-        col = src.find(bad)
-        if col >= 0 and not _inside_comment(src, col):
-            raise FragmentError(f"'{bad}' is not allowed ({why} are not part of the subset)", col + 1)
+    reasons = {"#": "preprocessor lines", "\\": "backslashes", '"': "string literals",
+               "'": "character literals", "{": "braces", "}": "braces"}
+    for pos, ch in enumerate(src):
+        if ch in reasons and not _inside_comment(src, pos):
+            raise FragmentError(f"'{ch}' is not allowed ({reasons[ch]} are not part of the subset)", pos + 1)
     return _Parser(src, nregs).statements()
 
 

@@ -44,6 +44,9 @@ def _split_rows(table: Table, ini: DeviceIni | None):
                         f"{', '.join(repr(t) for t in texts)}", table.path)
         return header, [r for r in table.rows if r.line > ini.lines_to_skip]
     header = find_header(table, None, texts or None)
+    if header is None and texts:
+        raise error(f"no row holds the header texts {', '.join(repr(t) for t in texts)} named in the INI",
+                    table.path)
     if header is None:
         if ini and ini.columns and not texts and "addresses" in ini.columns:
             return None, table.rows

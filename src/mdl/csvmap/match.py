@@ -1,8 +1,9 @@
 """Scoring table rows against function synonyms, and assigning each function its row.
 
 A synonym equal to a row's text scores 1.0; found as a whole phrase inside it, 0.9 plus up to 0.1
-for how much of the text it covers (so "total system power" prefers "Total system power" over
-"Total system power factor"); otherwise difflib's SequenceMatcher ratio. Whole-phrase matches
+for how much of the text it covers, and only a fifth of that bonus when another word follows the
+phrase in the same clause, since that word changes what is named ("Total system power factor" is
+a factor, "Total system power (sum of phases)" a power); otherwise difflib's SequenceMatcher ratio. Whole-phrase matches
 always rank above fuzzy ones: "occupied heating setpoint" never takes "Unoccupied heating
 setpoint", whose ratio is high but which does not contain the phrase.
 """
@@ -35,8 +36,12 @@ def score_text(synonym: str, text: str) -> Score:
         return Score(FUZZY, 0.0)
     if syn == txt:
         return Score(EXACT, 1.0)
-    if re.search(rf"(?<!\w){re.escape(syn)}(?!\w)", txt):
-        return Score(PHRASE, 0.9 + 0.1 * len(syn) / len(txt))
+    pattern = r"[\W_]+".join(re.escape(word) for word in syn.split())
+    found = re.search(rf"(?<![^\W_]){pattern}(?![^\W_])", text.lower())
+    if found:
+        rest = text[found.end():]
+        clause_ends = not rest.strip() or re.match(r"\s*[(\[,.;:/\-\u2013\u2014]", rest)
+        return Score(PHRASE, 0.9 + (0.1 if clause_ends else 0.02) * len(syn) / len(txt))
     return Score(FUZZY, difflib.SequenceMatcher(None, syn, txt).ratio())
 
 

@@ -147,13 +147,15 @@ def find_header(table: Table, within: int | None = None, texts: list[str] | None
     """The header row: among the first `within` rows, the one holding the INI's header texts,
     or the one that looks most like a header (an address column and another known column)."""
     candidates = [r for r in table.rows if within is None or r.line <= within] if within else table.rows[:40]
-    if texts:
+    if texts:  # the row holding most of the INI's header texts; resolve() names any it lacks
         wanted = [normalize_header(t) for t in texts]
+        best, best_n = None, 0
         for row in candidates:
             cells = [normalize_header(c) for c in row.cells]
-            if all(w in cells for w in wanted):
-                return row
-        return None
+            n = sum(w in cells for w in wanted)
+            if n > best_n:
+                best, best_n = row, n
+        return best
     best, best_n = None, 1
     for row in candidates:
         n, has_address = header_score(row)
