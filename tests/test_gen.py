@@ -23,7 +23,7 @@ def test_golden_files(path):
 
 
 def test_examples_are_current_with_check():
-    proc = run_mdl("gen", EXAMPLE / "temco_tstat.xml", "--lang", "python", "-o", EXAMPLE, "--check")
+    proc = run_mdl("gen", EXAMPLE / "temco_tstat.xml", "--lang", "all", "-o", EXAMPLE, "--check")
     assert proc.returncode == 0, proc.stderr
 
 
@@ -74,11 +74,13 @@ def test_generated_module_imports_only_pymodbus_and_stdlib(tmp_path):
     ("arg = r1; /* */ arg = getenv(0);", "getenv"),
     ("arg = r1 /* ; arg = 0 */;", "comment"),
 ])
-def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_device, fragment, token):
-    path = write_device(fn_xml("good", "1", format="UINT16") + fn_xml("evil", "2", format="UINT16", read_function_code=fragment))
+@pytest.mark.parametrize("lang", ["python", "cpp", "all"])
+@pytest.mark.parametrize("code_element", ["read_function_code", "write_function_code"])
+def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_device, fragment, token, lang, code_element):
+    path = write_device(fn_xml("good", "1", format="UINT16") + fn_xml("evil", "2", format="UINT16", **{code_element: fragment}))
     out = tmp_path / "out"
-    proc = run_mdl("gen", path, "--lang", "python", "-o", out)
-    assert_clean_error(proc, 1, "function 'evil'", token)
+    proc = run_mdl("gen", path, "--lang", lang, "-o", out)
+    assert_clean_error(proc, 1, "function 'evil'", code_element, token)
     assert not out.exists() or not any(out.iterdir())
 
 

@@ -17,6 +17,9 @@ CPP_KEYWORDS = frozenset(
     xor xor_eq""".split()
 )
 PY_KEYWORDS = frozenset(keyword.kwlist) | frozenset(keyword.softkwlist)
+# lowercase macros of the C/C++ standard headers, and names the generated classes use themselves
+RESERVED = frozenset("""errno assert stdin stdout stderr offsetof setjmp va_arg va_start va_end va_copy
+    unix linux all""".split())
 
 
 def identifier(name: str) -> str:
@@ -26,7 +29,7 @@ def identifier(name: str) -> str:
         ident = "unnamed"
     if ident[0].isdigit():
         ident = "f_" + ident
-    if ident in CPP_KEYWORDS or ident in PY_KEYWORDS:
+    if ident in CPP_KEYWORDS or ident in PY_KEYWORDS or ident in RESERVED:
         ident += "_"
     return ident
 

@@ -63,17 +63,19 @@ def plan_reads(device: Device, functions: list[Function] | None = None, max_regi
 
 
 def split_request(device: Device, request: Request) -> list[Request]:
-    """Smaller requests for a group the device refused with exception 2: one run per function."""
+    """Smaller requests for a group the device refused with exception 2: one run per function,
+    within the group's addresses."""
     by_name = {fn.name: fn for fn in device.functions}
     out = []
     for name in request.functions:
-        addrs = sorted(layout(by_name[name]).addresses)
+        lay = layout(by_name[name])
+        addrs = sorted(a for a in lay.addresses if request.start <= a < request.end)
         run = [addrs[0]]
         for a in addrs[1:] + [None]:
             if a is not None and a == run[-1] + 1:
                 run.append(a)
                 continue
-            sub = Request(request.table, run[0], len(run), (name,))
+            sub = Request(lay.table, run[0], len(run), (name,))
             if sub not in out:
                 out.append(sub)
             if a is not None:

@@ -26,6 +26,28 @@ def pycomment(text) -> str:
     return text.replace('"""', "'''").replace("\\", "\\\\")
 
 
+def ccomment(text) -> str:
+    """Text safe inside a C++ comment: ASCII, no line breaks, nothing that ends the comment."""
+    text = str(text).encode("ascii", "backslashreplace").decode("ascii")
+    text = re.sub(r"[\x00-\x1f\x7f]+", " ", text).strip()
+    text = text.replace("*/", "* /").replace("/*", "/ *")
+    return text.rstrip("\\")
+
+
+def cstring(text) -> str:
+    """A C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
+    out = []
+    for byte in str(text).encode("utf-8"):
+        ch = chr(byte)
+        if ch in '"\\?':
+            out.append("\\" + ch)
+        elif 0x20 <= byte < 0x7F:
+            out.append(ch)
+        else:
+            out.append(f"\\{byte:03o}")
+    return '"' + "".join(out) + '"'
+
+
 def environment() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(resource_dir("templates"))),
@@ -37,6 +59,8 @@ def environment() -> jinja2.Environment:
     )
     env.filters["pyrepr"] = pyrepr
     env.filters["pycomment"] = pycomment
+    env.filters["ccomment"] = ccomment
+    env.filters["cstring"] = cstring
     return env
 
 
