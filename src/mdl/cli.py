@@ -130,19 +130,25 @@ def gen(file, lang, outdir, check):
 @click.option("--unit", type=click.IntRange(0, 247), default=1, show_default=True, help="Unit id served (0: any).")
 @click.option("--registers", type=click.Path(path_type=Path), help="Initial raw values (JSON).")
 @click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Initial value of a function.")
+@click.option("--scenario", help="Seed the registers from this embedded test scenario (by id).")
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
-def sim(file, host, port, unit, registers, settings, permissive):
-    """Serve the device as a Modbus TCP slave until SIGINT/SIGTERM.
+def sim(file, host, port, unit, registers, settings, scenario, permissive):
+    """Serve the device (MDL or Toolkit YAML) as a Modbus TCP slave until SIGINT/SIGTERM.
 
     \b
     Example:
       mdl sim device.xml --port 0 --set temperature=21.5
+      mdl sim QuickTestDevice.yaml --port 0 --scenario 'Normal values'
     """
     from mdl import sim as simulator
-    from mdl.mdlxml import load_device
+    from mdl.loading import load_any
 
-    device = load_device(file)
+    device = load_any(file)
     regs = simulator.Registers(device, permissive)
+    if scenario is not None:
+        from mdl.testing import find_scenario
+
+        regs.load_scenario(find_scenario(device, scenario))
     if registers:
         regs.load_json(registers)
     for item in settings:
@@ -151,6 +157,62 @@ def sim(file, host, port, unit, registers, settings, permissive):
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
         regs.set_value(name.strip(), value.strip())
     simulator.run(regs, host, port, unit)
+
+
+@main.command(name="import")
+@click.argument("file", type=click.Path(path_type=Path))
+@click.option("--from", "fmt", type=click.Choice(["schema"]),
+              help="Input format (guessed from the file: .yaml/.yml is a Modbus Schema Toolkit schema).")
+@click.option("-o", "--output", type=click.Path(path_type=Path), help="Output MDL file (default: stdout).")
+def import_(file, fmt, output):
+    """Convert another device description to MDL 1.0.
+
+    \b
+    Example:
+      mdl import QuickTestDevice.yaml -o quick_test_device.xml
+    """
+    from mdl.diagnostics import error
+    from mdl.fileio import write_atomic
+    from mdl.formats.toolkit import import_schema
+    from mdl.loading import is_yaml
+    from mdl.mdlxml import device_to_xml
+
+    if fmt is None and not is_yaml(file):
+        raise error("cannot tell the format from the file name; give --from schema", file)
+    xml = device_to_xml(import_schema(file))
+    if output is None or str(output) == "-":
+        click.echo(xml, nl=False)
+    else:
+        write_atomic(output, xml)
+
+
+@main.command(name="test")
+@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
+def test_(files):
+    """Run the test scenarios embedded in MDL 1.0 or Toolkit YAML files.
+
+    Prints each failure and a last line `N passed, M failed`; exit 1 if any failed.
+
+    \b
+    Example:
+      mdl test QuickTestDevice.yaml device.xml
+    """
+    from mdl.loading import load_any
+    from mdl.testing import run_scenario
+
+    passed = failed = 0
+    for path in files:
+        device = load_any(path)
+        for sc in device.tests:
+            failures = run_scenario(device, sc)
+            for failure in failures:
+                click.echo(f"{path}: {failure}")
+            if failures:
+                failed += 1
+            else:
+                passed += 1
+    click.echo(f"{passed} passed, {failed} failed")
+    sys.exit(EXIT_INVALID if failed else 0)
 
 
 def _select(device, names, want_write=False):

@@ -48,6 +48,13 @@ class Layout:
 
 
 def layout(fn: Function) -> Layout:
+    if fn.expression is not None:
+        if fn.compiled is None:
+            raise LayoutError("the expression has errors")
+        lowered = fn.compiled.lowered
+        table = lowered.table or "holding"
+        unit = "bit" if table in BIT_TABLES else "word"
+        return Layout(table, tuple(lowered.addresses), unit, "expr", 0, False, "big", "big")
     fmt = fn.eff_format
     table = fn.table
     bit_table = table in BIT_TABLES

@@ -28,6 +28,10 @@ EXTENSION_FIELDS = (
     "maximum",
     "not_implemented",
     "values",
+    "expression",
+    "immutable",
+    "system",
+    "fetch_group",
 )
 
 
@@ -53,7 +57,13 @@ class Function:
     maximum: float | None = None
     not_implemented: list[str] | None = None
     values: dict[int, str] | None = None
+    expression: str | None = None
+    immutable: bool | None = None
+    system: bool | None = None
+    fetch_group: str | None = None
     line: int | None = field(default=None, compare=False, repr=False)
+    expression_line: int | None = field(default=None, compare=False, repr=False)
+    compiled: object = field(default=None, compare=False, repr=False)  # mdl.expr.fields.Compiled
 
     @property
     def eff_length(self) -> str:
@@ -91,7 +101,19 @@ class Function:
     def eff_access(self) -> str:
         if self.access:
             return self.access
+        if self.expression is not None:
+            return "read"
         return "read" if self.table in READ_ONLY_TABLES else "read_write"
+
+    @property
+    def block(self) -> str:
+        return self.block_labels[0] if self.block_labels else ""
+
+    @property
+    def field_id(self) -> str:
+        """The name expressions of its block use: the function name without a "<block>." prefix."""
+        prefix = self.block + "."
+        return self.name[len(prefix):] if self.block and self.name.startswith(prefix) else self.name
 
     @property
     def readable(self) -> bool:
@@ -99,7 +121,8 @@ class Function:
 
     @property
     def writable(self) -> bool:
-        return self.eff_access in ("write", "read_write") and self.table not in READ_ONLY_TABLES
+        return (self.eff_access in ("write", "read_write") and self.table not in READ_ONLY_TABLES
+                and self.expression is None)
 
     def extensions(self) -> list[str]:
         used = [name for name in EXTENSION_FIELDS if getattr(self, name) is not None]
@@ -109,15 +132,39 @@ class Function:
 
 
 @dataclass
+class ScenarioInput:
+    table: str
+    address: int
+    values: list[str]  # 4-hex-digit words, "----" no value, "xxxx" read error; 0/1 for bits
+
+
+@dataclass
+class Scenario:
+    """A test: raw values in, the value each named function must then read (None: null)."""
+
+    id: str
+    description: str | None = None
+    inputs: list[ScenarioInput] = field(default_factory=list)
+    expected: dict[str, list[str] | None] = field(default_factory=dict)
+    line: int | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass
 class Device:
     name: str
     description: str
     functions: list[Function] = field(default_factory=list)
     version: str | None = None
+    max_registers: int | None = None  # per request (the Toolkit's maxRegistersPerModbusRequest)
+    tests: list[Scenario] = field(default_factory=list)
     source: str | None = field(default=None, compare=False, repr=False)
 
     def extensions(self) -> list[str]:
         used: list[str] = []
+        if self.max_registers is not None:
+            used.append("max_registers")
+        if self.tests:
+            used.append("tests")
         for fn in self.functions:
             for ext in fn.extensions():
                 if ext not in used:

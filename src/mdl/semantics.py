@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from mdl.cfrag import FragmentError, check
 from mdl.diagnostics import Diagnostic
+from mdl.expr.fields import compile_device
 from mdl.layout import LayoutError, layout
 from mdl.model import READ_ONLY_TABLES, Device
 
@@ -20,6 +21,14 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
             err(fn, f"duplicate function name (first defined on line {seen[fn.name]})")
         else:
             seen[fn.name] = fn.line
+    for problem in compile_device(device):
+        fn = problem.function
+        out.append(Diagnostic(path, fn.expression_line or fn.line, problem.col,
+                              f"function '{fn.name}': expression: {problem.message}"))
+    for fn in device.functions:
+        if fn.expression is not None:
+            _check_expression_function(fn, err)
+            continue
         try:
             lay = layout(fn)
         except LayoutError as exc:
@@ -43,4 +52,32 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
             digits = len(token) - 2
             if digits > 4 and digits > 4 * len(lay.addresses):
                 err(fn, f"not_implemented value {token} is wider than the function's {len(lay.addresses)} register(s)")
+    out += check_tests(device, path)
+    return out
+
+
+def _check_expression_function(fn, err) -> None:
+    if fn.compiled is None:
+        return
+    lay = fn.compiled.lowered
+    if fn.register_type and lay.table and fn.register_type != lay.table:
+        err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
+    if fn.access in ("write", "read_write"):
+        err(fn, "a function computed by an expression can only be read")
+    for attr in ("read_function_code", "write_function_code", "not_implemented"):
+        if getattr(fn, attr) is not None:
+            err(fn, f"{attr} cannot be combined with an expression")
+    if fn.addresses and sorted(fn.addresses) != lay.addresses:
+        err(fn, f"addresses {' '.join(map(str, fn.addresses))} differ from the registers the expression reads "
+                f"({' '.join(map(str, lay.addresses)) or 'none'})", "warning")
+
+
+def check_tests(device, path):
+    """Scenario references: every expected function exists and is readable."""
+    out = []
+    names = {fn.name: fn for fn in device.functions}
+    for sc in device.tests:
+        for name in sc.expected:
+            if name not in names:
+                out.append(Diagnostic(path, sc.line, None, f"test '{sc.id}': no function '{name}'"))
     return out

@@ -79,6 +79,14 @@ class Registers:
                     raise error(f"{table} {address}: value {value} is out of range 0..{limit}", path)
                 self.put(table, address, [value])
 
+    def load_scenario(self, sc) -> None:
+        """Registers from a test scenario; "----" and "xxxx" leave the register at 0."""
+        from mdl.testing import scenario_registers
+
+        for (table, address), value in scenario_registers(sc).items():
+            if isinstance(value, int) and (self.permissive or address in self.tables[table]):
+                self.tables[table][address] = value
+
     def set_value(self, name: str, text: str) -> None:
         fns = {fn.name: fn for fn in self.device.functions}
         if name not in fns:

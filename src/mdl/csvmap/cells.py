@@ -4,19 +4,13 @@ from __future__ import annotations
 
 import re
 
-MODICON_TABLE = {"0": "coil", "1": "discrete", "3": "input", "4": "holding"}
-NAMED_TABLE = {"c": "coil", "coil": "coil", "di": "discrete", "discrete-input": "discrete",
-               "discrete_input": "discrete", "ir": "input", "input-register": "input",
-               "input_register": "input", "hr": "holding", "holding-register": "holding",
-               "holding_register": "holding"}
+from mdl.addressing import MODICON_TABLE, NAMED, AddressError, match_address
 
 
 class CellError(ValueError):
     """A cell that cannot be understood; the message says what it holds."""
 
 
-_NAMED = re.compile(r"(?i)^(coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:\s*(\d+)$")
-_XFORM = re.compile(r"(?i)^([134])x0*(\d+)$")  # 0x... is hexadecimal, not a Modicon coil
 _HEX = re.compile(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
 _RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—)\s*(.+)$")
 
@@ -29,15 +23,12 @@ def is_modicon_number(text: str) -> bool:
 def _one(text: str, base: str) -> tuple[int, str | None]:
     """One address token -> (wire address, table or None)."""
     t = text.strip()
-    m = _NAMED.match(t)
-    if m:
-        return int(m.group(2)), NAMED_TABLE[m.group(1).lower()]
-    m = _XFORM.match(t)
-    if m:
-        number = int(m.group(2))
-        if number < 1:
-            raise CellError(f"register number in '{t}' must be 1 or more")
-        return number - 1, MODICON_TABLE[m.group(1)]
+    try:  # 0x... is hexadecimal here, not a Modicon coil; plain digits follow the address base
+        found = match_address(t, modicon_digits=False, x_coils=False)
+    except AddressError as exc:
+        raise CellError(str(exc)) from None
+    if found and found[2] == len(t):
+        return found[1], found[0]
     if _HEX.match(t):
         digits = t.lower().removeprefix("0x").removesuffix("h")
         return int(digits, 16), None
@@ -76,7 +67,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
             run = list(range(start, start + int(count)))
         else:
             m = _RANGE.match(part)
-            if m and not _NAMED.match(part) and not part.strip().lstrip("-").isdigit():
+            if m and not NAMED.fullmatch(part.strip()) and not part.strip().lstrip("-").isdigit():
                 start, tbl = _one(m.group(1), base)
                 end, tbl2 = _one(m.group(2), base)
                 if tbl2 and tbl and tbl != tbl2:

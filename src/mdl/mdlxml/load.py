@@ -6,7 +6,7 @@ from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.mdlxml.parse import NS, parse_file, schema_errors
-from mdl.model import Device, Function
+from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.semantics import check_device
 
 _Q = "{%s}%s" % (NS, "%s")
@@ -47,7 +47,31 @@ def _function(el) -> Function:
             kw["not_implemented"] = text.split()
         elif tag == "values":
             kw["values"] = {int(v.get("key")): _text(v) for v in child if isinstance(v.tag, str)}
+        elif tag == "expression":
+            kw["expression"] = text
+            kw["expression_line"] = child.sourceline
+        elif tag in ("immutable", "system"):
+            kw[tag] = text.strip() in ("true", "1")
+        elif tag == "fetch_group":
+            kw["fetch_group"] = text
     return Function(**kw)
+
+
+def _scenario(el) -> Scenario:
+    sc = Scenario(el.get("id"), line=el.sourceline)
+    for child in el:
+        if not isinstance(child.tag, str):
+            continue
+        tag = etree.QName(child).localname
+        if tag == "description":
+            sc.description = _text(child)
+        elif tag == "input":
+            sc.inputs.append(ScenarioInput(child.get("register_type", "holding"), int(child.get("address")),
+                                           _text(child).split()))
+        elif tag == "expect":
+            values = [_text(v) for v in child if isinstance(v.tag, str)]
+            sc.expected[child.get("function")] = values or None
+    return sc
 
 
 def tree_to_device(tree, source=None) -> Device:
@@ -55,7 +79,10 @@ def tree_to_device(tree, source=None) -> Device:
     name = root.find(_Q % "name")
     desc = root.find(_Q % "description")
     functions = [_function(el) for el in root.findall(_Q % "function")]
-    return Device(_text(name), _text(desc), functions, root.get("version"), source)
+    tests = root.find(_Q % "tests")
+    scenarios = [_scenario(t) for t in tests.findall(_Q % "test")] if tests is not None else []
+    max_registers = int(root.get("max_registers")) if root.get("max_registers") else None
+    return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
 
 
 def validate_file(path, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:

@@ -12,7 +12,7 @@ from mdl.model import Device
 _ORDER = ("name", "description", "addresses", "length", "count", "format", "block_labels",
           "multiplier", "units", "read_function_code", "write_function_code", "register_type",
           "byte_order", "word_order", "offset", "access", "minimum", "maximum",
-          "not_implemented", "values")
+          "not_implemented", "values", "expression", "immutable", "system", "fetch_group")
 
 
 def format_float(x: float) -> str:
@@ -34,6 +34,8 @@ def device_to_xml(device: Device) -> str:
     root = etree.Element(f"{{{NS}}}device", nsmap={None: NS})
     if device.version:
         root.set("version", device.version)
+    if device.max_registers is not None:
+        root.set("max_registers", str(device.max_registers))
     _sub(root, "name", device.name)
     _sub(root, "description", device.description)
     for fn in device.functions:
@@ -53,9 +55,26 @@ def device_to_xml(device: Device) -> str:
                 values = _sub(el, "values", None)
                 for key, label in value.items():
                     _sub(values, "value", label).set("key", str(key))
+            elif isinstance(value, bool):
+                _sub(el, attr, "true" if value else "false")
             elif isinstance(value, float):
                 _sub(el, attr, format_float(value))
             else:
                 _sub(el, attr, str(value))
+    if device.tests:
+        tests = _sub(root, "tests", None)
+        for sc in device.tests:
+            test = etree.SubElement(tests, f"{{{NS}}}test", id=sc.id)
+            if sc.description is not None:
+                _sub(test, "description", sc.description)
+            for item in sc.inputs:
+                inp = _sub(test, "input", " ".join(item.values))
+                if item.table != "holding":
+                    inp.set("register_type", item.table)
+                inp.set("address", str(item.address))
+            for name, values in sc.expected.items():
+                expect = etree.SubElement(test, f"{{{NS}}}expect", function=name)
+                for v in values or ():
+                    _sub(expect, "value", v)
     etree.indent(root, space="  ")
     return etree.tostring(root, encoding="US-ASCII", xml_declaration=True).decode("ascii") + "\n"

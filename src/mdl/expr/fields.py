@@ -1,0 +1,144 @@
+"""Compile the expressions of a device: resolve field references within each block, order the
+fields so that every field comes after those it names, type-check and lower each expression."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+from mdl.expr.lower import Lowered, lower
+from mdl.expr.nodes import ExprError
+from mdl.expr.parser import parse
+from mdl.expr.pyemit import HELPERS_SOURCE, body, signature
+from mdl.model import Device, Function
+
+
+@dataclass
+class Compiled:
+    lowered: Lowered
+    deps: list[str]  # function names, in parameter order (p0, p1, ...)
+
+    @property
+    def type(self) -> str:
+        return self.lowered.type
+
+
+@dataclass
+class FieldError:
+    function: Function
+    message: str
+    col: int | None
+
+
+def plain_type(fn: Function) -> str:
+    """The expression type of a function without an expression."""
+    from mdl.codec import scales
+    from mdl.layout import layout
+
+    kind = layout(fn).kind
+    if fn.read_function_code or kind == "float" or (kind == "int" and scales(fn)):
+        return "double"
+    return {"int": "long", "string": "string", "bool": "bool"}[kind]
+
+
+def compile_device(device: Device) -> list[FieldError]:
+    """Attach fn.compiled to every expression function; return the problems found."""
+    errors: list[FieldError] = []
+    blocks: dict[str, dict[str, Function]] = {}
+    for fn in device.functions:
+        blocks.setdefault(fn.block, {})[fn.field_id] = fn
+    parsed = {}
+    for fn in device.functions:
+        fn.compiled = None
+        if fn.expression is None:
+            continue
+        try:
+            parsed[fn.name] = parse(fn.expression, blocks[fn.block].keys())
+        except ExprError as exc:
+            errors.append(FieldError(fn, str(exc), exc.col))
+    done: dict[str, str] = {}  # name -> type, for compiled or plain functions
+    visiting: set[str] = set()
+    by_name = {fn.name: fn for fn in device.functions}
+
+    def visit(fn: Function) -> str | None:
+        if fn.name in done:
+            return done[fn.name]
+        if fn.expression is None:
+            try:
+                done[fn.name] = plain_type(fn)
+            except (ValueError, KeyError):
+                return None
+            return done[fn.name]
+        if fn.name not in parsed or fn.name in visiting:
+            if fn.name in visiting:
+                errors.append(FieldError(fn, "the expression refers to itself through other fields", 1))
+            return None
+        visiting.add(fn.name)
+        from mdl.expr.lower import refs_of
+
+        refs: list[str] = []
+        refs_of(parsed[fn.name], refs)
+        types = {}
+        block = blocks[fn.block]
+        for ref in refs:
+            t = visit(block[ref])
+            if t is None:
+                visiting.discard(fn.name)
+                if fn.name not in {e.function.name for e in errors}:
+                    errors.append(FieldError(fn, f"field '{ref}' it refers to has an error", None))
+                return None
+            types[ref] = t
+        visiting.discard(fn.name)
+        try:
+            lowered = lower(parsed[fn.name], types, device.max_registers or 125)
+        except ExprError as exc:
+            errors.append(FieldError(fn, str(exc), exc.col))
+            return None
+        fn.compiled = Compiled(lowered, [block[r].name for r in lowered.refs])
+        done[fn.name] = lowered.type
+        return lowered.type
+
+    for fn in device.functions:
+        if fn.expression is not None:
+            visit(fn)
+    _ = by_name
+    return errors
+
+
+def evaluation_order(device: Device, names) -> list[Function]:
+    """The named functions and every function they depend on, dependencies first."""
+    by_name = {fn.name: fn for fn in device.functions}
+    out: list[Function] = []
+    seen: set[str] = set()
+
+    def add(name: str) -> None:
+        if name in seen:
+            return
+        seen.add(name)
+        fn = by_name[name]
+        if fn.compiled is not None:
+            for dep in fn.compiled.deps:
+                add(dep)
+        out.append(fn)
+
+    for name in names:
+        add(name)
+    return out
+
+
+def python_source(fn: Function, func_name: str = "_field") -> str:
+    lowered = fn.compiled.lowered
+    lines = [f"def {func_name}({signature(lowered)}):"] + ["    " + line for line in body(lowered)]
+    return "\n".join(lines) + "\n"
+
+
+@lru_cache(maxsize=None)
+def _namespace_for(source: str):
+    ns: dict = {}
+    exec(compile(HELPERS_SOURCE, "<mdl expression helpers>", "exec"), ns)
+    exec(compile(source, "<mdl expression>", "exec"), ns)
+    return ns["_field"]
+
+
+def python_function(fn: Function):
+    return _namespace_for(python_source(fn))
