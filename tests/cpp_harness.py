@@ -42,7 +42,14 @@ def toolchain() -> tuple[str, list[str], list[str]]:
 
 _PRINT = r"""
 template <typename T> static void put(const char *n, const T &v) {
-    if constexpr (std::is_same_v<T, std::string>) {
+    if constexpr (std::is_same_v<T, std::vector<std::string>>) {
+        std::printf("%s l:", n);
+        for (size_t i = 0; i < v.size(); ++i) {
+            if (i) std::printf(",");
+            for (unsigned char c : v[i]) std::printf("%02x", c);
+        }
+        std::printf("\n");
+    } else if constexpr (std::is_same_v<T, std::string>) {
         std::printf("%s s:", n);
         for (unsigned char c : v) std::printf("%02x", c);
         std::printf("\n");
@@ -95,6 +102,7 @@ def harness_source(device: Device, stem: str) -> str:
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <vector>
 {_PRINT}
 int main(int argc, char **argv) {{
     if (argc != 2) return 2;
@@ -173,7 +181,9 @@ class Harness:
                 continue
             kind, _, text = value.partition(":")
             out[name] = {"i": int, "f": float, "b": lambda t: t == "1",
-                         "s": lambda t: bytes.fromhex(t).decode("utf-8", "replace")}[kind](text)
+                         "s": lambda t: bytes.fromhex(t).decode("utf-8", "replace"),
+                         "l": lambda t: [bytes.fromhex(x).decode("utf-8", "replace") for x in t.split(",")] if t else []
+                         }[kind](text)
         return out
 
     def close(self) -> str:

@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -353,23 +354,29 @@ int TemcoTstat::write_table_(int table, int start, int count, const uint16_t *sr
 }
 
 int TemcoTstat::read_serial_number(uint32_t *out) {
-    uint16_t r[4];
-    if (read_table_(kHolding, 0, 4, r + 0) == -1) return -1;
-    *out = decode_serial_number(r);
+    {
+        uint16_t r[4];
+        if (read_table_(kHolding, 0, 4, r + 0) == -1) return -1;
+        *out = decode_serial_number(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_firmware_version(double *out) {
-    uint16_t r[2];
-    if (read_table_(kHolding, 4, 2, r + 0) == -1) return -1;
-    *out = decode_firmware_version(r);
+    {
+        uint16_t r[2];
+        if (read_table_(kHolding, 4, 2, r + 0) == -1) return -1;
+        *out = decode_firmware_version(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_modbus_address(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 6, 1, r + 0) == -1) return -1;
-    *out = decode_modbus_address(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 6, 1, r + 0) == -1) return -1;
+        *out = decode_modbus_address(r);
+    }
     return 0;
 }
 
@@ -381,37 +388,47 @@ int TemcoTstat::write_modbus_address(uint8_t value) {
 }
 
 int TemcoTstat::read_product_model(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 7, 1, r + 0) == -1) return -1;
-    *out = decode_product_model(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 7, 1, r + 0) == -1) return -1;
+        *out = decode_product_model(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_room_temperature(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 121, 1, r + 0) == -1) return -1;
-    *out = decode_room_temperature(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 121, 1, r + 0) == -1) return -1;
+        *out = decode_room_temperature(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_humidity(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 140, 1, r + 0) == -1) return -1;
-    *out = decode_humidity(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 140, 1, r + 0) == -1) return -1;
+        *out = decode_humidity(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_occupancy(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 184, 1, r + 0) == -1) return -1;
-    *out = decode_occupancy(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 184, 1, r + 0) == -1) return -1;
+        *out = decode_occupancy(r);
+    }
     return 0;
 }
 
 int TemcoTstat::read_fan_speed(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 137, 1, r + 0) == -1) return -1;
-    *out = decode_fan_speed(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 137, 1, r + 0) == -1) return -1;
+        *out = decode_fan_speed(r);
+    }
     return 0;
 }
 
@@ -423,9 +440,11 @@ int TemcoTstat::write_fan_speed(uint8_t value) {
 }
 
 int TemcoTstat::read_system_mode(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 128, 1, r + 0) == -1) return -1;
-    *out = decode_system_mode(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 128, 1, r + 0) == -1) return -1;
+        *out = decode_system_mode(r);
+    }
     return 0;
 }
 
@@ -437,9 +456,11 @@ int TemcoTstat::write_system_mode(uint8_t value) {
 }
 
 int TemcoTstat::read_fan_relay_on(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 255, 1, r + 0) == -1) return -1;
-    *out = decode_fan_relay_on(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 255, 1, r + 0) == -1) return -1;
+        *out = decode_fan_relay_on(r);
+    }
     return 0;
 }
 
@@ -451,9 +472,11 @@ int TemcoTstat::write_fan_relay_on(uint8_t value) {
 }
 
 int TemcoTstat::read_cooling_stage1_relay_on(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 256, 1, r + 0) == -1) return -1;
-    *out = decode_cooling_stage1_relay_on(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 256, 1, r + 0) == -1) return -1;
+        *out = decode_cooling_stage1_relay_on(r);
+    }
     return 0;
 }
 
@@ -465,9 +488,11 @@ int TemcoTstat::write_cooling_stage1_relay_on(uint8_t value) {
 }
 
 int TemcoTstat::read_cooling_stage2_relay_on(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 257, 1, r + 0) == -1) return -1;
-    *out = decode_cooling_stage2_relay_on(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 257, 1, r + 0) == -1) return -1;
+        *out = decode_cooling_stage2_relay_on(r);
+    }
     return 0;
 }
 
@@ -479,9 +504,11 @@ int TemcoTstat::write_cooling_stage2_relay_on(uint8_t value) {
 }
 
 int TemcoTstat::read_heating_stage1_relay_on(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 258, 1, r + 0) == -1) return -1;
-    *out = decode_heating_stage1_relay_on(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 258, 1, r + 0) == -1) return -1;
+        *out = decode_heating_stage1_relay_on(r);
+    }
     return 0;
 }
 
@@ -493,9 +520,11 @@ int TemcoTstat::write_heating_stage1_relay_on(uint8_t value) {
 }
 
 int TemcoTstat::read_heating_stage2_relay_on(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 259, 1, r + 0) == -1) return -1;
-    *out = decode_heating_stage2_relay_on(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 259, 1, r + 0) == -1) return -1;
+        *out = decode_heating_stage2_relay_on(r);
+    }
     return 0;
 }
 
@@ -507,9 +536,11 @@ int TemcoTstat::write_heating_stage2_relay_on(uint8_t value) {
 }
 
 int TemcoTstat::read_occupied_setpoint(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 345, 1, r + 0) == -1) return -1;
-    *out = decode_occupied_setpoint(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 345, 1, r + 0) == -1) return -1;
+        *out = decode_occupied_setpoint(r);
+    }
     return 0;
 }
 
@@ -521,9 +552,11 @@ int TemcoTstat::write_occupied_setpoint(double value) {
 }
 
 int TemcoTstat::read_unoccupied_setpoint(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 346, 1, r + 0) == -1) return -1;
-    *out = decode_unoccupied_setpoint(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 346, 1, r + 0) == -1) return -1;
+        *out = decode_unoccupied_setpoint(r);
+    }
     return 0;
 }
 
@@ -535,9 +568,11 @@ int TemcoTstat::write_unoccupied_setpoint(double value) {
 }
 
 int TemcoTstat::read_occupied_heating_setpoint(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 348, 1, r + 0) == -1) return -1;
-    *out = decode_occupied_heating_setpoint(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 348, 1, r + 0) == -1) return -1;
+        *out = decode_occupied_heating_setpoint(r);
+    }
     return 0;
 }
 
@@ -549,86 +584,164 @@ int TemcoTstat::write_occupied_heating_setpoint(double value) {
 }
 
 int TemcoTstat::read_all(TemcoTstatValues *out) {
+    // A register the device refuses with exception 2 even when asked alone has no value:
+    // expressions that need it read std::nullopt, any other function fails with EMBXILADD.
     std::vector<uint16_t> raw(21);
+    std::vector<char> have(21, 0);
     for (size_t g = 0; g < kGroups.size(); ++g) {
         const Group &q = kGroups[g];
         uint16_t *dest = raw.data() + q.offset;
         if (!refused_[g]) {
-            if (read_table_(q.table, q.start, q.count, dest) == 0) continue;
-            if (errno != EMBXILADD || q.split_count == 0) return -1;
+            if (read_table_(q.table, q.start, q.count, dest) == 0) {
+                std::fill(have.begin() + q.offset, have.begin() + q.offset + q.count, 1);
+                continue;
+            }
+            if (errno != EMBXILADD) return -1;
             refused_[g] = true;
         }
         for (int i = 0; i < q.split_count; ++i) {
             const Request &s = kSplits[q.split_first + i];
-            if (read_table_(s.table, s.start, s.count, dest + s.delta) == -1) return -1;
+            if (read_table_(s.table, s.start, s.count, dest + s.delta) == -1) {
+                if (errno != EMBXILADD) return -1;
+                continue;
+            }
+            std::fill(have.begin() + q.offset + s.delta, have.begin() + q.offset + s.delta + s.count, 1);
         }
     }
     {
         const uint16_t r[4] = { raw[0], raw[1], raw[2], raw[3] };
+        if (!have[0] || !have[1] || !have[2] || !have[3]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->serial_number = decode_serial_number(r);
     }
     {
         const uint16_t r[2] = { raw[4], raw[5] };
+        if (!have[4] || !have[5]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->firmware_version = decode_firmware_version(r);
     }
     {
         const uint16_t r[1] = { raw[6] };
+        if (!have[6]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->modbus_address = decode_modbus_address(r);
     }
     {
         const uint16_t r[1] = { raw[7] };
+        if (!have[7]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->product_model = decode_product_model(r);
     }
     {
         const uint16_t r[1] = { raw[8] };
+        if (!have[8]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->room_temperature = decode_room_temperature(r);
     }
     {
         const uint16_t r[1] = { raw[11] };
+        if (!have[11]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->humidity = decode_humidity(r);
     }
     {
         const uint16_t r[1] = { raw[12] };
+        if (!have[12]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->occupancy = decode_occupancy(r);
     }
     {
         const uint16_t r[1] = { raw[10] };
+        if (!have[10]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->fan_speed = decode_fan_speed(r);
     }
     {
         const uint16_t r[1] = { raw[9] };
+        if (!have[9]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->system_mode = decode_system_mode(r);
     }
     {
         const uint16_t r[1] = { raw[13] };
+        if (!have[13]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->fan_relay_on = decode_fan_relay_on(r);
     }
     {
         const uint16_t r[1] = { raw[14] };
+        if (!have[14]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->cooling_stage1_relay_on = decode_cooling_stage1_relay_on(r);
     }
     {
         const uint16_t r[1] = { raw[15] };
+        if (!have[15]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->cooling_stage2_relay_on = decode_cooling_stage2_relay_on(r);
     }
     {
         const uint16_t r[1] = { raw[16] };
+        if (!have[16]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->heating_stage1_relay_on = decode_heating_stage1_relay_on(r);
     }
     {
         const uint16_t r[1] = { raw[17] };
+        if (!have[17]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->heating_stage2_relay_on = decode_heating_stage2_relay_on(r);
     }
     {
         const uint16_t r[1] = { raw[18] };
+        if (!have[18]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->occupied_setpoint = decode_occupied_setpoint(r);
     }
     {
         const uint16_t r[1] = { raw[19] };
+        if (!have[19]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->unoccupied_setpoint = decode_unoccupied_setpoint(r);
     }
     {
         const uint16_t r[1] = { raw[20] };
+        if (!have[20]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->occupied_heating_setpoint = decode_occupied_heating_setpoint(r);
     }
     return 0;

@@ -55,6 +55,10 @@ def _check_read(rr, table, start, count):
     return values[:count]
 
 
+def _keys(table, start, count):
+    return ((table, start + i) for i in range(count))
+
+
 def _not_implemented(r, patterns):
     composed = 0
     for x in r:
@@ -397,34 +401,36 @@ def _encode_occupied_heating_setpoint(value):
 # The read plan: (request, smaller requests used when the device refuses it with exception 2)
 _PLAN = (
     (('holding', 0, 8), [('holding', 0, 4), ('holding', 4, 2), ('holding', 6, 1), ('holding', 7, 1)]),
-    (('holding', 121, 1), [('holding', 121, 1)]),
-    (('holding', 128, 1), [('holding', 128, 1)]),
-    (('holding', 137, 1), [('holding', 137, 1)]),
-    (('holding', 140, 1), [('holding', 140, 1)]),
-    (('holding', 184, 1), [('holding', 184, 1)]),
+    (('holding', 121, 1), []),
+    (('holding', 128, 1), []),
+    (('holding', 137, 1), []),
+    (('holding', 140, 1), []),
+    (('holding', 184, 1), []),
     (('holding', 255, 5), [('holding', 255, 1), ('holding', 256, 1), ('holding', 257, 1), ('holding', 258, 1), ('holding', 259, 1)]),
     (('holding', 345, 2), [('holding', 345, 1), ('holding', 346, 1)]),
-    (('holding', 348, 1), [('holding', 348, 1)]),
+    (('holding', 348, 1), []),
 )
 
+# every readable function, the fields an expression names before it:
+# (name, registers, decode, names it needs, whether missing registers read None)
 _READABLE = (
-    ('serial_number', [('holding', 0), ('holding', 1), ('holding', 2), ('holding', 3)], _decode_serial_number),
-    ('firmware_version', [('holding', 4), ('holding', 5)], _decode_firmware_version),
-    ('modbus_address', [('holding', 6)], _decode_modbus_address),
-    ('product_model', [('holding', 7)], _decode_product_model),
-    ('room_temperature', [('holding', 121)], _decode_room_temperature),
-    ('humidity', [('holding', 140)], _decode_humidity),
-    ('occupancy', [('holding', 184)], _decode_occupancy),
-    ('fan_speed', [('holding', 137)], _decode_fan_speed),
-    ('system_mode', [('holding', 128)], _decode_system_mode),
-    ('fan_relay_on', [('holding', 255)], _decode_fan_relay_on),
-    ('cooling_stage1_relay_on', [('holding', 256)], _decode_cooling_stage1_relay_on),
-    ('cooling_stage2_relay_on', [('holding', 257)], _decode_cooling_stage2_relay_on),
-    ('heating_stage1_relay_on', [('holding', 258)], _decode_heating_stage1_relay_on),
-    ('heating_stage2_relay_on', [('holding', 259)], _decode_heating_stage2_relay_on),
-    ('occupied_setpoint', [('holding', 345)], _decode_occupied_setpoint),
-    ('unoccupied_setpoint', [('holding', 346)], _decode_unoccupied_setpoint),
-    ('occupied_heating_setpoint', [('holding', 348)], _decode_occupied_heating_setpoint),
+    ('serial_number', [('holding', 0), ('holding', 1), ('holding', 2), ('holding', 3)], _decode_serial_number, [], False),
+    ('firmware_version', [('holding', 4), ('holding', 5)], _decode_firmware_version, [], False),
+    ('modbus_address', [('holding', 6)], _decode_modbus_address, [], False),
+    ('product_model', [('holding', 7)], _decode_product_model, [], False),
+    ('room_temperature', [('holding', 121)], _decode_room_temperature, [], False),
+    ('humidity', [('holding', 140)], _decode_humidity, [], False),
+    ('occupancy', [('holding', 184)], _decode_occupancy, [], False),
+    ('fan_speed', [('holding', 137)], _decode_fan_speed, [], False),
+    ('system_mode', [('holding', 128)], _decode_system_mode, [], False),
+    ('fan_relay_on', [('holding', 255)], _decode_fan_relay_on, [], False),
+    ('cooling_stage1_relay_on', [('holding', 256)], _decode_cooling_stage1_relay_on, [], False),
+    ('cooling_stage2_relay_on', [('holding', 257)], _decode_cooling_stage2_relay_on, [], False),
+    ('heating_stage1_relay_on', [('holding', 258)], _decode_heating_stage1_relay_on, [], False),
+    ('heating_stage2_relay_on', [('holding', 259)], _decode_heating_stage2_relay_on, [], False),
+    ('occupied_setpoint', [('holding', 345)], _decode_occupied_setpoint, [], False),
+    ('unoccupied_setpoint', [('holding', 346)], _decode_unoccupied_setpoint, [], False),
+    ('occupied_heating_setpoint', [('holding', 348)], _decode_occupied_heating_setpoint, [], False),
 )
 
 
@@ -583,20 +589,34 @@ class TemcoTstat:
         self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
     def read_all(self):
-        """Read every readable function with the fewest requests; returns {name: value}."""
+        """Read every readable function with the fewest requests; returns {name: value}.
+
+        A group the device refuses with exception 2 is read as smaller requests from then on; a
+        register it refuses even alone has no value: expressions that need it read None, any
+        other function raises ModbusExceptionError."""
         raw = {}
         for group, smaller in _PLAN:
-            requests = smaller if group in self._refused else [group]
-            try:
-                for table, start, count in requests:
-                    raw.update(zip(((table, start + i) for i in range(count)), self._read(table, start, count)))
-            except ModbusExceptionError as exc:
-                if exc.code != 2 or requests == smaller:
-                    raise
-                self._refused.add(group)
-                for table, start, count in smaller:
-                    raw.update(zip(((table, start + i) for i in range(count)), self._read(table, start, count)))
-        return {name: decode([raw[key] for key in keys]) for name, keys, decode in _READABLE}
+            if group not in self._refused:
+                try:
+                    raw.update(zip(_keys(*group), self._read(*group)))
+                    continue
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+                    self._refused.add(group)
+            for request in smaller:
+                try:
+                    raw.update(zip(_keys(*request), self._read(*request)))
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+        values = {}
+        for name, keys, decode, deps, nullable in _READABLE:
+            regs = [raw.get(key) for key in keys]
+            if not nullable and None in regs:
+                raise ModbusExceptionError(2, f"reading {name}")
+            values[name] = decode(regs, *[values[d] for d in deps])
+        return values
 
 
 class AsyncTemcoTstat:
@@ -754,17 +774,31 @@ class AsyncTemcoTstat:
         await self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
     async def read_all(self):
-        """Read every readable function with the fewest requests; returns {name: value}."""
+        """Read every readable function with the fewest requests; returns {name: value}.
+
+        A group the device refuses with exception 2 is read as smaller requests from then on; a
+        register it refuses even alone has no value: expressions that need it read None, any
+        other function raises ModbusExceptionError."""
         raw = {}
         for group, smaller in _PLAN:
-            requests = smaller if group in self._refused else [group]
-            try:
-                for table, start, count in requests:
-                    raw.update(zip(((table, start + i) for i in range(count)), await self._read(table, start, count)))
-            except ModbusExceptionError as exc:
-                if exc.code != 2 or requests == smaller:
-                    raise
-                self._refused.add(group)
-                for table, start, count in smaller:
-                    raw.update(zip(((table, start + i) for i in range(count)), await self._read(table, start, count)))
-        return {name: decode([raw[key] for key in keys]) for name, keys, decode in _READABLE}
+            if group not in self._refused:
+                try:
+                    raw.update(zip(_keys(*group), await self._read(*group)))
+                    continue
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+                    self._refused.add(group)
+            for request in smaller:
+                try:
+                    raw.update(zip(_keys(*request), await self._read(*request)))
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+        values = {}
+        for name, keys, decode, deps, nullable in _READABLE:
+            regs = [raw.get(key) for key in keys]
+            if not nullable and None in regs:
+                raise ModbusExceptionError(2, f"reading {name}")
+            values[name] = decode(regs, *[values[d] for d in deps])
+        return values

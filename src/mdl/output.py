@@ -24,6 +24,16 @@ def _json_value(value):
     return value
 
 
+def _text(value) -> str:
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list):
+        return ", ".join(value)
+    return str(value)
+
+
 def render(functions: list[Function], values: dict, fmt: str) -> str:
     rows = [(fn, shown(fn, values[fn.name])) for fn in functions]
     if fmt == "json":
@@ -33,12 +43,12 @@ def render(functions: list[Function], values: dict, fmt: str) -> str:
         writer = csv.writer(buf, lineterminator="\n")
         writer.writerow(["name", "value", "units"])
         for fn, v in rows:
-            writer.writerow([fn.name, "" if v is None else v, (fn.units or "").strip()])
+            writer.writerow([fn.name, "" if v is None else _text(v), (fn.units or "").strip()])
         return buf.getvalue()
     width = max((len(fn.name) for fn, _ in rows), default=4)
     lines = []
     for fn, v in rows:
-        text = "null" if v is None else str(v)
+        text = _text(v)
         units = (fn.units or "").strip()
         lines.append(f"{fn.name:<{width}}  {text}{' ' + units if units else ''}")
     return "\n".join(lines) + ("\n" if lines else "")

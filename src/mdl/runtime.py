@@ -11,6 +11,8 @@ from mdl import codec
 from mdl.diagnostics import DeviceError, error
 from mdl.layout import layout
 from mdl.model import Device, Function
+from mdl.evaluate import evaluate
+from mdl.expr.fields import evaluation_order
 from mdl.plan import Request, plan_reads, split_request
 
 EXCEPTION_NAMES = {
@@ -63,8 +65,10 @@ class Session:
         return values[: req.count]
 
     def read(self, functions: list[Function]) -> dict:
+        """Values of the functions (reading what their expressions depend on too)."""
+        needed = evaluation_order(self.device, [fn.name for fn in functions])
         raw: dict[tuple[str, int], int] = {}
-        pending = list(plan_reads(self.device, functions))
+        pending = list(plan_reads(self.device, needed))
         while pending:
             req = pending.pop(0)
             try:
@@ -78,15 +82,11 @@ class Session:
                 raise
             for i, v in enumerate(values):
                 raw[(req.table, req.start + i)] = v
-        out = {}
-        for fn in functions:
-            lay = layout(fn)
-            regs = [raw[(lay.table, a)] for a in lay.addresses]
-            try:
-                out[fn.name] = codec.decode(fn, regs)
-            except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
-                raise error(f"function '{fn.name}': {exc}") from None
-        return out
+        try:
+            values = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
+        except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
+            raise error(f"cannot compute a value: {exc}") from None
+        return {fn.name: values[fn.name] for fn in functions}
 
     def write(self, fn: Function, value) -> None:
         regs = codec.encode(fn, value)

@@ -34,6 +34,8 @@ class Registers:
     def __init__(self, device: Device, permissive: bool = False):
         self.device = device
         self.permissive = permissive
+        self.missing: set[tuple[str, int]] = set()  # answer exception 2
+        self.failing: set[tuple[str, int]] = set()  # answer exception 4
         self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
         self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
         for fn in device.functions:
@@ -80,12 +82,20 @@ class Registers:
                 self.put(table, address, [value])
 
     def load_scenario(self, sc) -> None:
-        """Registers from a test scenario; "----" and "xxxx" leave the register at 0."""
-        from mdl.testing import scenario_registers
+        """Registers from a test scenario. A register the scenario gives no value (or "----")
+        answers exception 2, as one the device lacks; "xxxx" answers exception 4 (a read error)."""
+        from mdl.testing import READ_ERROR, scenario_registers
 
-        for (table, address), value in scenario_registers(sc).items():
-            if isinstance(value, int) and (self.permissive or address in self.tables[table]):
-                self.tables[table][address] = value
+        given = scenario_registers(sc)
+        for table, addresses in self.tables.items():
+            for address in addresses:
+                value = given.get((table, address))
+                if value is None:
+                    self.missing.add((table, address))
+                elif value == READ_ERROR:
+                    self.failing.add((table, address))
+                else:
+                    addresses[address] = value
 
     def set_value(self, name: str, text: str) -> None:
         fns = {fn.name: fn for fn in self.device.functions}
@@ -124,6 +134,11 @@ class SimContext(ModbusServerContext):
             return ExcCodes.ILLEGAL_FUNCTION
         if not self.registers.defined(table, address, count):
             return ExcCodes.ILLEGAL_ADDRESS
+        span = {(table, a) for a in range(address, address + count)}
+        if span & self.registers.failing:
+            return ExcCodes.DEVICE_FAILURE
+        if span & self.registers.missing:
+            return ExcCodes.ILLEGAL_ADDRESS
         values = self.registers.get(table, address, count)
         return [bool(v) for v in values] if table in ("coil", "discrete") else values
 
@@ -136,6 +151,7 @@ class SimContext(ModbusServerContext):
         if any(a in self.registers.read_only[table] for a in range(address, address + len(values))):
             return ExcCodes.ILLEGAL_ADDRESS
         self.registers.put(table, address, values)
+        self.registers.missing -= {(table, a) for a in range(address, address + len(values))}
         return None
 
 

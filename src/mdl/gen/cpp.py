@@ -9,6 +9,9 @@ from __future__ import annotations
 
 from mdl import __version__
 from mdl.codec import scales
+from mdl.expr.cppemit import CPP_HELPERS, cpp_type
+from mdl.expr.cppemit import body as expr_body
+from mdl.expr.fields import evaluation_order
 from mdl.gen.python import runs
 from mdl.gen.straight import span_bits, unit_shift, units_msb_first
 from mdl.layout import int_type_bits, layout
@@ -28,6 +31,8 @@ def cpp_number(x: float) -> str:
 
 def value_type(fn: Function) -> str:
     """T of read_<name>(T *out) / write_<name>(T value), before std::optional."""
+    if fn.compiled is not None:
+        return cpp_type(fn.compiled.type)
     lay = layout(fn)
     if fn.read_function_code or fn.write_function_code or scales(fn):
         return "double"
@@ -68,6 +73,8 @@ def _fragment(code: str) -> list[str]:
 
 def decode_lines(fn: Function, t: str) -> list[str]:
     """Body of `static T decode(const uint16_t *r)`."""
+    if fn.compiled is not None:
+        return expr_body(fn.compiled.lowered)
     lay = layout(fn)
     n = len(lay.addresses)
     lines: list[str] = []
@@ -204,12 +211,16 @@ def context(device: Device, source_name: str) -> dict:
                     "delta": s.start - req.start} for s in (parts if parts != [req] else [])]
         offset += req.count
     functions = []
+    ident_of = dict(zip((fn.name for fn in device.functions), idents))
     for fn, ident in zip(device.functions, idents):
         lay = layout(fn)
         t = value_type(fn)
+        deps = fn.compiled.deps if fn.compiled is not None else []
         functions.append({
             "fn": fn, "ident": ident, "t": t, "n": len(lay.addresses),
-            "rt": f"std::optional<{t}>" if fn.not_implemented else t,
+            "rt": f"std::optional<{t}>" if fn.not_implemented or fn.compiled is not None else t,
+            "deps": [ident_of[d] for d in deps],
+            "closure": [ident_of[f.name] for f in evaluation_order(device, [fn.name])] if deps else None,
             "runs": [{"table": TABLE_CONST[tb], "start": s, "count": c} for tb, s, c in runs(lay)],
             "bit": lay.unit == "bit",
             "decode": decode_lines(fn, t) if fn.readable else None,
@@ -219,10 +230,21 @@ def context(device: Device, source_name: str) -> dict:
             "slots": [slot[(lay.table, a)] for a in lay.addresses] if fn.readable else [],
             "doc": fn.description, "units": fn.units,
         })
+    by_ident = {f["ident"]: f for f in functions}
+    for f in functions:
+        f["params"] = "".join(f", const std::optional<{by_ident[d]['t']}> &p{i}" for i, d in enumerate(f["deps"]))
+        f["steps"] = [by_ident[i] for i in (f["closure"] or [f["ident"]])]
+        f["expr"] = f["fn"].compiled is not None
+        f["present"] = ", present" if f["expr"] else ""
+    order = [ident_of[f.name] for f in evaluation_order(device, [fn.name for fn in device.functions if fn.readable])]
     return {
+        "readable": [by_ident[i] for i in order], "by_ident": by_ident,
+        "uses_expressions": any(fn.expression is not None for fn in device.functions),
+        "expression_helpers": CPP_HELPERS,
+        "uses_vector": any(f["t"] == "std::vector<std::string>" for f in functions),
         "device": device, "version": __version__, "source": source_name, "stem": stem,
         "class_name": camel(stem), "guard": f"MDL_{stem.upper()}_H", "functions": functions,
         "groups": groups, "splits": splits, "raw_total": offset,
-        "uses_optional": any(f["fn"].not_implemented for f in functions),
-        "uses_string": any(f["t"] == "std::string" for f in functions),
+        "uses_optional": any(f["rt"].startswith("std::optional") for f in functions),
+        "uses_string": any("std::string" in f["t"] for f in functions),
     }

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from mdl import __version__
 from mdl.cfrag import HELPERS_SOURCE, python_body
+from mdl.expr.fields import evaluation_order
+from mdl.expr.pyemit import HELPERS_SOURCE as EXPR_HELPERS
+from mdl.expr.pyemit import body as expr_body
 from mdl.codec import scales
 from mdl.gen.straight import span_bits, unit_shift, units_msb_first
 from mdl.layout import layout
@@ -30,6 +33,8 @@ def _number(x: float) -> str:
 
 
 def decode_lines(fn: Function) -> list[str]:
+    if fn.compiled is not None:
+        return expr_body(fn.compiled.lowered)
     lay = layout(fn)
     lines = []
     if fn.not_implemented:
@@ -134,19 +139,30 @@ def context(device: Device, source_name: str) -> dict:
     functions = []
     for fn, ident in zip(device.functions, idents):
         lay = layout(fn)
+        deps = fn.compiled.deps if fn.compiled is not None else []
         functions.append({
             "fn": fn, "ident": ident, "runs": runs(lay), "table": lay.table,
             "regkeys": [(lay.table, a) for a in lay.addresses], "doc": doc_text(fn),
             "decode": decode_lines(fn) if fn.readable else None,
             "encode": encode_lines(fn) if fn.writable else None,
+            "params": "".join(f", p{i}" for i in range(len(deps))), "deps": deps,
+            "closure": [f.name for f in evaluation_order(device, [fn.name])] if deps else None,
         })
+    order = [f.name for f in evaluation_order(device, [fn.name for fn in device.functions if fn.readable])]
+    by_name = {f["fn"].name: f for f in functions}
     plan = plan_reads(device)
-    groups = [((r.table, r.start, r.count), [(s.table, s.start, s.count) for s in split_request(device, r)])
-              for r in plan]
+    groups = []
+    for r in plan:
+        parts = split_request(device, r)
+        groups.append(((r.table, r.start, r.count), [(s.table, s.start, s.count) for s in parts] if parts != [r] else []))
     ident = identifier(device.name)
     return {
         "device": device, "version": __version__, "source": source_name, "functions": functions,
         "class_name": camel(ident), "groups": groups, "ident_of": ident_of,
+        "readable": [by_name[name] for name in order],
         "uses_fragments": any(fn.read_function_code or fn.write_function_code for fn in device.functions),
         "fragment_helpers": HELPERS_SOURCE,
+        "uses_expressions": any(fn.expression is not None for fn in device.functions),
+        "expression_helpers": EXPR_HELPERS,
+        "uses_closures": any(f["closure"] for f in functions),
     }

@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -388,9 +389,11 @@ int AllTables::write_table_(int table, int start, int count, const uint16_t *src
 }
 
 int AllTables::read_pump(bool *out) {
-    uint16_t r[1];
-    if (read_table_(kCoil, 0, 1, r + 0) == -1) return -1;
-    *out = decode_pump(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kCoil, 0, 1, r + 0) == -1) return -1;
+        *out = decode_pump(r);
+    }
     return 0;
 }
 
@@ -402,9 +405,11 @@ int AllTables::write_pump(bool value) {
 }
 
 int AllTables::read_fan(bool *out) {
-    uint16_t r[1];
-    if (read_table_(kCoil, 1, 1, r + 0) == -1) return -1;
-    *out = decode_fan(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kCoil, 1, 1, r + 0) == -1) return -1;
+        *out = decode_fan(r);
+    }
     return 0;
 }
 
@@ -423,44 +428,56 @@ int AllTables::write_alarm_reset(bool value) {
 }
 
 int AllTables::read_door_open(bool *out) {
-    uint16_t r[1];
-    if (read_table_(kDiscrete, 0, 1, r + 0) == -1) return -1;
-    *out = decode_door_open(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kDiscrete, 0, 1, r + 0) == -1) return -1;
+        *out = decode_door_open(r);
+    }
     return 0;
 }
 
 int AllTables::read_filter_dirty(bool *out) {
-    uint16_t r[1];
-    if (read_table_(kDiscrete, 1, 1, r + 0) == -1) return -1;
-    *out = decode_filter_dirty(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kDiscrete, 1, 1, r + 0) == -1) return -1;
+        *out = decode_filter_dirty(r);
+    }
     return 0;
 }
 
 int AllTables::read_energy(double *out) {
-    uint16_t r[2];
-    if (read_table_(kInput, 0, 2, r + 0) == -1) return -1;
-    *out = decode_energy(r);
+    {
+        uint16_t r[2];
+        if (read_table_(kInput, 0, 2, r + 0) == -1) return -1;
+        *out = decode_energy(r);
+    }
     return 0;
 }
 
 int AllTables::read_power(float *out) {
-    uint16_t r[2];
-    if (read_table_(kInput, 2, 2, r + 0) == -1) return -1;
-    *out = decode_power(r);
+    {
+        uint16_t r[2];
+        if (read_table_(kInput, 2, 2, r + 0) == -1) return -1;
+        *out = decode_power(r);
+    }
     return 0;
 }
 
 int AllTables::read_voltage(std::optional<double> *out) {
-    uint16_t r[1];
-    if (read_table_(kInput, 10, 1, r + 0) == -1) return -1;
-    *out = decode_voltage(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kInput, 10, 1, r + 0) == -1) return -1;
+        *out = decode_voltage(r);
+    }
     return 0;
 }
 
 int AllTables::read_gap_low(uint16_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 50, 1, r + 0) == -1) return -1;
-    *out = decode_gap_low(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 50, 1, r + 0) == -1) return -1;
+        *out = decode_gap_low(r);
+    }
     return 0;
 }
 
@@ -472,9 +489,11 @@ int AllTables::write_gap_low(uint16_t value) {
 }
 
 int AllTables::read_gap_high(uint16_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 52, 1, r + 0) == -1) return -1;
-    *out = decode_gap_high(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 52, 1, r + 0) == -1) return -1;
+        *out = decode_gap_high(r);
+    }
     return 0;
 }
 
@@ -486,9 +505,11 @@ int AllTables::write_gap_high(uint16_t value) {
 }
 
 int AllTables::read_setpoint(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 100, 1, r + 0) == -1) return -1;
-    *out = decode_setpoint(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 100, 1, r + 0) == -1) return -1;
+        *out = decode_setpoint(r);
+    }
     return 0;
 }
 
@@ -500,9 +521,11 @@ int AllTables::write_setpoint(double value) {
 }
 
 int AllTables::read_mode(uint16_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 101, 1, r + 0) == -1) return -1;
-    *out = decode_mode(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 101, 1, r + 0) == -1) return -1;
+        *out = decode_mode(r);
+    }
     return 0;
 }
 
@@ -514,9 +537,11 @@ int AllTables::write_mode(uint16_t value) {
 }
 
 int AllTables::read_label(std::string *out) {
-    uint16_t r[4];
-    if (read_table_(kHolding, 102, 4, r + 0) == -1) return -1;
-    *out = decode_label(r);
+    {
+        uint16_t r[4];
+        if (read_table_(kHolding, 102, 4, r + 0) == -1) return -1;
+        *out = decode_label(r);
+    }
     return 0;
 }
 
@@ -528,16 +553,20 @@ int AllTables::write_label(std::string value) {
 }
 
 int AllTables::read_status_bit(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 110, 1, r + 0) == -1) return -1;
-    *out = decode_status_bit(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 110, 1, r + 0) == -1) return -1;
+        *out = decode_status_bit(r);
+    }
     return 0;
 }
 
 int AllTables::read_flow(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 111, 1, r + 0) == -1) return -1;
-    *out = decode_flow(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 111, 1, r + 0) == -1) return -1;
+        *out = decode_flow(r);
+    }
     return 0;
 }
 
@@ -549,9 +578,11 @@ int AllTables::write_flow(double value) {
 }
 
 int AllTables::read_big(int64_t *out) {
-    uint16_t r[4];
-    if (read_table_(kHolding, 200, 4, r + 0) == -1) return -1;
-    *out = decode_big(r);
+    {
+        uint16_t r[4];
+        if (read_table_(kHolding, 200, 4, r + 0) == -1) return -1;
+        *out = decode_big(r);
+    }
     return 0;
 }
 
@@ -563,9 +594,11 @@ int AllTables::write_big(int64_t value) {
 }
 
 int AllTables::read_temp_offset(double *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 300, 1, r + 0) == -1) return -1;
-    *out = decode_temp_offset(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 300, 1, r + 0) == -1) return -1;
+        *out = decode_temp_offset(r);
+    }
     return 0;
 }
 
@@ -577,9 +610,11 @@ int AllTables::write_temp_offset(double value) {
 }
 
 int AllTables::read_serial(uint32_t *out) {
-    uint16_t r[2];
-    if (read_table_(kHolding, 400, 2, r + 0) == -1) return -1;
-    *out = decode_serial(r);
+    {
+        uint16_t r[2];
+        if (read_table_(kHolding, 400, 2, r + 0) == -1) return -1;
+        *out = decode_serial(r);
+    }
     return 0;
 }
 
@@ -591,9 +626,11 @@ int AllTables::write_serial(uint32_t value) {
 }
 
 int AllTables::read_low_byte(int8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 402, 1, r + 0) == -1) return -1;
-    *out = decode_low_byte(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 402, 1, r + 0) == -1) return -1;
+        *out = decode_low_byte(r);
+    }
     return 0;
 }
 
@@ -605,9 +642,11 @@ int AllTables::write_low_byte(int8_t value) {
 }
 
 int AllTables::read_high_byte(uint8_t *out) {
-    uint16_t r[1];
-    if (read_table_(kHolding, 403, 1, r + 0) == -1) return -1;
-    *out = decode_high_byte(r);
+    {
+        uint16_t r[1];
+        if (read_table_(kHolding, 403, 1, r + 0) == -1) return -1;
+        *out = decode_high_byte(r);
+    }
     return 0;
 }
 
@@ -619,94 +658,180 @@ int AllTables::write_high_byte(uint8_t value) {
 }
 
 int AllTables::read_all(AllTablesValues *out) {
+    // A register the device refuses with exception 2 even when asked alone has no value:
+    // expressions that need it read std::nullopt, any other function fails with EMBXILADD.
     std::vector<uint16_t> raw(28);
+    std::vector<char> have(28, 0);
     for (size_t g = 0; g < kGroups.size(); ++g) {
         const Group &q = kGroups[g];
         uint16_t *dest = raw.data() + q.offset;
         if (!refused_[g]) {
-            if (read_table_(q.table, q.start, q.count, dest) == 0) continue;
-            if (errno != EMBXILADD || q.split_count == 0) return -1;
+            if (read_table_(q.table, q.start, q.count, dest) == 0) {
+                std::fill(have.begin() + q.offset, have.begin() + q.offset + q.count, 1);
+                continue;
+            }
+            if (errno != EMBXILADD) return -1;
             refused_[g] = true;
         }
         for (int i = 0; i < q.split_count; ++i) {
             const Request &s = kSplits[q.split_first + i];
-            if (read_table_(s.table, s.start, s.count, dest + s.delta) == -1) return -1;
+            if (read_table_(s.table, s.start, s.count, dest + s.delta) == -1) {
+                if (errno != EMBXILADD) return -1;
+                continue;
+            }
+            std::fill(have.begin() + q.offset + s.delta, have.begin() + q.offset + s.delta + s.count, 1);
         }
     }
     {
         const uint16_t r[1] = { raw[0] };
+        if (!have[0]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->pump = decode_pump(r);
     }
     {
         const uint16_t r[1] = { raw[1] };
+        if (!have[1]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->fan = decode_fan(r);
     }
     {
         const uint16_t r[1] = { raw[2] };
+        if (!have[2]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->door_open = decode_door_open(r);
     }
     {
         const uint16_t r[1] = { raw[3] };
+        if (!have[3]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->filter_dirty = decode_filter_dirty(r);
     }
     {
         const uint16_t r[2] = { raw[23], raw[24] };
+        if (!have[23] || !have[24]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->energy = decode_energy(r);
     }
     {
         const uint16_t r[2] = { raw[25], raw[26] };
+        if (!have[25] || !have[26]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->power = decode_power(r);
     }
     {
         const uint16_t r[1] = { raw[27] };
+        if (!have[27]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->voltage = decode_voltage(r);
     }
     {
         const uint16_t r[1] = { raw[4] };
+        if (!have[4]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->gap_low = decode_gap_low(r);
     }
     {
         const uint16_t r[1] = { raw[5] };
+        if (!have[5]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->gap_high = decode_gap_high(r);
     }
     {
         const uint16_t r[1] = { raw[6] };
+        if (!have[6]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->setpoint = decode_setpoint(r);
     }
     {
         const uint16_t r[1] = { raw[7] };
+        if (!have[7]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->mode = decode_mode(r);
     }
     {
         const uint16_t r[4] = { raw[8], raw[9], raw[10], raw[11] };
+        if (!have[8] || !have[9] || !have[10] || !have[11]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->label = decode_label(r);
     }
     {
         const uint16_t r[1] = { raw[12] };
+        if (!have[12]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->status_bit = decode_status_bit(r);
     }
     {
         const uint16_t r[1] = { raw[13] };
+        if (!have[13]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->flow = decode_flow(r);
     }
     {
         const uint16_t r[4] = { raw[14], raw[15], raw[16], raw[17] };
+        if (!have[14] || !have[15] || !have[16] || !have[17]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->big = decode_big(r);
     }
     {
         const uint16_t r[1] = { raw[18] };
+        if (!have[18]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->temp_offset = decode_temp_offset(r);
     }
     {
         const uint16_t r[2] = { raw[19], raw[20] };
+        if (!have[19] || !have[20]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->serial = decode_serial(r);
     }
     {
         const uint16_t r[1] = { raw[21] };
+        if (!have[21]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->low_byte = decode_low_byte(r);
     }
     {
         const uint16_t r[1] = { raw[22] };
+        if (!have[22]) {
+            errno = EMBXILADD;
+            return -1;
+        }
         out->high_byte = decode_high_byte(r);
     }
     return 0;

@@ -55,6 +55,10 @@ def _check_read(rr, table, start, count):
     return values[:count]
 
 
+def _keys(table, start, count):
+    return ((table, start + i) for i in range(count))
+
+
 def _not_implemented(r, patterns):
     composed = 0
     for x in r:
@@ -374,37 +378,39 @@ def _encode_high_byte(value):
 _PLAN = (
     (('coil', 0, 2), [('coil', 0, 1), ('coil', 1, 1)]),
     (('discrete', 0, 2), [('discrete', 0, 1), ('discrete', 1, 1)]),
-    (('holding', 50, 1), [('holding', 50, 1)]),
-    (('holding', 52, 1), [('holding', 52, 1)]),
+    (('holding', 50, 1), []),
+    (('holding', 52, 1), []),
     (('holding', 100, 6), [('holding', 100, 1), ('holding', 101, 1), ('holding', 102, 4)]),
     (('holding', 110, 2), [('holding', 110, 1), ('holding', 111, 1)]),
-    (('holding', 200, 4), [('holding', 200, 4)]),
-    (('holding', 300, 1), [('holding', 300, 1)]),
+    (('holding', 200, 4), []),
+    (('holding', 300, 1), []),
     (('holding', 400, 4), [('holding', 400, 2), ('holding', 402, 1), ('holding', 403, 1)]),
     (('input', 0, 4), [('input', 0, 2), ('input', 2, 2)]),
-    (('input', 10, 1), [('input', 10, 1)]),
+    (('input', 10, 1), []),
 )
 
+# every readable function, the fields an expression names before it:
+# (name, registers, decode, names it needs, whether missing registers read None)
 _READABLE = (
-    ('pump', [('coil', 0)], _decode_pump),
-    ('fan', [('coil', 1)], _decode_fan),
-    ('door_open', [('discrete', 0)], _decode_door_open),
-    ('filter_dirty', [('discrete', 1)], _decode_filter_dirty),
-    ('energy', [('input', 0), ('input', 1)], _decode_energy),
-    ('power', [('input', 2), ('input', 3)], _decode_power),
-    ('voltage', [('input', 10)], _decode_voltage),
-    ('gap_low', [('holding', 50)], _decode_gap_low),
-    ('gap_high', [('holding', 52)], _decode_gap_high),
-    ('setpoint', [('holding', 100)], _decode_setpoint),
-    ('mode', [('holding', 101)], _decode_mode),
-    ('label', [('holding', 102), ('holding', 103), ('holding', 104), ('holding', 105)], _decode_label),
-    ('status_bit', [('holding', 110)], _decode_status_bit),
-    ('flow', [('holding', 111)], _decode_flow),
-    ('big', [('holding', 200), ('holding', 201), ('holding', 202), ('holding', 203)], _decode_big),
-    ('temp_offset', [('holding', 300)], _decode_temp_offset),
-    ('serial', [('holding', 400), ('holding', 401)], _decode_serial),
-    ('low_byte', [('holding', 402)], _decode_low_byte),
-    ('high_byte', [('holding', 403)], _decode_high_byte),
+    ('pump', [('coil', 0)], _decode_pump, [], False),
+    ('fan', [('coil', 1)], _decode_fan, [], False),
+    ('door_open', [('discrete', 0)], _decode_door_open, [], False),
+    ('filter_dirty', [('discrete', 1)], _decode_filter_dirty, [], False),
+    ('energy', [('input', 0), ('input', 1)], _decode_energy, [], False),
+    ('power', [('input', 2), ('input', 3)], _decode_power, [], False),
+    ('voltage', [('input', 10)], _decode_voltage, [], False),
+    ('gap_low', [('holding', 50)], _decode_gap_low, [], False),
+    ('gap_high', [('holding', 52)], _decode_gap_high, [], False),
+    ('setpoint', [('holding', 100)], _decode_setpoint, [], False),
+    ('mode', [('holding', 101)], _decode_mode, [], False),
+    ('label', [('holding', 102), ('holding', 103), ('holding', 104), ('holding', 105)], _decode_label, [], False),
+    ('status_bit', [('holding', 110)], _decode_status_bit, [], False),
+    ('flow', [('holding', 111)], _decode_flow, [], False),
+    ('big', [('holding', 200), ('holding', 201), ('holding', 202), ('holding', 203)], _decode_big, [], False),
+    ('temp_offset', [('holding', 300)], _decode_temp_offset, [], False),
+    ('serial', [('holding', 400), ('holding', 401)], _decode_serial, [], False),
+    ('low_byte', [('holding', 402)], _decode_low_byte, [], False),
+    ('high_byte', [('holding', 403)], _decode_high_byte, [], False),
 )
 
 
@@ -583,20 +589,34 @@ class AllTables:
         self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
     def read_all(self):
-        """Read every readable function with the fewest requests; returns {name: value}."""
+        """Read every readable function with the fewest requests; returns {name: value}.
+
+        A group the device refuses with exception 2 is read as smaller requests from then on; a
+        register it refuses even alone has no value: expressions that need it read None, any
+        other function raises ModbusExceptionError."""
         raw = {}
         for group, smaller in _PLAN:
-            requests = smaller if group in self._refused else [group]
-            try:
-                for table, start, count in requests:
-                    raw.update(zip(((table, start + i) for i in range(count)), self._read(table, start, count)))
-            except ModbusExceptionError as exc:
-                if exc.code != 2 or requests == smaller:
-                    raise
-                self._refused.add(group)
-                for table, start, count in smaller:
-                    raw.update(zip(((table, start + i) for i in range(count)), self._read(table, start, count)))
-        return {name: decode([raw[key] for key in keys]) for name, keys, decode in _READABLE}
+            if group not in self._refused:
+                try:
+                    raw.update(zip(_keys(*group), self._read(*group)))
+                    continue
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+                    self._refused.add(group)
+            for request in smaller:
+                try:
+                    raw.update(zip(_keys(*request), self._read(*request)))
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+        values = {}
+        for name, keys, decode, deps, nullable in _READABLE:
+            regs = [raw.get(key) for key in keys]
+            if not nullable and None in regs:
+                raise ModbusExceptionError(2, f"reading {name}")
+            values[name] = decode(regs, *[values[d] for d in deps])
+        return values
 
 
 class AsyncAllTables:
@@ -774,17 +794,31 @@ class AsyncAllTables:
         await self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
     async def read_all(self):
-        """Read every readable function with the fewest requests; returns {name: value}."""
+        """Read every readable function with the fewest requests; returns {name: value}.
+
+        A group the device refuses with exception 2 is read as smaller requests from then on; a
+        register it refuses even alone has no value: expressions that need it read None, any
+        other function raises ModbusExceptionError."""
         raw = {}
         for group, smaller in _PLAN:
-            requests = smaller if group in self._refused else [group]
-            try:
-                for table, start, count in requests:
-                    raw.update(zip(((table, start + i) for i in range(count)), await self._read(table, start, count)))
-            except ModbusExceptionError as exc:
-                if exc.code != 2 or requests == smaller:
-                    raise
-                self._refused.add(group)
-                for table, start, count in smaller:
-                    raw.update(zip(((table, start + i) for i in range(count)), await self._read(table, start, count)))
-        return {name: decode([raw[key] for key in keys]) for name, keys, decode in _READABLE}
+            if group not in self._refused:
+                try:
+                    raw.update(zip(_keys(*group), await self._read(*group)))
+                    continue
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+                    self._refused.add(group)
+            for request in smaller:
+                try:
+                    raw.update(zip(_keys(*request), await self._read(*request)))
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+        values = {}
+        for name, keys, decode, deps, nullable in _READABLE:
+            regs = [raw.get(key) for key in keys]
+            if not nullable and None in regs:
+                raise ModbusExceptionError(2, f"reading {name}")
+            values[name] = decode(regs, *[values[d] for d in deps])
+        return values

@@ -1,0 +1,180 @@
+"""Modbus Schema Toolkit: the 59 reference scenarios through `mdl test` (YAML and imported MDL),
+the generated Python driver and the generated C++ driver against `mdl sim --scenario`."""
+
+from __future__ import annotations
+
+import json
+import re
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+from conftest import SHARED, Sim, assert_clean_error, import_generated, run_mdl
+from cpp_harness import Harness, build
+from mdl.gen import render
+from mdl.loading import load_any
+from mdl.names import identifier
+from mdl.testing import matches
+
+REFERENCE = SHARED / "conformance" / "modbus-schema-reference"
+FILES = sorted(REFERENCE.glob("*.yaml"))
+TOTAL_SCENARIOS = 59
+
+
+def test_reference_files_are_all_there():
+    assert len(FILES) == 13
+    assert sum(len(load_any(f).tests) for f in FILES) == TOTAL_SCENARIOS
+
+
+def test_mdl_test_on_yaml():
+    proc = run_mdl("test", *FILES, timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
+
+
+@pytest.fixture(scope="module")
+def imported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("imported")
+    paths = []
+    for f in FILES:
+        target = out / f"{f.stem}.xml"
+        proc = run_mdl("import", f, "-o", target)
+        assert proc.returncode == 0, proc.stderr
+        paths.append(target)
+    return paths
+
+
+def test_imported_mdl_validates_and_passes(imported):
+    proc = run_mdl("validate", *imported)
+    assert proc.returncode == 0, proc.stderr
+    assert all("valid MDL 1.0 (extensions:" in line and "expression" in line and "tests" in line
+               for line in proc.stdout.splitlines())
+    proc = run_mdl("test", *imported, timeout=300)
+    assert proc.returncode == 0, proc.stdout
+    assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
+
+
+def test_failures_are_reported_with_scenario_field_expected_and_got(tmp_path):
+    text = (REFERENCE / "Float.yaml").read_text().replace("Float32_NI      : [ 1234.567 ]", "Float32_NI      : [ 1234.568 ]")
+    path = tmp_path / "Float.yaml"
+    path.write_text(text)
+    proc = run_mdl("test", path)
+    assert proc.returncode == 1
+    assert f"{path}: test 'Float: Normal values': Float32_NI: expected ['1234.568'], got ['1234.5670166015625']" in proc.stdout
+    assert proc.stdout.splitlines()[-1] == "4 passed, 1 failed"
+
+
+def _python_device(device, workdir: Path):
+    name = f"{identifier(device.name)}.py"
+    (workdir / name).write_text(render(device, "ref.xml", "python")[name])
+    module = import_generated(workdir / name, f"tk_{identifier(device.name)}")
+    return next(getattr(module, n) for n in module.__all__ if not n.startswith("Async") and n[0].isupper()
+                and not n.endswith("Error"))
+
+
+@pytest.mark.parametrize("yaml_file", FILES, ids=lambda p: p.stem)
+def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
+    device = load_any(yaml_file)
+    driver_cls = _python_device(device, tmp_path)
+    exe = build(device, tmp_path)
+    with ThreadPoolExecutor(max_workers=4) as pool:  # start the simulators side by side
+        sims = list(pool.map(lambda sc: Sim(yaml_file, "--scenario", sc.id), device.tests))
+    try:
+        for sc, sim in zip(device.tests, sims):
+            client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+            assert client.connect()
+            try:
+                py_values = driver_cls(client).read_all()
+            finally:
+                client.close()
+            harness = Harness(exe, sim.port)
+            try:
+                cpp_values = harness.values()
+            finally:
+                harness.close()
+            for name, want in sc.expected.items():
+                assert matches(py_values[name], want), (sc.id, name, "python", py_values[name], want)
+                assert matches(cpp_values[name], want), (sc.id, name, "c++", cpp_values[name], want)
+    finally:
+        for sim in sims:
+            sim.stop()
+
+
+def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
+    path = REFERENCE / "QuickTestDevice.yaml"
+    mdl_file = tmp_path / "q.xml"
+    assert run_mdl("import", path, "-o", mdl_file).returncode == 0
+    sim = sim_factory(mdl_file, "--scenario", "Normal values")
+    proc = run_mdl("read", mdl_file, "--host", sim.host, "--port", sim.port, "MyEnum", "MyBitset1",
+                   "Boolean Field Reference", "CombinedNumerical", "MyFloatNI", "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    values = json.loads(proc.stdout)
+    assert values["MyEnum"] == "Manual" and values["MyBitset1"] == ["Zero", "One", "Two", "Bit 3", "Bit 12"]
+    assert values["Boolean Field Reference"] == "Foo<false> and Bar<No>"
+    assert round(values["CombinedNumerical"], 3) == -61.732
+
+
+def test_max_registers_per_request_is_honoured(tmp_path):
+    device = load_any(REFERENCE / "QuickTestDevice.yaml")
+    assert device.max_registers == 42
+    from mdl.plan import plan_reads
+
+    assert all(r.count <= 42 for r in plan_reads(device))
+    assert 'max_registers="42"' in run_mdl("import", REFERENCE / "QuickTestDevice.yaml").stdout
+
+
+def _schema(tmp_path, expression: str, extra_field: str = "") -> Path:
+    path = tmp_path / "bad.yaml"
+    path.write_text(f"""description: 'bad'
+blocks:
+  - id: 'Main'
+    fields:
+      - id: 'Good'
+        expression: 'int16(hr:0)'
+      - id: 'Bad'
+        expression: "{expression}"
+{extra_field}""")
+    return path
+
+
+@pytest.mark.parametrize("expression, col, message", [
+    ("int16(hr:0 ++ 1", 12, "expected ')'"),
+    ("Good + Nosuch", 8, "unknown field 'Nosuch'"),
+    ("int16(hr:0, ir:1)", 13, "mix register tables"),
+    ("utf8(hr:0#126)", 1, "at most 125"),
+    ("int32(hr:0#2; 0xDEAD)", 1, "'not implemented' value of 1 register(s) for 2"),
+    ("int32(hr:0)", 7, "int32 needs 2 registers, got 1"),
+    ("concat('a') * 2", 1, "arithmetic needs numbers"),
+    ("hexstring(hr:0, hr:2)", 11, "consecutive"),
+])
+def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, message):
+    path = _schema(tmp_path, expression)
+    for command in (["import", path], ["test", path], ["sim", path, "--port", "0"]):
+        proc = run_mdl(*command)
+        assert_clean_error(proc, 1, f"{path}:8:{col}: error: field 'Bad' of block 'Main':", message)
+
+
+def test_mdl_validate_lists_every_expression_problem(tmp_path):
+    xml = tmp_path / "x.xml"
+    text = run_mdl("import", _schema(tmp_path, "Good + 1")).stdout
+    text = text.replace("<expression>Good + 1</expression>", "<expression>Good + Nosuch</expression>")
+    text = text.replace("<expression>int16(hr:0)</expression>", "<expression>int16(hr:0; 0xDE 0xAD)</expression>")
+    xml.write_text(text)
+    proc = run_mdl("validate", xml)
+    assert proc.returncode == 1
+    errors = [line for line in proc.stderr.splitlines() if "error:" in line]
+    assert any(re.search(r":\d+:8: error: function 'Bad': expression: unknown field 'Nosuch'", e) for e in errors), errors
+    assert any("function 'Good': expression: a 'not implemented' value of 2 register(s) for 1" in e for e in errors), errors
+
+
+def test_bad_yaml(tmp_path):
+    path = tmp_path / "broken.yaml"
+    path.write_text("description: 'x'\nblocks: [\n")
+    assert_clean_error(run_mdl("import", path), 1, f"{path}:3:", "malformed YAML")
+    path.write_text("- just\n- a list\n")
+    assert_clean_error(run_mdl("test", path), 1, "not a Modbus Schema Toolkit file")
+    assert_clean_error(run_mdl("import", tmp_path / "none.yaml"), 1, "no such file")
+    assert_clean_error(run_mdl("sim", REFERENCE / "Float.yaml", "--port", "0", "--scenario", "nope"), 1,
+                       "no test scenario 'nope'")
