@@ -69,19 +69,28 @@ class Session:
         needed = evaluation_order(self.device, [fn.name for fn in functions])
         raw: dict[tuple[str, int], int] = {}
         pending = list(plan_reads(self.device, needed))
+        missing: list[Request] = []
         while pending:
             req = pending.pop(0)
             try:
                 values = self.read_request(req)
             except ModbusExceptionError as exc:
+                if exc.code != 2:
+                    raise
                 smaller = split_request(self.device, req)
-                if exc.code == 2 and smaller != [req]:
+                if smaller != [req]:
                     self.refused.add(req)
                     pending[:0] = smaller
-                    continue
-                raise
+                else:
+                    missing.append(req)  # refused even alone: these registers have no value
+                continue
             for i, v in enumerate(values):
                 raw[(req.table, req.start + i)] = v
+        for fn in needed:  # only expressions may read a register the device does not answer
+            lay = layout(fn)
+            if fn.compiled is None and any((lay.table, a) not in raw for a in lay.addresses):
+                req = next(r for r in missing if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
+                raise ModbusExceptionError(f"reading {req.count} {req.table} from {req.start}", 2)
         try:
             values = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:

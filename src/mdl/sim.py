@@ -34,8 +34,7 @@ class Registers:
     def __init__(self, device: Device, permissive: bool = False):
         self.device = device
         self.permissive = permissive
-        self.missing: set[tuple[str, int]] = set()  # answer exception 2
-        self.failing: set[tuple[str, int]] = set()  # answer exception 4
+        self.missing: set[tuple[str, int]] = set()  # no value in a scenario: answer exception 2
         self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
         self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
         for fn in device.functions:
@@ -82,18 +81,17 @@ class Registers:
                 self.put(table, address, [value])
 
     def load_scenario(self, sc) -> None:
-        """Registers from a test scenario. A register the scenario gives no value (or "----")
-        answers exception 2, as one the device lacks; "xxxx" answers exception 4 (a read error)."""
+        """Registers from a test scenario. A register the scenario gives no value ("----", or none
+        at all) or a read error ("xxxx") answers exception 2, as one the device lacks: drivers then
+        read it as having no value, as `mdl test` does (the wire cannot carry the difference)."""
         from mdl.testing import READ_ERROR, scenario_registers
 
         given = scenario_registers(sc)
         for table, addresses in self.tables.items():
             for address in addresses:
                 value = given.get((table, address))
-                if value is None:
+                if value is None or value == READ_ERROR:
                     self.missing.add((table, address))
-                elif value == READ_ERROR:
-                    self.failing.add((table, address))
                 else:
                     addresses[address] = value
 
@@ -135,8 +133,6 @@ class SimContext(ModbusServerContext):
         if not self.registers.defined(table, address, count):
             return ExcCodes.ILLEGAL_ADDRESS
         span = {(table, a) for a in range(address, address + count)}
-        if span & self.registers.failing:
-            return ExcCodes.DEVICE_FAILURE
         if span & self.registers.missing:
             return ExcCodes.ILLEGAL_ADDRESS
         values = self.registers.get(table, address, count)

@@ -256,7 +256,8 @@ class Parser:
             self.pos += 1
             self.ws()
             part_start = self.pos
-            if _HEXWORD.match(self.text, self.pos):
+            hex_key = re.compile(r"0[xX][0-9A-Fa-f]+\s*->").match(self.text, self.pos)
+            if _HEXWORD.match(self.text, self.pos) and not hex_key:
                 group = []
                 while True:
                     self.ws()
@@ -267,18 +268,18 @@ class Parser:
                     self.pos = m.end()
                 node.not_implemented.append(group)
                 continue
-            m = re.compile(r"-?\d+").match(self.text, self.pos)
+            m = re.compile(r"-?0[xX][0-9A-Fa-f]+|-?\d+").match(self.text, self.pos)
             if not m:
                 raise self.error("expected a 'not implemented' value (0x...), a mapping (N -> 'text') or a bit number")
             self.pos = m.end()
             if self.peek() == "-" and self.text.startswith("->", self.pos):
                 self.pos += 2
-                key = int(m.group(0))
+                key = int(m.group(0), 0)
                 if key in node.mapping:
                     raise self.error(f"value {key} is mapped twice", part_start)
                 node.mapping[key] = self.string_arg()
             else:
-                node.bit = int(m.group(0))
+                node.bit = int(m.group(0), 0)
         self.expect(")")
         return node
 
