@@ -176,7 +176,7 @@ def test_generated_python_encodes_like_codec(generated, data):
         value = data.draw(st.integers(lo - 2, hi + 2))
     try:
         expected = codec.encode(fn, value)
-    except (codec.CodecError, ValueError) as exc:
+    except (codec.CodecError, ValueError):
         with pytest.raises(ValueError):
             getattr(module, f"_encode_f{i}")(value)
         return

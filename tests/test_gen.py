@@ -12,7 +12,7 @@ import pytest
 from conftest import DATA, EXAMPLE, ROOT, assert_clean_error, fn_xml, run_mdl
 
 sys.path.insert(0, str(ROOT / "scripts"))
-import regen_golden  # noqa: E402
+import regen_golden
 
 
 @pytest.mark.parametrize("path", sorted(regen_golden.expected_files(), key=str), ids=lambda p: p.name)

@@ -36,7 +36,7 @@ def _namespace() -> dict:
 def _compile(code: str, nregs: int, reading: bool):
     regs = [f"r{i + 1}" for i in range(nregs)]
     if reading:
-        head = [f"def _fragment(r):", f"    {', '.join(regs)}, = r", "    arg = 0.0"]
+        head = ["def _fragment(r):", f"    {', '.join(regs)}, = r", "    arg = 0.0"]
         tail = ["    return arg"]
     else:
         head = ["def _fragment(arg):", f"    {', '.join(regs)}, = [0] * {nregs}"]

@@ -105,7 +105,7 @@ class Parser:
         if ch.isdigit() or (ch == "." and self.text[self.pos + 1: self.pos + 2].isdigit()):
             m = _NUMBER.match(self.text, self.pos)
             if not m:
-                raise self.error(f"malformed number")
+                raise self.error("malformed number")
             self.pos = m.end()
             text = m.group(0)
             if self.pos < len(self.text) and (self.text[self.pos].isalpha() or self.text[self.pos] in ":#"):
