@@ -62,3 +62,41 @@ def test_missing_and_failing_registers(tmp_path, sim_factory):
     proc = run_mdl("read", xml, "--host", sim.host, "--port", sim.port, "--format", "json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == {"A": 16, "B": None, "C": None, "Sum": None, "Text": "<|>", "Mapped": "Sixteen"}
+
+
+NEWER_KEYS = """description: 'Newer key names, coils with missing bits'
+blocks:
+  - id: 'Main'
+    fields:
+      - id: 'Power'
+        expression: 'ieee754_32(ir:00000 # 2)'
+      - id: 'Pump'
+        expression: "boolean(c:1 ; 'off' ; 'on')"
+      - id: 'Fan'
+        expression: 'boolean(c:2)'
+tests:
+  - id: 'recorded'
+    input:
+      - firstRegisterAddress: 'ir:00000'
+        registers: |-
+          449A 5225
+      - firstRegisterAddress: 'c:0'
+        registers: 0 1 -
+    blocks:
+      - id: 'Main'
+        expected:
+          Power: [ 1234.567 ]
+          Pump: [ 'on' ]
+          Fan: []
+"""
+
+
+def test_newer_key_names_and_missing_bits(tmp_path):
+    path = tmp_path / "newer.yaml"
+    path.write_text(NEWER_KEYS)
+    proc = run_mdl("test", path)
+    assert proc.stdout.strip() == "1 passed, 0 failed", proc.stdout + proc.stderr
+    xml = tmp_path / "newer.xml"
+    assert run_mdl("import", path, "-o", xml).returncode == 0
+    assert run_mdl("validate", xml).returncode == 0
+    assert run_mdl("test", xml).stdout.strip() == "1 passed, 0 failed"

@@ -19,9 +19,9 @@ def scenario_registers(sc: Scenario) -> dict:
     for item in sc.inputs:
         address = item.address
         for word in item.values:
-            if item.table in ("coil", "discrete"):
+            if item.table in ("coil", "discrete"):  # one character a bit: 0, 1, - (no value), x (error)
                 for ch in word:
-                    raw[(item.table, address)] = int(ch)
+                    raw[(item.table, address)] = int(ch) if ch in "01" else (None if ch == "-" else READ_ERROR)
                     address += 1
                 continue
             if word == "----":

@@ -123,18 +123,20 @@ def _scenario(test: _Node, names, path) -> Scenario:
     desc = _get(test, "description", path, required=False)
     sc.description = desc.value if desc else None
     for item in _get(test, "input", path, list, required=False).value if "input" in test.value else []:
-        first = _get(item, "firstAddress", path)
+        # the Toolkit's files spell these firstAddress/rawValues, later ones firstRegisterAddress/registers
+        first = _get(item, "firstRegisterAddress" if "firstRegisterAddress" in item.value else "firstAddress", path)
         try:
             table, address = parse_address(first.value)
         except AddressError as exc:
             raise error(str(exc), path, first.line, first.col) from None
-        raw = _get(item, "rawValues", path)
+        raw = _get(item, "registers" if "registers" in item.value else "rawValues", path)
         words = raw.value.split()
         for w in words:
             ok = (len(w) == 4 and (all(c in "0123456789abcdefABCDEF" for c in w) or w == "----" or w.lower() == "xxxx")) \
-                or (table in ("coil", "discrete") and set(w) <= {"0", "1"})
+                or (table in ("coil", "discrete") and set(w.lower()) <= {"0", "1", "-", "x"})
             if not ok:
-                raise error(f"raw value '{w}' is not 4 hex digits, '----' or 'xxxx'", path, raw.line, raw.col)
+                raise error(f"raw value '{w}' is not 4 hex digits, '----' or 'xxxx'"
+                            + (" (or bits 0, 1, -, x)" if table in ("coil", "discrete") else ""), path, raw.line, raw.col)
         sc.inputs.append(ScenarioInput(table, address, words))
     for block in _get(test, "blocks", path, list, required=False).value if "blocks" in test.value else []:
         block_id = _get(block, "id", path).value
