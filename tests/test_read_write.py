@@ -28,6 +28,16 @@ def test_read_formats(sim_factory):
     assert "alarm_reset" not in values and len(values) == 19
 
 
+def test_senml_format(sim_factory):
+    sim = sim_factory(TSTAT, "--set", "room_temperature=21.5", "--set", "occupied_setpoint=22")
+    proc = run_mdl("read", TSTAT, "--host", sim.host, "--port", sim.port, "room_temperature", "occupied_setpoint",
+                   "--format", "senml")
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout) == {"TEMCO Tstat": {"bn": "TEMCO Tstat", "e": [
+        {"n": "room_temperature", "v": 21.5, "u": "°C", "asm": "r"},
+        {"n": "occupied_setpoint", "v": 22.0, "u": "°C", "min": 10.0, "max": 30.0, "asm": "rw"}]}}
+
+
 def test_not_implemented_is_null(sim_factory, tmp_path):
     raw = tmp_path / "raw.json"
     raw.write_text('{"input": {"10": 65535}}')

@@ -244,7 +244,7 @@ def _connection_options(f):
 @click.argument("file", type=click.Path(path_type=Path))
 @click.argument("names", nargs=-1)
 @_connection_options
-@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv"]), default="table", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table", show_default=True)
 def read(file, names, host, port, unit, timeout, fmt):
     """Read functions (all readable ones by default) with the coalesced read plan.
 
@@ -260,7 +260,7 @@ def read(file, names, host, port, unit, timeout, fmt):
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
     with Session(device, host, port, unit, timeout) as session:
         values = session.read(functions)
-    click.echo(output.render(functions, values, fmt), nl=False)
+    click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
 
 @main.command()

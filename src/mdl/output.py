@@ -34,7 +34,34 @@ def _text(value) -> str:
     return str(value)
 
 
-def render(functions: list[Function], values: dict, fmt: str) -> str:
+def senml(functions: list[Function], values: dict, device_name: str) -> dict:
+    """The WISE-Agent guide's JSON: one object per block label, {"bn": block, "e": [entries]}."""
+    out: dict = {}
+    for fn in functions:
+        block = fn.block or device_name
+        entry: dict = {"n": fn.name}
+        value = shown(fn, values[fn.name])
+        if isinstance(value, bool):
+            entry["bv"] = value
+        elif isinstance(value, (int, float)):
+            entry["v"] = _json_value(value)
+        elif isinstance(value, list):
+            entry["sv"] = ", ".join(value)
+        elif value is not None:
+            entry["sv"] = value
+        if fn.units and fn.units.strip():
+            entry["u"] = fn.units.strip()
+        for key in ("minimum", "maximum"):
+            if getattr(fn, key) is not None:
+                entry[key[:3]] = getattr(fn, key)
+        entry["asm"] = "rw" if fn.writable else "r"
+        out.setdefault(block, {"bn": block, "e": []})["e"].append(entry)
+    return out
+
+
+def render(functions: list[Function], values: dict, fmt: str, device_name: str = "") -> str:
+    if fmt == "senml":
+        return json.dumps(senml(functions, values, device_name), indent=2, ensure_ascii=False) + "\n"
     rows = [(fn, shown(fn, values[fn.name])) for fn in functions]
     if fmt == "json":
         return json.dumps({fn.name: _json_value(v) for fn, v in rows}, indent=2, ensure_ascii=False) + "\n"

@@ -8,7 +8,7 @@ safe-subset check, inside functions where r1..rn are uint16_t locals and arg a d
 from __future__ import annotations
 
 from mdl import __version__
-from mdl.codec import scales
+from mdl.codec import int_range, scales
 from mdl.expr.cppemit import CPP_HELPERS, cpp_type
 from mdl.expr.cppemit import body as expr_body
 from mdl.expr.fields import evaluation_order
@@ -169,7 +169,7 @@ def encode_lines(fn: Function, t: str) -> list[str]:
         lines += [f"{ctype} f = static_cast<{ctype}>(x);", f"{width} bits;", "std::memcpy(&bits, &f, sizeof bits);",
                   "uint64_t v = bits;"]
     else:
-        lo, hi = (-(1 << (lay.bits - 1)), (1 << (lay.bits - 1)) - 1) if lay.signed else (0, (1 << lay.bits) - 1)
+        lo, hi = int_range(lay)
         if scales(fn):
             lines += [f"double x = std::floor((value - {cpp_number(fn.eff_offset)}) / {cpp_number(fn.eff_multiplier)} + 0.5);",
                       f"if (!(x >= {cpp_number(lo)} && x <= {cpp_number(hi)})) {{ errno = EINVAL; return -1; }}"]

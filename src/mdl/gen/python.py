@@ -7,7 +7,7 @@ from mdl.cfrag import HELPERS_SOURCE, python_body
 from mdl.expr.fields import evaluation_order
 from mdl.expr.pyemit import HELPERS_SOURCE as EXPR_HELPERS
 from mdl.expr.pyemit import body as expr_body
-from mdl.codec import scales
+from mdl.codec import int_range, scales
 from mdl.gen.straight import span_bits, unit_shift, units_msb_first
 from mdl.layout import layout
 from mdl.model import Device, Function
@@ -101,7 +101,7 @@ def encode_lines(fn: Function) -> list[str]:
             fmt = "f" if lay.bits == 32 else "d"
             lines.append(f"v = int.from_bytes(struct.pack('>{fmt}', float(value)), 'big')")
         else:
-            lo, hi = (-(1 << (lay.bits - 1)), (1 << (lay.bits - 1)) - 1) if lay.signed else (0, (1 << lay.bits) - 1)
+            lo, hi = int_range(lay)
             lines += ["if isinstance(value, float):",
                       "    if value != value or value in (float('inf'), float('-inf')):",
                       "        raise ValueRangeError(f'{value} is not a finite number')",
