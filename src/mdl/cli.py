@@ -104,7 +104,7 @@ def validate(files, version):
               show_default=True, help="Directory for the generated files.")
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
 def gen(file, lang, outdir, check):
-    """Generate drivers: <stem>.py (pymodbus) and/or <stem>.h/.cc (libmodbus).
+    """Generate drivers: <stem>.py (pymodbus) and/or <stem>.h/.cc (libmodbus) from MDL (or Toolkit YAML).
 
     Files are written only when their content changes (Makefile friendly).
 
@@ -113,9 +113,9 @@ def gen(file, lang, outdir, check):
       mdl gen device.xml --lang python -o drivers/
     """
     from mdl.gen import generate
-    from mdl.mdlxml import load_device
+    from mdl.loading import load_any
 
-    device = load_device(file)
+    device = load_any(file)
     changed = generate(device, file, lang, outdir, check)
     for path in changed:
         click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
@@ -253,10 +253,10 @@ def read(file, names, host, port, unit, timeout, fmt):
       mdl read device.xml --host 192.0.2.10 temperature fan_speed --format json
     """
     from mdl import output
-    from mdl.mdlxml import load_device
+    from mdl.loading import load_any
     from mdl.runtime import Session
 
-    device = load_device(file)
+    device = load_any(file)
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
     with Session(device, host, port, unit, timeout) as session:
         values = session.read(functions)
@@ -276,10 +276,10 @@ def write(file, assignments, host, port, unit, timeout):
     """
     from mdl import codec
     from mdl.diagnostics import error
-    from mdl.mdlxml import load_device
+    from mdl.loading import load_any
     from mdl.runtime import Session
 
-    device = load_device(file)
+    device = load_any(file)
     todo = []
     for item in assignments:
         name, sep, text = item.partition("=")

@@ -243,7 +243,7 @@ def context(device: Device, source_name: str) -> dict:
         "expression_helpers": CPP_HELPERS,
         "uses_vector": any(f["t"] == "std::vector<std::string>" for f in functions),
         "device": device, "version": __version__, "source": source_name, "stem": stem,
-        "class_name": camel(stem), "guard": f"MDL_{stem.upper()}_H", "functions": functions,
+        "class_name": camel(stem), "guard": f"MDL_{stem.upper().rstrip('_')}_H", "functions": functions,
         "groups": groups, "splits": splits, "raw_total": offset,
         "uses_optional": any(f["rt"].startswith("std::optional") for f in functions),
         "uses_string": any("std::string" in f["t"] for f in functions),
