@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
-from mdl.expr.lower import Lowered, lower
+from mdl.expr.lower import Lowered, lower, refs_of
 from mdl.expr.nodes import ExprError
 from mdl.expr.parser import parse
 from mdl.expr.pyemit import HELPERS_SOURCE, body, signature
@@ -58,7 +58,6 @@ def compile_device(device: Device) -> list[FieldError]:
             errors.append(FieldError(fn, str(exc), exc.col))
     done: dict[str, str] = {}  # name -> type, for compiled or plain functions
     visiting: set[str] = set()
-    by_name = {fn.name: fn for fn in device.functions}
 
     def visit(fn: Function) -> str | None:
         if fn.name in done:
@@ -74,8 +73,6 @@ def compile_device(device: Device) -> list[FieldError]:
                 errors.append(FieldError(fn, "the expression refers to itself through other fields", 1))
             return None
         visiting.add(fn.name)
-        from mdl.expr.lower import refs_of
-
         refs: list[str] = []
         refs_of(parsed[fn.name], refs)
         types = {}
@@ -101,7 +98,6 @@ def compile_device(device: Device) -> list[FieldError]:
     for fn in device.functions:
         if fn.expression is not None:
             visit(fn)
-    _ = by_name
     return errors
 
 
