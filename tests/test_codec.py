@@ -7,6 +7,7 @@ import math
 import struct
 
 import pytest
+from conftest import import_generated
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -14,8 +15,6 @@ from mdl import codec
 from mdl.gen import render
 from mdl.layout import LayoutError, layout
 from mdl.model import Device, Function
-
-from conftest import import_generated
 
 INT_FORMATS = ["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64"]
 ORDERS = ["big", "little"]

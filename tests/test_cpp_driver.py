@@ -7,12 +7,12 @@ import json
 import math
 
 import pytest
+from conftest import DATA, EXAMPLE, Sim, fn_xml, import_generated, run_mdl
+from cpp_harness import MODBUS_ENOBASE, Harness, build, toolchain
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
 
-from conftest import DATA, EXAMPLE, Sim, fn_xml, import_generated, run_mdl
-from cpp_harness import MODBUS_ENOBASE, Harness, build, toolchain
 from mdl.gen import render
 from mdl.layout import layout
 from mdl.mdlxml import load_device

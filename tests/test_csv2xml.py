@@ -5,9 +5,8 @@ from __future__ import annotations
 import shutil
 
 import pytest
-from lxml import etree
-
 from conftest import DATA, EXAMPLE, MDL_NS, ORNL, ROOT, assert_clean_error, run_mdl
+from lxml import etree
 
 NS = {"m": MDL_NS}
 

@@ -8,7 +8,6 @@ import sys
 import time
 
 import pytest
-
 from conftest import DATA, EXAMPLE, ROOT, assert_clean_error, fn_xml, run_mdl
 
 sys.path.insert(0, str(ROOT / "scripts"))

@@ -5,9 +5,8 @@ from __future__ import annotations
 import asyncio
 
 import pytest
-from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
-
 from conftest import DATA, EXAMPLE, fn_xml, import_generated, run_mdl
+from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
 
 ALL = DATA / "all_tables.xml"
 

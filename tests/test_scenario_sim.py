@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import json
 
-from pymodbus.client import ModbusTcpClient
-
 from conftest import run_mdl
+from pymodbus.client import ModbusTcpClient
 
 SCHEMA = """description: 'Scenario edges'
 blocks:

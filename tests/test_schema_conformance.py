@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from lxml import etree
-
 from conftest import MDL_NS, ORNL, ROOT, run_mdl
+from lxml import etree
 
 F = "<name>f</name><description>d</description>"
 

@@ -6,9 +6,8 @@ import json
 import signal
 
 import pytest
-from pymodbus.client import ModbusTcpClient
-
 from conftest import DATA, EXAMPLE, Sim, assert_clean_error, run_mdl
+from pymodbus.client import ModbusTcpClient
 
 ALL = DATA / "all_tables.xml"
 

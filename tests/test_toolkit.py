@@ -9,10 +9,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from pymodbus.client import ModbusTcpClient
-
 from conftest import SHARED, Sim, assert_clean_error, import_generated, run_mdl
 from cpp_harness import Harness, build
+from pymodbus.client import ModbusTcpClient
+
 from mdl.gen import render
 from mdl.loading import load_any
 from mdl.names import identifier

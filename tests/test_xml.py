@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
+
 from mdl.mdlxml import device_to_xml, load_device
 from mdl.mdlxml.load import validate_file
-
-from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
 
 BOMB = """<?xml version="1.0"?>
 <!DOCTYPE lolz [

@@ -6,7 +6,10 @@ from pathlib import Path
 
 from mdl.expr.lower import Lowered, Op
 
-HELPERS_SOURCE = (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
+from mdl.cfrag import HELPERS_SOURCE as _C_HELPERS
+
+# the expression runtime, with the C-semantics helpers it shares (_fdiv)
+HELPERS_SOURCE = _C_HELPERS + "\n\n" + (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
 
 _CONVERT = {"int16": "_x_int({a}, 16, True)", "uint16": "_x_int({a}, 16, False)", "int32": "_x_int({a}, 32, True)",
             "uint32": "_x_int({a}, 32, False)", "int64": "_x_int({a}, 64, True)", "uint64": "_x_int({a}, 64, False)",
@@ -41,7 +44,7 @@ def _line(op: Op) -> str:
     if op.kind in ("arith", "div", "pow"):
         b = op.args[1]
         if op.kind == "div":
-            expr = f"_x_div({a}, {b})"
+            expr = f"_fdiv({a}, {b})"
         elif op.kind == "pow":
             expr = f"_x_pow({a}, {b})"
         elif op.type == "long":

@@ -1,5 +1,6 @@
 # Runtime of translated Modbus Schema Toolkit expressions. This file is also copied verbatim into
 # generated Python drivers that use expressions, so it imports only the standard library.
+# Division is cfrag/pyhelpers.py's _fdiv (IEEE semantics), which is always emitted beside it.
 import decimal as _decimal
 import math as _xmath
 import struct as _xstruct
@@ -78,14 +79,6 @@ def _x_swapendian(regs):
 def _x_long(value):
     value &= 0xFFFFFFFFFFFFFFFF
     return value - (1 << 64) if value >> 63 else value
-
-
-def _x_div(a, b):
-    if b == 0:
-        if a == 0 or a != a:
-            return _xmath.nan
-        return _xmath.copysign(_xmath.inf, a) * _xmath.copysign(1.0, b)
-    return a / b
 
 
 def _x_pow(a, b):
