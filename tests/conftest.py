@@ -13,12 +13,46 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-SHARED = ROOT.parent / "shared"
-ORNL = SHARED / "conformance" / "ornl"
+
+
+def _conformance_root() -> Path:
+    """Conformance data from elsewhere: $MDL_CONFORMANCE_DIR, else ../shared/conformance beside the checkout."""
+    configured = os.environ.get("MDL_CONFORMANCE_DIR")
+    return Path(configured).resolve() if configured else ROOT.parent / "shared" / "conformance"
+
+
+CONFORMANCE = _conformance_root()
+ORNL = CONFORMANCE / "ornl"
+REFERENCE = CONFORMANCE / "modbus-schema-reference"
 EXAMPLE = ROOT / "examples" / "temco_tstat"
 DATA = Path(__file__).resolve().parent / "data"
 
 MDL_NS = "http://www.ornl.gov/ModbusXMLSchema"
+
+
+def in_ci() -> bool:
+    return os.environ.get("CI") == "true"
+
+
+def skip_or_fail(reason: str) -> None:
+    """A missing optional tool or data set skips its test with the reason; under CI=true it is a failure."""
+    if in_ci():
+        pytest.fail(f"{reason} (required when CI=true)", pytrace=False)
+    pytest.skip(reason)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "conformance(folder): needs CONFORMANCE/folder (ORNL's or the Toolkit's files)")
+    config.addinivalue_line("markers", "exhaustive: slow, many-case variants; run with `-m exhaustive` (CI does)")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_setup(item):
+    for mark in item.iter_markers("conformance"):
+        folder = CONFORMANCE / mark.args[0]
+        if not folder.is_dir():
+            skip_or_fail(f"conformance data {folder} is absent: set MDL_CONFORMANCE_DIR to the folder holding "
+                         f"{mark.args[0]}/, or check out shared/ beside the repository")
 
 
 def mdl_cmd(*args) -> list[str]:

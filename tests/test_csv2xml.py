@@ -26,6 +26,7 @@ def ornl_copy(tmp_path):
     return tmp_path
 
 
+@pytest.mark.conformance("ornl")
 def test_ornl_example_unchanged(ornl_copy):
     proc = run_mdl("csv2xml", ornl_copy / "tempco_device.ini")
     assert proc.returncode == 0, proc.stderr
@@ -49,6 +50,7 @@ def test_ornl_example_unchanged(ornl_copy):
     assert run_mdl("validate", "--schema", "0.9b", out).returncode == 0
 
 
+@pytest.mark.conformance("ornl")
 def test_ornl_bytes_count_for_multi_register_rows(ornl_copy, tmp_path):
     ini = ornl_copy / "tempco_device.ini"
     ini.write_text(ini.read_text() + "serial_number = Serial Number\nsoftware_version = Software Version\n")

@@ -62,21 +62,27 @@ def _schema(path):
     return etree.XMLSchema(etree.parse(str(path)))
 
 
-ORNL_XSD = _schema(ORNL / "mdl.xsd")
 OUR_09B = _schema(ROOT / "schema" / "mdl-0.9b.xsd")
 OUR_10 = _schema(ROOT / "schema" / "mdl-1.0.xsd")
 
 
-def test_corpus_is_large_and_mixed():
-    verdicts = [ORNL_XSD.validate(etree.fromstring(d.encode())) for d in CORPUS.values()]
+@pytest.fixture(scope="module")
+def ornl_xsd():
+    return _schema(ORNL / "mdl.xsd")
+
+
+@pytest.mark.conformance("ornl")
+def test_corpus_is_large_and_mixed(ornl_xsd):
+    verdicts = [ornl_xsd.validate(etree.fromstring(d.encode())) for d in CORPUS.values()]
     assert len(CORPUS) >= 20
     assert 5 <= sum(verdicts) <= len(verdicts) - 5
 
 
+@pytest.mark.conformance("ornl")
 @pytest.mark.parametrize("name", sorted(CORPUS))
-def test_09b_schema_agrees_with_ornl(name):
+def test_09b_schema_agrees_with_ornl(name, ornl_xsd):
     tree = etree.fromstring(CORPUS[name].encode())
-    assert OUR_09B.validate(tree) == ORNL_XSD.validate(tree), name
+    assert OUR_09B.validate(tree) == ornl_xsd.validate(tree), name
 
 
 @pytest.mark.parametrize("name", sorted(CORPUS))
@@ -86,7 +92,8 @@ def test_every_09b_document_is_valid_10(name):
         assert OUR_10.validate(tree), (name, OUR_10.error_log)
 
 
-def test_cli_verdicts_match_ornl(tmp_path):
+@pytest.mark.conformance("ornl")
+def test_cli_verdicts_match_ornl(tmp_path, ornl_xsd):
     files = {}
     for name, text in CORPUS.items():
         path = tmp_path / f"{name}.xml"
@@ -94,7 +101,7 @@ def test_cli_verdicts_match_ornl(tmp_path):
         files[name] = path
     for name, path in files.items():
         proc = run_mdl("validate", "--schema", "0.9b", path)
-        ornl_ok = ORNL_XSD.validate(etree.fromstring(CORPUS[name].encode()))
+        ornl_ok = ornl_xsd.validate(etree.fromstring(CORPUS[name].encode()))
         assert "Traceback" not in proc.stderr
         if name in SEMANTICALLY_INVALID:
             assert ornl_ok and proc.returncode == 1 and SEMANTICALLY_INVALID[name] in proc.stderr

@@ -9,7 +9,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import SHARED, Sim, assert_clean_error, import_generated, run_mdl
+from conftest import REFERENCE, ROOT, Sim, assert_clean_error, import_generated, run_mdl
 from cpp_harness import Harness, build
 from pymodbus.client import ModbusTcpClient
 
@@ -18,16 +18,25 @@ from mdl.loading import load_any
 from mdl.names import identifier
 from mdl.testing import matches
 
-REFERENCE = SHARED / "conformance" / "modbus-schema-reference"
 FILES = sorted(REFERENCE.glob("*.yaml"))
 TOTAL_SCENARIOS = 59
+HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
+reference = pytest.mark.conformance("modbus-schema-reference")
 
 
+def test_heat_pump_example_passes_its_own_scenarios():
+    proc = run_mdl("test", HEAT_PUMP)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stdout.splitlines()[-1] == "2 passed, 0 failed"
+
+
+@reference
 def test_reference_files_are_all_there():
     assert len(FILES) == 13
     assert sum(len(load_any(f).tests) for f in FILES) == TOTAL_SCENARIOS
 
 
+@reference
 def test_mdl_test_on_yaml():
     proc = run_mdl("test", *FILES, timeout=300)
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -46,6 +55,7 @@ def imported(tmp_path_factory):
     return paths
 
 
+@reference
 def test_imported_mdl_validates_and_passes(imported):
     proc = run_mdl("validate", *imported)
     assert proc.returncode == 0, proc.stderr
@@ -56,6 +66,7 @@ def test_imported_mdl_validates_and_passes(imported):
     assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
 
 
+@reference
 def test_failures_are_reported_with_scenario_field_expected_and_got(tmp_path):
     text = (REFERENCE / "Float.yaml").read_text().replace("Float32_NI      : [ 1234.567 ]", "Float32_NI      : [ 1234.568 ]")
     path = tmp_path / "Float.yaml"
@@ -74,7 +85,8 @@ def _python_device(device, workdir: Path):
                 and not n.endswith("Error"))
 
 
-@pytest.mark.parametrize("yaml_file", FILES, ids=lambda p: p.stem)
+@pytest.mark.parametrize("yaml_file", [*(pytest.param(f, marks=reference) for f in FILES), HEAT_PUMP],
+                         ids=lambda p: p.stem)
 def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
     device = load_any(yaml_file)
     driver_cls = _python_device(device, tmp_path)
@@ -102,6 +114,7 @@ def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
             sim.stop()
 
 
+@reference
 def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
     path = REFERENCE / "QuickTestDevice.yaml"
     mdl_file = tmp_path / "q.xml"
@@ -116,6 +129,7 @@ def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
     assert round(values["CombinedNumerical"], 3) == -61.732
 
 
+@reference
 def test_max_registers_per_request_is_honoured(tmp_path):
     device = load_any(REFERENCE / "QuickTestDevice.yaml")
     assert device.max_registers == 42
@@ -176,5 +190,5 @@ def test_bad_yaml(tmp_path):
     path.write_text("- just\n- a list\n")
     assert_clean_error(run_mdl("test", path), 1, "not a Modbus Schema Toolkit file")
     assert_clean_error(run_mdl("import", tmp_path / "none.yaml"), 1, "no such file")
-    assert_clean_error(run_mdl("sim", REFERENCE / "Float.yaml", "--port", "0", "--scenario", "nope"), 1,
+    assert_clean_error(run_mdl("sim", HEAT_PUMP, "--port", "0", "--scenario", "nope"), 1,
                        "no test scenario 'nope'")
