@@ -46,6 +46,28 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "exhaustive: slow, many-case variants; run with `-m exhaustive` (CI does)")
 
 
+def pytest_addoption(parser):
+    parser.addoption("--exhaustive", action="store_true",
+                     help="also run the tests marked exhaustive (always on when CI=true)")
+
+
+def _exhaustive(config) -> bool:
+    return bool(config.getoption("--exhaustive")) or in_ci()
+
+
+def pytest_report_header(config):
+    return None if _exhaustive(config) else "exhaustive variants deselected: add --exhaustive (CI runs them)"
+
+
+def pytest_collection_modifyitems(config, items):
+    if _exhaustive(config):
+        return
+    kept = [item for item in items if item.get_closest_marker("exhaustive") is None]
+    if len(kept) != len(items):
+        config.hook.pytest_deselected(items=[item for item in items if item not in kept])
+        items[:] = kept
+
+
 @pytest.hookimpl(tryfirst=True)
 def pytest_runtest_setup(item):
     for mark in item.iter_markers("conformance"):

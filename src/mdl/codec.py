@@ -8,16 +8,17 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Sequence
 
 from mdl.layout import Layout, layout
-from mdl.model import Function
+from mdl.model import Function, Scalar
 
 
 class CodecError(ValueError):
     """A value cannot be encoded (out of range, wrong type) or registers cannot be decoded."""
 
 
-def _units_to_bytes(lay: Layout, regs) -> bytes:
+def _units_to_bytes(lay: Layout, regs: Sequence[int]) -> bytes:
     if lay.unit == "word":
         units = [
             bytes(((r >> 8) & 0xFF, r & 0xFF)) if lay.byte_order == "big" else bytes((r & 0xFF, (r >> 8) & 0xFF))
@@ -46,7 +47,7 @@ def _bytes_to_units(lay: Layout, data: bytes) -> list[int]:
     return [u[0] << 8 for u in units]
 
 
-def decode_raw(lay: Layout, regs):
+def decode_raw(lay: Layout, regs: Sequence[int]) -> Scalar:
     """Registers (address order) -> the format's value, before scaling."""
     if lay.kind == "bool":
         return bool(regs[0])
@@ -54,7 +55,8 @@ def decode_raw(lay: Layout, regs):
     if lay.kind == "string":
         return data.rstrip(b"\x00 ").decode("utf-8", errors="replace")
     if lay.kind == "float":
-        return struct.unpack(">f" if lay.bits == 32 else ">d", data)[0]
+        value: float = struct.unpack(">f" if lay.bits == 32 else ">d", data)[0]
+        return value
     raw = int.from_bytes(data, "big") & ((1 << lay.bits) - 1)
     if lay.signed and raw >> (lay.bits - 1):
         raw -= 1 << lay.bits
@@ -67,7 +69,7 @@ def int_range(lay: Layout) -> tuple[int, int]:
     return 0, (1 << lay.bits) - 1
 
 
-def encode_raw(lay: Layout, value) -> list[int]:
+def encode_raw(lay: Layout, value: Scalar) -> list[int]:
     """The format's value -> registers (address order)."""
     n = len(lay.addresses)
     if lay.kind == "bool":
@@ -83,6 +85,8 @@ def encode_raw(lay: Layout, value) -> list[int]:
     elif lay.kind == "float":
         data = struct.pack(">f" if lay.bits == 32 else ">d", float(value))
     else:
+        if not isinstance(value, int):
+            raise CodecError(f"expects a whole number, got {value!r}")
         lo, hi = int_range(lay)
         if not lo <= value <= hi:
             raise CodecError(f"{value} does not fit {'' if lay.signed else 'u'}int{lay.bits}")
@@ -91,7 +95,7 @@ def encode_raw(lay: Layout, value) -> list[int]:
     return _bytes_to_units(lay, data)
 
 
-def is_not_implemented(fn: Function, regs) -> bool:
+def is_not_implemented(fn: Function, regs: Sequence[int]) -> bool:
     """`not_implemented` values: one of up to 4 hex digits matches when every register holds it;
     a longer one matches the registers composed in address order, first most significant."""
     if not fn.not_implemented:
@@ -113,17 +117,17 @@ def scales(fn: Function) -> bool:
     return fn.eff_multiplier != 1.0 or fn.eff_offset != 0.0
 
 
-def decode(fn: Function, regs):
+def decode(fn: Function, regs: Sequence[int]) -> Scalar | None:
     """Registers -> the engineering value (None where "not implemented")."""
     if is_not_implemented(fn, regs):
         return None
+    lay = layout(fn)
     if fn.read_function_code:
         from mdl.cfrag import compile_read
 
-        return compile_read(fn)(list(regs))
-    lay = layout(fn)
+        return compile_read(fn.read_function_code, len(lay.addresses))(list(regs))
     raw = decode_raw(lay, regs)
-    if lay.kind in ("string", "bool") or not scales(fn):
+    if isinstance(raw, (str, bool)) or not scales(fn):
         return raw
     return tidy(raw * fn.eff_multiplier + fn.eff_offset)
 
@@ -133,7 +137,7 @@ def tidy(x: float) -> float:
     return float(f"{x:.15g}")
 
 
-def check_range(fn: Function, value) -> None:
+def check_range(fn: Function, value: Scalar) -> None:
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if fn.minimum is not None and value < fn.minimum:
             raise CodecError(f"{value} is below the minimum {fn.minimum:g}")
@@ -141,14 +145,14 @@ def check_range(fn: Function, value) -> None:
             raise CodecError(f"{value} is above the maximum {fn.maximum:g}")
 
 
-def encode(fn: Function, value) -> list[int]:
+def encode(fn: Function, value: Scalar) -> list[int]:
     """The engineering value -> registers, refusing values outside minimum/maximum."""
     check_range(fn, value)
     lay = layout(fn)
     if fn.write_function_code:
         from mdl.cfrag import compile_write
 
-        return compile_write(fn)(float(value), len(lay.addresses))
+        return compile_write(fn.write_function_code, len(lay.addresses))(float(value))
     if lay.kind in ("string", "bool"):
         return encode_raw(lay, value)
     if not isinstance(value, (int, float)) or isinstance(value, bool):
@@ -163,7 +167,7 @@ def encode(fn: Function, value) -> list[int]:
     return encode_raw(lay, raw)
 
 
-def parse_value(fn: Function, text: str):
+def parse_value(fn: Function, text: str) -> Scalar:
     """A value typed by a user (`NAME=VALUE`) -> a Python value for `encode`."""
     lay = layout(fn)
     if fn.values:

@@ -5,7 +5,12 @@ Exit codes follow SPEC section 1: 1 invalid input, 3 the device could not be rea
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
 
 EXIT_INVALID = 1
 EXIT_DEVICE = 3
@@ -34,7 +39,7 @@ class Diagnostic:
 class MdlError(Exception):
     """One or more problems with the user's input (or the device); never a bug."""
 
-    def __init__(self, diagnostics, exit_code: int = EXIT_INVALID):
+    def __init__(self, diagnostics: str | Diagnostic | Iterable[str | Diagnostic], exit_code: int = EXIT_INVALID):
         if isinstance(diagnostics, (str, Diagnostic)):
             diagnostics = [diagnostics]
         self.diagnostics = [
@@ -44,7 +49,7 @@ class MdlError(Exception):
         super().__init__("\n".join(str(d) for d in self.diagnostics))
 
 
-def error(message: str, file=None, line=None, col=None) -> MdlError:
+def error(message: str, file: StrPath | None = None, line: int | None = None, col: int | None = None) -> MdlError:
     return MdlError(Diagnostic(str(file) if file else None, line, col, message))
 
 

@@ -2,23 +2,28 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
+
 from mdl import codec
 from mdl.expr.fields import evaluation_order, python_function
 from mdl.layout import layout
-from mdl.model import Device
+from mdl.model import Device, Value
+
+RawLookup = Callable[[str, int], int | None]  # (table, address) -> register or bit value, None: none
 
 
-def evaluate(device: Device, names, raw) -> dict:
+def evaluate(device: Device, names: Iterable[str], raw: RawLookup) -> dict[str, Value]:
     """name -> value for the named functions (and their dependencies); `raw(table, address)`
     gives a register or bit value, or None where there is none."""
-    values: dict = {}
+    values: dict[str, Value] = {}
     for fn in evaluation_order(device, names):
         lay = layout(fn)
         regs = [raw(lay.table, a) for a in lay.addresses]
+        present = [r for r in regs if r is not None]
         if fn.compiled is not None:
-            values[fn.name] = python_function(fn)(regs, *[values[d] for d in fn.compiled.deps])
-        elif any(r is None for r in regs):
+            values[fn.name] = python_function(fn.compiled)(regs, *[values[d] for d in fn.compiled.deps])
+        elif len(present) < len(regs):
             values[fn.name] = None
         else:
-            values[fn.name] = codec.decode(fn, regs)
+            values[fn.name] = codec.decode(fn, present)
     return values

@@ -13,6 +13,7 @@ One rule for every consumer (codec, read plan, simulator, generators):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from mdl.model import BIT_TABLES, Function
 
@@ -24,7 +25,9 @@ FORMAT_BITS = {
     "INT8": 8, "UINT8": 8, "INT16": 16, "UINT16": 16, "INT32": 32, "UINT32": 32,
     "INT64": 64, "UINT64": 64, "FLOAT32": 32, "FLOAT64": 64, "STRING": 8, "BIT": 1,
 }
-UNIT_FOR_LENGTH = {"Full word": "word", "Lower byte": "low", "Upper byte": "high"}
+Unit = Literal["word", "low", "high", "bit"]  # a full word, the lower or upper byte of a register, a bit
+Kind = Literal["int", "float", "string", "bool", "expr"]  # expr: computed by an expression
+UNIT_FOR_LENGTH: dict[str, Unit] = {"Full word": "word", "Lower byte": "low", "Upper byte": "high"}
 
 
 class LayoutError(ValueError):
@@ -35,8 +38,8 @@ class LayoutError(ValueError):
 class Layout:
     table: str
     addresses: tuple[int, ...]
-    unit: str  # word | low | high | bit
-    kind: str  # int | float | string | bool
+    unit: Unit
+    kind: Kind
     bits: int
     signed: bool
     byte_order: str
@@ -53,7 +56,7 @@ def layout(fn: Function) -> Layout:
             raise LayoutError("the expression has errors")
         lowered = fn.compiled.lowered
         table = lowered.table or "holding"
-        unit = "bit" if table in BIT_TABLES else "word"
+        unit: Unit = "bit" if table in BIT_TABLES else "word"
         return Layout(table, tuple(lowered.addresses), unit, "expr", 0, False, "big", "big")
     fmt = fn.eff_format
     table = fn.table

@@ -3,16 +3,20 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mdl.mdlxml import load_device
 from mdl.model import Device
 
+if TYPE_CHECKING:
+    from _typeshed import StrPath
 
-def is_yaml(path) -> bool:
+
+def is_yaml(path: StrPath) -> bool:
     return Path(path).suffix.lower() in (".yaml", ".yml")
 
 
-def load_any(path) -> Device:
+def load_any(path: StrPath) -> Device:
     if is_yaml(path):
         from mdl.formats.toolkit import import_schema
 

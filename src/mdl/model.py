@@ -7,6 +7,10 @@ apply the defaults of SPEC section 2, so writing a loaded model back never adds 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeAlias
+
+if TYPE_CHECKING:
+    from mdl.expr.fields import Compiled
 
 LENGTHS = ("Lower byte", "Upper byte", "Full word")
 FORMATS_09 = ("INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32")
@@ -16,6 +20,9 @@ ORDERS = ("big", "little")
 ACCESS = ("read", "write", "read_write")
 BIT_TABLES = ("coil", "discrete")
 READ_ONLY_TABLES = ("input", "discrete")
+
+Scalar: TypeAlias = bool | int | float | str  # a value the codec decodes or encodes
+Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bitset: its labels; None: no value)
 
 # element name -> attribute, in schema order; used by the loader and writer alike
 EXTENSION_FIELDS = (
@@ -63,7 +70,7 @@ class Function:
     fetch_group: str | None = None
     line: int | None = field(default=None, compare=False, repr=False)
     expression_line: int | None = field(default=None, compare=False, repr=False)
-    compiled: object = field(default=None, compare=False, repr=False)  # mdl.expr.fields.Compiled
+    compiled: Compiled | None = field(default=None, compare=False, repr=False)
 
     @property
     def eff_length(self) -> str:

@@ -6,11 +6,19 @@ import csv
 import io
 import json
 import math
+from typing import TypedDict
 
-from mdl.model import Function
+from mdl.model import Function, Value
 
 
-def shown(fn: Function, value):
+class Block(TypedDict):
+    """One SenML record pack: the block's name and its entries."""
+
+    bn: str
+    e: list[dict[str, Value]]
+
+
+def shown(fn: Function, value: Value) -> Value:
     """The value as users see it: enumeration text where `values` names it."""
     if fn.values and isinstance(value, (int, float)) and not isinstance(value, bool):
         if float(value).is_integer() and int(value) in fn.values:
@@ -18,13 +26,13 @@ def shown(fn: Function, value):
     return value
 
 
-def _json_value(value):
+def _json_value(value: Value) -> Value:
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
     return value
 
 
-def _text(value) -> str:
+def _text(value: Value) -> str:
     if value is None:
         return "null"
     if isinstance(value, bool):
@@ -34,12 +42,12 @@ def _text(value) -> str:
     return str(value)
 
 
-def senml(functions: list[Function], values: dict, device_name: str) -> dict:
+def senml(functions: list[Function], values: dict[str, Value], device_name: str) -> dict[str, Block]:
     """The WISE-Agent guide's JSON: one object per block label, {"bn": block, "e": [entries]}."""
-    out: dict = {}
+    out: dict[str, Block] = {}
     for fn in functions:
         block = fn.block or device_name
-        entry: dict = {"n": fn.name}
+        entry: dict[str, Value] = {"n": fn.name}
         value = shown(fn, values[fn.name])
         if isinstance(value, bool):
             entry["bv"] = value
@@ -59,7 +67,7 @@ def senml(functions: list[Function], values: dict, device_name: str) -> dict:
     return out
 
 
-def render(functions: list[Function], values: dict, fmt: str, device_name: str = "") -> str:
+def render(functions: list[Function], values: dict[str, Value], fmt: str, device_name: str = "") -> str:
     if fmt == "senml":
         return json.dumps(senml(functions, values, device_name), indent=2, ensure_ascii=False) + "\n"
     rows = [(fn, shown(fn, values[fn.name])) for fn in functions]

@@ -35,7 +35,9 @@ def defined_addresses(device: Device) -> dict[str, set[int]]:
     return tables
 
 
-def plan_reads(device: Device, functions: list[Function] | None = None, max_registers: int | None = None) -> list[Request]:
+def plan_reads(
+    device: Device, functions: list[Function] | None = None, max_registers: int | None = None
+) -> list[Request]:
     if max_registers is None:
         max_registers = device.max_registers or MAX_REGISTERS
     if functions is None:

@@ -3,16 +3,19 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
+from typing import Any
 
 from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ModbusException
+from pymodbus.pdu import ModbusPDU
 
 from mdl import codec
 from mdl.diagnostics import DeviceError, error
-from mdl.layout import layout
-from mdl.model import Device, Function
 from mdl.evaluate import evaluate
 from mdl.expr.fields import evaluation_order
+from mdl.layout import layout
+from mdl.model import Device, Function, Scalar, Value
 from mdl.plan import Request, plan_reads, split_request
 
 EXCEPTION_NAMES = {
@@ -37,15 +40,17 @@ class Session:
         self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
         self.refused: set[Request] = set()
 
-    def __enter__(self):
-        if not self.client.connect():
+    def __enter__(self) -> Session:
+        connect: Callable[[], bool] = self.client.connect  # typed here: pymodbus leaves it unannotated
+        if not connect():
             raise DeviceError(f"cannot connect to {self.host}:{self.port}: no Modbus TCP device answers")
         return self
 
-    def __exit__(self, *exc):
-        self.client.close()
+    def __exit__(self, *exc: object) -> None:
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
 
-    def _call(self, what: str, method, *args, **kw):
+    def _call(self, what: str, method: Callable[..., ModbusPDU], *args: Any, **kw: Any) -> ModbusPDU:
         try:
             result = method(*args, device_id=self.unit, **kw)
         except ModbusException as exc:
@@ -64,7 +69,7 @@ class Session:
             raise DeviceError(f"{what}: short reply ({len(values)} values)")
         return values[: req.count]
 
-    def read(self, functions: list[Function]) -> dict:
+    def read(self, functions: list[Function]) -> dict[str, Value]:
         """Values of the functions (reading what their expressions depend on too)."""
         needed = evaluation_order(self.device, [fn.name for fn in functions])
         raw: dict[tuple[str, int], int] = {}
@@ -89,19 +94,20 @@ class Session:
         for fn in needed:  # only expressions may read a register the device does not answer
             lay = layout(fn)
             if fn.compiled is None and any((lay.table, a) not in raw for a in lay.addresses):
-                req = next(r for r in missing if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
+                req = next(r for r in missing
+                           if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
                 raise ModbusExceptionError(f"reading {req.count} {req.table} from {req.start}", 2)
         try:
-            values = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
+            computed = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
-        return {fn.name: values[fn.name] for fn in functions}
+        return {fn.name: computed[fn.name] for fn in functions}
 
-    def write(self, fn: Function, value) -> None:
+    def write(self, fn: Function, value: Scalar) -> None:
         regs = codec.encode(fn, value)
         lay = layout(fn)
         runs: list[tuple[int, list[int]]] = []
-        for a, v in zip(lay.addresses, regs):
+        for a, v in zip(lay.addresses, regs, strict=True):
             if runs and runs[-1][0] + len(runs[-1][1]) == a:
                 runs[-1][1].append(v)
             else:

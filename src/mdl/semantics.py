@@ -2,17 +2,25 @@
 
 from __future__ import annotations
 
+from typing import Protocol
+
 from mdl.cfrag import FragmentError, check
 from mdl.diagnostics import Diagnostic
 from mdl.expr.fields import compile_device
 from mdl.layout import LayoutError, layout
-from mdl.model import READ_ONLY_TABLES, Device
+from mdl.model import READ_ONLY_TABLES, Device, Function
+
+
+class Report(Protocol):
+    """Records a diagnostic about a function."""
+
+    def __call__(self, fn: Function, message: str, severity: str = "error") -> None: ...
 
 
 def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
     out: list[Diagnostic] = []
 
-    def err(fn, message, severity="error"):
+    def err(fn: Function, message: str, severity: str = "error") -> None:
         out.append(Diagnostic(path, fn.line, None, f"function '{fn.name}': {message}", severity))
 
     seen: dict[str, int | None] = {}
@@ -36,8 +44,8 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
             continue
         if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
             err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
-        for attr, wanted in (("read_function_code", fn.readable), ("write_function_code", fn.writable)):
-            code = getattr(fn, attr)
+        for attr, code in (("read_function_code", fn.read_function_code),
+                           ("write_function_code", fn.write_function_code)):
             if code is None:
                 continue
             try:
@@ -51,12 +59,13 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
         for token in fn.not_implemented or ():
             digits = len(token) - 2
             if digits > 4 and digits > 4 * len(lay.addresses):
-                err(fn, f"not_implemented value {token} is wider than the function's {len(lay.addresses)} register(s)")
+                err(fn, f"not_implemented value {token} is wider than the function's "
+                        f"{len(lay.addresses)} register(s)")
     out += check_tests(device, path)
     return out
 
 
-def _check_expression_function(fn, err) -> None:
+def _check_expression_function(fn: Function, err: Report) -> None:
     if fn.compiled is None:
         return
     lay = fn.compiled.lowered
@@ -72,9 +81,9 @@ def _check_expression_function(fn, err) -> None:
                 f"({' '.join(map(str, lay.addresses)) or 'none'})", "warning")
 
 
-def check_tests(device, path):
+def check_tests(device: Device, path: str | None) -> list[Diagnostic]:
     """Scenario references: every expected function exists and is readable."""
-    out = []
+    out: list[Diagnostic] = []
     names = {fn.name: fn for fn in device.functions}
     for sc in device.tests:
         for name in sc.expected:

@@ -11,6 +11,8 @@ import asyncio
 import json
 import signal
 import sys
+from collections.abc import Awaitable, Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, TextIO
 
 from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
@@ -21,8 +23,11 @@ from mdl import codec
 from mdl.diagnostics import error
 from mdl.fileio import read_text
 from mdl.layout import layout
-from mdl.model import Device
+from mdl.model import Device, Scenario
 from mdl.plan import TABLE_ORDER, defined_addresses
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
 
 FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
             3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
@@ -52,11 +57,11 @@ class Registers:
     def get(self, table: str, address: int, count: int) -> list[int]:
         return [self.tables[table].get(a, 0) for a in range(address, address + count)]
 
-    def put(self, table: str, address: int, values) -> None:
+    def put(self, table: str, address: int, values: Iterable[int]) -> None:
         for i, v in enumerate(values):
             self.tables[table][address + i] = int(v) & (1 if table in ("coil", "discrete") else 0xFFFF)
 
-    def load_json(self, path) -> None:
+    def load_json(self, path: StrPath) -> None:
         text = read_text(path)
         try:
             data = json.loads(text)
@@ -80,7 +85,7 @@ class Registers:
                     raise error(f"{table} {address}: value {value} is out of range 0..{limit}", path)
                 self.put(table, address, [value])
 
-    def load_scenario(self, sc) -> None:
+    def load_scenario(self, sc: Scenario) -> None:
         """Registers from a test scenario. A register the scenario gives no value ("----", or none
         at all) or a read error ("xxxx") answers exception 2, as one the device lacks: drivers then
         read it as having no value, as `mdl test` does (the wire cannot carry the difference)."""
@@ -105,7 +110,7 @@ class Registers:
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
             raise error(f"--set {name}={text}: {exc}") from None
         lay = layout(fn)
-        for address, value in zip(lay.addresses, regs):
+        for address, value in zip(lay.addresses, regs, strict=True):
             self.tables[lay.table][address] = value
 
 
@@ -118,7 +123,7 @@ class SimContext(ModbusServerContext):
         self.old_simulator = True
         self.simdevices = []
 
-    def device_ids(self):
+    def device_ids(self) -> list[int]:
         return [self.unit]
 
     def _table(self, device_id: int, func_code: int) -> str:
@@ -126,7 +131,9 @@ class SimContext(ModbusServerContext):
             raise NoSuchIdException(f"unit {device_id} is not served")
         return FC_TABLE.get(func_code, "")
 
-    async def async_getValues(self, device_id, func_code, address, count=1):
+    async def async_getValues(
+        self, device_id: int, func_code: int, address: int, count: int = 1
+    ) -> list[int] | list[bool] | ExcCodes:
         table = self._table(device_id, func_code)
         if not table:
             return ExcCodes.ILLEGAL_FUNCTION
@@ -138,7 +145,9 @@ class SimContext(ModbusServerContext):
         values = self.registers.get(table, address, count)
         return [bool(v) for v in values] if table in ("coil", "discrete") else values
 
-    async def async_setValues(self, device_id, func_code, address, values):
+    async def async_setValues(
+        self, device_id: int, func_code: int, address: int, values: Sequence[int] | Sequence[bool]
+    ) -> ExcCodes | None:
         table = self._table(device_id, func_code)
         if table not in ("coil", "holding"):
             return ExcCodes.ILLEGAL_FUNCTION
@@ -151,7 +160,7 @@ class SimContext(ModbusServerContext):
         return None
 
 
-async def serve(registers: Registers, host: str, port: int, unit: int, out=sys.stdout) -> None:
+async def serve(registers: Registers, host: str, port: int, unit: int, out: TextIO = sys.stdout) -> None:
     server = ModbusTcpServer(SimContext(registers, unit), address=(host, port))
     await server.serve_forever(background=True)
     sockets = getattr(server.transport, "sockets", None) or []
@@ -164,7 +173,8 @@ async def serve(registers: Registers, host: str, port: int, unit: int, out=sys.s
     try:
         await stop.wait()
     finally:
-        await server.shutdown()
+        shutdown: Callable[[], Awaitable[None]] = server.shutdown  # typed here: pymodbus leaves it unannotated
+        await shutdown()
 
 
 def run(registers: Registers, host: str, port: int, unit: int) -> None:

@@ -5,17 +5,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final, Literal, TypeAlias
 
 from mdl.evaluate import evaluate
 from mdl.expr.pyhelpers import _x_text
-from mdl.model import Device, Scenario
+from mdl.model import Device, Scenario, Value
 
-READ_ERROR = "error"
+ReadError: TypeAlias = Literal["error"]
+READ_ERROR: Final[ReadError] = "error"
+Given: TypeAlias = dict[tuple[str, int], int | ReadError | None]
 
 
-def scenario_registers(sc: Scenario) -> dict:
+def scenario_registers(sc: Scenario) -> Given:
     """(table, address) -> register/bit value, None for "----", READ_ERROR for "xxxx"."""
-    raw: dict = {}
+    raw: Given = {}
     for item in sc.inputs:
         address = item.address
         for word in item.values:
@@ -46,7 +49,7 @@ def _number(text: str) -> float | None:
         return None
 
 
-def matches(actual, expected: list[str] | None) -> bool:
+def matches(actual: Value, expected: list[str] | None) -> bool:
     if not expected:
         return actual is None or actual == []
     if actual is None:
@@ -70,7 +73,7 @@ def matches(actual, expected: list[str] | None) -> bool:
     return actual == want
 
 
-def shown(value) -> str:
+def shown(value: Value) -> str:
     if value is None:
         return "[]"
     if isinstance(value, list):
@@ -83,7 +86,7 @@ class Failure:
     scenario: str
     function: str
     expected: list[str] | None
-    got: object
+    got: Value
 
     def __str__(self) -> str:
         want = "[]" if not self.expected else "[" + ", ".join(repr(v) for v in self.expected) + "]"
@@ -93,7 +96,7 @@ class Failure:
 def run_scenario(device: Device, sc: Scenario) -> list[Failure]:
     raw = scenario_registers(sc)
 
-    def lookup(table, address):
+    def lookup(table: str, address: int) -> int | None:
         value = raw.get((table, address))
         return None if value == READ_ERROR else value
 

@@ -2,21 +2,24 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
+from collections.abc import Callable
+from functools import cache
 from pathlib import Path
+from typing import Any
 
 from mdl.cfrag.lexer import FragmentError
-from mdl.cfrag.parser import parse
+from mdl.cfrag.parser import Statement, parse
 from mdl.cfrag.pyemit import statement
-from mdl.layout import layout
-from mdl.model import Function
 
 HELPERS_SOURCE = (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
 
 __all__ = ["FragmentError", "check", "python_body", "compile_read", "compile_write", "HELPERS_SOURCE"]
 
+ReadFragment = Callable[[list[int]], float]  # registers r1..rn -> arg
+WriteFragment = Callable[[float], list[int]]  # arg -> registers r1..rn
 
-def check(code: str, nregs: int):
+
+def check(code: str, nregs: int) -> list[Statement]:
     """Parsed statements, or FragmentError naming the offending token."""
     return parse(code, nregs)
 
@@ -26,14 +29,15 @@ def python_body(code: str, nregs: int) -> list[str]:
     return [statement(*stmt) for stmt in parse(code, nregs)]
 
 
-def _namespace() -> dict:
-    ns: dict = {}
+def _namespace() -> dict[str, Any]:
+    ns: dict[str, Any] = {}
     exec(compile(HELPERS_SOURCE, "<mdl fragment helpers>", "exec"), ns)
     return ns
 
 
-@lru_cache(maxsize=None)
-def _compile(code: str, nregs: int, reading: bool):
+@cache
+def _compile(code: str, nregs: int, reading: bool) -> Callable[..., Any]:
+    """The fragment as a Python function: a ReadFragment when reading, else a WriteFragment."""
     regs = [f"r{i + 1}" for i in range(nregs)]
     if reading:
         head = ["def _fragment(r):", f"    {', '.join(regs)}, = r", "    arg = 0.0"]
@@ -44,13 +48,13 @@ def _compile(code: str, nregs: int, reading: bool):
     src = "\n".join(head + ["    " + line for line in python_body(code, nregs)] + tail)
     ns = _namespace()
     exec(compile(src, "<mdl fragment>", "exec"), ns)
-    return ns["_fragment"]
+    fragment: Callable[..., Any] = ns["_fragment"]
+    return fragment
 
 
-def compile_read(fn: Function):
-    return _compile(fn.read_function_code, len(layout(fn).addresses), True)
+def compile_read(code: str, nregs: int) -> ReadFragment:
+    return _compile(code, nregs, True)
 
 
-def compile_write(fn: Function):
-    func = _compile(fn.write_function_code, len(layout(fn).addresses), False)
-    return lambda arg, _n: func(arg)
+def compile_write(code: str, nregs: int) -> WriteFragment:
+    return _compile(code, nregs, False)

@@ -10,17 +10,31 @@ from __future__ import annotations
 
 import re
 import struct
+from typing import Literal, TypeAlias
 
 from mdl.cfrag.lexer import FragmentError, Token, tokenize
 
+IntType: TypeAlias = tuple[int, bool]  # (bits, signed)
+CastTarget: TypeAlias = IntType | Literal["float", "double"]
+
+# typed trees; the second item is the expression type: int, unsigned, long, ulong, float or double
+NumNode: TypeAlias = tuple[Literal["num"], str, int | float]
+VarNode: TypeAlias = tuple[Literal["var"], str, str]
+CastNode: TypeAlias = tuple[Literal["cast"], str, CastTarget, "CNode"]
+UnaryNode: TypeAlias = tuple[Literal["unary"], str, str, "CNode"]
+BinNode: TypeAlias = tuple[Literal["bin"], str, str, "CNode", "CNode", str | None]  # last: operand type
+CondNode: TypeAlias = tuple[Literal["cond"], str, "CNode", "CNode", "CNode"]
+CNode: TypeAlias = NumNode | VarNode | CastNode | UnaryNode | BinNode | CondNode
+Statement: TypeAlias = tuple[str, str, CNode]  # (target, assignment operator, value)
+
 # cast name -> (bits, signed) for integers, or "float"/"double"
-CASTS = {
+CASTS: dict[str, CastTarget] = {
     "int8_t": (8, True), "uint8_t": (8, False), "int16_t": (16, True), "uint16_t": (16, False),
     "int32_t": (32, True), "uint32_t": (32, False), "int64_t": (64, True), "uint64_t": (64, False),
     "int": (32, True), "unsigned": (32, False), "float": "float", "double": "double",
 }
 # integer expression types: name -> (bits, signed)
-INT_TYPES = {"int": (32, True), "unsigned": (32, False), "long": (64, True), "ulong": (64, False)}
+INT_TYPES: dict[str, IntType] = {"int": (32, True), "unsigned": (32, False), "long": (64, True), "ulong": (64, False)}
 ASSIGN_OPS = ("=", "+=", "-=", "*=", "/=", "%=", "<<=", ">>=", "&=", "|=", "^=")
 BINARY_PREC = [
     ("||",), ("&&",), ("|",), ("^",), ("&",), ("==", "!="), ("<", ">", "<=", ">="), ("<<", ">>"),
@@ -52,7 +66,7 @@ def arith_type(a: str, b: str) -> str:
     return st  # a 64-bit signed type holds every 32-bit unsigned value
 
 
-def _literal(tok: Token):
+def _literal(tok: Token) -> NumNode:
     text = tok.text
     low = text.lower()
     is_hex = low.startswith("0x")
@@ -73,7 +87,7 @@ def _literal(tok: Token):
         raise FragmentError(f"octal literal '{text}' is not supported", tok.col)
     value = int(digits, 16 if is_hex else 10)
     unsigned, long_ = "u" in suffix, "l" in suffix
-    candidates = []
+    candidates: list[str] = []
     if not long_:
         candidates += ["unsigned"] if unsigned else (["int", "unsigned"] if is_hex else ["int"])
     candidates += ["ulong"] if unsigned else (["long", "ulong"] if is_hex else ["long"])
@@ -108,7 +122,7 @@ class _Parser:
     def describe(tok: Token) -> str:
         return "the end" if tok.kind == "end" else f"'{tok.text}'"
 
-    def variable(self, tok: Token):
+    def variable(self, tok: Token) -> VarNode:
         if tok.text == "arg":
             return ("var", "double", "arg")
         m = _REG.fullmatch(tok.text)
@@ -122,8 +136,8 @@ class _Parser:
             raise FragmentError(f"type '{tok.text}' is allowed only in a cast", tok.col)
         raise FragmentError(f"unknown identifier '{tok.text}'", tok.col)
 
-    def statements(self):
-        out = []
+    def statements(self) -> list[Statement]:
+        out: list[Statement] = []
         while self.peek().kind != "end":
             if self.peek().text == ";":
                 self.take()
@@ -145,7 +159,7 @@ class _Parser:
             raise FragmentError("the fragment has no statement", 1)
         return out
 
-    def expr(self):
+    def expr(self) -> CNode:
         cond = self.binary(0)
         if self.peek().text == "?" and self.peek().kind == "op":
             self.take()
@@ -155,7 +169,7 @@ class _Parser:
             return ("cond", arith_type(a[1], b[1]), cond, a, b)
         return cond
 
-    def binary(self, level: int):
+    def binary(self, level: int) -> CNode:
         if level == len(BINARY_PREC):
             return self.unary()
         left = self.binary(level + 1)
@@ -166,7 +180,7 @@ class _Parser:
         return left
 
     @staticmethod
-    def make_binary(op: Token, left, right):
+    def make_binary(op: Token, left: CNode, right: CNode) -> BinNode:
         o = op.text
         if o in ("&&", "||"):
             return ("bin", "int", o, left, right, None)
@@ -180,7 +194,7 @@ class _Parser:
         result = "int" if o in ("==", "!=", "<", ">", "<=", ">=") else optype
         return ("bin", result, o, left, right, optype)
 
-    def unary(self):
+    def unary(self) -> CNode:
         tok = self.peek()
         if tok.kind == "op" and tok.text in ("-", "+", "~", "!"):
             self.take()
@@ -201,7 +215,7 @@ class _Parser:
                 return ("cast", rtype, target, node)
         return self.primary()
 
-    def primary(self):
+    def primary(self) -> CNode:
         tok = self.take()
         if tok.kind == "num":
             return _literal(tok)
@@ -216,7 +230,7 @@ class _Parser:
         raise FragmentError(f"unexpected {self.describe(tok)}", tok.col)
 
 
-def parse(src: str, nregs: int):
+def parse(src: str, nregs: int) -> list[Statement]:
     """Statements of a fragment, each (target, op, typed tree); FragmentError if outside the subset."""
     reasons = {"#": "preprocessor lines", "\\": "backslashes", '"': "string literals",
                "'": "character literals", "{": "braces", "}": "braces"}

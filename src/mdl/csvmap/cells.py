@@ -140,7 +140,9 @@ def parse_number(text: str, decimal_comma: bool = False) -> float:
     """A number cell (`0.1`, `0,1` with decimal commas, `0.1(?)`, `x10`, `1/10`) -> float."""
     t = text.strip().replace("\u2212", "-")
     if decimal_comma or re.fullmatch(r"[-+]?\d+,\d+", t):
-        t = t.replace(".", "").replace(",", ".") if re.fullmatch(r"[-+]?\d{1,3}(\.\d{3})+,\d+", t) else t.replace(",", ".")
+        if re.fullmatch(r"[-+]?\d{1,3}(\.\d{3})+,\d+", t):  # 1.234,5: the dots group thousands
+            t = t.replace(".", "")
+        t = t.replace(",", ".")
     frac = re.fullmatch(r"\s*([-+]?\d+(?:\.\d+)?)\s*/\s*(\d+(?:\.\d+)?)\s*", t)
     if frac and float(frac.group(2)) != 0:
         return float(frac.group(1)) / float(frac.group(2))

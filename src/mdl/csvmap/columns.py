@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mdl.csvmap.cells import CellError, parse_format, parse_int, parse_table
@@ -13,6 +14,7 @@ from mdl.diagnostics import Diagnostic, MdlError
 GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "units",
                "access", "block_label", "register_type", "minimum", "maximum", "offset")
 PREFIX_KEYS = ("addresses", "description", "format", "units", "multiplier", "count")
+ADDRESS_FALLBACKS = ("offset", "index", "nr", "no", "number")  # headers taken for addresses if none says so
 
 
 @dataclass
@@ -26,7 +28,7 @@ class Columns:
         return self.headers.get(i, "") if i is not None else ""
 
 
-def _mostly(rows: list[Row], index: int, parse) -> bool:
+def _mostly(rows: list[Row], index: int, parse: Callable[[str], object]) -> bool:
     cells = [r.cell(index) for r in rows[:200] if r.cell(index)]
     if not cells:
         return False
@@ -46,7 +48,7 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
     if header:
         cols.headers = {i: c.strip() for i, c in enumerate(header.cells)}
     where = str(ini.path) if ini and ini.path else None
-    errors = []
+    errors: list[Diagnostic] = []
     taken: set[int] = set()
     given = dict(ini.columns) if ini else {}
     for key, spec in given.items():
@@ -58,8 +60,8 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
                 cols.index[key] = headers.index(norm)
             else:
                 line = f" (line {header.line})" if header else ""
-                errors.append(Diagnostic(where, None, None,
-                              f"[Column/Field Indices] {key} = {spec}: no such column in the header row{line} of {table.path}"))
+                errors.append(Diagnostic(where, None, None, f"[Column/Field Indices] {key} = {spec}: "
+                                         f"no such column in the header row{line} of {table.path}"))
     if errors:
         raise MdlError(errors)
     taken.update(cols.index.values())
@@ -78,7 +80,7 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
             found = [i for i, h in enumerate(headers) if i not in taken and any(
                 h.startswith(s + " ") for s in HEADER_SYNONYMS[key] if len(s) >= 4)]
         if not found and key == "addresses":  # some vendors call the address "Offset" or "No."
-            found = [i for i, h in enumerate(headers) if h in ("offset", "index", "nr", "no", "number") and i not in taken]
+            found = [i for i, h in enumerate(headers) if h in ADDRESS_FALLBACKS and i not in taken]
         if not found:
             continue
         if key == "name":

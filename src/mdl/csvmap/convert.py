@@ -13,7 +13,7 @@ from mdl.csvmap.ini import DeviceIni, read_ini
 from mdl.csvmap.match import Candidate, assign, rank
 from mdl.csvmap.rows import ParsedRow, RowSettings, guess_address_base, parse_row
 from mdl.csvmap.synonyms import DEFAULT_SYNONYMS
-from mdl.csvmap.table import Table, find_header, read_table
+from mdl.csvmap.table import Row, Table, find_header, read_table
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.fileio import write_atomic
 from mdl.mdlxml.parse import schema_errors, secure_parser
@@ -32,7 +32,7 @@ def _is_ini(path: Path) -> bool:
     return path.suffix.lower() in (".ini", ".cfg", ".conf")
 
 
-def _split_rows(table: Table, ini: DeviceIni | None):
+def _split_rows(table: Table, ini: DeviceIni | None) -> tuple[Row | None, list[Row]]:
     texts = [c for c in (ini.columns.values() if ini else []) if isinstance(c, str)]
     if ini and ini.lines_to_skip is not None:
         skipped = [r for r in table.rows if r.line <= ini.lines_to_skip]
@@ -74,7 +74,9 @@ def _choose_interactive(ranked: dict[str, list[Candidate]], rows: list[ParsedRow
     return chosen
 
 
-def convert(csv_path: Path, ini: DeviceIni | None, interactive: bool, threshold: float | None, emit_all: bool) -> Device:
+def convert(
+    csv_path: Path, ini: DeviceIni | None, interactive: bool, threshold: float | None, emit_all: bool
+) -> Device:
     table = read_table(csv_path)
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
@@ -83,7 +85,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, interactive: bool, threshold:
                     "or give it a header such as 'Address' or 'Register'", csv_path, header.line if header else None)
     dev = ini.device if ini else {}
     count_unit = dev.get("count_unit") or ("bytes" if "byte" in cols.header_of("count").lower() else "words")
-    base = dev.get("address_base") or guess_address_base(data, cols.index["addresses"], "hex" in cols.header_of("addresses").lower())
+    hex_header = "hex" in cols.header_of("addresses").lower()
+    base = dev.get("address_base") or guess_address_base(data, cols.index["addresses"], hex_header)
     settings = RowSettings(base, count_unit, dev.get("register_type"), dev.get("byte_order"), dev.get("word_order"),
                            table.decimal_comma)
     rows: list[ParsedRow] = []
@@ -106,7 +109,10 @@ def convert(csv_path: Path, ini: DeviceIni | None, interactive: bool, threshold:
         functions = dict(DEFAULT_SYNONYMS)
     functions = {name: words + [name.replace("_", " ")] for name, words in functions.items()}
     ranked = rank(functions, [r.texts for r in rows])
-    limit = threshold if threshold is not None else (ini.threshold if ini and ini.threshold is not None else DEFAULT_THRESHOLD)
+    if threshold is not None:
+        limit = threshold
+    else:
+        limit = ini.threshold if ini and ini.threshold is not None else DEFAULT_THRESHOLD
     chosen = _choose_interactive(ranked, rows) if interactive else assign(ranked, limit)
 
     out = []
@@ -123,7 +129,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, interactive: bool, threshold:
         used = {c.row_index for c in chosen.values()}
         extra = [pr for i, pr in enumerate(rows) if i not in used]
         names = unique_identifiers([f.name for f in out] + [pr.label for pr in extra])[len(out):]
-        for pr, name in zip(extra, names):
+        for pr, name in zip(extra, names, strict=True):
             pr.function.name = name
             out.append(pr.function)
     if not out:
@@ -142,21 +148,24 @@ def _self_check(xml: str, device: Device) -> None:
     tree = etree.fromstring(xml.encode("ascii"), secure_parser()).getroottree()
     problems = schema_errors(tree, "<csv2xml output>", device.schema_version)
     if problems:
-        raise MdlError([Diagnostic(None, None, None, f"internal error, output does not validate: {p}") for p in problems])
+        raise MdlError([Diagnostic(None, None, None, f"internal error, output does not validate: {p}")
+                        for p in problems])
 
 
 def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, interactive: bool,
                 threshold: float | None, emit_all: bool) -> None:
     ini = None
+    csv_given: Path | None = source
     if ini_path is None and _is_ini(source):
-        ini_path, source = source, None
+        ini_path, csv_given = source, None
     if ini_path is not None:
         ini = read_ini(ini_path)
         for w in ini.warnings:
             _warn(w)
-    csv_path = source or (ini.csv_file if ini else None)
+    csv_path = csv_given or (ini.csv_file if ini else None)
     if csv_path is None:
-        raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line", ini_path)
+        raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",
+                    ini_path)
     device = convert(csv_path, ini, interactive, threshold, emit_all)
     xml = device_to_xml(device)
     _self_check(xml, device)

@@ -65,33 +65,47 @@ def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
     return out
 
 
+class _CaseKeepingParser(configparser.ConfigParser):
+    """Keys keep their case: they name functions."""
+
+    def optionxform(self, optionstr: str) -> str:
+        return optionstr
+
+
+def _parse(text: str, path: Path) -> configparser.ConfigParser:
+    parser = _CaseKeepingParser(interpolation=None, inline_comment_prefixes=(";",),
+                                comment_prefixes=("#", ";"), strict=True, empty_lines_in_values=False)
+    try:
+        parser.read_string(text, source=str(path))
+    except configparser.Error as exc:
+        raise MdlError(Diagnostic(str(path), getattr(exc, "lineno", None), None, _problem(exc))) from None
+    return parser
+
+
+def _problem(exc: configparser.Error) -> str:
+    if isinstance(exc, configparser.MissingSectionHeaderError):
+        return "a key before any [section]"
+    if isinstance(exc, configparser.DuplicateSectionError):
+        return f"section [{exc.section}] appears twice"
+    if isinstance(exc, configparser.DuplicateOptionError):
+        return f"key '{exc.option}' appears twice in [{exc.section}]"
+    return f"not an INI file: {exc.message.splitlines()[0]}"
+
+
 def read_ini(path: Path) -> DeviceIni:
     text = read_text(path, ("utf-8-sig", "cp1252"))
     lines = _line_numbers(text)
-    parser = configparser.ConfigParser(interpolation=None, inline_comment_prefixes=(";",),
-                                       comment_prefixes=("#", ";"), strict=True, empty_lines_in_values=False)
-    parser.optionxform = str  # keep the case of function names
-    try:
-        parser.read_string(text, source=str(path))
-    except configparser.MissingSectionHeaderError as exc:
-        raise MdlError(Diagnostic(str(path), exc.lineno, None, "a key before any [section]")) from None
-    except configparser.DuplicateSectionError as exc:
-        raise MdlError(Diagnostic(str(path), exc.lineno, None, f"section [{exc.section}] appears twice")) from None
-    except configparser.DuplicateOptionError as exc:
-        raise MdlError(Diagnostic(str(path), exc.lineno, None, f"key '{exc.option}' appears twice in [{exc.section}]")) from None
-    except configparser.Error as exc:
-        raise MdlError(Diagnostic(str(path), getattr(exc, "lineno", None), None, f"not an INI file: {exc.message.splitlines()[0]}")) from None
-
+    parser = _parse(text, path)
     ini = DeviceIni(path=path)
     errors: list[Diagnostic] = []
 
-    def where(section, key=None):
+    def where(section: str, key: str | None = None) -> int | None:
         return lines.get((section.lower(), key)) or lines.get((section.lower(), None))
 
-    def warn(section, key, message):
+    def warn(section: str, key: str | None, message: str) -> None:
         ini.warnings.append(Diagnostic(str(path), where(section, key), None, message, "warning"))
 
-    def err(section, key, message):
+    def err(section: str, key: str | None, message: str) -> None:
         errors.append(Diagnostic(str(path), where(section, key), None, message))
 
     base = path.parent

@@ -7,8 +7,15 @@ from dataclasses import dataclass
 
 from mdl.cfrag import FragmentError, check
 from mdl.csvmap.cells import (
-    CellError, is_modicon_number, parse_access, parse_addresses, parse_format, parse_int, parse_length,
-    parse_number, parse_table,
+    CellError,
+    is_modicon_number,
+    parse_access,
+    parse_addresses,
+    parse_format,
+    parse_int,
+    parse_length,
+    parse_number,
+    parse_table,
 )
 from mdl.csvmap.columns import Columns
 from mdl.csvmap.table import Row
@@ -103,13 +110,10 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     for key in ("multiplier", "offset", "minimum", "maximum"):
         if key in ix and cell(ix[key]):
             value = parse_number(cell(ix[key]), st.decimal_comma)
-            if key == "multiplier":
-                if value == 0:
-                    raise CellError("multiplier 0 would lose every value")
-                value = None if value == 1 else value
-            elif key == "offset" and value == 0:
-                value = None
-            setattr(fn, key, value)
+            if key == "multiplier" and value == 0:
+                raise CellError("multiplier 0 would lose every value")
+            neutral = (key == "multiplier" and value == 1) or (key == "offset" and value == 0)
+            setattr(fn, key, None if neutral else value)
     if "units" in ix and cell(ix["units"]):
         fn.units = cell(ix["units"])
     if "access" in ix and cell(ix["access"]):

@@ -3,14 +3,19 @@ fields so that every field comes after those it names, type-check and lower each
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
+from typing import Any
 
 from mdl.expr.lower import Lowered, lower, refs_of
-from mdl.expr.nodes import ExprError
+from mdl.expr.nodes import ExprError, Node
 from mdl.expr.parser import parse
 from mdl.expr.pyemit import HELPERS_SOURCE, body, signature
-from mdl.model import Device, Function
+from mdl.model import Device, Function, Value
+
+# a translated expression: (the function's registers, ascending, None where missing; p0, p1, ...) -> value
+FieldFunction = Callable[..., Value]
 
 
 @dataclass
@@ -47,7 +52,7 @@ def compile_device(device: Device) -> list[FieldError]:
     blocks: dict[str, dict[str, Function]] = {}
     for fn in device.functions:
         blocks.setdefault(fn.block, {})[fn.field_id] = fn
-    parsed = {}
+    parsed: dict[str, Node] = {}
     for fn in device.functions:
         fn.compiled = None
         if fn.expression is None:
@@ -75,7 +80,7 @@ def compile_device(device: Device) -> list[FieldError]:
         visiting.add(fn.name)
         refs: list[str] = []
         refs_of(parsed[fn.name], refs)
-        types = {}
+        types: dict[str, str] = {}
         block = blocks[fn.block]
         for ref in refs:
             t = visit(block[ref])
@@ -101,7 +106,7 @@ def compile_device(device: Device) -> list[FieldError]:
     return errors
 
 
-def evaluation_order(device: Device, names) -> list[Function]:
+def evaluation_order(device: Device, names: Iterable[str]) -> list[Function]:
     """The named functions and every function they depend on, dependencies first."""
     by_name = {fn.name: fn for fn in device.functions}
     out: list[Function] = []
@@ -122,19 +127,19 @@ def evaluation_order(device: Device, names) -> list[Function]:
     return out
 
 
-def python_source(fn: Function, func_name: str = "_field") -> str:
-    lowered = fn.compiled.lowered
+def python_source(lowered: Lowered, func_name: str = "_field") -> str:
     lines = [f"def {func_name}({signature(lowered)}):"] + ["    " + line for line in body(lowered)]
     return "\n".join(lines) + "\n"
 
 
-@lru_cache(maxsize=None)
-def _namespace_for(source: str):
-    ns: dict = {}
+@cache
+def _namespace_for(source: str) -> FieldFunction:
+    ns: dict[str, Any] = {}
     exec(compile(HELPERS_SOURCE, "<mdl expression helpers>", "exec"), ns)
     exec(compile(source, "<mdl expression>", "exec"), ns)
-    return ns["_field"]
+    field: FieldFunction = ns["_field"]
+    return field
 
 
-def python_function(fn: Function):
-    return _namespace_for(python_source(fn))
+def python_function(compiled: Compiled) -> FieldFunction:
+    return _namespace_for(python_source(compiled.lowered))

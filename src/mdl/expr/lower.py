@@ -9,9 +9,14 @@ An operation is Op(tmp, kind, type, args, data); args name earlier temps or para
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypedDict
 
 from mdl.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 REGISTER_COUNT = {"int16": 1, "uint16": 1, "int32": 2, "uint32": 2, "int64": 4, "uint64": 4,
                   "ieee754_32": 2, "ieee754_64": 4, "ipv4addr": 2, "ipv6addr": 8}
@@ -22,13 +27,28 @@ RESULT = {"int16": "long", "uint16": "long", "int32": "long", "uint32": "long", 
 BIT_TABLES = ("coil", "discrete")
 
 
+class OpData(TypedDict, total=False):
+    """What an operation needs besides its arguments; which keys depend on its kind."""
+
+    value: int | float | str | bool  # lit
+    count: int  # regs, const, swaps, register functions: the number of registers
+    index: list[int]  # regs: positions in the function's registers
+    words: list[int]  # const
+    op: str  # arith, div, pow: the operator
+    types: list[str]  # concat: the type of each part
+    labels: tuple[str, str]  # label: (false text, true text)
+    ni: list[list[int]]  # register functions: the "not implemented" register values
+    mapping: dict[int, str]  # enum, bitset
+    bit: int | None  # bitsetbit
+
+
 @dataclass
 class Op:
     tmp: str
     kind: str
     type: str
     args: list[str] = field(default_factory=list)
-    data: dict = field(default_factory=dict)
+    data: OpData = field(default_factory=OpData)
 
 
 @dataclass
@@ -41,7 +61,7 @@ class Lowered:
     refs: list[str]  # referenced field ids, in parameter order
 
 
-def registers_of(node: Node, out: list) -> None:
+def registers_of(node: Node, out: list[tuple[str, list[int], int]]) -> None:
     """Every register set in the tree: (table, addresses, col)."""
     if isinstance(node, Registers):
         out.append((node.table, node.addresses, node.col))
@@ -49,14 +69,14 @@ def registers_of(node: Node, out: list) -> None:
         registers_of(child, out)
 
 
-def refs_of(node: Node, out: list) -> None:
+def refs_of(node: Node, out: list[str]) -> None:
     if isinstance(node, Ref) and node.name not in out:
         out.append(node.name)
     for child in _children(node):
         refs_of(child, out)
 
 
-def _children(node: Node):
+def _children(node: Node) -> list[Node]:
     if isinstance(node, Swap):
         return [node.arg]
     if isinstance(node, Call):
@@ -77,13 +97,13 @@ class Lowerer:
     def tmp(self) -> str:
         return f"t{len(self.ops)}"
 
-    def emit(self, kind: str, type_: str, args=(), **data) -> tuple[str, str]:
+    def emit(self, kind: str, type_: str, args: Iterable[str] = (), **data: Unpack[OpData]) -> tuple[str, str]:
         op = Op(self.tmp(), kind, type_, list(args), data)
         self.ops.append(op)
         return op.tmp, type_
 
     def lower(self, node: Node) -> Lowered:
-        found: list = []
+        found: list[tuple[str, list[int], int]] = []
         registers_of(node, found)
         tables = {t for t, _, _ in found}
         if len(tables) > 1:
@@ -94,7 +114,8 @@ class Lowerer:
         self.addresses = sorted({a for _, addrs, _ in found for a in addrs})
         limit = 2000 if self.table in BIT_TABLES else self.max_registers
         if len(self.addresses) > limit:
-            raise ExprError(f"the expression needs {len(self.addresses)} registers; one request reads at most {limit}", 1)
+            needs = f"the expression needs {len(self.addresses)} registers"
+            raise ExprError(f"{needs}; one request reads at most {limit}", 1)
         self.refs: list[str] = []
         refs_of(node, self.refs)
         result, type_ = self.value(node)
@@ -119,6 +140,7 @@ class Lowerer:
             return self.emit("neg", t, [arg])
         if isinstance(node, Binary):
             return self.binary(node)
+        assert isinstance(node, Call), node  # the one kind of node left
         return self.call(node)
 
     def number(self, node: Node) -> tuple[str, str]:

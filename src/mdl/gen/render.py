@@ -12,29 +12,30 @@ from mdl.fileio import would_change, write_atomic
 from mdl.resources import resource_dir
 
 
-def pyrepr(value) -> str:
+def pyrepr(value: object) -> str:
     """A Python literal; strings are pure ASCII with escapes."""
     if isinstance(value, str):
         return ascii(value)
     return repr(value)
 
 
-def pycomment(text) -> str:
+def _ascii_line(text: object) -> str:
+    """The text as one line of ASCII: other characters as backslash escapes, control characters as spaces."""
+    escaped = str(text).encode("ascii", "backslashreplace").decode("ascii")
+    return re.sub(r"[\x00-\x1f\x7f]+", " ", escaped).strip()
+
+
+def pycomment(text: object) -> str:
     """Text safe inside a one-line comment or a docstring: ASCII, no line breaks, no quotes run."""
-    text = str(text).encode("ascii", "backslashreplace").decode("ascii")
-    text = re.sub(r"[\x00-\x1f\x7f]+", " ", text).strip()
-    return text.replace('"""', "'''").replace("\\", "\\\\")
+    return _ascii_line(text).replace('"""', "'''").replace("\\", "\\\\")
 
 
-def ccomment(text) -> str:
+def ccomment(text: object) -> str:
     """Text safe inside a C++ comment: ASCII, no line breaks, nothing that ends the comment."""
-    text = str(text).encode("ascii", "backslashreplace").decode("ascii")
-    text = re.sub(r"[\x00-\x1f\x7f]+", " ", text).strip()
-    text = text.replace("*/", "* /").replace("/*", "/ *")
-    return text.rstrip("\\")
+    return _ascii_line(text).replace("*/", "* /").replace("/*", "/ *").rstrip("\\")
 
 
-def cstring(text) -> str:
+def cstring(text: object) -> str:
     """A C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
     out = []
     for byte in str(text).encode("utf-8"):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError
@@ -9,13 +11,20 @@ from mdl.mdlxml.parse import NS, parse_file, schema_errors
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.semantics import check_device
 
-_Q = "{%s}%s" % (NS, "%s")
+if TYPE_CHECKING:
+    from _typeshed import StrPath
+
 _FLOATS = ("multiplier", "offset", "minimum", "maximum")
 _STRINGS = ("length", "format", "units", "read_function_code", "write_function_code",
             "register_type", "byte_order", "word_order", "access")
 
 
-def _text(el) -> str:
+def _q(name: str) -> str:
+    """The qualified name of an MDL element."""
+    return f"{{{NS}}}{name}"
+
+
+def _text(el: etree._Element) -> str:
     return el.text or ""
 
 
@@ -24,8 +33,8 @@ def _float(text: str) -> float:
     return float({"INF": "inf", "-INF": "-inf", "NaN": "nan"}.get(t, t))
 
 
-def _function(el) -> Function:
-    kw: dict = {"block_labels": [], "line": el.sourceline}
+def _function(el: etree._Element) -> Function:
+    kw: dict[str, Any] = {"block_labels": [], "line": el.sourceline}
     for child in el:
         if not isinstance(child.tag, str):
             continue
@@ -57,7 +66,7 @@ def _function(el) -> Function:
     return Function(**kw)
 
 
-def _scenario(el) -> Scenario:
+def _scenario(el: etree._Element) -> Scenario:
     sc = Scenario(el.get("id"), line=el.sourceline)
     for child in el:
         if not isinstance(child.tag, str):
@@ -74,18 +83,18 @@ def _scenario(el) -> Scenario:
     return sc
 
 
-def tree_to_device(tree, source=None) -> Device:
+def tree_to_device(tree: etree._ElementTree, source: str | None = None) -> Device:
     root = tree.getroot()
-    name = root.find(_Q % "name")
-    desc = root.find(_Q % "description")
-    functions = [_function(el) for el in root.findall(_Q % "function")]
-    tests = root.find(_Q % "tests")
-    scenarios = [_scenario(t) for t in tests.findall(_Q % "test")] if tests is not None else []
+    name = root.find(_q("name"))
+    desc = root.find(_q("description"))
+    functions = [_function(el) for el in root.findall(_q("function"))]
+    tests = root.find(_q("tests"))
+    scenarios = [_scenario(t) for t in tests.findall(_q("test"))] if tests is not None else []
     max_registers = int(root.get("max_registers")) if root.get("max_registers") else None
     return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
 
 
-def validate_file(path, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
+def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
     """(device, diagnostics): every problem of the file; device is None if it did not load."""
     try:
         tree = parse_file(path)
@@ -98,7 +107,7 @@ def validate_file(path, version: str = "1.0") -> tuple[Device | None, list[Diagn
     return device, check_device(device, str(path))
 
 
-def load_device(path, version: str = "1.0") -> Device:
+def load_device(path: StrPath, version: str = "1.0") -> Device:
     device, diagnostics = validate_file(path, version)
     errors = [d for d in diagnostics if d.severity == "error"]
     if errors or device is None:

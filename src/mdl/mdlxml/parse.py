@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import re
-from functools import lru_cache
+from functools import cache
+from typing import TYPE_CHECKING
 
 from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.fileio import read_bytes
 from mdl.resources import schema_path
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
 
 NS = "http://www.ornl.gov/ModbusXMLSchema"
 SCHEMA_VERSIONS = ("0.9b", "1.0")
@@ -22,7 +26,7 @@ def secure_parser() -> etree.XMLParser:
     )
 
 
-def parse_file(path) -> etree._ElementTree:
+def parse_file(path: StrPath) -> etree._ElementTree:
     data = read_bytes(path)
     try:
         tree = etree.fromstring(data, secure_parser()).getroottree()
@@ -35,7 +39,7 @@ def parse_file(path) -> etree._ElementTree:
     return tree
 
 
-@lru_cache(maxsize=None)
+@cache
 def schema(version: str) -> etree.XMLSchema:
     return etree.XMLSchema(etree.parse(str(schema_path(version)), secure_parser()))
 
@@ -45,11 +49,11 @@ def _clean(message: str) -> str:
     return re.sub(r"\{[^}]*\}", "", message) if "{http" in message else message
 
 
-def schema_errors(tree, path, version: str) -> list[Diagnostic]:
+def schema_errors(tree: etree._ElementTree, path: StrPath, version: str) -> list[Diagnostic]:
     xsd = schema(version)
     if xsd.validate(tree):
         return []
-    out = []
+    out: list[Diagnostic] = []
     for entry in xsd.error_log:
         message = _clean(entry.message)
         if "No matching global declaration" in message:

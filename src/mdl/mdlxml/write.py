@@ -24,7 +24,7 @@ def format_float(x: float) -> str:
     return text[:-2] if text.endswith(".0") else text
 
 
-def _sub(parent, tag: str, text: str):
+def _sub(parent: etree._Element, tag: str, text: str | None) -> etree._Element:
     el = etree.SubElement(parent, f"{{{NS}}}{tag}")
     el.text = text
     return el
@@ -77,4 +77,5 @@ def device_to_xml(device: Device) -> str:
                 for v in values or ():
                     _sub(expect, "value", v)
     etree.indent(root, space="  ")
-    return etree.tostring(root, encoding="US-ASCII", xml_declaration=True).decode("ascii") + "\n"
+    xml: bytes = etree.tostring(root, encoding="US-ASCII", xml_declaration=True)
+    return xml.decode("ascii") + "\n"
