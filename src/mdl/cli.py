@@ -2,25 +2,52 @@
 
 from __future__ import annotations
 
+import os
 import sys
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
 from mdl import __version__
 from mdl.diagnostics import EXIT_INVALID, MdlError
+from mdl.fileio import STDIO_ARG, input_path, is_stdin
+
+if TYPE_CHECKING:
+    from mdl.model import Device, Function
 
 SCHEMAS = click.Choice(["0.9b", "1.0"])
+STDOUT = Path(STDIO_ARG)
+F = TypeVar("F", bound=Callable[..., Any])
 
 
-def _fail(exc: MdlError) -> None:
+class InputFile(click.Path):
+    """An input file; `-` is standard input, named `<stdin>` in messages."""
+
+    def __init__(self) -> None:
+        super().__init__(path_type=Path, allow_dash=True)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path:
+        return input_path(os.fsdecode(super().convert(value, param, ctx)))
+
+
+INPUT = InputFile()
+
+
+def _stdin_once(paths: Iterable[Path]) -> None:
+    if sum(1 for path in paths if is_stdin(path)) > 1:
+        raise click.UsageError("standard input (-) can be read only once")
+
+
+def _fail(exc: MdlError) -> NoReturn:
     for diag in exc.diagnostics:
         click.echo(str(diag), err=True)
     sys.exit(exc.exit_code)
 
 
 class Group(click.Group):
-    def invoke(self, ctx):
+    def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
         except MdlError as exc:
@@ -32,7 +59,7 @@ class Group(click.Group):
 
 @click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="mdl")
-def main():
+def main() -> None:
     """mdl: vendor register tables -> MDL (Modbus Definition Language) -> drivers.
 
     \b
@@ -46,16 +73,20 @@ def main():
 
 
 @main.command()
-@click.argument("source", type=click.Path(path_type=Path))
-@click.option("--ini", "ini", type=click.Path(path_type=Path), help="Device INI file (ORNL format).")
-@click.option("-o", "--output", type=click.Path(path_type=Path), help="Output MDL file (default: stdout, or the INI's output_xml_file).")
+@click.argument("source", type=INPUT)
+@click.option("--ini", "ini", type=INPUT, help="Device INI file (ORNL format).")
+@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
+              help="Output MDL file, - for stdout (default: stdout; with SOURCE an INI file, its output_xml_file).")
+@click.option("--allow-outside", is_flag=True, help="Let the INI's output_xml_file lie outside the INI's folder.")
 @click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
-def csv2xml(source, ini, output, interactive, threshold, emit_all):
+def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, interactive: bool,
+            threshold: float | None, emit_all: bool) -> None:
     """Convert a vendor register table (CSV) to MDL XML.
 
-    SOURCE is the CSV (with --ini) or the INI file itself, which names the CSV and the output.
+    SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
+    name the output (output_xml_file, relative to the INI's folder and inside it).
 
     \b
     Examples:
@@ -65,15 +96,37 @@ def csv2xml(source, ini, output, interactive, threshold, emit_all):
     """
     from mdl.csvmap.convert import run_csv2xml
 
-    run_csv2xml(source, ini, output, interactive, threshold, emit_all)
+    _stdin_once([source] + ([ini] if ini else []))
+    target = _csv2xml_target(source, ini, output, allow_outside)
+    run_csv2xml(source, ini, target, interactive, threshold, emit_all)
+
+
+def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_outside: bool) -> Path:
+    """-o if given; in the `mdl csv2xml DEVICE.ini` form the INI's output_xml_file if any; else stdout."""
+    from mdl.csvmap.convert import _is_ini
+    from mdl.csvmap.ini import read_ini
+    from mdl.diagnostics import error
+
+    if output is not None:
+        return output
+    if ini is not None or not _is_ini(source):
+        return STDOUT
+    target = read_ini(source).output_file
+    if target is None:
+        return STDOUT
+    folder = source.parent
+    if not allow_outside and not target.resolve().is_relative_to(folder.resolve()):
+        raise error(f"output_xml_file names {target.resolve()}, outside the INI's folder {folder.resolve()}; "
+                    "give -o FILE, or --allow-outside to write it there", source)
+    return target
 
 
 @main.command()
-@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.argument("files", nargs=-1, required=True, type=INPUT)
 @click.option("--schema", "version", type=SCHEMAS, default="1.0", show_default=True,
               help="Schema to validate against; 1.0 accepts every 0.9b document.")
-def validate(files, version):
-    """Validate MDL files against the XSD and the semantic rules.
+def validate(files: tuple[Path, ...], version: str) -> None:
+    """Validate MDL files (- for stdin) against the XSD and the semantic rules.
 
     \b
     Example:
@@ -81,6 +134,7 @@ def validate(files, version):
     """
     from mdl.mdlxml import validate_file
 
+    _stdin_once(files)
     bad = False
     for path in files:
         device, diagnostics = validate_file(path, version)
@@ -98,25 +152,30 @@ def validate(files, version):
 
 
 @main.command()
-@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("file", type=INPUT)
 @click.option("--lang", type=click.Choice(["cpp", "python", "all"]), default="all", show_default=True)
 @click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
               show_default=True, help="Directory for the generated files.")
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
-def gen(file, lang, outdir, check):
+def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
     """Generate drivers: <stem>.py (pymodbus) and/or <stem>.h/.cc (libmodbus) from MDL (or Toolkit YAML).
 
-    Files are written only when their content changes (Makefile friendly).
+    Files are written only when their content changes (Makefile friendly), and all of a run's files
+    or none: a failed run leaves the old ones as they were.
 
     \b
     Example:
       mdl gen device.xml --lang python -o drivers/
     """
+    from mdl.fileio import all_or_none
     from mdl.gen import generate
     from mdl.loading import load_any
 
+    if str(outdir) == STDIO_ARG:
+        raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
     device = load_any(file)
-    changed = generate(device, file, lang, outdir, check)
+    with all_or_none():
+        changed = generate(device, file, lang, outdir, check)
     for path in changed:
         click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
     if check and changed:
@@ -124,15 +183,16 @@ def gen(file, lang, outdir, check):
 
 
 @main.command()
-@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("file", type=INPUT)
 @click.option("--host", default="127.0.0.1", show_default=True)
 @click.option("--port", type=click.IntRange(0, 65535), default=5020, show_default=True, help="0 picks a free port.")
 @click.option("--unit", type=click.IntRange(0, 247), default=1, show_default=True, help="Unit id served (0: any).")
-@click.option("--registers", type=click.Path(path_type=Path), help="Initial raw values (JSON).")
+@click.option("--registers", type=INPUT, help="Initial raw values (JSON).")
 @click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Initial value of a function.")
 @click.option("--scenario", help="Seed the registers from this embedded test scenario (by id).")
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
-def sim(file, host, port, unit, registers, settings, scenario, permissive):
+def sim(file: Path, host: str, port: int, unit: int, registers: Path | None, settings: tuple[str, ...],
+        scenario: str | None, permissive: bool) -> None:
     """Serve the device (MDL or Toolkit YAML) as a Modbus TCP slave until SIGINT/SIGTERM.
 
     \b
@@ -143,6 +203,7 @@ def sim(file, host, port, unit, registers, settings, scenario, permissive):
     from mdl import sim as simulator
     from mdl.loading import load_any
 
+    _stdin_once([file] + ([registers] if registers else []))
     device = load_any(file)
     regs = simulator.Registers(device, permissive)
     if scenario is not None:
@@ -160,11 +221,12 @@ def sim(file, host, port, unit, registers, settings, scenario, permissive):
 
 
 @main.command(name="import")
-@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("file", type=INPUT)
 @click.option("--from", "fmt", type=click.Choice(["schema"]),
               help="Input format (guessed from the file: .yaml/.yml is a Modbus Schema Toolkit schema).")
-@click.option("-o", "--output", type=click.Path(path_type=Path), help="Output MDL file (default: stdout).")
-def import_(file, fmt, output):
+@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
+              help="Output MDL file, - for stdout (default: stdout).")
+def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """Convert another device description to MDL 1.0.
 
     \b
@@ -180,15 +242,15 @@ def import_(file, fmt, output):
     if fmt is None and not is_yaml(file):
         raise error("cannot tell the format from the file name; give --from schema", file)
     xml = device_to_xml(import_schema(file))
-    if output is None or str(output) == "-":
+    if output is None or str(output) == STDIO_ARG:
         click.echo(xml, nl=False)
     else:
         write_atomic(output, xml)
 
 
 @main.command(name="test")
-@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
-def test_(files):
+@click.argument("files", nargs=-1, required=True, type=INPUT)
+def test_(files: tuple[Path, ...]) -> None:
     """Run the test scenarios embedded in MDL 1.0 or Toolkit YAML files.
 
     Prints each failure and a last line `N passed, M failed`; exit 1 if any failed.
@@ -200,6 +262,7 @@ def test_(files):
     from mdl.loading import load_any
     from mdl.testing import run_scenario
 
+    _stdin_once(files)
     passed = failed = 0
     for path in files:
         device = load_any(path)
@@ -215,7 +278,7 @@ def test_(files):
     sys.exit(EXIT_INVALID if failed else 0)
 
 
-def _select(device, names, want_write=False):
+def _select(device: Device, names: Iterable[str], want_write: bool = False) -> list[Function]:
     from mdl.diagnostics import error
 
     by_name = {fn.name: fn for fn in device.functions}
@@ -232,7 +295,7 @@ def _select(device, names, want_write=False):
     return out
 
 
-def _connection_options(f):
+def _connection_options(f: F) -> F:
     f = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True)(f)
     f = click.option("--port", type=click.IntRange(1, 65535), default=502, show_default=True)(f)
     f = click.option("--host", required=True, help="Device address.")(f)
@@ -241,11 +304,12 @@ def _connection_options(f):
 
 
 @main.command()
-@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("file", type=INPUT)
 @click.argument("names", nargs=-1)
 @_connection_options
-@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table", show_default=True)
-def read(file, names, host, port, unit, timeout, fmt):
+@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table",
+              show_default=True)
+def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, timeout: float, fmt: str) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
     \b
@@ -264,10 +328,10 @@ def read(file, names, host, port, unit, timeout, fmt):
 
 
 @main.command()
-@click.argument("file", type=click.Path(path_type=Path))
+@click.argument("file", type=INPUT)
 @click.argument("assignments", nargs=-1, required=True, metavar="NAME=VALUE...")
 @_connection_options
-def write(file, assignments, host, port, unit, timeout):
+def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: int, timeout: float) -> None:
     """Encode and write values; read-only functions and values outside minimum/maximum are refused.
 
     \b

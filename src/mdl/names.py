@@ -1,11 +1,41 @@
-"""Identifiers from names (SPEC section 3)."""
+"""Identifiers from names (SPEC section 3), the same under every Python version.
+
+The rule:
+
+1. A function or device name becomes an identifier: fold to ASCII, lowercase, every run of other
+   characters -> `_`, strip `_` at both ends (`unnamed` if nothing is left), prefix `f_` if it starts
+   with a digit.
+2. An identifier in RESERVED gets `_` appended (`type` -> `type_`, `int32_t` -> `int32_t_`,
+   `_Bool` -> `bool_`). RESERVED is one fixed union, written out below rather than taken from the
+   running interpreter, so a name maps the same way under Python 3.10 and 3.13: the keywords of
+   Python 3.12 (hard and soft), of C++ (C++20, alternative tokens included) and of C (C99/C11); the
+   C/C++ type names and literals a generated member could hide (`int32_t`, `size_t`, `true`,
+   `nullptr`, ...); the lowercase macros of the C and C++ standard headers (`errno`, `stdin`, ...);
+   and the names the generated files use themselves (`all`, as `read_all`; `modbus`, `pymodbus`,
+   `math`, `struct`, `decimal`, `typing`, `collections`, which a generated file includes or imports
+   and so must not be its stem).
+3. Within one device a name whose identifier an earlier name already has gets `_2`, `_3`, ...
+   (after a trailing `_`: `type_` -> `type_2`, never a double underscore).
+4. The class name is the CamelCase of the device's identifier, `Device` in front if it would start
+   with a digit, and `_` appended if it is in CLASS_RESERVED: the names the generated files define
+   or import at the level of the class (`Request`, `Group`, `Table`, `Regs` in the .cc;
+   `DeviceError`, `CommunicationError`, `ModbusExceptionError`, `ValueRangeError`, and the imported
+   `ModbusException`, `ModbusBaseClient`, `ModbusBaseSyncClient`, `ModbusPDU`, `TypedDict`,
+   `Sequence` in the .py) and every capitalized Python builtin (`None`, `True`, `Exception`, ...).
+"""
 
 from __future__ import annotations
 
-import keyword
 import re
 import unicodedata
+from collections.abc import Iterable
 
+PY_HARD_KEYWORDS = frozenset(
+    """False None True and as assert async await break class continue def del elif else except
+    finally for from global if import in is lambda nonlocal not or pass raise return try while with
+    yield""".split()
+)
+PY_SOFT_KEYWORDS = frozenset("match case type _".split())
 CPP_KEYWORDS = frozenset(
     """alignas alignof and and_eq asm auto bitand bitor bool break case catch char char8_t char16_t
     char32_t class compl concept const consteval constexpr constinit const_cast continue co_await
@@ -16,10 +46,44 @@ CPP_KEYWORDS = frozenset(
     throw true try typedef typeid typename union unsigned using virtual void volatile wchar_t while
     xor xor_eq""".split()
 )
-PY_KEYWORDS = frozenset(keyword.kwlist) | frozenset(keyword.softkwlist)
-# lowercase macros of the C/C++ standard headers, and names the generated classes use themselves
-RESERVED = frozenset("""errno assert stdin stdout stderr offsetof setjmp va_arg va_start va_end va_copy
-    unix linux all""".split())
+C_KEYWORDS = frozenset(
+    """auto break case char const continue default do double else enum extern float for goto if
+    inline int long register restrict return short signed sizeof static struct switch typedef union
+    unsigned void volatile while _Alignas _Alignof _Atomic _Bool _Complex _Generic _Imaginary
+    _Noreturn _Static_assert _Thread_local""".split()
+)
+C_TYPES = frozenset(
+    """int8_t int16_t int32_t int64_t uint8_t uint16_t uint32_t uint64_t intptr_t uintptr_t
+    intmax_t uintmax_t size_t ssize_t ptrdiff_t bool true false NULL nullptr""".split()
+)
+C_MACROS = frozenset(
+    """errno assert stdin stdout stderr offsetof setjmp va_arg va_start va_end va_copy
+    math_errhandling unix linux i386""".split()
+)
+GENERATED = frozenset("all modbus pymodbus math struct decimal typing collections".split())
+RESERVED = PY_HARD_KEYWORDS | PY_SOFT_KEYWORDS | CPP_KEYWORDS | C_KEYWORDS | C_TYPES | C_MACROS | GENERATED
+
+PY_BUILTIN_CLASSES = frozenset(
+    """ArithmeticError AssertionError AttributeError BaseException BaseExceptionGroup
+    BlockingIOError BrokenPipeError BufferError BytesWarning ChildProcessError
+    ConnectionAbortedError ConnectionError ConnectionRefusedError ConnectionResetError
+    DeprecationWarning EOFError Ellipsis EncodingWarning EnvironmentError Exception ExceptionGroup
+    False FileExistsError FileNotFoundError FloatingPointError FutureWarning GeneratorExit IOError
+    ImportError ImportWarning IndentationError IndexError InterruptedError IsADirectoryError
+    KeyError KeyboardInterrupt LookupError MemoryError ModuleNotFoundError NameError None
+    NotADirectoryError NotImplemented NotImplementedError OSError OverflowError
+    PendingDeprecationWarning PermissionError ProcessLookupError PythonFinalizationError
+    RecursionError ReferenceError ResourceWarning RuntimeError RuntimeWarning StopAsyncIteration
+    StopIteration SyntaxError SyntaxWarning SystemError SystemExit TabError TimeoutError True
+    TypeError UnboundLocalError UnicodeDecodeError UnicodeEncodeError UnicodeError
+    UnicodeTranslateError UnicodeWarning UserWarning ValueError Warning WindowsError
+    ZeroDivisionError""".split()
+)
+GENERATED_CLASSES = frozenset(
+    """Request Group Table Regs DeviceError CommunicationError ModbusExceptionError ValueRangeError
+    ModbusException ModbusBaseClient ModbusBaseSyncClient ModbusPDU TypedDict Sequence""".split()
+)
+CLASS_RESERVED = PY_BUILTIN_CLASSES | GENERATED_CLASSES
 
 
 def identifier(name: str) -> str:
@@ -29,12 +93,12 @@ def identifier(name: str) -> str:
         ident = "unnamed"
     if ident[0].isdigit():
         ident = "f_" + ident
-    if ident in CPP_KEYWORDS or ident in PY_KEYWORDS or ident in RESERVED:
+    if ident in RESERVED:
         ident += "_"
     return ident
 
 
-def unique_identifiers(names) -> list[str]:
+def unique_identifiers(names: Iterable[str]) -> list[str]:
     """Identifiers for names in order; a collision with an earlier one gets _2, _3, ..."""
     seen: set[str] = set()
     out = []
@@ -43,7 +107,7 @@ def unique_identifiers(names) -> list[str]:
         ident, n = base, 1
         while ident in seen:
             n += 1
-            ident = f"{base}_{n}"
+            ident = f"{base.rstrip('_')}_{n}"
         seen.add(ident)
         out.append(ident)
     return out
@@ -51,4 +115,5 @@ def unique_identifiers(names) -> list[str]:
 
 def camel(ident: str) -> str:
     cls = "".join(part[:1].upper() + part[1:] for part in ident.split("_") if part)
-    return cls if cls and not cls[0].isdigit() else "Device" + cls
+    cls = cls if cls and not cls[0].isdigit() else "Device" + cls
+    return cls + "_" if cls in CLASS_RESERVED else cls
