@@ -90,9 +90,9 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
 
     \b
     Examples:
-      mdl csv2xml tempco_device.ini
-      mdl csv2xml map.csv --ini device.ini -o device.xml
-      mdl csv2xml map.csv --ini device.ini -i
+      mdl csv2xml examples/temco_tstat/temco_tstat.ini
+      mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -o tstat.xml
+      mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
     """
     from mdl.csvmap.convert import run_csv2xml
 
@@ -130,7 +130,8 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 
     \b
     Example:
-      mdl validate device.xml --schema 0.9b
+      mdl validate examples/temco_tstat/temco_tstat.xml tstat.xml
+      mdl validate tstat.xml --schema 1.0
     """
     from mdl.mdlxml import validate_file
 
@@ -165,7 +166,7 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
 
     \b
     Example:
-      mdl gen device.xml --lang python -o drivers/
+      mdl gen examples/temco_tstat/temco_tstat.xml --lang all -o drivers/
     """
     from mdl.fileio import all_or_none
     from mdl.gen import generate
@@ -197,8 +198,8 @@ def sim(file: Path, host: str, port: int, unit: int, registers: Path | None, set
 
     \b
     Example:
-      mdl sim device.xml --port 0 --set temperature=21.5
-      mdl sim QuickTestDevice.yaml --port 0 --scenario 'Normal values'
+      mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 --set room_temperature=21.5
+      mdl sim examples/toolkit_heat_pump/heat_pump.yaml --port 5021 --scenario Heating
     """
     from mdl import sim as simulator
     from mdl.loading import load_any
@@ -231,7 +232,7 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
 
     \b
     Example:
-      mdl import QuickTestDevice.yaml -o quick_test_device.xml
+      mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
     """
     from mdl.diagnostics import error
     from mdl.fileio import write_atomic
@@ -257,7 +258,7 @@ def test_(files: tuple[Path, ...]) -> None:
 
     \b
     Example:
-      mdl test QuickTestDevice.yaml device.xml
+      mdl test examples/toolkit_heat_pump/heat_pump.yaml heat_pump.xml
     """
     from mdl.loading import load_any
     from mdl.testing import run_scenario
@@ -314,7 +315,7 @@ def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, ti
 
     \b
     Example:
-      mdl read device.xml --host 192.0.2.10 temperature fan_speed --format json
+      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 room_temperature fan_speed --format json
     """
     from mdl import output
     from mdl.loading import load_any
@@ -336,7 +337,7 @@ def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: 
 
     \b
     Example:
-      mdl write device.xml --host 192.0.2.10 temperature_set_point=22.5
+      mdl write examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 occupied_setpoint=22.5
     """
     from mdl import codec
     from mdl.diagnostics import error
