@@ -315,7 +315,7 @@ def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, ti
 
     \b
     Example:
-      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 room_temperature fan_speed --format json
+      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 fan_speed --format json
     """
     from mdl import output
     from mdl.loading import load_any
