@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from mdl.cfrag import HELPERS_SOURCE as _C_HELPERS
 from mdl.expr.lower import Lowered, Op
 
-from mdl.cfrag import HELPERS_SOURCE as _C_HELPERS
-
-# the expression runtime, with the C-semantics helpers it shares (_fdiv)
+# the expression runtime, with the C-semantics helpers it shares (_fdiv); generated Python drivers
+# copy the functions they call from it (mdl.gen.python)
 HELPERS_SOURCE = _C_HELPERS + "\n\n" + (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
 
 _CONVERT = {"int16": "_x_int({a}, 16, True)", "uint16": "_x_int({a}, 16, False)", "int32": "_x_int({a}, 32, True)",
