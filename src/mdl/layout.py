@@ -72,6 +72,10 @@ def layout(fn: Function) -> Layout:
         needed = max(fn.eff_count, -(-FORMAT_BITS[fmt] // unit_bits))
     if not fn.addresses:
         raise LayoutError("no address")
+    n = len(fn.addresses) if len(fn.addresses) > 1 else needed
+    limit = MAX_BITS if unit == "bit" else MAX_REGISTERS
+    if n > limit:  # before any tuple of n addresses is built: a count may be 3000000000
+        raise LayoutError(f"the value needs {n} registers; one request reads at most {limit}")
     if len(fn.addresses) > 1:
         if len(fn.addresses) < needed:
             raise LayoutError(f"needs {needed} registers but lists {len(fn.addresses)} addresses")
@@ -80,13 +84,9 @@ def layout(fn: Function) -> Layout:
         addresses = tuple(fn.addresses)
     else:
         addresses = tuple(range(fn.addresses[0], fn.addresses[0] + needed))
-    n = len(addresses)
     too_high = [a for a in addresses if a > MAX_ADDRESS]
     if too_high:
         raise LayoutError(f"address {too_high[0]} is over {MAX_ADDRESS}")
-    limit = MAX_BITS if unit == "bit" else MAX_REGISTERS
-    if n > limit:
-        raise LayoutError(f"the value needs {n} registers; one request reads at most {limit}")
     if bit_table or fmt == "BIT":
         if n != 1:
             raise LayoutError("a BIT value is one coil or discrete input")

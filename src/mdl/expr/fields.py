@@ -10,7 +10,7 @@ from typing import Any
 
 from mdl.expr.lower import Lowered, lower, refs_of
 from mdl.expr.nodes import ExprError, Node
-from mdl.expr.parser import parse
+from mdl.expr.parser import MAX_DEPTH, parse
 from mdl.expr.pyemit import HELPERS_SOURCE, body, signature
 from mdl.model import Device, Function, Value
 
@@ -62,11 +62,22 @@ def compile_device(device: Device) -> list[FieldError]:
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
     done: dict[str, str] = {}  # name -> type, for compiled or plain functions
+    chain: dict[str, int] = {}  # name -> how many fields deep its references go (evaluation_order recurses that deep)
+    too_deep: set[str] = set()
     visiting: set[str] = set()
 
-    def visit(fn: Function) -> str | None:
+    def refuse_depth(fn: Function) -> None:
+        too_deep.add(fn.name)
+        errors.append(FieldError(fn, f"fields refer to each other more than {MAX_DEPTH} deep", 1))
+
+    def visit(fn: Function, depth: int = 0) -> str | None:
         if fn.name in done:
             return done[fn.name]
+        if fn.name in too_deep:
+            return None
+        if depth > MAX_DEPTH:  # checked going down, so this recursion stays shallow
+            refuse_depth(fn)
+            return None
         if fn.expression is None:
             try:
                 done[fn.name] = plain_type(fn)
@@ -83,7 +94,7 @@ def compile_device(device: Device) -> list[FieldError]:
         types: dict[str, str] = {}
         block = blocks[fn.block]
         for ref in refs:
-            t = visit(block[ref])
+            t = visit(block[ref], depth + 1)
             if t is None:
                 visiting.discard(fn.name)
                 if fn.name not in {e.function.name for e in errors}:
@@ -91,6 +102,10 @@ def compile_device(device: Device) -> list[FieldError]:
                 return None
             types[ref] = t
         visiting.discard(fn.name)
+        chain[fn.name] = 1 + max((chain.get(block[r].name, 0) for r in refs), default=0)
+        if chain[fn.name] > MAX_DEPTH:  # and coming up, whatever order the fields were visited in
+            refuse_depth(fn)
+            return None
         try:
             lowered = lower(parsed[fn.name], types, device.max_registers or 125)
         except ExprError as exc:
