@@ -43,7 +43,7 @@ def skip_or_fail(reason: str) -> None:
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "conformance(folder): needs CONFORMANCE/folder (ORNL's or the Toolkit's files)")
-    config.addinivalue_line("markers", "exhaustive: slow, many-case variants; run with `-m exhaustive` (CI does)")
+    config.addinivalue_line("markers", "exhaustive: slow, many-case variants; run with --exhaustive (CI=true does)")
 
 
 def pytest_addoption(parser):
