@@ -58,6 +58,7 @@ def test_write_round_trip_and_refusals(sim_factory):
     assert_clean_error(run_mdl("write", TSTAT, *conn, "nosuch=1"), 1, "no function 'nosuch'")
     assert_clean_error(run_mdl("write", TSTAT, *conn, "fan_speed=fast"), 1, "expects a number")
     assert_clean_error(run_mdl("write", TSTAT, *conn, "fan_speed"), 2)
+    assert_clean_error(run_mdl("write", TSTAT, *conn, "occupied_setpoint=0x" + "F" * 300), 1, "too large")
     # nothing was written by the refused commands
     proc = run_mdl("read", TSTAT, *conn, "occupied_setpoint", "--format", "json")
     assert json.loads(proc.stdout) == {"occupied_setpoint": 23.5}

@@ -103,3 +103,10 @@ def test_port_in_use_is_a_clean_error(sim_factory):
     sim = sim_factory(ALL)
     proc = run_mdl("sim", ALL, "--port", sim.port, timeout=30)
     assert_clean_error(proc, 1, "cannot serve")
+
+
+@pytest.mark.parametrize("raw", ['{"holding": {"100": Infinity}}', '{"holding": {"100": 1.5}}',
+                                 '{"holding": {"100": ' + "1" * 5000 + "}}"], ids=["infinity", "fraction", "huge"])
+def test_registers_json_refuses_what_is_no_register_value(raw, tmp_path):
+    (tmp_path / "raw.json").write_text(raw)
+    assert_clean_error(run_mdl("sim", ALL, "--port", "0", "--registers", tmp_path / "raw.json"), 1, "raw.json")

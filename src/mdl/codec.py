@@ -83,7 +83,10 @@ def encode_raw(lay: Layout, value: Scalar) -> list[int]:
             raise CodecError(f"text of {len(data)} bytes does not fit {size} bytes")
         data = data.ljust(size, b"\x00")
     elif lay.kind == "float":
-        data = struct.pack(">f" if lay.bits == 32 else ">d", float(value))
+        try:
+            data = struct.pack(">f" if lay.bits == 32 else ">d", float(value))
+        except OverflowError:  # 1e39 has no FLOAT32
+            raise CodecError(f"{value} does not fit float{lay.bits}") from None
     else:
         if not isinstance(value, int):
             raise CodecError(f"expects a whole number, got {value!r}")
@@ -124,8 +127,12 @@ def decode(fn: Function, regs: Sequence[int]) -> Scalar | None:
     lay = layout(fn)
     if fn.read_function_code:
         from mdl.cfrag import compile_read
+        from mdl.diagnostics import error
 
-        return compile_read(fn.read_function_code, len(lay.addresses))(list(regs))
+        try:
+            return compile_read(fn.read_function_code, len(lay.addresses))(list(regs))
+        except ArithmeticError as exc:  # the fragment has no value for these registers (docs/fragments.md)
+            raise error(f"function '{fn.name}': read_function_code: {exc}") from None
     raw = decode_raw(lay, regs)
     if isinstance(raw, (str, bool)) or not scales(fn):
         return raw
@@ -152,7 +159,10 @@ def encode(fn: Function, value: Scalar) -> list[int]:
     if fn.write_function_code:
         from mdl.cfrag import compile_write
 
-        return compile_write(fn.write_function_code, len(lay.addresses))(float(value))
+        try:
+            return compile_write(fn.write_function_code, len(lay.addresses))(float(value))
+        except ArithmeticError as exc:  # no registers for this value, or one out of range (docs/fragments.md)
+            raise CodecError(f"write_function_code: {exc}") from None
     if lay.kind in ("string", "bool"):
         return encode_raw(lay, value)
     if not isinstance(value, (int, float)) or isinstance(value, bool):
@@ -184,9 +194,13 @@ def parse_value(fn: Function, text: str) -> Scalar:
             return False
         raise CodecError(f"expects true/false or 1/0, got {text!r}")
     try:
-        return int(text, 0)
+        number = int(text, 0)
     except ValueError:
         pass
+    else:
+        if number.bit_length() > 1023:  # beyond every format, even scaled, and beyond float()
+            raise CodecError(f"{text.strip()[:20]}... is too large")
+        return number
     try:
         return float(text)
     except ValueError:

@@ -5,6 +5,7 @@ Exit codes follow SPEC section 1: 1 invalid input, 3 the device could not be rea
 
 from __future__ import annotations
 
+import unicodedata
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -14,6 +15,13 @@ if TYPE_CHECKING:
 
 EXIT_INVALID = 1
 EXIT_DEVICE = 3
+_LINE_BREAKING = ("Cc", "Zl", "Zp")  # control characters, line and paragraph separators
+
+
+def one_line(text: str) -> str:
+    """`text` with control characters and line separators escaped (`\\n`, `\\x00`): a cell's line
+    break or a file name's NUL never splits or hides a message."""
+    return "".join(repr(ch)[1:-1] if unicodedata.category(ch) in _LINE_BREAKING else ch for ch in text)
 
 
 @dataclass(frozen=True)
@@ -27,13 +35,13 @@ class Diagnostic:
     def __str__(self) -> str:
         where = ""
         if self.file:
-            where = self.file
+            where = one_line(self.file)
             if self.line:
                 where += f":{self.line}"
                 if self.col:
                     where += f":{self.col}"
             where += ": "
-        return f"{where}{self.severity}: {self.message}"
+        return f"{where}{self.severity}: {one_line(self.message)}"
 
 
 class MdlError(Exception):

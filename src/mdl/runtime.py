@@ -1,13 +1,21 @@
-"""`mdl read` / `mdl write`: the model, the codec and the read plan over a pymodbus client."""
+"""`mdl read` / `mdl write`: the model, the codec and the read plan over a pymodbus client.
+
+Replies are checked before they are trusted: pymodbus decodes a reply for a function other than the
+one asked, more or fewer registers than asked, or a byte count that disagrees with the data, without
+a word. The client's trace hook keeps the bytes of each request and of its reply, and `reply_problem`
+holds the reply against the request; anything wrong, and any broken connection, is a DeviceError (exit 3)
+naming the connection, the unit and what was wrong.
+"""
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+import struct
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from pymodbus.client import ModbusTcpClient
-from pymodbus.exceptions import ModbusException
+from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.pdu import ModbusPDU
 
 from mdl import codec
@@ -23,11 +31,95 @@ EXCEPTION_NAMES = {
     4: "SERVER DEVICE FAILURE", 5: "ACKNOWLEDGE", 6: "SERVER DEVICE BUSY",
     8: "MEMORY PARITY ERROR", 10: "GATEWAY PATH UNAVAILABLE", 11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
 }
+MBAP = struct.Struct(">HHHB")  # transaction id, protocol id (0), length of what follows, unit id
 
 
 class ModbusExceptionError(DeviceError):
     def __init__(self, what: str, code: int):
         super().__init__(f"{what}: Modbus exception {code} ({EXCEPTION_NAMES.get(code, 'unknown')})", code)
+
+
+def frames(data: bytes) -> Iterator[tuple[int, int, bytes]]:
+    """(transaction id, unit id, PDU) of each whole Modbus TCP frame at the start of `data`."""
+    while len(data) > MBAP.size:
+        tid, protocol, length, unit = MBAP.unpack_from(data)
+        end = MBAP.size - 1 + length
+        if protocol != 0 or length < 2 or end > len(data):
+            return
+        yield tid, unit, data[MBAP.size:end]
+        data = data[end:]
+
+
+def reply_problem(request: bytes, reply: bytes) -> str | None:
+    """What is wrong with the PDU `reply` as the answer to the PDU `request` (functions 1-6, 15, 16), or None."""
+    fc = request[0]
+    if reply[0] & 0x7F != fc:
+        return f"the reply has function code {reply[0] & 0x7F}, expected {fc}"
+    if reply[0] & 0x80:
+        return None if len(reply) == 2 else f"the exception reply has {len(reply)} bytes, expected 2"
+    if fc in (5, 6):  # the echo of the request
+        expected = request
+    elif fc in (15, 16):  # the echo of the address and the count
+        expected = request[:5]
+    else:
+        return _read_reply_problem(request, reply)
+    return None if reply == expected else f"the reply {reply.hex(' ')} does not echo the request {expected.hex(' ')}"
+
+
+def _read_reply_problem(request: bytes, reply: bytes) -> str | None:
+    _, count = struct.unpack_from(">HH", request, 1)
+    registers = request[0] in (3, 4)
+    size = 2 * count if registers else (count + 7) // 8  # bits come padded to whole bytes
+    if len(reply) < 2 or reply[1] != len(reply) - 2:
+        said = f"byte count {reply[1]}" if len(reply) > 1 else "no byte count"
+        return f"the reply's {said} does not match the {max(len(reply) - 2, 0)} data bytes that follow"
+    if reply[1] != size:
+        kind = "register" if registers else "bit"
+        return f"the reply carries {reply[1]} data bytes, expected {size} for {count} {kind}{'s' * (count != 1)}"
+    return None
+
+
+class Wire:
+    """The bytes of the last request and of what came back, from pymodbus's packet trace hook."""
+
+    def __init__(self) -> None:
+        self.request = b""
+        self.received: list[bytes] = []  # the client's receive buffer each time data arrived
+
+    def clear(self) -> None:
+        """Forget the last request: nothing stale is blamed on a request that failed before it was sent."""
+        self.request, self.received = b"", []
+
+    def trace(self, sending: bool, data: bytes) -> bytes:
+        if sending:
+            self.request, self.received = data, []
+        else:
+            self.received.append(data)
+        return data
+
+    def accepted_problem(self) -> str | None:
+        """What is wrong with the reply the client accepted: the frame it decoded is in its last buffer."""
+        tid, _, _, unit = MBAP.unpack_from(self.request)
+        pdu = next((pdu for t, u, pdu in frames(self.received[-1] if self.received else b"")
+                    if (t, u) == (tid, unit)), None)
+        if pdu is None:
+            return "the reply the client decoded is not in the bytes received"
+        return reply_problem(self.request[MBAP.size:], pdu)
+
+    def refused_problem(self) -> str | None:
+        """What is wrong with what came back for a request the client got no reply to, or None if nothing did."""
+        if not self.received:
+            return None
+        data = self.received[0]  # from where the reply began
+        found = next(frames(data), None)
+        if found is None:
+            return f"the reply is not a Modbus TCP frame ({len(data)} bytes: {data[:16].hex(' ')})"
+        tid, _, _, unit = MBAP.unpack_from(self.request)
+        if found[0] != tid:
+            return f"the reply's transaction id is {found[0]}, expected {tid}"
+        if found[1] != unit:
+            return f"the reply comes from unit {found[1]}"
+        return reply_problem(self.request[MBAP.size:], found[2]) or "the reply could not be decoded"
 
 
 class Session:
@@ -36,8 +128,11 @@ class Session:
     def __init__(self, device: Device, host: str, port: int = 502, unit: int = 1, timeout: float = 3.0):
         self.device = device
         self.host, self.port, self.unit = host, port, unit
+        self.timeout, self.tries = timeout, 2
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-        self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=1)
+        self.wire = Wire()
+        self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=self.tries - 1,
+                                      trace_packet=self.wire.trace)
         self.refused: set[Request] = set()
 
     def __enter__(self) -> Session:
@@ -50,24 +145,43 @@ class Session:
         close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
         close()
 
+    def where(self, what: str) -> str:
+        return f"{self.host}:{self.port} unit {self.unit}: {what}"
+
     def _call(self, what: str, method: Callable[..., ModbusPDU], *args: Any, **kw: Any) -> ModbusPDU:
+        self.wire.clear()
         try:
             result = method(*args, device_id=self.unit, **kw)
-        except ModbusException as exc:
-            raise DeviceError(f"{what}: {exc} ({self.host}:{self.port})") from None
+        except (ModbusException, OSError) as exc:
+            raise DeviceError(f"{self.where(what)}: {self._failure(exc)}") from None
+        problem = self.wire.accepted_problem()
+        if problem:
+            raise DeviceError(f"{self.where(what)}: {problem}")
         if result.isError():
-            raise ModbusExceptionError(what, getattr(result, "exception_code", 0))
+            raise ModbusExceptionError(self.where(what), getattr(result, "exception_code", 0))
         return result
+
+    def _failure(self, exc: ModbusException | OSError) -> str:
+        """Why a request got no reply the client would decode."""
+        problem = self.wire.refused_problem()
+        if problem:
+            return problem
+        if isinstance(exc, ConnectionException):
+            return "the connection closed without a reply"
+        if isinstance(exc, ModbusIOException):
+            return f"no reply within {self.timeout:g} s ({self.tries} tries)"
+        if isinstance(exc, OSError):
+            return f"connection error: {exc.strerror or exc}"
+        return str(exc)
 
     def read_request(self, req: Request) -> list[int]:
         what = f"reading {req.count} {req.table} from {req.start}"
         method = {"holding": self.client.read_holding_registers, "input": self.client.read_input_registers,
                   "coil": self.client.read_coils, "discrete": self.client.read_discrete_inputs}[req.table]
         result = self._call(what, method, req.start, count=req.count)
-        values = [int(b) for b in result.bits] if req.table in ("coil", "discrete") else list(result.registers)
-        if len(values) < req.count:
-            raise DeviceError(f"{what}: short reply ({len(values)} values)")
-        return values[: req.count]
+        if req.table in ("coil", "discrete"):  # the byte count was checked; the padding bits are dropped
+            return [int(b) for b in result.bits[: req.count]]
+        return list(result.registers)
 
     def read(self, functions: list[Function]) -> dict[str, Value]:
         """Values of the functions (reading what their expressions depend on too)."""
@@ -96,7 +210,7 @@ class Session:
             if fn.compiled is None and any((lay.table, a) not in raw for a in lay.addresses):
                 req = next(r for r in missing
                            if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
-                raise ModbusExceptionError(f"reading {req.count} {req.table} from {req.start}", 2)
+                raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
         try:
             computed = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:

@@ -67,6 +67,8 @@ class Registers:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
             raise error(f"invalid JSON: {exc.msg}", path, exc.lineno, exc.colno) from None
+        except ValueError as exc:  # a number of more digits than int() converts
+            raise error(f"invalid JSON: {exc}", path) from None
         if not isinstance(data, dict):
             raise error("expected an object with keys holding, input, coil, discrete", path)
         for table, values in data.items():
@@ -75,6 +77,8 @@ class Registers:
             for key, value in values.items():
                 try:
                     address = int(key, 0)
+                    if isinstance(value, float) and not value.is_integer():  # 1.5, Infinity, NaN
+                        raise ValueError(value)
                     value = int(value)
                 except (TypeError, ValueError):
                     raise error(f"{table} {key!r}: expected a wire address and an integer value", path) from None

@@ -3,8 +3,17 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 
-from mdl.addressing import MODICON_TABLE, NAMED, AddressError, match_address
+from mdl.addressing import (
+    MODICON_TABLE,
+    NAMED,
+    AddressError,
+    address_range,
+    address_run,
+    match_address,
+    whole_number,
+)
 
 
 class CellError(ValueError):
@@ -15,9 +24,28 @@ _HEX = re.compile(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
 _RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—)\s*(.+)$")
 
 
+def is_digits(text: str) -> bool:
+    """ASCII decimal digits only (str.isdigit() also takes '²' and other scripts' digits, which int() refuses)."""
+    return text.isascii() and text.isdigit()
+
+
+def _number(digits: str, what: str) -> int:
+    try:
+        return whole_number(digits, what)
+    except AddressError as exc:
+        raise CellError(str(exc)) from None
+
+
+def _addresses(build: Callable[[int, int], range], first: int, other: int, part: str) -> list[int]:
+    try:
+        return list(build(first, other))
+    except AddressError as exc:
+        raise CellError(f"'{part}': {exc}") from None
+
+
 def is_modicon_number(text: str) -> bool:
     t = text.strip()
-    return t.isdigit() and len(t) in (5, 6) and t[0] in MODICON_TABLE and int(t[1:]) >= 1
+    return is_digits(t) and len(t) in (5, 6) and t[0] in MODICON_TABLE and int(t[1:]) >= 1
 
 
 def _one(text: str, base: str) -> tuple[int, str | None]:
@@ -30,15 +58,17 @@ def _one(text: str, base: str) -> tuple[int, str | None]:
     if found and found[2] == len(t):
         return found[1], found[0]
     if _HEX.match(t):
-        digits = t.lower().removeprefix("0x").removesuffix("h")
-        return int(digits, 16), None
-    if not t.isdigit():
+        digits = t.lower().removeprefix("0x").removesuffix("h").lstrip("0")
+        if len(digits) > 12:
+            raise CellError(f"address '{t[:20]}...' is too large")
+        return int(digits or "0", 16), None
+    if not is_digits(t):
         raise CellError(f"'{t}' is not an address")
     if base == "modicon":
         if not is_modicon_number(t):
             raise CellError(f"'{t}' is not a Modicon 5- or 6-digit register number")
         return int(t[1:]) - 1, MODICON_TABLE[t[0]]
-    value = int(t)
+    value = _number(t, "address")
     if base == "1":
         if value < 1:
             raise CellError(f"'{t}' is not a 1-based address")
@@ -62,20 +92,18 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
         if "#" in part:
             first, _, count = part.partition("#")
             start, tbl = _one(first, base)
-            if not count.strip().isdigit() or int(count) < 1:
+            if not is_digits(count.strip()):
                 raise CellError(f"'{part}': the count after '#' must be a positive number")
-            run = list(range(start, start + int(count)))
+            run = _addresses(address_run, start, _number(count.strip(), "count"), part)
         else:
             m = _RANGE.match(part)
-            if m and not NAMED.fullmatch(part.strip()) and not part.strip().lstrip("-").isdigit():
+            if m and not NAMED.fullmatch(part.strip()) and not is_digits(part.strip().lstrip("-")):
                 start, tbl = _one(m.group(1), base)
                 end, tbl2 = _one(m.group(2), base)
                 if tbl2 and tbl and tbl != tbl2:
                     raise CellError(f"'{part}' mixes register tables")
                 tbl = tbl or tbl2
-                if end < start:
-                    raise CellError(f"'{part}': the range ends before it starts")
-                run = list(range(start, end + 1))
+                run = _addresses(address_range, start, end, part)
             else:
                 start, tbl = _one(part, base)
                 run = [start]
@@ -104,7 +132,8 @@ FORMAT_WORDS = [
     (r"bool(?:ean)?|bit|coil|binary|digital", "BIT"),
 ]
 _FORMATS = [(re.compile(rf"(?i)^(?:{pattern})$"), fmt) for pattern, fmt in FORMAT_WORDS]
-_STRING = re.compile(r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*(\d+)\s*[\])]$|^(?:string|str|ascii|text)(\d*)$")
+_STRING = re.compile(r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*([0-9]+)\s*[\])]$"
+                     r"|^(?:string|str|ascii|text)([0-9]*)$")
 
 
 def parse_format(text: str) -> tuple[str, int | None]:
@@ -113,7 +142,7 @@ def parse_format(text: str) -> tuple[str, int | None]:
     m = _STRING.match(t)
     if m:
         n = m.group(1) or m.group(2)
-        return "STRING", int(n) if n else None
+        return "STRING", _number(n, "string length") if n else None
     for rx, fmt in _FORMATS:
         if rx.match(t):
             return fmt, None
@@ -188,8 +217,8 @@ def parse_table(text: str) -> str:
     t = " ".join(text.strip().lower().replace("_", " ").replace("-", " ").split())
     if t in TABLE_WORDS:
         return TABLE_WORDS[t]
-    if t.isdigit() and int(t) in (1, 2, 3, 4):
-        return {1: "coil", 2: "discrete", 3: "holding", 4: "input"}[int(t)]
+    if t in ("1", "2", "3", "4"):
+        return {"1": "coil", "2": "discrete", "3": "holding", "4": "input"}[t]
     for code, table in (("fc01", "coil"), ("fc02", "discrete"), ("fc03", "holding"), ("fc04", "input")):
         if code in t.replace(" ", ""):
             return table

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.fileio import read_text
+from mdl.mdlxml.write import unwritable
 
 COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
                "multiplier", "units", "read_function_code", "write_function_code", "register_type",
@@ -65,6 +66,11 @@ def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
     return out
 
 
+def _whole(value: str) -> int | None:
+    """ASCII digits -> int (up to 9 of them: no table has more lines or columns); None for anything else."""
+    return int(value) if re.fullmatch(r"[0-9]{1,9}", value) else None
+
+
 class _CaseKeepingParser(configparser.ConfigParser):
     """Keys keep their case: they name functions."""
 
@@ -117,19 +123,24 @@ def read_ini(path: Path) -> DeviceIni:
         for key, raw in parser.items(section):
             value = (raw or "").strip()
             lkey = key.strip().lower()
-            if kind == "synonyms":
-                words = [w.strip() for w in value.split(",") if w.strip()]
+            if "\n" in value and kind != "synonyms":  # only synonym lists may go on over indented lines
+                err(section, key, f"the value of '{key}' goes on over the next line: an indented line continues "
+                                  "the one before it")
+            elif kind == "synonyms":
+                words = [w.strip() for w in re.split(r"[,\n]", value) if w.strip()]
                 if not words:
                     err(section, key, f"function '{key}' has no synonyms")
                 ini.synonyms[key.strip()] = words
             elif kind == "additional":
                 if value:  # user-defined columns (e.g. operation_info): informational, never guessed
-                    ini.claimed.append(int(value) if value.isdigit() else value)
+                    index = _whole(value)
+                    ini.claimed.append(value if index is None else index)
             elif kind == "columns":
                 if lkey not in COLUMN_KEYS:
                     warn(section, key, f"unknown column key '{key}' is ignored")
                 elif value:
-                    ini.columns[lkey] = int(value) if value.isdigit() else value
+                    index = _whole(value)
+                    ini.columns[lkey] = value if index is None else index
                 else:
                     ini.blank_columns.add(lkey)
             elif kind == "device":
@@ -144,16 +155,17 @@ def read_ini(path: Path) -> DeviceIni:
                         err(section, key, f"threshold must be a number from 0 to 1, not '{value}'")
                 elif lkey in CHOICES and value and value.lower() not in CHOICES[lkey]:
                     err(section, key, f"{lkey} must be one of {', '.join(CHOICES[lkey])}, not '{value}'")
+                elif unwritable(value):
+                    err(section, key, f"{lkey} holds the character {unwritable(value)}, which MDL (XML) cannot carry")
                 elif value:
                     ini.device[lkey] = value.lower() if lkey in CHOICES else value
             elif kind == "io":
                 if lkey not in IO_KEYS:
                     warn(section, key, f"unknown key '{key}' in [{section}] is ignored")
                 elif lkey == "lines_to_skip" and value:
-                    if not value.isdigit():
+                    ini.lines_to_skip = _whole(value)
+                    if ini.lines_to_skip is None:
                         err(section, key, f"lines_to_skip must be a whole number, not '{value}'")
-                    else:
-                        ini.lines_to_skip = int(value)
                 elif lkey == "address_map_csv_file" and value:
                     ini.csv_file = base / value
                 elif lkey == "output_xml_file" and value:

@@ -20,6 +20,7 @@ from mdl.csvmap.cells import (
 from mdl.csvmap.columns import Columns
 from mdl.csvmap.table import Row
 from mdl.layout import LayoutError, layout
+from mdl.mdlxml.write import unwritable
 from mdl.model import BIT_TABLES, Function
 
 _TOKENS = re.compile(r"[0-9A-Za-z:x]+")
@@ -55,6 +56,15 @@ class ParsedRow:
     function: Function
     texts: list[str]  # description and name cells, for matching
     label: str  # what --all names it by
+
+
+def _check_writable(fn: Function) -> None:
+    """CellError for a text no MDL document can hold (a control character in a description)."""
+    texts = [(key, getattr(fn, key)) for key in ("description", "units", "read_function_code", "write_function_code")]
+    for what, text in texts + [("block label", label) for label in fn.block_labels]:
+        bad = unwritable(text) if text else None
+        if bad:
+            raise CellError(f"the {what} holds the character {bad}, which MDL (XML) cannot carry")
 
 
 def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
@@ -134,4 +144,5 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
             except FragmentError as exc:
                 raise CellError(f"{key}: {exc}") from None
             setattr(fn, key, cell(ix[key]))
+    _check_writable(fn)
     return ParsedRow(row, fn, [description] + names, names[0] if names else description or address_text)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
+import re
 
 from lxml import etree
 
+from mdl.diagnostics import error
 from mdl.mdlxml.parse import NS
 from mdl.model import Device
 
@@ -13,6 +15,16 @@ _ORDER = ("name", "description", "addresses", "length", "count", "format", "bloc
           "multiplier", "units", "read_function_code", "write_function_code", "register_type",
           "byte_order", "word_order", "offset", "access", "minimum", "maximum",
           "not_implemented", "values", "expression", "immutable", "system", "fetch_group")
+
+
+# what XML 1.0 cannot carry, not even as a character reference (its production Char)
+_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
+
+
+def unwritable(text: str) -> str | None:
+    """The first character of `text` that no MDL (XML 1.0) document can hold, as `U+001B`; None if none."""
+    m = _NOT_XML.search(text)
+    return f"U+{ord(m.group(0)):04X}" if m else None
 
 
 def format_float(x: float) -> str:
@@ -24,9 +36,18 @@ def format_float(x: float) -> str:
     return text[:-2] if text.endswith(".0") else text
 
 
+def _checked(text: str, what: str) -> str:
+    bad = unwritable(text)
+    if bad:
+        raise error(f"{what} would hold the character {bad}, which XML cannot carry")
+    return text
+
+
 def _sub(parent: etree._Element, tag: str, text: str | None) -> etree._Element:
     el = etree.SubElement(parent, f"{{{NS}}}{tag}")
-    el.text = text
+    if text:
+        owner = parent.findtext(f"{{{NS}}}name") if parent.tag == f"{{{NS}}}function" else None
+        el.text = _checked(text, f"function '{owner}': <{tag}>" if owner else f"<{tag}>")
     return el
 
 
@@ -64,7 +85,7 @@ def device_to_xml(device: Device) -> str:
     if device.tests:
         tests = _sub(root, "tests", None)
         for sc in device.tests:
-            test = etree.SubElement(tests, f"{{{NS}}}test", id=sc.id)
+            test = etree.SubElement(tests, f"{{{NS}}}test", id=_checked(sc.id, "a test's id"))
             if sc.description is not None:
                 _sub(test, "description", sc.description)
             for item in sc.inputs:
@@ -73,7 +94,7 @@ def device_to_xml(device: Device) -> str:
                     inp.set("register_type", item.table)
                 inp.set("address", str(item.address))
             for name, values in sc.expected.items():
-                expect = etree.SubElement(test, f"{{{NS}}}expect", function=name)
+                expect = etree.SubElement(test, f"{{{NS}}}expect", function=_checked(name, f"test '{sc.id}': <expect>"))
                 for v in values or ():
                     _sub(expect, "value", v)
     etree.indent(root, space="  ")
