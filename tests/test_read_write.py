@@ -5,11 +5,14 @@ from __future__ import annotations
 import csv
 import io
 import json
+import time
 
-from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
+from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
+from hostile_server import hostile_server
 
 ALL = DATA / "all_tables.xml"
 TSTAT = EXAMPLE / "temco_tstat.xml"
+NOWHERE = ["--host", "127.0.0.1", "--port", "1", "--timeout", "1"]  # refused at once: for what fails before it
 
 
 def test_read_formats(sim_factory):
@@ -53,27 +56,38 @@ def test_write_round_trip_and_refusals(sim_factory):
     assert proc.returncode == 0, proc.stderr
     proc = run_mdl("read", TSTAT, *conn, "occupied_setpoint", "fan_speed", "--format", "json")
     assert json.loads(proc.stdout) == {"occupied_setpoint": 23.5, "fan_speed": 3}
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "occupied_setpoint=40"), 1, "above the maximum 30")
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "room_temperature=20"), 1, "read-only")
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "nosuch=1"), 1, "no function 'nosuch'")
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "fan_speed=fast"), 1, "expects a number")
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "fan_speed"), 2)
-    assert_clean_error(run_mdl("write", TSTAT, *conn, "occupied_setpoint=0x" + "F" * 300), 1, "too large")
-    # nothing was written by the refused commands
-    proc = run_mdl("read", TSTAT, *conn, "occupied_setpoint", "--format", "json")
-    assert json.loads(proc.stdout) == {"occupied_setpoint": 23.5}
+    # a refused write sends nothing: with an assignment refused, the good one before it is not written
+    assert_clean_error(cli("write", TSTAT, *conn, "fan_speed=1", "occupied_setpoint=40"), 1, "above the maximum 30")
+    proc = run_mdl("read", TSTAT, *conn, "fan_speed", "--format", "json")
+    assert json.loads(proc.stdout) == {"fan_speed": 3}
 
 
-def test_write_only_function_cannot_be_read(sim_factory):
-    sim = sim_factory(ALL)
-    assert_clean_error(run_mdl("read", ALL, "--host", sim.host, "--port", sim.port, "alarm_reset"), 1, "write-only")
+def test_refusals_before_anything_is_sent():
+    """Each is refused before a connection is tried: NOWHERE would give exit 3."""
+    for assignment, message in [("occupied_setpoint=40", "above the maximum 30"), ("room_temperature=20", "read-only"),
+                                ("nosuch=1", "no function 'nosuch'"), ("fan_speed=fast", "expects a number"),
+                                ("occupied_setpoint=0x" + "F" * 300, "too large")]:
+        assert_clean_error(cli("write", TSTAT, *NOWHERE, assignment), 1, message)
+    assert_clean_error(cli("write", TSTAT, *NOWHERE, "fan_speed"), 2, "expected NAME=VALUE")
+    assert_clean_error(cli("read", ALL, *NOWHERE, "alarm_reset"), 1, "write-only")
 
 
 def test_unreachable_device_exits_3():
-    proc = run_mdl("read", TSTAT, "--host", "127.0.0.1", "--port", "1", "--timeout", "1")
-    assert_clean_error(proc, 3, "cannot connect to 127.0.0.1:1")
-    proc = run_mdl("write", TSTAT, "--host", "127.0.0.1", "--port", "1", "--timeout", "1", "fan_speed=1")
-    assert_clean_error(proc, 3, "cannot connect")
+    assert_clean_error(cli("read", TSTAT, *NOWHERE), 3, "cannot connect to 127.0.0.1:1")
+    assert_clean_error(cli("write", TSTAT, *NOWHERE, "fan_speed=1"), 3, "cannot connect to 127.0.0.1:1")
+
+
+def test_retries_resend_a_request_that_got_no_reply():
+    for retries, tries in (("0", "1 try"), ("2", "3 tries")):
+        with hostile_server("silent") as (host, port):
+            started = time.monotonic()
+            proc = cli("read", ALL, "setpoint", "--host", host, "--port", port, "--timeout", "0.3",
+                       "--retries", retries)
+            elapsed = time.monotonic() - started
+        assert_clean_error(proc, 3, f"{host}:{port} unit 1: reading 1 holding from 100: ",
+                           f"no reply within 0.3 s ({tries})")
+        assert elapsed >= 0.3 * int(tries[0]), (retries, elapsed)  # each try waited for its reply
+    assert_clean_error(cli("read", ALL, *NOWHERE, "--retries", "-1"), 2, "--retries")
 
 
 def test_modbus_exception_exits_3(sim_factory, write_device):
@@ -88,7 +102,8 @@ def test_modbus_exception_exits_3(sim_factory, write_device):
 def test_read_falls_back_on_exception_2(sim_factory, write_device):
     described = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
                              + fn_xml("b", "12", format="UINT16"), filename="described.xml")
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"), filename="actual.xml")
+    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
+                          filename="actual.xml")
     sim = sim_factory(actual, "--set", "a=7", "--set", "b=9")
     proc = run_mdl("read", described, "--host", sim.host, "--port", sim.port, "--format", "json")
     assert proc.returncode == 0, proc.stderr

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from conftest import run_mdl
+from conftest import cli, run_mdl
 from pymodbus.client import ModbusTcpClient
 
 SCHEMA = """description: 'Scenario edges'
@@ -44,7 +44,7 @@ tests:
 def test_missing_and_failing_registers(tmp_path, sim_factory):
     path = tmp_path / "edges.yaml"
     path.write_text(SCHEMA)
-    proc = run_mdl("test", path)
+    proc = cli("test", path)
     assert proc.stdout.strip() == "1 passed, 0 failed", proc.stdout
     sim = sim_factory(path, "--scenario", "edges")
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
@@ -57,7 +57,7 @@ def test_missing_and_failing_registers(tmp_path, sim_factory):
     finally:
         client.close()
     xml = tmp_path / "edges.xml"
-    assert run_mdl("import", path, "-o", xml).returncode == 0
+    assert cli("import", path, "-o", xml).returncode == 0
     proc = run_mdl("read", xml, "--host", sim.host, "--port", sim.port, "--format", "json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == {"A": 16, "B": None, "C": None, "Sum": None, "Text": "<|>", "Mapped": "Sixteen"}
@@ -93,9 +93,9 @@ tests:
 def test_newer_key_names_and_missing_bits(tmp_path):
     path = tmp_path / "newer.yaml"
     path.write_text(NEWER_KEYS)
-    proc = run_mdl("test", path)
+    proc = cli("test", path)
     assert proc.stdout.strip() == "1 passed, 0 failed", proc.stdout + proc.stderr
     xml = tmp_path / "newer.xml"
-    assert run_mdl("import", path, "-o", xml).returncode == 0
-    assert run_mdl("validate", xml).returncode == 0
-    assert run_mdl("test", xml).stdout.strip() == "1 passed, 0 failed"
+    assert cli("import", path, "-o", xml).returncode == 0
+    assert cli("validate", xml).returncode == 0
+    assert cli("test", xml).stdout.strip() == "1 passed, 0 failed"

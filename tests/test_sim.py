@@ -1,4 +1,4 @@
-"""`mdl sim`: strict addresses, seeding, the ready line, clean stop."""
+"""`mdl sim`: strict addresses, seeding, the ready line, clean stop, several devices on one connection."""
 
 from __future__ import annotations
 
@@ -6,10 +6,12 @@ import json
 import signal
 
 import pytest
-from conftest import DATA, EXAMPLE, Sim, assert_clean_error, run_mdl
+from conftest import DATA, EXAMPLE, ROOT, Sim, assert_clean_error, run_mdl
 from pymodbus.client import ModbusTcpClient
 
 ALL = DATA / "all_tables.xml"
+TSTAT = EXAMPLE / "temco_tstat.xml"
+HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
 
 
 @pytest.fixture
@@ -35,7 +37,7 @@ def test_ready_line_and_clean_stop_on_sigint():
 
 
 def test_clean_stop_on_sigterm():
-    sim = Sim(EXAMPLE / "temco_tstat.xml")
+    sim = Sim(TSTAT)
     assert sim.stop(signal.SIGTERM) == 0
     assert "Traceback" not in sim.stderr
 
@@ -59,11 +61,13 @@ def test_writes_to_read_only_functions_are_refused(sim_factory, client_for):
     assert c.read_holding_registers(100, count=1, device_id=1).registers == [215]
 
 
-def test_other_unit_ids_get_no_answer_from_this_device(sim_factory, client_for):
+def test_other_unit_ids_get_exception_11_and_unit_0_answers_any(sim_factory, client_for):
     c = client_for(sim_factory(ALL, "--unit", "3"))
     assert not c.read_holding_registers(100, count=1, device_id=3).isError()
-    rr = c.read_holding_registers(100, count=1, device_id=4)
-    assert rr.isError()
+    for rr in (c.read_holding_registers(100, count=1, device_id=4), c.write_coil(0, True, device_id=4)):
+        assert rr.isError() and rr.exception_code == 11
+    c = client_for(sim_factory(ALL, "--unit", "0"))
+    assert not c.read_holding_registers(100, count=1, device_id=9).isError()
 
 
 def test_registers_json_then_set(tmp_path, sim_factory, client_for):
@@ -84,7 +88,8 @@ def test_registers_json_then_set(tmp_path, sim_factory, client_for):
     (["--set", "nosuch=1"], "no function 'nosuch'"),
     (["--set", "setpoint=99"], "above the maximum"),
     (["--set", "setpoint"], "NAME=VALUE"),
-])
+    ([TSTAT, "--set", "nosuch=1"], "--set nosuch: no function 'nosuch' in any of the 2 devices"),
+], ids=["unknown", "out-of-range", "no-value", "unknown-in-several"])
 def test_bad_settings(args, message):
     proc = run_mdl("sim", ALL, "--port", "0", *args, timeout=30)
     assert proc.returncode in (1, 2)
@@ -110,3 +115,51 @@ def test_port_in_use_is_a_clean_error(sim_factory):
 def test_registers_json_refuses_what_is_no_register_value(raw, tmp_path):
     (tmp_path / "raw.json").write_text(raw)
     assert_clean_error(run_mdl("sim", ALL, "--port", "0", "--registers", tmp_path / "raw.json"), 1, "raw.json")
+
+
+def read_json(sim, path, unit, *names):
+    return run_mdl("read", path, "--host", sim.host, "--port", sim.port, "--unit", unit, *names, "--format", "json")
+
+
+def test_devices_share_a_connection_at_their_units(sim_factory):
+    sim = sim_factory([ALL, TSTAT], "--unit", "3", "--unit", "7", "--set", "setpoint=19.5",
+                      "--set", "occupied_setpoint=22")
+    assert sim.ready_lines == [f"mdl sim: serving All Tables on 127.0.0.1:{sim.port} unit 3",
+                               f"mdl sim: serving TEMCO Tstat on 127.0.0.1:{sim.port} unit 7"]
+    proc = read_json(sim, ALL, 3, "setpoint")
+    assert json.loads(proc.stdout) == {"setpoint": 19.5}, proc.stderr
+    proc = read_json(sim, TSTAT, 7, "occupied_setpoint")
+    assert json.loads(proc.stdout) == {"occupied_setpoint": 22.0}, proc.stderr
+    assert_clean_error(read_json(sim, TSTAT, 5, "occupied_setpoint"), 3, f"127.0.0.1:{sim.port} unit 5: ",
+                       "Modbus exception 11 (GATEWAY TARGET DEVICE FAILED TO RESPOND)")
+
+
+def test_units_registers_and_settings_by_position(tmp_path, sim_factory, client_for):
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    first.write_text('{"holding": {"101": 1}}')
+    second.write_text('{"holding": {"101": 2}}')
+    sim = sim_factory([ALL, ALL], "--registers", first, "--registers", second, "--set", "setpoint=19.5")
+    assert sim.units == [1, 2]
+    c = client_for(sim)
+    for unit in (1, 2):  # --set went to both
+        assert c.read_holding_registers(100, count=2, device_id=unit).registers == [195, unit]
+
+
+def test_scenarios_by_position(sim_factory):
+    sim = sim_factory([HEAT_PUMP, HEAT_PUMP], "--scenario", "Heating", "--scenario", "Sensor fault")
+    assert sim.ready_lines == [f"mdl sim: serving heat_pump on 127.0.0.1:{sim.port} unit {unit}" for unit in (1, 2)]
+    for unit, want in ((1, {"Mode": "Heating", "FlowTemperature": 35.5}),
+                       (2, {"Mode": "Off", "FlowTemperature": None})):
+        proc = read_json(sim, HEAT_PUMP, unit, "Mode", "FlowTemperature")
+        assert json.loads(proc.stdout) == want, proc.stderr
+
+
+@pytest.mark.parametrize("args, message", [
+    ([ALL, TSTAT, "--unit", "3"], "--unit is given 1 time for 2 FILEs: give it once per FILE"),
+    ([ALL, "--registers", ALL, "--registers", ALL], "--registers is given 2 times for 1 FILE"),
+    ([HEAT_PUMP, HEAT_PUMP, "--scenario", "Heating"], "--scenario is given 1 time for 2 FILEs"),
+    ([ALL, TSTAT, "--unit", "4", "--unit", "4"], "--unit 4 is given to more than one FILE"),
+    ([ALL, TSTAT, "--unit", "0", "--unit", "4"], "--unit 0 (any unit) serves one FILE only"),
+], ids=["units", "registers", "scenarios", "duplicate-unit", "unit-0"])
+def test_options_by_position_must_match_the_files(args, message):
+    assert_clean_error(run_mdl("sim", *args, "--port", "0", timeout=30), 2, message)

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 SCHEMAS = click.Choice(["0.9b", "1.0"])
 STDOUT = Path(STDIO_ARG)
 F = TypeVar("F", bound=Callable[..., Any])
+T = TypeVar("T")
 
 
 class InputFile(click.Path):
@@ -183,42 +184,82 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
         sys.exit(EXIT_INVALID)
 
 
+MAX_UNIT = 247
+
+
 @main.command()
-@click.argument("file", type=INPUT)
+@click.argument("files", nargs=-1, required=True, type=INPUT)
 @click.option("--host", default="127.0.0.1", show_default=True)
 @click.option("--port", type=click.IntRange(0, 65535), default=5020, show_default=True, help="0 picks a free port.")
-@click.option("--unit", type=click.IntRange(0, 247), default=1, show_default=True, help="Unit id served (0: any).")
-@click.option("--registers", type=INPUT, help="Initial raw values (JSON).")
-@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE", help="Initial value of a function.")
-@click.option("--scenario", help="Seed the registers from this embedded test scenario (by id).")
+@click.option("--unit", "units", type=click.IntRange(0, MAX_UNIT), multiple=True,
+              help="Unit id of each FILE, by position (default 1, 2, ...; 0: any unit, one FILE only).")
+@click.option("--registers", type=INPUT, multiple=True, help="Initial raw values (JSON) of each FILE, by position.")
+@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE",
+              help="Initial value of a function, in every FILE that has it.")
+@click.option("--scenario", "scenarios", multiple=True,
+              help="Seed each FILE's registers from its embedded test scenario of this id, by position.")
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
-def sim(file: Path, host: str, port: int, unit: int, registers: Path | None, settings: tuple[str, ...],
-        scenario: str | None, permissive: bool) -> None:
-    """Serve the device (MDL or Toolkit YAML) as a Modbus TCP slave until SIGINT/SIGTERM.
+def sim(files: tuple[Path, ...], host: str, port: int, units: tuple[int, ...], registers: tuple[Path, ...],
+        settings: tuple[str, ...], scenarios: tuple[str, ...], permissive: bool) -> None:
+    """Serve devices (MDL or Toolkit YAML) on one Modbus TCP connection until SIGINT/SIGTERM.
+
+    Several FILEs share the connection as devices share a bus, each at its own unit id; any other
+    unit id is answered with exception 11. --unit, --registers and --scenario go with the FILEs
+    by position (the same FILE may be given more than once).
 
     \b
-    Example:
+    Examples:
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 --set room_temperature=21.5
       mdl sim examples/toolkit_heat_pump/heat_pump.yaml --port 5021 --scenario Heating
+      mdl sim examples/temco_tstat/temco_tstat.xml examples/toolkit_heat_pump/heat_pump.yaml --port 5022
     """
     from mdl import sim as simulator
     from mdl.loading import load_any
+    from mdl.testing import find_scenario
 
-    _stdin_once([file] + ([registers] if registers else []))
-    device = load_any(file)
-    regs = simulator.Registers(device, permissive)
-    if scenario is not None:
-        from mdl.testing import find_scenario
-
-        regs.load_scenario(find_scenario(device, scenario))
-    if registers:
-        regs.load_json(registers)
+    _stdin_once(files + registers)
+    served = _sim_units(units, len(files))
+    raw_files = _by_position("--registers", registers, len(files))
+    scenario_ids = _by_position("--scenario", scenarios, len(files))
+    loaded = {path: load_any(path) for path in dict.fromkeys(files)}
+    devices = [simulator.Registers(loaded[path], permissive) for path in files]
+    for regs, raw, scenario in zip(devices, raw_files, scenario_ids, strict=True):
+        if scenario is not None:
+            regs.load_scenario(find_scenario(regs.device, scenario))
+        if raw is not None:
+            regs.load_json(raw)
     for item in settings:
         name, sep, value = item.partition("=")
         if not sep:
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
-        regs.set_value(name.strip(), value.strip())
-    simulator.run(regs, host, port, unit)
+        simulator.set_value(devices, name.strip(), value.strip())
+    simulator.run(dict(zip(served, devices, strict=True)), host, port)
+
+
+def _by_position(option: str, values: tuple[T, ...], files: int) -> list[T | None]:
+    """An option repeated once per FILE, in the FILEs' order; absent, None for each."""
+    if not values:
+        return [None] * files
+    if len(values) != files:
+        raise click.UsageError(f"{option} is given {len(values)} time{'s' * (len(values) != 1)} for {files} "
+                               f"FILE{'s' * (files != 1)}: give it once per FILE, in the same order")
+    return list(values)
+
+
+def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
+    """The unit id of each FILE: --unit by position, else 1, 2, ..."""
+    if not units:
+        if files > MAX_UNIT:
+            raise click.UsageError(f"{files} FILEs: one connection serves at most {MAX_UNIT} units")
+        return list(range(1, files + 1))
+    _by_position("--unit", units, files)
+    served = list(units)
+    if files > 1 and 0 in served:
+        raise click.UsageError("--unit 0 (any unit) serves one FILE only; give each FILE a unit from 1 to 247")
+    repeated = sorted({unit for unit in served if served.count(unit) > 1})
+    if repeated:
+        raise click.UsageError(f"--unit {repeated[0]} is given to more than one FILE: each FILE needs its own unit")
+    return served
 
 
 @main.command(name="import")
@@ -297,10 +338,13 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 
 
 def _connection_options(f: F) -> F:
+    f = click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True,
+                     help="Times a request that got no reply is sent again.")(f)
+    f = click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True,
+                     help="Seconds to wait for each reply.")(f)
     f = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True)(f)
     f = click.option("--port", type=click.IntRange(1, 65535), default=502, show_default=True)(f)
     f = click.option("--host", required=True, help="Device address.")(f)
-    f = click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True, help="Seconds.")(f)
     return f
 
 
@@ -310,7 +354,8 @@ def _connection_options(f: F) -> F:
 @_connection_options
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table",
               show_default=True)
-def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, timeout: float, fmt: str) -> None:
+def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, timeout: float, retries: int,
+         fmt: str) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
     \b
@@ -323,7 +368,7 @@ def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, ti
 
     device = load_any(file)
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
-    with Session(device, host, port, unit, timeout) as session:
+    with Session(device, host, port, unit, timeout, retries) as session:
         values = session.read(functions)
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
@@ -332,7 +377,8 @@ def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, ti
 @click.argument("file", type=INPUT)
 @click.argument("assignments", nargs=-1, required=True, metavar="NAME=VALUE...")
 @_connection_options
-def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: int, timeout: float) -> None:
+def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: int, timeout: float,
+          retries: int) -> None:
     """Encode and write values; read-only functions and values outside minimum/maximum are refused.
 
     \b
@@ -357,6 +403,6 @@ def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: 
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
             raise error(f"{fn.name}={text}: {exc}") from None
         todo.append((fn, value))
-    with Session(device, host, port, unit, timeout) as session:
+    with Session(device, host, port, unit, timeout, retries) as session:
         for fn, value in todo:
             session.write(fn, value)

@@ -125,10 +125,11 @@ class Wire:
 class Session:
     """A connection to one unit of a Modbus TCP device."""
 
-    def __init__(self, device: Device, host: str, port: int = 502, unit: int = 1, timeout: float = 3.0):
+    def __init__(self, device: Device, host: str, port: int = 502, unit: int = 1, timeout: float = 3.0,
+                 retries: int = 1):
         self.device = device
         self.host, self.port, self.unit = host, port, unit
-        self.timeout, self.tries = timeout, 2
+        self.timeout, self.tries = timeout, retries + 1
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         self.wire = Wire()
         self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=self.tries - 1,
@@ -169,7 +170,7 @@ class Session:
         if isinstance(exc, ConnectionException):
             return "the connection closed without a reply"
         if isinstance(exc, ModbusIOException):
-            return f"no reply within {self.timeout:g} s ({self.tries} tries)"
+            return f"no reply within {self.timeout:g} s ({self.tries} {'try' if self.tries == 1 else 'tries'})"
         if isinstance(exc, OSError):
             return f"connection error: {exc.strerror or exc}"
         return str(exc)

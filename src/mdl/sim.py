@@ -1,4 +1,4 @@
-"""`mdl sim`: the device as a Modbus TCP server holding exactly the addresses it uses.
+"""`mdl sim`: devices as a Modbus TCP server, each at its unit id, holding exactly the addresses it uses.
 
 The datastore is our own (a ModbusServerContext that answers itself), so that every address the
 device does not define gets exception 2 (ILLEGAL DATA ADDRESS), bits included, and writes to
@@ -16,14 +16,13 @@ from typing import TYPE_CHECKING, TextIO
 
 from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
-from pymodbus.exceptions import NoSuchIdException
 from pymodbus.server import ModbusTcpServer
 
 from mdl import codec
 from mdl.diagnostics import error
 from mdl.fileio import read_text
 from mdl.layout import layout
-from mdl.model import Device, Scenario
+from mdl.model import Device, Function, Scenario
 from mdl.plan import TABLE_ORDER, defined_addresses
 
 if TYPE_CHECKING:
@@ -104,68 +103,76 @@ class Registers:
                 else:
                     addresses[address] = value
 
-    def set_value(self, name: str, text: str) -> None:
-        fns = {fn.name: fn for fn in self.device.functions}
-        if name not in fns:
-            raise error(f"--set {name}: the device has no function '{name}'")
-        fn = fns[name]
+    def set_value(self, fn: Function, text: str) -> None:
         try:
             regs = codec.encode(fn, codec.parse_value(fn, text))
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
-            raise error(f"--set {name}={text}: {exc}") from None
+            raise error(f"--set {fn.name}={text}: {exc}") from None
         lay = layout(fn)
         for address, value in zip(lay.addresses, regs, strict=True):
             self.tables[lay.table][address] = value
 
 
-class SimContext(ModbusServerContext):
-    """Answers requests from `Registers`; pymodbus calls async_getValues/async_setValues."""
+def set_value(devices: Sequence[Registers], name: str, text: str) -> None:
+    """`--set NAME=VALUE`: the value of the function in every device that has it (one at least)."""
+    found = [(registers, fn) for registers in devices for fn in registers.device.functions if fn.name == name]
+    if not found:
+        where = "the device" if len(devices) == 1 else f"any of the {len(devices)} devices"
+        raise error(f"--set {name}: no function '{name}' in {where}")
+    for registers, fn in found:
+        registers.set_value(fn, text)
 
-    def __init__(self, registers: Registers, unit: int):  # pylint: disable=super-init-not-called
-        self.registers = registers
-        self.unit = unit
+
+class SimContext(ModbusServerContext):
+    """Answers requests from the `Registers` of each unit served; pymodbus calls async_getValues/async_setValues.
+
+    A request for a unit id no device is served at gets exception 11 (GATEWAY TARGET DEVICE FAILED TO
+    RESPOND), as from a gateway to a bus. Unit 0 stands for any unit id (one device only)."""
+
+    def __init__(self, units: dict[int, Registers]):  # pylint: disable=super-init-not-called
+        self.units = units
         self.old_simulator = True
         self.simdevices = []
 
     def device_ids(self) -> list[int]:
-        return [self.unit]
-
-    def _table(self, device_id: int, func_code: int) -> str:
-        if device_id != self.unit and self.unit != 0:
-            raise NoSuchIdException(f"unit {device_id} is not served")
-        return FC_TABLE.get(func_code, "")
+        return list(self.units)
 
     async def async_getValues(
         self, device_id: int, func_code: int, address: int, count: int = 1
     ) -> list[int] | list[bool] | ExcCodes:
-        table = self._table(device_id, func_code)
+        registers, table = self.units.get(device_id, self.units.get(0)), FC_TABLE.get(func_code, "")
+        if registers is None:  # no device at this unit id
+            return ExcCodes.GATEWAY_NO_RESPONSE
         if not table:
             return ExcCodes.ILLEGAL_FUNCTION
-        if not self.registers.defined(table, address, count):
+        if not registers.defined(table, address, count):
             return ExcCodes.ILLEGAL_ADDRESS
         span = {(table, a) for a in range(address, address + count)}
-        if span & self.registers.missing:
+        if span & registers.missing:
             return ExcCodes.ILLEGAL_ADDRESS
-        values = self.registers.get(table, address, count)
+        values = registers.get(table, address, count)
         return [bool(v) for v in values] if table in ("coil", "discrete") else values
 
     async def async_setValues(
         self, device_id: int, func_code: int, address: int, values: Sequence[int] | Sequence[bool]
     ) -> ExcCodes | None:
-        table = self._table(device_id, func_code)
+        registers, table = self.units.get(device_id, self.units.get(0)), FC_TABLE.get(func_code, "")
+        if registers is None:  # no device at this unit id
+            return ExcCodes.GATEWAY_NO_RESPONSE
         if table not in ("coil", "holding"):
             return ExcCodes.ILLEGAL_FUNCTION
-        if not self.registers.defined(table, address, len(values)):
+        if not registers.defined(table, address, len(values)):
             return ExcCodes.ILLEGAL_ADDRESS
-        if any(a in self.registers.read_only[table] for a in range(address, address + len(values))):
+        if any(a in registers.read_only[table] for a in range(address, address + len(values))):
             return ExcCodes.ILLEGAL_ADDRESS
-        self.registers.put(table, address, values)
-        self.registers.missing -= {(table, a) for a in range(address, address + len(values))}
+        registers.put(table, address, values)
+        registers.missing -= {(table, a) for a in range(address, address + len(values))}
         return None
 
 
-async def serve(registers: Registers, host: str, port: int, unit: int, out: TextIO = sys.stdout) -> None:
-    server = ModbusTcpServer(SimContext(registers, unit), address=(host, port))
+async def serve(units: dict[int, Registers], host: str, port: int, out: TextIO = sys.stdout) -> None:
+    """Serve every device at its unit on one connection; once listening, one ready line per device."""
+    server = ModbusTcpServer(SimContext(units), address=(host, port))
     await server.serve_forever(background=True)
     sockets = getattr(server.transport, "sockets", None) or []
     bound = sockets[0].getsockname()[1] if sockets else port
@@ -173,7 +180,9 @@ async def serve(registers: Registers, host: str, port: int, unit: int, out: Text
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    print(f"mdl sim: serving {registers.device.name} on {host}:{bound} unit {unit}", file=out, flush=True)
+    out.write("".join(f"mdl sim: serving {registers.device.name} on {host}:{bound} unit {unit}\n"
+                      for unit, registers in units.items()))
+    out.flush()
     try:
         await stop.wait()
     finally:
@@ -181,9 +190,9 @@ async def serve(registers: Registers, host: str, port: int, unit: int, out: Text
         await shutdown()
 
 
-def run(registers: Registers, host: str, port: int, unit: int) -> None:
+def run(units: dict[int, Registers], host: str, port: int) -> None:
     try:
-        asyncio.run(serve(registers, host, port, unit))
+        asyncio.run(serve(units, host, port))
     except RuntimeError as exc:
         raise error(f"cannot serve on {host}:{port}: {exc}") from None
     except OSError as exc:
