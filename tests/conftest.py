@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import codecs
 import os
 import selectors
+import shutil
 import signal
 import subprocess
 import sys
@@ -133,39 +135,62 @@ def fn_xml(name: str, addresses, **fields) -> str:
     return f"  <function>\n{body}  </function>\n"
 
 
+def _read_lines(stream, wanted, proc, timeout: float) -> list[str]:
+    """Whole lines of `stream` until `wanted(lines)` holds, the process ends, or `timeout` seconds pass.
+    Read from the file descriptor (unbuffered): a line never waits in a buffer select() cannot see."""
+    fd = stream.fileno()
+    decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")
+    deadline = time.monotonic() + timeout
+    text, lines = "", []
+    with selectors.DefaultSelector() as sel:
+        sel.register(fd, selectors.EVENT_READ)
+        while not wanted(lines) and time.monotonic() < deadline:
+            if sel.select(timeout=0.5):
+                data = os.read(fd, 4096)
+                if not data:
+                    break
+                text += decoder.decode(data)
+                *complete, text = text.split("\n")
+                lines += [line + "\n" for line in complete]
+            elif proc.poll() is not None:
+                break
+    return lines
+
+
 class Sim:
     """A running `mdl sim` of one device file, or of a list of them (one ready line each, at self.units);
-    stops it with SIGTERM and checks it stopped cleanly."""
+    stops it with SIGTERM and checks it stopped cleanly.
 
-    def __init__(self, path, *extra, timeout: float = 30):
+    On a free TCP port by default, or on `port` (self.host, self.port); with `serial=DEVICE` on that serial device
+    (self.device; the ready lines say `on DEVICE`). self.connection: the CLI options that reach it
+    (on a serial line, `--serial` of the sim's own end: a client needs the other end of the line)."""
+
+    def __init__(self, path, *extra, timeout: float = 30, serial: str | None = None, port: int = 0):
         paths = list(path) if isinstance(path, (list, tuple)) else [path]
-        self.proc = subprocess.Popen(mdl_cmd("sim", *paths, "--port", "0", *extra), stdout=subprocess.PIPE,
+        where = ["--serial", serial] if serial else ["--port", str(port)]
+        self.proc = subprocess.Popen(mdl_cmd("sim", *paths, *where, *extra), stdout=subprocess.PIPE,
                                      stderr=subprocess.PIPE, text=True)
-        sel = selectors.DefaultSelector()
-        sel.register(self.proc.stdout, selectors.EVENT_READ)
-        deadline = time.monotonic() + timeout
-        line = ""
-        while time.monotonic() < deadline:
-            if sel.select(timeout=0.5):
-                line = self.proc.stdout.readline()
-                break
-            if self.proc.poll() is not None:
-                break
-        sel.close()
-        lines = [line]
-        if line.startswith("mdl sim: serving"):  # the others are written at once with the first
-            lines += [self.proc.stdout.readline() for _ in paths[1:]]
-        if not all(line.startswith("mdl sim: serving") for line in lines):
+        lines = _read_lines(self.proc.stdout, lambda got: len(got) >= len(paths), self.proc, timeout)
+        if len(lines) < len(paths) or not all(line.startswith("mdl sim: serving") for line in lines):
             self.proc.kill()
             out, err = self.proc.communicate()
             raise RuntimeError(f"mdl sim did not start: {lines!r} {out!r} {err!r}")
         self.ready_lines = [line.rstrip("\n") for line in lines]
         self.ready_line = self.ready_lines[0]
-        self.port = int(line.rsplit(":", 1)[1].split()[0])
         self.units = [int(line.rsplit(" unit ", 1)[1]) for line in self.ready_lines]
-        self.host = "127.0.0.1"
+        served = self.ready_line.rsplit(" unit ", 1)[0].rsplit(" on ", 1)[1]
+        self.device, self.host, self.port = serial, None, None
+        if serial:
+            assert served == serial, (served, serial)
+            self.connection = ["--serial", serial]
+        else:
+            host, port = served.rsplit(":", 1)
+            self.host, self.port = host, int(port)
+            self.connection = ["--host", self.host, "--port", str(self.port)]
 
     def stop(self, sig=signal.SIGTERM) -> int:
+        if self.proc.stdout.closed:  # stopped before
+            return self.proc.returncode
         if self.proc.poll() is None:
             self.proc.send_signal(sig)
             try:
@@ -180,18 +205,67 @@ class Sim:
         return self.proc.returncode
 
 
+class SerialLine:
+    """Two serial devices wired to each other: a pseudo terminal pair made by
+    `socat -d -d pty,raw,echo=0 pty,raw,echo=0`, whose names socat prints on stderr (self.ends).
+    Without socat the test is skipped with the reason, or fails when CI=true."""
+
+    def __init__(self, timeout: float = 10):
+        if shutil.which("socat") is None:
+            skip_or_fail("socat is not installed: the serial tests wire two pseudo terminals with it "
+                         "(apt-get install socat)")
+        self.proc = subprocess.Popen(["socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        lines = _read_lines(self.proc.stderr, lambda got: sum(" PTY is " in line for line in got) == 2 or any(
+            "starting data transfer" in line for line in got), self.proc, timeout)
+        self.ends = [line.split(" PTY is ", 1)[1].strip() for line in lines if " PTY is " in line]
+        if len(self.ends) != 2:
+            self.close()
+            raise RuntimeError(f"socat made no pseudo terminal pair: {lines!r}")
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.proc.stderr.close()
+
+
 @pytest.fixture
 def sim_factory():
+    """start(path, *extra, serial=None, port=0) -> a running Sim, stopped when the test ends."""
     started: list[Sim] = []
 
-    def start(path, *extra) -> Sim:
-        sim = Sim(path, *extra)
+    def start(path, *extra, serial: str | None = None, port: int = 0) -> Sim:
+        sim = Sim(path, *extra, serial=serial, port=port)
         started.append(sim)
         return sim
 
-    yield start
-    for sim in started:
-        sim.stop()
+    try:
+        yield start
+    finally:
+        failures = []
+        for sim in started:  # each is stopped (killed if need be) even when another did not stop cleanly
+            try:
+                sim.stop()
+            except AssertionError as exc:
+                failures.append(exc)
+        if failures:
+            raise failures[0]
+
+
+@pytest.fixture
+def serial_line():
+    """A SerialLine (socat pseudo terminal pair), closed when the test ends; use it before the sims that
+    open its ends (fixtures end in reverse order: the sims stop first)."""
+    line = SerialLine()
+    try:
+        yield line
+    finally:
+        line.close()
 
 
 @pytest.fixture

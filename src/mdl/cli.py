@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
 from mdl import __version__
+from mdl.connection import Connection, connection_options
 from mdl.diagnostics import EXIT_INVALID, MdlError
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
@@ -19,7 +20,6 @@ if TYPE_CHECKING:
 
 SCHEMAS = click.Choice(["0.9b", "1.0"])
 STDOUT = Path(STDIO_ARG)
-F = TypeVar("F", bound=Callable[..., Any])
 T = TypeVar("T")
 
 
@@ -189,8 +189,7 @@ MAX_UNIT = 247
 
 @main.command()
 @click.argument("files", nargs=-1, required=True, type=INPUT)
-@click.option("--host", default="127.0.0.1", show_default=True)
-@click.option("--port", type=click.IntRange(0, 65535), default=5020, show_default=True, help="0 picks a free port.")
+@connection_options(serving=True)
 @click.option("--unit", "units", type=click.IntRange(0, MAX_UNIT), multiple=True,
               help="Unit id of each FILE, by position (default 1, 2, ...; 0: any unit, one FILE only).")
 @click.option("--registers", type=INPUT, multiple=True, help="Initial raw values (JSON) of each FILE, by position.")
@@ -199,19 +198,27 @@ MAX_UNIT = 247
 @click.option("--scenario", "scenarios", multiple=True,
               help="Seed each FILE's registers from its embedded test scenario of this id, by position.")
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
-def sim(files: tuple[Path, ...], host: str, port: int, units: tuple[int, ...], registers: tuple[Path, ...],
+def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...], registers: tuple[Path, ...],
         settings: tuple[str, ...], scenarios: tuple[str, ...], permissive: bool) -> None:
-    """Serve devices (MDL or Toolkit YAML) on one Modbus TCP connection until SIGINT/SIGTERM.
+    """Serve devices (MDL or Toolkit YAML) on one connection until SIGINT/SIGTERM: Modbus TCP, Modbus RTU
+    on a serial line (--serial DEVICE), or RTU frames over TCP (--framer rtu).
 
-    Several FILEs share the connection as devices share a bus, each at its own unit id; any other
-    unit id is answered with exception 11. --unit, --registers and --scenario go with the FILEs
-    by position (the same FILE may be given more than once).
+    Several FILEs share the connection as devices share a bus, each at its own unit id. Any other
+    unit id gets exception 11 on Modbus TCP, and no answer at all on RTU framing, as on a bus.
+    --unit, --registers and --scenario go with the FILEs by position (the same FILE may be given
+    more than once). When ready it prints, per device, `mdl sim: serving NAME on HOST:PORT unit U`
+    (on a serial line `on DEVICE unit U`).
 
     \b
     Examples:
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 --set room_temperature=21.5
       mdl sim examples/toolkit_heat_pump/heat_pump.yaml --port 5021 --scenario Heating
       mdl sim examples/temco_tstat/temco_tstat.xml examples/toolkit_heat_pump/heat_pump.yaml --port 5022
+      mdl sim examples/temco_tstat/temco_tstat.xml --port 5023 --framer rtu
+
+    \b
+    On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
+      $ mdl sim examples/temco_tstat/temco_tstat.xml --serial /dev/pts/3 --baud 9600 --parity E
     """
     from mdl import sim as simulator
     from mdl.loading import load_any
@@ -233,7 +240,7 @@ def sim(files: tuple[Path, ...], host: str, port: int, units: tuple[int, ...], r
         if not sep:
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
         simulator.set_value(devices, name.strip(), value.strip())
-    simulator.run(dict(zip(served, devices, strict=True)), host, port)
+    simulator.run(dict(zip(served, devices, strict=True)), connection)
 
 
 def _by_position(option: str, values: tuple[T, ...], files: int) -> list[T | None]:
@@ -337,38 +344,53 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
     return out
 
 
-def _connection_options(f: F) -> F:
-    f = click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True,
-                     help="Times a request that got no reply is sent again.")(f)
-    f = click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True,
-                     help="Seconds to wait for each reply.")(f)
-    f = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True)(f)
-    f = click.option("--port", type=click.IntRange(1, 65535), default=502, show_default=True)(f)
-    f = click.option("--host", required=True, help="Device address.")(f)
-    return f
+unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True,
+                           help="Unit (device) id to talk to.")
 
 
 @main.command()
 @click.argument("file", type=INPUT)
 @click.argument("names", nargs=-1)
-@_connection_options
+@connection_options()
+@unit_option
 @click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table",
               show_default=True)
-def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, timeout: float, retries: int,
-         fmt: str) -> None:
+@click.option("--interval", type=click.FloatRange(0.1, 86400), metavar="S",
+              help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.")
+@click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
+def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, fmt: str, interval: float | None,
+         count: int | None) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
+    With --interval, poll: one record per poll (json: one object per line, "time" first; csv: a header,
+    then a row per poll; table: a block per poll; senml: one document per line with the time as bt),
+    flushed at once. A failed poll is reported on stderr and polling goes on, connecting again; SIGINT
+    or --count ends it, exit 0, or 3 if the last poll failed. A poll slower than S is followed at once
+    by the next, never by a burst to catch up.
+
     \b
-    Example:
+    Examples:
       mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 fan_speed --format json
+      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 --interval 0.5 --count 3 --format csv
+      mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5023 --framer rtu room_temperature
+
+    \b
+    On a serial line, and as a logger to stop with Ctrl-C:
+      $ mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --baud 9600 --parity E --unit 3
+      $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 1 --format csv > log.csv
     """
     from mdl import output
     from mdl.loading import load_any
+    from mdl.poll import poll
     from mdl.runtime import Session
 
+    if count is not None and interval is None:
+        raise click.UsageError("--count needs --interval (polling)")
     device = load_any(file)
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
-    with Session(device, host, port, unit, timeout, retries) as session:
+    if interval is not None:
+        sys.exit(poll(Session(device, connection, unit), functions, fmt, interval, count))
+    with Session(device, connection, unit) as session:
         values = session.read(functions)
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
@@ -376,14 +398,19 @@ def read(file: Path, names: tuple[str, ...], host: str, port: int, unit: int, ti
 @main.command()
 @click.argument("file", type=INPUT)
 @click.argument("assignments", nargs=-1, required=True, metavar="NAME=VALUE...")
-@_connection_options
-def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: int, timeout: float,
-          retries: int) -> None:
+@connection_options()
+@unit_option
+def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit: int) -> None:
     """Encode and write values; read-only functions and values outside minimum/maximum are refused.
 
     \b
-    Example:
+    Examples:
       mdl write examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020 occupied_setpoint=22.5
+      mdl write examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5023 --framer rtu fan_speed=2
+
+    \b
+    On a serial line:
+      $ mdl write examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --unit 3 fan_speed=2
     """
     from mdl import codec
     from mdl.diagnostics import error
@@ -403,6 +430,6 @@ def write(file: Path, assignments: tuple[str, ...], host: str, port: int, unit: 
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
             raise error(f"{fn.name}={text}: {exc}") from None
         todo.append((fn, value))
-    with Session(device, host, port, unit, timeout, retries) as session:
+    with Session(device, connection, unit) as session:
         for fn, value in todo:
             session.write(fn, value)

@@ -2,9 +2,9 @@
 
 Replies are checked before they are trusted: pymodbus decodes a reply for a function other than the
 one asked, more or fewer registers than asked, or a byte count that disagrees with the data, without
-a word. The client's trace hook keeps the bytes of each request and of its reply, and `reply_problem`
-holds the reply against the request; anything wrong, and any broken connection, is a DeviceError (exit 3)
-naming the connection, the unit and what was wrong.
+a word. The client's trace hook keeps the bytes of each request and of its reply (Modbus TCP or RTU
+frames), and `reply_problem` holds the reply against the request; anything wrong, and any broken
+connection, is a DeviceError (exit 3) naming the connection, the unit and what was wrong.
 """
 
 from __future__ import annotations
@@ -14,11 +14,12 @@ import struct
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
+from pymodbus.framer import FramerRTU
 from pymodbus.pdu import ModbusPDU
 
 from mdl import codec
+from mdl.connection import Connection
 from mdl.diagnostics import DeviceError, error
 from mdl.evaluate import evaluate
 from mdl.expr.fields import evaluation_order
@@ -32,6 +33,8 @@ EXCEPTION_NAMES = {
     8: "MEMORY PARITY ERROR", 10: "GATEWAY PATH UNAVAILABLE", 11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
 }
 MBAP = struct.Struct(">HHHB")  # transaction id, protocol id (0), length of what follows, unit id
+RTU_MIN = 4  # unit id, function code, CRC (2 bytes)
+Frame = tuple[int, int, bytes]  # transaction id (0 on RTU), unit id, PDU
 
 
 class ModbusExceptionError(DeviceError):
@@ -39,7 +42,7 @@ class ModbusExceptionError(DeviceError):
         super().__init__(f"{what}: Modbus exception {code} ({EXCEPTION_NAMES.get(code, 'unknown')})", code)
 
 
-def frames(data: bytes) -> Iterator[tuple[int, int, bytes]]:
+def frames(data: bytes) -> Iterator[Frame]:
     """(transaction id, unit id, PDU) of each whole Modbus TCP frame at the start of `data`."""
     while len(data) > MBAP.size:
         tid, protocol, length, unit = MBAP.unpack_from(data)
@@ -48,6 +51,31 @@ def frames(data: bytes) -> Iterator[tuple[int, int, bytes]]:
             return
         yield tid, unit, data[MBAP.size:end]
         data = data[end:]
+
+
+def rtu_frames(data: bytes) -> Iterator[Frame]:
+    """(0, unit id, PDU) of each Modbus RTU reply frame with a good CRC in `data`; bytes that start no
+    such frame are skipped, as a client hunting for a frame on a noisy line skips them."""
+    start = 0
+    while len(data) - start >= RTU_MIN:
+        size = _rtu_reply_size(data[start:])
+        end = start + size
+        if size and end <= len(data) and FramerRTU.compute_CRC(data[start:end - 2]) == int.from_bytes(
+                data[end - 2:end], "big"):
+            yield 0, data[start], data[start + 1:end - 2]
+            start = end
+        else:
+            start += 1
+
+
+def _rtu_reply_size(data: bytes) -> int:
+    """The length of the RTU reply frame at the start of `data`, from its function code (0: not a reply)."""
+    fc = data[1]
+    if fc & 0x80:
+        return 5  # unit, function code, exception code, CRC
+    if fc in (1, 2, 3, 4):
+        return 5 + data[2] if len(data) > 2 else 0  # unit, function code, byte count, data, CRC
+    return 8 if fc in (5, 6, 15, 16) else 0  # unit, function code, address, value or count, CRC
 
 
 def reply_problem(request: bytes, reply: bytes) -> str | None:
@@ -82,7 +110,8 @@ def _read_reply_problem(request: bytes, reply: bytes) -> str | None:
 class Wire:
     """The bytes of the last request and of what came back, from pymodbus's packet trace hook."""
 
-    def __init__(self) -> None:
+    def __init__(self, rtu: bool = False) -> None:
+        self.rtu = rtu
         self.request = b""
         self.received: list[bytes] = []  # the client's receive buffer each time data arrived
 
@@ -97,57 +126,78 @@ class Wire:
             self.received.append(data)
         return data
 
+    def _sent(self) -> Frame:
+        """(transaction id, unit id, PDU) of the last request."""
+        if self.rtu:
+            return 0, self.request[0], self.request[1:-2]
+        tid, _, _, unit = MBAP.unpack_from(self.request)
+        return tid, unit, self.request[MBAP.size:]
+
+    def _frames(self, data: bytes) -> Iterator[Frame]:
+        return rtu_frames(data) if self.rtu else frames(data)
+
     def accepted_problem(self) -> str | None:
         """What is wrong with the reply the client accepted: the frame it decoded is in its last buffer."""
-        tid, _, _, unit = MBAP.unpack_from(self.request)
-        pdu = next((pdu for t, u, pdu in frames(self.received[-1] if self.received else b"")
+        tid, unit, request = self._sent()
+        pdu = next((pdu for t, u, pdu in self._frames(self.received[-1] if self.received else b"")
                     if (t, u) == (tid, unit)), None)
         if pdu is None:
             return "the reply the client decoded is not in the bytes received"
-        return reply_problem(self.request[MBAP.size:], pdu)
+        return reply_problem(request, pdu)
 
     def refused_problem(self) -> str | None:
         """What is wrong with what came back for a request the client got no reply to, or None if nothing did."""
         if not self.received:
             return None
         data = self.received[0]  # from where the reply began
-        found = next(frames(data), None)
+        found = next(self._frames(data), None)
         if found is None:
-            return f"the reply is not a Modbus TCP frame ({len(data)} bytes: {data[:16].hex(' ')})"
-        tid, _, _, unit = MBAP.unpack_from(self.request)
+            kind = "RTU" if self.rtu else "TCP"
+            return f"the reply is not a Modbus {kind} frame ({len(data)} bytes: {data[:16].hex(' ')})"
+        tid, unit, request = self._sent()
         if found[0] != tid:
             return f"the reply's transaction id is {found[0]}, expected {tid}"
         if found[1] != unit:
             return f"the reply comes from unit {found[1]}"
-        return reply_problem(self.request[MBAP.size:], found[2]) or "the reply could not be decoded"
+        return reply_problem(request, found[2]) or "the reply could not be decoded"
 
 
 class Session:
-    """A connection to one unit of a Modbus TCP device."""
+    """A connection to one unit of a device: Modbus TCP, RTU on a serial line, or RTU over TCP."""
 
-    def __init__(self, device: Device, host: str, port: int = 502, unit: int = 1, timeout: float = 3.0,
-                 retries: int = 1):
+    def __init__(self, device: Device, connection: Connection, unit: int = 1):
         self.device = device
-        self.host, self.port, self.unit = host, port, unit
-        self.timeout, self.tries = timeout, retries + 1
+        self.connection, self.unit = connection, unit
+        self.tries = connection.retries + 1
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-        self.wire = Wire()
-        self.client = ModbusTcpClient(host, port=port, timeout=timeout, retries=self.tries - 1,
-                                      trace_packet=self.wire.trace)
+        self.wire = Wire(connection.rtu)
+        self.client = connection.client(self.wire.trace)
         self.refused: set[Request] = set()
 
     def __enter__(self) -> Session:
-        connect: Callable[[], bool] = self.client.connect  # typed here: pymodbus leaves it unannotated
-        if not connect():
-            raise DeviceError(f"cannot connect to {self.host}:{self.port}: no Modbus TCP device answers")
+        self.connect()
         return self
 
     def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def connect(self) -> None:
+        """Open the connection unless it is open (again, after `close`); DeviceError if it cannot be opened."""
+        connect: Callable[[], bool] = self.client.connect  # typed here: pymodbus leaves it unannotated
+        if connect():
+            return
+        conn = self.connection
+        if conn.serial is not None:
+            raise DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
+        nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
+        raise DeviceError(f"cannot connect to {conn}: {nobody}")
+
+    def close(self) -> None:
         close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
         close()
 
     def where(self, what: str) -> str:
-        return f"{self.host}:{self.port} unit {self.unit}: {what}"
+        return f"{self.connection} unit {self.unit}: {what}"
 
     def _call(self, what: str, method: Callable[..., ModbusPDU], *args: Any, **kw: Any) -> ModbusPDU:
         self.wire.clear()
@@ -163,14 +213,20 @@ class Session:
         return result
 
     def _failure(self, exc: ModbusException | OSError) -> str:
-        """Why a request got no reply the client would decode."""
+        """Why a request got no reply the client would decode; on an RTU line that gave no answer at all,
+        or no RTU frame, what to check."""
         problem = self.wire.refused_problem()
+        hint = self.connection.silence_hint()
         if problem:
-            return problem
+            return f"{problem}; {hint}" if hint and problem.startswith("the reply is not") else problem
         if isinstance(exc, ConnectionException):
+            if self.connection.serial is not None:
+                return f"the serial device failed: {self.connection.open_error() or 'it closed'}"
             return "the connection closed without a reply"
         if isinstance(exc, ModbusIOException):
-            return f"no reply within {self.timeout:g} s ({self.tries} {'try' if self.tries == 1 else 'tries'})"
+            tries = f"{self.tries} {'try' if self.tries == 1 else 'tries'}"
+            silent = f"no reply within {self.connection.timeout:g} s ({tries})"
+            return f"{silent}; {hint}" if hint else silent
         if isinstance(exc, OSError):
             return f"connection error: {exc.strerror or exc}"
         return str(exc)

@@ -1,5 +1,6 @@
-"""`mdl sim`: devices as a Modbus TCP server, each at its unit id, holding exactly the addresses it uses.
+"""`mdl sim`: devices as a Modbus server, each at its unit id, holding exactly the addresses it uses.
 
+The server is Modbus TCP, RTU on a serial line, or RTU frames over TCP (mdl.connection builds it).
 The datastore is our own (a ModbusServerContext that answers itself), so that every address the
 device does not define gets exception 2 (ILLEGAL DATA ADDRESS), bits included, and writes to
 functions the description marks read-only are refused with exception 2 as well.
@@ -16,9 +17,10 @@ from typing import TYPE_CHECKING, TextIO
 
 from pymodbus.constants import ExcCodes
 from pymodbus.datastore import ModbusServerContext
-from pymodbus.server import ModbusTcpServer
+from pymodbus.exceptions import NoSuchIdException
 
 from mdl import codec
+from mdl.connection import Connection
 from mdl.diagnostics import error
 from mdl.fileio import read_text
 from mdl.layout import layout
@@ -127,20 +129,29 @@ class SimContext(ModbusServerContext):
     """Answers requests from the `Registers` of each unit served; pymodbus calls async_getValues/async_setValues.
 
     A request for a unit id no device is served at gets exception 11 (GATEWAY TARGET DEVICE FAILED TO
-    RESPOND), as from a gateway to a bus. Unit 0 stands for any unit id (one device only)."""
+    RESPOND), as from a gateway to a bus; `silent` (RTU framing, where the server is the bus): no
+    answer at all, as no device on a bus answers for another. Unit 0 stands for any unit id (one device only)."""
 
-    def __init__(self, units: dict[int, Registers]):  # pylint: disable=super-init-not-called
+    def __init__(self, units: dict[int, Registers], silent: bool = False):  # pylint: disable=super-init-not-called
         self.units = units
+        self.silent = silent
         self.old_simulator = True
         self.simdevices = []
 
     def device_ids(self) -> list[int]:
         return list(self.units)
 
+    def _registers(self, device_id: int) -> Registers | None:
+        """The device at `device_id`; None (exception 11) or, when silent, no answer if there is none."""
+        registers = self.units.get(device_id, self.units.get(0))
+        if registers is None and self.silent:
+            raise NoSuchIdException(f"no device at unit {device_id}")  # the server then sends nothing
+        return registers
+
     async def async_getValues(
         self, device_id: int, func_code: int, address: int, count: int = 1
     ) -> list[int] | list[bool] | ExcCodes:
-        registers, table = self.units.get(device_id, self.units.get(0)), FC_TABLE.get(func_code, "")
+        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
         if registers is None:  # no device at this unit id
             return ExcCodes.GATEWAY_NO_RESPONSE
         if not table:
@@ -156,7 +167,7 @@ class SimContext(ModbusServerContext):
     async def async_setValues(
         self, device_id: int, func_code: int, address: int, values: Sequence[int] | Sequence[bool]
     ) -> ExcCodes | None:
-        registers, table = self.units.get(device_id, self.units.get(0)), FC_TABLE.get(func_code, "")
+        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
         if registers is None:  # no device at this unit id
             return ExcCodes.GATEWAY_NO_RESPONSE
         if table not in ("coil", "holding"):
@@ -170,17 +181,21 @@ class SimContext(ModbusServerContext):
         return None
 
 
-async def serve(units: dict[int, Registers], host: str, port: int, out: TextIO = sys.stdout) -> None:
+async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
     """Serve every device at its unit on one connection; once listening, one ready line per device."""
-    server = ModbusTcpServer(SimContext(units), address=(host, port))
+    if connection.serial is not None:
+        reason = connection.open_error()
+        if reason:
+            raise error(f"cannot serve on {connection.serial}: {reason}")
+    server = connection.server(SimContext(units, silent=connection.rtu))
     await server.serve_forever(background=True)
     sockets = getattr(server.transport, "sockets", None) or []
-    bound = sockets[0].getsockname()[1] if sockets else port
+    where = connection.serving_at(sockets[0].getsockname()[1] if sockets else connection.port)
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    out.write("".join(f"mdl sim: serving {registers.device.name} on {host}:{bound} unit {unit}\n"
+    out.write("".join(f"mdl sim: serving {registers.device.name} on {where} unit {unit}\n"
                       for unit, registers in units.items()))
     out.flush()
     try:
@@ -190,10 +205,11 @@ async def serve(units: dict[int, Registers], host: str, port: int, out: TextIO =
         await shutdown()
 
 
-def run(units: dict[int, Registers], host: str, port: int) -> None:
+def run(units: dict[int, Registers], connection: Connection) -> None:
+    where = connection.serving_at(connection.port)
     try:
-        asyncio.run(serve(units, host, port))
+        asyncio.run(serve(units, connection))
     except RuntimeError as exc:
-        raise error(f"cannot serve on {host}:{port}: {exc}") from None
+        raise error(f"cannot serve on {where}: {exc}") from None
     except OSError as exc:
-        raise error(f"cannot serve on {host}:{port}: {exc.strerror or exc}") from None
+        raise error(f"cannot serve on {where}: {exc.strerror or exc}") from None

@@ -1,0 +1,192 @@
+"""Connections to Modbus devices (SPEC section 9): the one place that turns connection options into
+pymodbus clients and servers.
+
+Three kinds: Modbus TCP (`--host H --port P`), Modbus RTU on a serial line (`--serial DEVICE` with
+`--baud --parity --stopbits --bytesize`), and RTU frames over TCP (`--host H --port P --framer rtu`,
+as serial-to-Ethernet converters carry them). `connection_options` is the click decorator that
+`mdl read`, `mdl write` and `mdl sim` share: it turns the options into one `Connection` argument.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeVar, cast
+
+import click
+from click.core import ParameterSource
+
+if TYPE_CHECKING:
+    from pymodbus.client import ModbusBaseSyncClient
+    from pymodbus.datastore import ModbusServerContext
+    from pymodbus.framer import FramerType
+    from pymodbus.server import ModbusBaseServer
+
+F = TypeVar("F", bound=Callable[..., Any])
+Trace = Callable[[bool, bytes], bytes]
+Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
+
+SERIAL_OPTIONS = ("baud", "parity", "stopbits", "bytesize")
+OPTION_NAMES = ("host", "port", "serial", *SERIAL_OPTIONS, "framer", "timeout", "retries")
+SIM_HOST, SIM_PORT, DEVICE_PORT = "127.0.0.1", 5020, 502
+
+
+@dataclass(frozen=True)
+class Connection:
+    """Where a device is and how frames travel there. `serial` set: RTU on that serial device;
+    otherwise TCP to host:port, with RTU frames when `rtu` is true."""
+
+    host: str = SIM_HOST
+    port: int = DEVICE_PORT
+    serial: str | None = None
+    baud: int = 19200
+    parity: str = "N"
+    stopbits: int = 1
+    bytesize: int = 8
+    rtu: bool = False
+    timeout: float = 3.0
+    retries: int = 1
+
+    def __str__(self) -> str:
+        """The connection as messages name it: `/dev/ttyUSB0 (19200 8N1)`, `host:port`, `host:port (RTU over TCP)`."""
+        if self.serial is not None:
+            return f"{self.serial} ({self.baud} {self.bytesize}{self.parity}{self.stopbits})"
+        return f"{self.host}:{self.port}{' (RTU over TCP)' if self.rtu else ''}"
+
+    @property
+    def framer(self) -> FramerType:
+        from pymodbus.framer import FramerType
+
+        return FramerType.RTU if self.rtu else FramerType.SOCKET
+
+    def client(self, trace: Trace | None = None) -> ModbusBaseSyncClient:
+        """A synchronous pymodbus client, not yet connected. `retries` counts the sends after the first."""
+        from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+
+        if self.serial is not None:
+            return ModbusSerialClient(self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits,
+                                      bytesize=self.bytesize, timeout=self.timeout, retries=self.retries,
+                                      trace_packet=trace)
+        return ModbusTcpClient(self.host, port=self.port, framer=self.framer, timeout=self.timeout,
+                               retries=self.retries, trace_packet=trace)
+
+    def server(self, context: ModbusServerContext) -> ModbusBaseServer:
+        """A pymodbus server of `context` (to be created inside the running event loop). On RTU framing a
+        request for a unit the context does not serve gets no answer, as on a bus."""
+        from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+
+        if self.serial is not None:
+            return ModbusSerialServer(context, port=self.serial, baudrate=self.baud, parity=self.parity,
+                                      stopbits=self.stopbits, bytesize=self.bytesize, ignore_missing_devices=True)
+        return ModbusTcpServer(context, framer=self.framer, address=(self.host, self.port),
+                               ignore_missing_devices=self.rtu)
+
+    def serving_at(self, bound_port: int) -> str:
+        """Where a server listens, for `mdl sim`'s ready line: the serial device, or host:port."""
+        return self.serial if self.serial is not None else f"{self.host}:{bound_port}"
+
+    def open_error(self) -> str | None:
+        """Why the serial device cannot be opened as pyserial opens it (read-write, an exclusive lock, a
+        terminal's settings), in the operating system's words; None if it can, or if the system cannot tell."""
+        if self.serial is None or "://" in self.serial or os.name != "posix":
+            return None
+        import fcntl
+        import termios
+
+        try:
+            fd = os.open(self.serial, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+        except OSError as exc:
+            return exc.strerror or str(exc)
+        try:
+            termios.tcgetattr(fd)
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except termios.error as exc:
+            return f"not a serial device ({exc.args[-1]})"
+        except OSError:
+            return "another program has it open"
+        finally:
+            os.close(fd)  # which releases the lock
+        return None
+
+    def silence_hint(self) -> str:
+        """What to check when an RTU line gives no answer at all; empty on Modbus TCP."""
+        if self.serial is not None:
+            return "check baud rate, parity and unit id"
+        if self.rtu:
+            return "check the unit id, and the converter's baud rate and parity"
+        return ""
+
+
+def connection_options(serving: bool = False) -> Callable[[F], F]:
+    """The CONNECTION options of SPEC section 9, handed to the command as one `connection: Connection`.
+
+    `serving` (mdl sim): --host defaults to 127.0.0.1 and --port to 5020 (0 picks a free port), and there
+    is no --timeout/--retries. Otherwise (a client) --host or --serial is required, --port defaults to 502."""
+
+    def decorate(command: F) -> F:
+        @functools.wraps(command)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            given = {name: kwargs.pop(name) for name in OPTION_NAMES if name in kwargs}
+            kwargs["connection"] = _build(given, serving)
+            return command(*args, **kwargs)
+
+        decorated: Callable[..., Any] = wrapper
+        for option in reversed(_options(serving)):
+            decorated = option(decorated)
+        return cast(F, decorated)
+
+    return decorate
+
+
+def _options(serving: bool) -> list[Decorator]:
+    """The click options, in the order --help lists them."""
+    if serving:
+        address = [click.option("--host", default=SIM_HOST, show_default=True, help="Address to listen on (TCP)."),
+                   click.option("--port", type=click.IntRange(0, 65535), default=SIM_PORT, show_default=True,
+                                help="TCP port; 0 picks a free port.")]
+    else:
+        address = [click.option("--host", help="Device address (Modbus TCP); or give --serial."),
+                   click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, show_default=True)]
+    line = [
+        click.option("--serial", metavar="DEVICE", help="Serial device for Modbus RTU, e.g. /dev/ttyUSB0."),
+        click.option("--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True,
+                     help="Serial line speed."),
+        click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N",
+                     show_default=True, help="Serial parity: none, even, odd."),
+        click.option("--stopbits", type=click.IntRange(1, 2), default=1, show_default=True),
+        click.option("--bytesize", type=click.IntRange(7, 8), default=8, show_default=True,
+                     help="Data bits (Modbus RTU uses 8)."),
+        click.option("--framer", type=click.Choice(["tcp", "rtu"]),
+                     help="Framing on TCP: tcp (Modbus TCP, the default) or rtu (RTU frames, as serial-to-Ethernet "
+                          "converters carry them). A serial line always carries RTU."),
+    ]
+    client: list[Decorator] = [] if serving else [
+        click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True,
+                     help="Seconds to wait for each reply."),
+        click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True,
+                     help="Times a request that got no reply is sent again."),
+    ]
+    return address + line + client
+
+
+def _build(given: dict[str, Any], serving: bool) -> Connection:
+    """The Connection the options describe; options that contradict each other are a usage error."""
+    ctx = click.get_current_context()
+    explicit = {name for name in given if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT}
+    serial, framer = given.get("serial"), given.get("framer")
+    if serial is not None:
+        both = sorted(explicit & {"host", "port"})
+        if both:
+            raise click.UsageError(f"--serial and --{both[0]}: give one connection, a serial line or a TCP address")
+        if framer == "tcp":
+            raise click.UsageError("--framer tcp: a serial line carries RTU frames (--framer tcp needs --host)")
+    else:
+        line_only = [name for name in SERIAL_OPTIONS if name in explicit]
+        if line_only:
+            raise click.UsageError(f"--{line_only[0]} sets a serial line: it needs --serial DEVICE")
+        if not serving and given.get("host") is None:
+            raise click.UsageError("no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)")
+    values = {name: value for name, value in given.items() if name != "framer" and value is not None}
+    return Connection(rtu=serial is not None or framer == "rtu", **values)
