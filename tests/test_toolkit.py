@@ -5,17 +5,16 @@ from __future__ import annotations
 
 import json
 import re
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import REFERENCE, ROOT, Sim, assert_clean_error, import_generated, run_mdl
+from conftest import REFERENCE, ROOT, Sim, assert_clean_error, cli, import_generated, run_mdl
 from cpp_harness import Harness, build
 from pymodbus.client import ModbusTcpClient
 
 from mdl.gen import render
 from mdl.loading import load_any
-from mdl.names import identifier
+from mdl.names import stem
 from mdl.testing import matches
 
 FILES = sorted(REFERENCE.glob("*.yaml"))
@@ -25,7 +24,7 @@ reference = pytest.mark.conformance("modbus-schema-reference")
 
 
 def test_heat_pump_example_passes_its_own_scenarios():
-    proc = run_mdl("test", HEAT_PUMP)
+    proc = cli("test", HEAT_PUMP)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.splitlines()[-1] == "2 passed, 0 failed"
 
@@ -38,7 +37,7 @@ def test_reference_files_are_all_there():
 
 @reference
 def test_mdl_test_on_yaml():
-    proc = run_mdl("test", *FILES, timeout=300)
+    proc = cli("test", *FILES)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
 
@@ -49,7 +48,7 @@ def imported(tmp_path_factory):
     paths = []
     for f in FILES:
         target = out / f"{f.stem}.xml"
-        proc = run_mdl("import", f, "-o", target)
+        proc = cli("import", f, "-o", target)
         assert proc.returncode == 0, proc.stderr
         paths.append(target)
     return paths
@@ -57,30 +56,32 @@ def imported(tmp_path_factory):
 
 @reference
 def test_imported_mdl_validates_and_passes(imported):
-    proc = run_mdl("validate", *imported)
+    proc = cli("validate", *imported)
     assert proc.returncode == 0, proc.stderr
     assert all("valid MDL 1.0 (extensions:" in line and "expression" in line and "tests" in line
                for line in proc.stdout.splitlines())
-    proc = run_mdl("test", *imported, timeout=300)
+    proc = cli("test", *imported)
     assert proc.returncode == 0, proc.stdout
     assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
 
 
 @reference
 def test_failures_are_reported_with_scenario_field_expected_and_got(tmp_path):
-    text = (REFERENCE / "Float.yaml").read_text().replace("Float32_NI      : [ 1234.567 ]", "Float32_NI      : [ 1234.568 ]")
+    text = (REFERENCE / "Float.yaml").read_text()
+    text = text.replace("Float32_NI      : [ 1234.567 ]", "Float32_NI      : [ 1234.568 ]")
     path = tmp_path / "Float.yaml"
     path.write_text(text)
-    proc = run_mdl("test", path)
+    proc = cli("test", path)
     assert proc.returncode == 1
-    assert f"{path}: test 'Float: Normal values': Float32_NI: expected ['1234.568'], got ['1234.5670166015625']" in proc.stdout
+    assert (f"{path}: test 'Float: Normal values': Float32_NI: expected ['1234.568'], got ['1234.5670166015625']"
+            in proc.stdout)
     assert proc.stdout.splitlines()[-1] == "4 passed, 1 failed"
 
 
 def _python_device(device, workdir: Path):
-    name = f"{identifier(device.name)}.py"
+    name = f"{stem(device.name)}.py"
     (workdir / name).write_text(render(device, "ref.xml", "python")[name])
-    module = import_generated(workdir / name, f"tk_{identifier(device.name)}")
+    module = import_generated(workdir / name, f"tk_{stem(device.name)}")
     return next(getattr(module, n) for n in module.__all__ if not n.startswith("Async") and n[0].isupper()
                 and not n.endswith("Error"))
 
@@ -88,37 +89,39 @@ def _python_device(device, workdir: Path):
 @pytest.mark.parametrize("yaml_file", [*(pytest.param(f, marks=reference) for f in FILES), HEAT_PUMP],
                          ids=lambda p: p.stem)
 def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
+    """One simulator per file serves scenario k at unit k (k = 1, 2, ...); the Python driver and the C++
+    harness read every unit."""
     device = load_any(yaml_file)
     driver_cls = _python_device(device, tmp_path)
     exe = build(device, tmp_path)
-    with ThreadPoolExecutor(max_workers=4) as pool:  # start the simulators side by side
-        sims = list(pool.map(lambda sc: Sim(yaml_file, "--scenario", sc.id), device.tests))
+    sim = Sim([yaml_file] * len(device.tests), *[arg for sc in device.tests for arg in ("--scenario", sc.id)])
     try:
-        for sc, sim in zip(device.tests, sims):
-            client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
-            assert client.connect()
+        client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+        assert client.connect()
+        try:
+            values = {("python", unit): driver_cls(client, unit=unit).read_all() for unit in sim.units}
+        finally:
+            client.close()
+        for unit in sim.units:
+            harness = Harness(exe, sim.port, unit=unit)
             try:
-                py_values = driver_cls(client).read_all()
-            finally:
-                client.close()
-            harness = Harness(exe, sim.port)
-            try:
-                cpp_values = harness.values()
+                values[("c++", unit)] = harness.values()
             finally:
                 harness.close()
-            for name, want in sc.expected.items():
-                assert matches(py_values[name], want), (sc.id, name, "python", py_values[name], want)
-                assert matches(cpp_values[name], want), (sc.id, name, "c++", cpp_values[name], want)
     finally:
-        for sim in sims:
-            sim.stop()
+        sim.stop()
+    scenarios = dict(zip(sim.units, device.tests, strict=True))
+    for (language, unit), got in values.items():
+        sc = scenarios[unit]
+        for name, want in sc.expected.items():
+            assert matches(got[name], want), (sc.id, name, language, got[name], want)
 
 
 @reference
 def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
     path = REFERENCE / "QuickTestDevice.yaml"
     mdl_file = tmp_path / "q.xml"
-    assert run_mdl("import", path, "-o", mdl_file).returncode == 0
+    assert cli("import", path, "-o", mdl_file).returncode == 0
     sim = sim_factory(mdl_file, "--scenario", "Normal values")
     proc = run_mdl("read", mdl_file, "--host", sim.host, "--port", sim.port, "MyEnum", "MyBitset1",
                    "Boolean Field Reference", "CombinedNumerical", "MyFloatNI", "--format", "json")
@@ -136,7 +139,7 @@ def test_max_registers_per_request_is_honoured(tmp_path):
     from mdl.plan import plan_reads
 
     assert all(r.count <= 42 for r in plan_reads(device))
-    assert 'max_registers="42"' in run_mdl("import", REFERENCE / "QuickTestDevice.yaml").stdout
+    assert 'max_registers="42"' in cli("import", REFERENCE / "QuickTestDevice.yaml").stdout
 
 
 def _schema(tmp_path, expression: str, extra_field: str = "") -> Path:
@@ -165,30 +168,37 @@ blocks:
 ])
 def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, message):
     path = _schema(tmp_path, expression)
-    for command in (["import", path], ["test", path], ["sim", path, "--port", "0"]):
-        proc = run_mdl(*command)
-        assert_clean_error(proc, 1, f"{path}:8:{col}: error: field 'Bad' of block 'Main':", message)
+    for command in ("import", "test"):
+        assert_clean_error(cli(command, path), 1, f"{path}:8:{col}: error: field 'Bad' of block 'Main':", message)
+
+
+def test_sim_reports_expression_errors(tmp_path):
+    path = _schema(tmp_path, "Good + Nosuch")
+    assert_clean_error(run_mdl("sim", path, "--port", "0"), 1,
+                       f"{path}:8:8: error: field 'Bad' of block 'Main':", "unknown field 'Nosuch'")
 
 
 def test_mdl_validate_lists_every_expression_problem(tmp_path):
     xml = tmp_path / "x.xml"
-    text = run_mdl("import", _schema(tmp_path, "Good + 1")).stdout
+    text = cli("import", _schema(tmp_path, "Good + 1")).stdout
     text = text.replace("<expression>Good + 1</expression>", "<expression>Good + Nosuch</expression>")
     text = text.replace("<expression>int16(hr:0)</expression>", "<expression>int16(hr:0; 0xDE 0xAD)</expression>")
     xml.write_text(text)
-    proc = run_mdl("validate", xml)
+    proc = cli("validate", xml)
     assert proc.returncode == 1
     errors = [line for line in proc.stderr.splitlines() if "error:" in line]
-    assert any(re.search(r":\d+:8: error: function 'Bad': expression: unknown field 'Nosuch'", e) for e in errors), errors
-    assert any("function 'Good': expression: a 'not implemented' value of 2 register(s) for 1" in e for e in errors), errors
+    unknown = r":\d+:8: error: function 'Bad': expression: unknown field 'Nosuch'"
+    assert any(re.search(unknown, e) for e in errors), errors
+    not_implemented = "function 'Good': expression: a 'not implemented' value of 2 register(s) for 1"
+    assert any(not_implemented in e for e in errors), errors
 
 
 def test_bad_yaml(tmp_path):
     path = tmp_path / "broken.yaml"
     path.write_text("description: 'x'\nblocks: [\n")
-    assert_clean_error(run_mdl("import", path), 1, f"{path}:3:", "malformed YAML")
+    assert_clean_error(cli("import", path), 1, f"{path}:3:", "malformed YAML")
     path.write_text("- just\n- a list\n")
-    assert_clean_error(run_mdl("test", path), 1, "not a Modbus Schema Toolkit file")
-    assert_clean_error(run_mdl("import", tmp_path / "none.yaml"), 1, "no such file")
+    assert_clean_error(cli("test", path), 1, "not a Modbus Schema Toolkit file")
+    assert_clean_error(cli("import", tmp_path / "none.yaml"), 1, "no such file")
     assert_clean_error(run_mdl("sim", HEAT_PUMP, "--port", "0", "--scenario", "nope"), 1,
                        "no test scenario 'nope'")
