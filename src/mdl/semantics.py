@@ -7,7 +7,7 @@ from typing import Protocol
 from mdl.cfrag import FragmentError, check
 from mdl.diagnostics import Diagnostic
 from mdl.expr.fields import compile_device
-from mdl.layout import LayoutError, layout
+from mdl.layout import Layout, LayoutError, layout
 from mdl.model import READ_ONLY_TABLES, Device, Function
 
 
@@ -54,8 +54,8 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
                 err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""))
         if fn.read_function_code is not None and lay.kind in ("string", "bool"):
             err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
-        if fn.minimum is not None and fn.maximum is not None and fn.minimum > fn.maximum:
-            err(fn, f"minimum {fn.minimum:g} is above maximum {fn.maximum:g}")
+        for message in bound_problems(fn, lay):
+            err(fn, message)
         for token in fn.not_implemented or ():
             digits = len(token) - 2
             if digits > 4 and digits > 4 * len(lay.addresses):
@@ -63,6 +63,19 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
                         f"{len(lay.addresses)} register(s)")
     out += check_tests(device, path)
     return out
+
+
+def bound_problems(fn: Function, lay: Layout) -> list[str]:
+    """minimum/maximum that mean nothing: any on text, or crossed ones.
+
+    A bound that excludes one of a bit's values is allowed: a coil that only accepts 1 is a trigger."""
+    bounds = [(attr, value) for attr, value in (("minimum", fn.minimum), ("maximum", fn.maximum)) if value is not None]
+    if lay.kind == "string":
+        return [f"{attr} {value:g} cannot apply to a STRING value: text has no order to bound"
+                for attr, value in bounds]
+    if fn.minimum is not None and fn.maximum is not None and fn.minimum > fn.maximum:
+        return [f"minimum {fn.minimum:g} is above maximum {fn.maximum:g}"]
+    return []
 
 
 def _check_expression_function(fn: Function, err: Report) -> None:

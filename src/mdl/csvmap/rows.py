@@ -22,6 +22,7 @@ from mdl.csvmap.table import Row
 from mdl.layout import LayoutError, layout
 from mdl.mdlxml.write import unwritable
 from mdl.model import BIT_TABLES, Function
+from mdl.semantics import bound_problems
 
 _TOKENS = re.compile(r"[0-9A-Za-z:x]+")
 
@@ -137,6 +138,8 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         lay = layout(fn)
     except LayoutError as exc:
         raise CellError(str(exc)) from None
+    for problem in bound_problems(fn, lay):
+        raise CellError(problem)
     for key in ("read_function_code", "write_function_code"):
         if key in ix and cell(ix[key]):
             try:
