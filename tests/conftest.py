@@ -61,7 +61,13 @@ def pytest_report_header(config):
     return None if _exhaustive(config) else "exhaustive variants deselected: add --exhaustive (CI runs them)"
 
 
+FUZZ = Path(__file__).resolve().parent / "fuzz"
+
+
 def pytest_collection_modifyitems(config, items):
+    for item in items:  # the fuzzers are exhaustive variants by nature: CI runs them, a quick local run need not
+        if FUZZ in Path(str(item.fspath)).parents:
+            item.add_marker(pytest.mark.exhaustive)
     if _exhaustive(config):
         return
     kept = [item for item in items if item.get_closest_marker("exhaustive") is None]
