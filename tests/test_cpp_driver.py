@@ -1,20 +1,37 @@
-"""Generated C++ drivers: compiled with -Wall -Wextra -Werror (and once with ASan/UBSan), run against
-`mdl sim`, and compared with the generated Python driver and `mdl read` on random registers."""
+"""Generated C++ drivers: compiled by g++ and clang++ with the strict flags docs/cpp-api.md promises
+(and once with ASan/UBSan), checked by clang-tidy, run against `mdl sim`, and compared with the
+generated Python driver and `mdl read` on random registers."""
 
 from __future__ import annotations
 
 import json
 import math
+import random
+import re
+from pathlib import Path
 
 import pytest
-from conftest import DATA, EXAMPLE, Sim, fn_xml, import_generated, run_mdl
-from cpp_harness import MODBUS_ENOBASE, Harness, build, toolchain
+from conftest import DATA, EXAMPLE, REFERENCE, ROOT, Sim, device_xml, fn_xml, import_generated, run_mdl
+from cpp_harness import (
+    COMPILERS,
+    MODBUS_ENOBASE,
+    STRICT,
+    TIDY_CONFIG,
+    Harness,
+    build,
+    clang_tidy,
+    compile_driver,
+    toolchain,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
+from test_cfrag import READS as CFRAG_READS
+from test_cfrag import WRITES as CFRAG_WRITES
 
 from mdl.gen import render
 from mdl.layout import layout
+from mdl.loading import load_any
 from mdl.mdlxml import load_device
 
 ALL = DATA / "all_tables.xml"
@@ -43,7 +60,7 @@ def assert_same_values(cpp: dict, py: dict):
 
 @pytest.fixture(scope="module")
 def all_tables_cpp(tmp_path_factory):
-    return build(load_device(ALL), tmp_path_factory.mktemp("cpp_all"))
+    return build(load_device(ALL), tmp_path_factory.mktemp("cpp_all"), source_name=ALL.name)
 
 
 def _python_values(path, sim, module_name):
@@ -82,7 +99,7 @@ def test_all_tables_compile_run_and_agree_with_python(all_tables_cpp, sim_factor
 
 
 def test_examples_compile_and_read(sim_factory, tmp_path):
-    exe = build(load_device(EXAMPLE / "temco_tstat.xml"), tmp_path)
+    exe = build(load_device(EXAMPLE / "temco_tstat.xml"), tmp_path, source_name="temco_tstat.xml")
     sim = sim_factory(EXAMPLE / "temco_tstat.xml", "--set", "room_temperature=21.5", "--set", "serial_number=80012345",
                       "--set", "firmware_version=4.6", "--set", "occupancy=1")
     h = Harness(exe, sim.port)
@@ -91,7 +108,7 @@ def test_examples_compile_and_read(sim_factory, tmp_path):
         assert values["room_temperature"] == 21.5 and values["serial_number"] == 80012345
         assert values["firmware_version"] == pytest.approx(4.6) and values["occupancy"] == 1.0
         assert h.ask("write occupied_setpoint 23.5") == ["ok"]
-        assert h.ask("write occupied_setpoint 40") == [f"error {22}"]  # EINVAL: above the maximum
+        assert h.values("write occupied_setpoint 40") == {"error": 22}  # EINVAL: above the maximum
     finally:
         h.close()
     proc = run_mdl("read", EXAMPLE / "temco_tstat.xml", "--host", sim.host, "--port", sim.port, "occupied_setpoint",
@@ -106,7 +123,7 @@ def test_sanitizers_find_nothing(sim_factory, tmp_path):
     h.values()
     h.ask("write label 4b69746368656e")
     assert h.values("read label") == {"label": "Kitchen"}
-    assert h.ask("write label 61626364656667686970") == [f"error {22}"]  # 10 bytes do not fit 8
+    assert h.values("write label 61626364656667686970") == {"error": 22}  # 10 bytes do not fit 8
     err = h.close()
     assert "runtime error" not in err and "AddressSanitizer" not in err
 
@@ -126,7 +143,8 @@ def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_dev
         assert h.values() == {"error": MODBUS_ENOBASE + 2}  # c cannot be read at all
     finally:
         h.close()
-    device2 = load_device(write_device(fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
+    device2 = load_device(write_device(fn_xml("a", "10", format="UINT16")
+                                       + fn_xml("cmd", "11", format="UINT16", access="write")
                                        + fn_xml("b", "12", format="UINT16"), name="Planned", filename="p2.xml"))
     (tmp_path / "p2").mkdir()
     exe2 = build(device2, tmp_path / "p2")
@@ -134,6 +152,26 @@ def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_dev
     try:
         assert h.values() == {"a": 7, "b": 9}
         assert h.values() == {"a": 7, "b": 9}
+    finally:
+        h.close()
+
+
+def test_functions_sharing_registers_share_their_smaller_request(tmp_path, write_device, sim_factory):
+    """After exception 2 a group is read as one request per distinct run of registers, however many
+    functions read it (the Toolkit's QuickTestDevice has five functions on one coil)."""
+    described = load_device(write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("a_again", "10", format="UINT16")
+        + fn_xml("cmd", "11", format="UINT16", access="write") + fn_xml("b", "12 13", format="UINT32")
+        + fn_xml("b_low", "13", format="UINT16") + fn_xml("b_again", "12 13", format="INT32"), name="Shared"))
+    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12 13", format="UINT32"),
+                          name="Shared", filename="actual.xml")
+    exe = build(described, tmp_path)
+    splits = re.findall(r"^    \{(kHolding, \d+, \d+), \d+\},$", (tmp_path / "shared.cc").read_text(), re.M)
+    assert splits == ["kHolding, 10, 1", "kHolding, 12, 2", "kHolding, 13, 1"]
+    sim = sim_factory(actual, "--set", "a=7", "--set", "b=65539")
+    h = Harness(exe, sim.port)
+    try:
+        assert h.values() == {"a": 7, "a_again": 7, "b": 65539, "b_low": 3, "b_again": 65539}
     finally:
         h.close()
 
@@ -158,10 +196,15 @@ READ_FRAGMENTS = [
 ]
 
 
-def _diff_functions() -> str:
+def _xml_text(code: str) -> str:
+    return code.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def _diff_functions() -> tuple[str, int]:
+    """The functions' XML, and the registers they take."""
     out, addr, n = [], 0, 0
 
-    def add(**fields):
+    def add(**fields) -> None:
         nonlocal addr, n
         name = f"v{n}"
         n += 1
@@ -169,8 +212,8 @@ def _diff_functions() -> str:
         out.append(xml)
         from mdl.model import Function
 
-        fn = Function(name, name, [addr], length=fields.get("length"), count=int(fields["count"]) if "count" in fields else None,
-                      format=fields.get("format"))
+        fn = Function(name, name, [addr], length=fields.get("length"),
+                      count=int(fields["count"]) if "count" in fields else None, format=fields.get("format"))
         addr += len(layout(fn).addresses)
 
     for fmt in INTS:
@@ -193,20 +236,19 @@ def _diff_functions() -> str:
     add(format="INT32", not_implemented="0x80000000")
     add(format="UINT16", count="3")
     for code in READ_FRAGMENTS:
-        add(format="UINT16", count="2", read_function_code=code.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;"))
+        add(format="UINT16", count="2", read_function_code=_xml_text(code))
     return "".join(out), addr
 
 
 DIFF_FUNCTIONS, DIFF_REGISTERS = _diff_functions()
-BITS = fn_xml("coil_a", "0", format="BIT", register_type="coil") + fn_xml("coil_b", "1", format="BIT", register_type="coil")
+BITS = (fn_xml("coil_a", "0", format="BIT", register_type="coil")
+        + fn_xml("coil_b", "1", format="BIT", register_type="coil"))
 
 
 @pytest.fixture(scope="module")
 def diff_setup(tmp_path_factory):
     toolchain()
     d = tmp_path_factory.mktemp("diff")
-    from conftest import device_xml
-
     path = d / "diff.xml"
     path.write_text(device_xml(DIFF_FUNCTIONS + BITS, name="Diff Device"))
     device = load_device(path)
@@ -230,7 +272,8 @@ def _load(client, regs, bits):
         assert not client.write_coil(i, b, device_id=1).isError()
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
        bits=st.lists(st.booleans(), min_size=2, max_size=2))
 def test_cpp_python_agree_on_random_registers(diff_setup, regs, bits):
@@ -288,6 +331,84 @@ def test_scaled_and_string_writes_round_trip(diff_setup):
         assert h.values(f"read {fn.name}") == {fn.name: "xyz"}
 
 
+# ---- fragments: every one test_cfrag.py proves the Python translation on against gcc ----
+
+FRAGMENT_READS = "".join(fn_xml(f"rd{i}", str(4 * i), format="UINT16", count="4", read_function_code=_xml_text(code))
+                         for i, code in enumerate(CFRAG_READS))
+FRAGMENT_WRITE_BASE = 4 * len(CFRAG_READS)
+FRAGMENT_WRITES = "".join(fn_xml(f"wr{i}", str(FRAGMENT_WRITE_BASE + 2 * i), format="UINT16", count="2", access="write",
+                                 write_function_code=_xml_text(code)) for i, (code, _) in enumerate(CFRAG_WRITES))
+EDOM, ERANGE = 33, 34
+
+
+@pytest.fixture(scope="module")
+def fragment_setup(tmp_path_factory):
+    toolchain()
+    d = tmp_path_factory.mktemp("fragments")
+    path = d / "fragments.xml"
+    path.write_text(device_xml(FRAGMENT_READS + FRAGMENT_WRITES, name="Fragment Device"))
+    device = load_device(path)
+    exe = build(device, d)
+    (d / "fragment_device.py").write_text(render(device, "fragments.xml", "python")["fragment_device.py"])
+    module = import_generated(d / "fragment_device.py", "fragment_device_py")
+    sim = Sim(path)
+    client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+    assert client.connect()
+    h = Harness(exe, sim.port)
+    yield module.FragmentDevice(client), client, h
+    h.close()
+    client.close()
+    sim.stop()
+
+
+def _register_sets(n: int) -> list[list[int]]:
+    rng = random.Random(3)
+    edges = [[value] * n for value in (0, 1, 0x7FFF, 0x8000, 0xFFFF)]
+    return edges + [[rng.choice([0, 1, 2, 0x7FFF, 0x8000, 0xFFFF, rng.randrange(65536)]) for _ in range(n)]
+                    for _ in range(6)]
+
+
+def test_fragment_reads_agree_with_python(fragment_setup):
+    """Value for value, and failure (EDOM, ERANGE) for failure."""
+    dev, client, h = fragment_setup
+    for regs in _register_sets(FRAGMENT_WRITE_BASE):
+        _load(client, regs, [])
+        for i, code in enumerate(CFRAG_READS):
+            try:
+                python = {f"rd{i}": getattr(dev, f"read_rd{i}")()}
+            except ArithmeticError:
+                python = {"error": (EDOM, ERANGE)}
+            cpp = h.values(f"read rd{i}")
+            if "error" in cpp:
+                assert cpp["error"] in python.get("error", ()), (code, regs[4 * i:4 * i + 4], cpp, python)
+            else:
+                assert_same_values(cpp, python)
+
+
+def test_fragment_writes_agree_with_python(fragment_setup):
+    """At the ends of, inside and outside each write fragment's range: the C++ driver writes the
+    registers the Python driver writes, or both refuse the value."""
+    dev, client, h = fragment_setup
+    rng = random.Random(11)
+    for i, (code, (lo, hi)) in enumerate(CFRAG_WRITES):
+        address = FRAGMENT_WRITE_BASE + 2 * i
+        for value in [lo, hi, (lo + hi) / 2, hi * 10 + 1, lo - hi - 1, *(rng.uniform(lo, hi) for _ in range(4))]:
+            outcomes = []
+            for driver in ("c++", "python"):
+                assert not client.write_registers(address, [0xDEAD, 0xBEEF], device_id=1).isError()
+                if driver == "c++":
+                    failed = h.ask(f"write wr{i} {value!r}") != ["ok"]
+                else:
+                    try:
+                        getattr(dev, f"write_wr{i}")(value)
+                        failed = False
+                    except (ArithmeticError, ValueError):
+                        failed = True
+                registers = client.read_holding_registers(address, count=2, device_id=1).registers
+                outcomes.append("refused" if failed else registers)
+            assert outcomes[0] == outcomes[1], (code, value, outcomes)
+
+
 def test_example_program_builds_with_make_and_reads_the_simulator(tmp_path, sim_factory):
     import shutil
     import subprocess
@@ -322,9 +443,159 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device):
 
     nasty = 'x */ int evil_symbol; /* \\ " ??/ &#10;// next\\'
     path = write_device(fn_xml("t", "1", format="UINT16", units=nasty).replace(
-        "<description>t</description>", f"<description>{nasty}</description>"), name=f"Dev {nasty} &#176;")
+        "<description>t</description>", f"<description>{nasty}</description>")
+        + fn_xml("splice ??/", "2", format="UINT16") + fn_xml("splice \\", "3", format="UINT16"),
+        name=f"Dev {nasty} &#176;")
     exe = build(load_device(path), tmp_path)
     nm = subprocess.run(["nm", "-C", str(exe)], capture_output=True, text=True).stdout
     assert "evil_symbol" not in nm
-    header = next(tmp_path.glob("*.h")).read_text()
+    header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
     assert "kDeviceName = \"Dev x */ int evil_symbol; /* \\\\ \\\" \\?\\?/ \\012// next\\\\ \\302\\260\"" in header
+    # in comments: UTF-8 as written, `*/`, `/*` and `??/` broken by a space, a final backslash made U+FF3C
+    text = 'x * / int evil_symbol; / * \\ " ?? / // next'
+    assert f" * Driver for Dev {text}\\ \u00b0: test\n" in header
+    assert f"    /** {text}\uff3c [{text}\uff3c] */\n" in header
+    driver = next(p for p in tmp_path.glob("*.cc") if p.name != "harness.cc")
+    assert "\n// splice ?? /\n" in driver.read_text() and "\n// splice \uff3c\n" in driver.read_text()
+    # where trigraphs count (before C++17, or with -trigraphs), `??/` ending a line would splice the next one
+    gxx, cflags, _ = toolchain()
+    proc = subprocess.run([gxx, *STRICT, "-trigraphs", "-fsyntax-only", *cflags, str(driver)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_descriptions_reach_comments_as_utf8(tmp_path, write_device):
+    path = write_device(fn_xml("t", "1", format="INT16", multiplier="0.1", units="&#176;C").replace(
+        "<description>t</description>", "<description>Temperature in &#176;C, &#177;0.5 K</description>"))
+    build(load_device(path), tmp_path)
+    header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
+    assert "    /** Read Temperature in \u00b0C, \u00b10.5 K [\u00b0C] */\n" in header
+    assert "\\x" not in header and "\\260" not in header
+
+
+# ---- what users' compilers and linters say about the drivers ----
+
+GOLDEN_DRIVERS = [ROOT / "tests" / "golden" / "all_tables" / "all_tables.cc", EXAMPLE / "temco_tstat.cc"]
+TEST_DEVICES = sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml"))
+QUICK_TEST_DEVICE = REFERENCE / "QuickTestDevice.yaml"
+
+
+def _driver(device, source_name: str, directory: Path) -> Path:
+    """The generated .cc of a device (its .h beside it), written into directory."""
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, text in render(device, source_name, "cpp").items():
+        (directory / name).write_text(text, encoding="utf-8")
+    return next(directory.glob("*.cc"))
+
+
+@pytest.mark.parametrize("compiler", COMPILERS)
+@pytest.mark.parametrize("source", GOLDEN_DRIVERS + TEST_DEVICES,
+                         ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
+    """The golden drivers and those of the test devices (build() compiles every other driver the tests
+    generate the same way, with both compilers)."""
+    cc = source if source.suffix == ".cc" else _driver(load_device(source), source.name, tmp_path)
+    assert compile_driver(cc, compiler).stat().st_size > 0
+
+
+@pytest.mark.parametrize("driver", ["all_tables", "temco_tstat", "formats", "fragments", "expressions"])
+def test_clang_tidy_finds_nothing(driver, tmp_path):
+    if driver in ("formats", "fragments"):  # every format and order; every fragment test_cfrag.py knows
+        functions = DIFF_FUNCTIONS + BITS if driver == "formats" else FRAGMENT_READS + FRAGMENT_WRITES
+        (tmp_path / "device.xml").write_text(device_xml(functions, name=driver))
+        cc = _driver(load_device(tmp_path / "device.xml"), "device.xml", tmp_path / "out")
+    elif driver == "expressions":
+        if not QUICK_TEST_DEVICE.exists():
+            pytest.skip(f"no conformance data at {QUICK_TEST_DEVICE}")
+        cc = _driver(load_any(QUICK_TEST_DEVICE), QUICK_TEST_DEVICE.name, tmp_path)
+    else:
+        cc = next(p for p in GOLDEN_DRIVERS if p.stem == driver)
+    proc = clang_tidy(cc)
+    assert proc.returncode == 0 and "warning:" not in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_the_clang_tidy_checks_are_the_documented_ones():
+    config = TIDY_CONFIG.read_text()
+    checks = [c.strip().rstrip(",") for c in config.split("Checks: >-\n", 1)[1].split("\n") if c.startswith("  ")]
+    assert "bugprone-*" in checks and "-modernize-use-trailing-return-type" in checks
+    assert "WarningsAsErrors: '*'" in config
+    doc = (ROOT / "docs" / "cpp-api.md").read_text(encoding="utf-8")
+    assert all(f"`{c}`" in doc for c in checks), [c for c in checks if f"`{c}`" not in doc]
+
+
+@pytest.mark.parametrize("statement, compiles", [
+    ("static_cast<void>(dev.read_all(&values));", True),
+    ("if (dev.read_all(&values) == -1) { return 1; }", True),
+    ("dev.read_all(&values);", False),
+    ("dev.read_serial(&serial);", False),
+    ("dev.write_mode(2);", False),
+])
+def test_an_ignored_status_does_not_compile(statement, compiles, tmp_path):
+    import subprocess
+
+    gxx, cflags, _ = toolchain()
+    program = tmp_path / "user.cc"
+    program.write_text(f"""#include "all_tables.h"
+
+int main() {{
+    AllTables dev(nullptr);
+    AllTablesValues values;
+    uint32_t serial = 0;
+    {statement}
+    return static_cast<int>(serial) + (values.pump ? 1 : 0);
+}}
+""")
+    proc = subprocess.run([gxx, *STRICT, "-fsyntax-only", *cflags, f"-I{GOLDEN_DRIVERS[0].parent}", str(program)],
+                          capture_output=True, text=True)
+    assert (proc.returncode == 0) == compiles, proc.stderr
+    assert compiles or "nodiscard" in proc.stderr
+
+
+COUNT_ALLOCATIONS = r"""#include "all_tables.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <new>
+
+static long allocations = 0;
+
+void *operator new(std::size_t n) {
+    ++allocations;
+    void *p = std::malloc(n > 0 ? n : 1);
+    if (p == nullptr) throw std::bad_alloc();
+    return p;
+}
+void operator delete(void *p) noexcept { std::free(p); }
+void operator delete(void *p, std::size_t) noexcept { std::free(p); }
+
+int main(int argc, char **argv) {
+    if (argc != 2) return 2;
+    modbus_t *ctx = modbus_new_tcp("127.0.0.1", std::atoi(argv[1]));
+    modbus_set_slave(ctx, 1);
+    if (modbus_connect(ctx) == -1) return 3;
+    AllTables dev(ctx);
+    AllTablesValues values;
+    const long before = allocations;
+    const int rc = dev.read_all(&values);
+    std::printf("%d %ld %s\n", rc, allocations - before, values.label.c_str());
+    modbus_close(ctx);
+    modbus_free(ctx);
+    return 0;
+}
+"""
+
+
+def test_read_all_allocates_nothing(tmp_path, sim_factory):
+    """all_tables' one text value fits std::string's own buffer, so read_all needs no heap at all."""
+    import subprocess
+
+    gxx, cflags, libs = toolchain()
+    (tmp_path / "count.cc").write_text(COUNT_ALLOCATIONS)
+    exe = tmp_path / "count"
+    proc = subprocess.run([gxx, "-std=c++17", "-O0", *cflags, f"-I{GOLDEN_DRIVERS[0].parent}", "-o", str(exe),
+                           str(tmp_path / "count.cc"), str(compile_driver(GOLDEN_DRIVERS[0], "g++")), *libs],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    sim = sim_factory(ALL, *ALL_SETTINGS)
+    run = subprocess.run([str(exe), str(sim.port)], capture_output=True, text=True, timeout=30)
+    assert run.stdout == "0 0 Hall\n", run.stdout + run.stderr

@@ -16,10 +16,16 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-from conftest import DATA, REFERENCE, ROOT, fn_xml, run_mdl, skip_or_fail
+from conftest import DATA, REFERENCE, ROOT, device_xml, fn_xml, run_mdl, skip_or_fail
 
 GOLDEN = sorted([*(ROOT / "tests" / "golden").glob("**/*.py"), ROOT / "examples" / "temco_tstat" / "temco_tstat.py"])
 DEVICES = sorted([*DATA.glob("*.xml"), *(ROOT / "examples").glob("*/*.xml"), *(ROOT / "examples").glob("*/*.yaml")])
+# fragments calling every helper of the fragment runtime, both ways (docs/fragments.md)
+FRAGMENTS = (fn_xml("quotient", "10 11", format="UINT32", read_function_code="arg = 1000 / r1 + r2 % 7u;")
+             + fn_xml("shifted", "12 13", format="UINT32", read_function_code="arg = (int)(r1 &lt;&lt; r2) &gt;&gt; 3;",
+                      write_function_code="r1 = (uint32_t)(arg * 10.0f) &gt;&gt; 16; r2 = arg * 10;")
+             + fn_xml("wrapped", "14", format="INT16", write_function_code="r1 = (int16_t)arg;",
+                      read_function_code="r1 = r1 - 40000; arg = (float)(int8_t)r1 / 3.0f;"))
 REQUIRES = re.compile(r"^# Requires pymodbus >= (\d+\.\d+\.\d+), < 4\.$", re.M)
 
 
@@ -37,7 +43,10 @@ def drivers(tmp_path_factory) -> dict[str, Path]:
     reference files too, where they are present), each under a name of its own so that one mypy
     run checks them all."""
     root = tmp_path_factory.mktemp("lint")
-    sources = [("device", path) for path in DEVICES] + [("toolkit", path) for path in sorted(REFERENCE.glob("*.yaml"))]
+    fragments = root / "fragments.xml"
+    fragments.write_text(device_xml(FRAGMENTS, name="Fragments"), encoding="ascii")
+    sources = [("device", path) for path in [*DEVICES, fragments]]
+    sources += [("toolkit", path) for path in sorted(REFERENCE.glob("*.yaml"))]
     out = {}
     for kind, path in [("golden", path) for path in GOLDEN] + sources:
         if kind != "golden":
@@ -67,7 +76,10 @@ def _run(cmd: list[str], cwd: Path) -> subprocess.CompletedProcess:
 def test_the_lint_set_covers_fragments_and_plain_registers(drivers):
     texts = {name: path.read_text() for name, path in drivers.items()}
     assert "device_all_tables" in texts and "device_temco_tstat" in texts
-    assert any("def _wrap(" in text for text in texts.values())  # a driver with fragments
+    helpers = re.findall(r"^def (_\w+)\(", texts["device_fragments"], re.M)
+    assert {"_idiv", "_imod", "_f2i", "_store", "_shl", "_shr", "_wrap", "_f32", "_i2f32", "_fdiv"} <= set(helpers)
+    assert "class FragmentDomainError(DeviceError, ArithmeticError):" in texts["device_fragments"]
+    assert any("def _f2i(" in text and "except ArithmeticError" in text for text in texts.values())  # fragments
     assert any("def _not_implemented(" in text for text in texts.values())
 
 

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 from conftest import ROOT, fn_xml, import_generated, run_mdl
-from cpp_harness import CXXFLAGS, toolchain
+from cpp_harness import STRICT, toolchain
 
-from mdl.names import camel, identifier, unique_identifiers
+from mdl.names import camel, identifier, stem, unique_identifiers
 
 # name -> identifier; each of these once depended on the Python running mdl, or gave code that does not compile
 EXPECTED = {
@@ -76,6 +76,36 @@ def test_generated_drivers_with_hostile_names_import_and_compile(tmp_path, write
     assert all(hasattr(driver, f"read_{i}") for i in idents) and hasattr(driver, "read_all")
     assert "type_2" in idents
     gxx, cflags, _ = toolchain()
-    proc = subprocess.run([gxx, *CXXFLAGS, *cflags, "-fsyntax-only", str(tmp_path / f"{stem}.cc")],
+    proc = subprocess.run([gxx, *STRICT, *cflags, "-fsyntax-only", str(tmp_path / f"{stem}.cc")],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_a_device_named_like_a_standard_header_gets_an_underscore_in_its_stem():
+    assert {name: stem(name) for name in ("String", "Time", "vector", "cstdint", "String View", "Math", "errno",
+                                          "Strings", "Temco Tstat8")} == {
+        "String": "string_", "Time": "time_", "vector": "vector_", "cstdint": "cstdint_",
+        "String View": "string_view_", "Math": "math_", "errno": "errno_", "Strings": "strings",
+        "Temco Tstat8": "temco_tstat8"}
+    assert identifier("time") == "time"  # a function's identifier is not a file name
+
+
+HEADER_DEVICES = {"String": "string_", "Stdint": "stdint_", "Time": "time_", "Math": "math_", "Vector": "vector_"}
+
+
+def test_drivers_of_devices_named_like_headers_compile_beside_each_other(tmp_path, write_device):
+    """With the output directory on the include path, no generated header stands in for a standard one."""
+    out = tmp_path / "out"
+    for device, expected_stem in HEADER_DEVICES.items():
+        path = write_device(fn_xml("time", "0", format="UINT16"), name=device, filename=f"{expected_stem}.xml")
+        proc = run_mdl("gen", path, "-o", out)
+        assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"{s}.{ext}" for s in HEADER_DEVICES.values()
+                                                           for ext in ("py", "h", "cc"))
+    gxx, cflags, _ = toolchain()
+    for expected_stem in HEADER_DEVICES.values():
+        module = import_generated(out / f"{expected_stem}.py", f"header_{expected_stem}")
+        assert hasattr(getattr(module, camel(expected_stem)), "read_time")
+        proc = subprocess.run([gxx, *STRICT, f"-I{out}", *cflags, "-fsyntax-only",
+                               str(out / f"{expected_stem}.cc")], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr

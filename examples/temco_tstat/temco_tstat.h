@@ -5,6 +5,7 @@
 #include <modbus.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 /**
@@ -22,7 +23,7 @@ struct TemcoTstatValues {
     uint8_t modbus_address{};
     /** Product model. Used by the microcontroller to identify the product */
     uint8_t product_model{};
-    /** Room temperature reading in tenths of a degree from the sensor used in the control loop. Internal, external or the average of the two. [\xb0C] */
+    /** Room temperature reading in tenths of a degree from the sensor used in the control loop. Internal, external or the average of the two. [°C] */
     double room_temperature{};
     /** Room humidity (humidity models only) [%RH] */
     double humidity{};
@@ -42,11 +43,11 @@ struct TemcoTstatValues {
     uint8_t heating_stage1_relay_on{};
     /** Relay5 manual output value */
     uint8_t heating_stage2_relay_on{};
-    /** Occupied setpoint (day) [\xb0C] */
+    /** Occupied setpoint (day) [°C] */
     double occupied_setpoint{};
-    /** Unoccupied setpoint (night) [\xb0C] */
+    /** Unoccupied setpoint (night) [°C] */
     double unoccupied_setpoint{};
-    /** Occupied heating setpoint [\xb0C] */
+    /** Occupied heating setpoint [°C] */
     double occupied_heating_setpoint{};
 };
 
@@ -54,7 +55,8 @@ struct TemcoTstatValues {
  * TEMCO Tstat over a connected libmodbus context, which the caller owns (and whose
  * unit id the caller sets with modbus_set_slave). Every method returns 0, or -1 with errno set as
  * libmodbus sets it (EMBXILADD and the other Modbus exception codes included; EINVAL for a value
- * outside the function's range or format).
+ * outside the function's range or format; EDOM or ERANGE where a fragment has no value).
+ * A read that fails leaves *out as it was.
  */
 class TemcoTstat {
 public:
@@ -63,99 +65,102 @@ public:
     explicit TemcoTstat(modbus_t *ctx) : ctx_(ctx) {}
 
     /** Read Serial number - 4 byte value. Read-only */
-    int read_serial_number(uint32_t *out);
+    [[nodiscard]] int read_serial_number(uint32_t *out);
 
     /** Read Firmware version - 2 byte value. Read-only */
-    int read_firmware_version(double *out);
+    [[nodiscard]] int read_firmware_version(double *out);
 
     /** Read Modbus device address */
-    int read_modbus_address(uint8_t *out);
+    [[nodiscard]] int read_modbus_address(uint8_t *out);
 
     /** Write Modbus device address */
-    int write_modbus_address(uint8_t value);
+    [[nodiscard]] int write_modbus_address(uint8_t value);
 
     /** Read Product model. Used by the microcontroller to identify the product */
-    int read_product_model(uint8_t *out);
+    [[nodiscard]] int read_product_model(uint8_t *out);
 
-    /** Read Room temperature reading in tenths of a degree from the sensor used in the control loop. Internal, external or the average of the two. [\xb0C] */
-    int read_room_temperature(double *out);
+    /** Read Room temperature reading in tenths of a degree from the sensor used in the control loop. Internal, external or the average of the two. [°C] */
+    [[nodiscard]] int read_room_temperature(double *out);
 
     /** Read Room humidity (humidity models only) [%RH] */
-    int read_humidity(double *out);
+    [[nodiscard]] int read_humidity(double *out);
 
     /** Read Occupancy sensor state (bit 0: occupied) */
-    int read_occupancy(double *out);
+    [[nodiscard]] int read_occupancy(double *out);
 
     /** Read Fan speed: 0 off, 1 low, 2 medium, 3 high, 4 auto */
-    int read_fan_speed(uint8_t *out);
+    [[nodiscard]] int read_fan_speed(uint8_t *out);
 
     /** Write Fan speed: 0 off, 1 low, 2 medium, 3 high, 4 auto */
-    int write_fan_speed(uint8_t value);
+    [[nodiscard]] int write_fan_speed(uint8_t value);
 
     /** Read System mode: 0 cool, 1 heat, 2 auto */
-    int read_system_mode(uint8_t *out);
+    [[nodiscard]] int read_system_mode(uint8_t *out);
 
     /** Write System mode: 0 cool, 1 heat, 2 auto */
-    int write_system_mode(uint8_t value);
+    [[nodiscard]] int write_system_mode(uint8_t value);
 
     /** Read Relay1 manual output value */
-    int read_fan_relay_on(uint8_t *out);
+    [[nodiscard]] int read_fan_relay_on(uint8_t *out);
 
     /** Write Relay1 manual output value */
-    int write_fan_relay_on(uint8_t value);
+    [[nodiscard]] int write_fan_relay_on(uint8_t value);
 
     /** Read Relay2 manual output value */
-    int read_cooling_stage1_relay_on(uint8_t *out);
+    [[nodiscard]] int read_cooling_stage1_relay_on(uint8_t *out);
 
     /** Write Relay2 manual output value */
-    int write_cooling_stage1_relay_on(uint8_t value);
+    [[nodiscard]] int write_cooling_stage1_relay_on(uint8_t value);
 
     /** Read Relay3 manual output value */
-    int read_cooling_stage2_relay_on(uint8_t *out);
+    [[nodiscard]] int read_cooling_stage2_relay_on(uint8_t *out);
 
     /** Write Relay3 manual output value */
-    int write_cooling_stage2_relay_on(uint8_t value);
+    [[nodiscard]] int write_cooling_stage2_relay_on(uint8_t value);
 
     /** Read Relay4 manual output value */
-    int read_heating_stage1_relay_on(uint8_t *out);
+    [[nodiscard]] int read_heating_stage1_relay_on(uint8_t *out);
 
     /** Write Relay4 manual output value */
-    int write_heating_stage1_relay_on(uint8_t value);
+    [[nodiscard]] int write_heating_stage1_relay_on(uint8_t value);
 
     /** Read Relay5 manual output value */
-    int read_heating_stage2_relay_on(uint8_t *out);
+    [[nodiscard]] int read_heating_stage2_relay_on(uint8_t *out);
 
     /** Write Relay5 manual output value */
-    int write_heating_stage2_relay_on(uint8_t value);
+    [[nodiscard]] int write_heating_stage2_relay_on(uint8_t value);
 
-    /** Read Occupied setpoint (day) [\xb0C] */
-    int read_occupied_setpoint(double *out);
+    /** Read Occupied setpoint (day) [°C] */
+    [[nodiscard]] int read_occupied_setpoint(double *out);
 
-    /** Write Occupied setpoint (day) [\xb0C] */
-    int write_occupied_setpoint(double value);
+    /** Write Occupied setpoint (day) [°C] */
+    [[nodiscard]] int write_occupied_setpoint(double value);
 
-    /** Read Unoccupied setpoint (night) [\xb0C] */
-    int read_unoccupied_setpoint(double *out);
+    /** Read Unoccupied setpoint (night) [°C] */
+    [[nodiscard]] int read_unoccupied_setpoint(double *out);
 
-    /** Write Unoccupied setpoint (night) [\xb0C] */
-    int write_unoccupied_setpoint(double value);
+    /** Write Unoccupied setpoint (night) [°C] */
+    [[nodiscard]] int write_unoccupied_setpoint(double value);
 
-    /** Read Occupied heating setpoint [\xb0C] */
-    int read_occupied_heating_setpoint(double *out);
+    /** Read Occupied heating setpoint [°C] */
+    [[nodiscard]] int read_occupied_heating_setpoint(double *out);
 
-    /** Write Occupied heating setpoint [\xb0C] */
-    int write_occupied_heating_setpoint(double value);
+    /** Write Occupied heating setpoint [°C] */
+    [[nodiscard]] int write_occupied_heating_setpoint(double value);
 
     /** Read every readable function with the fewest requests; a group the device refuses with
-     *  exception 2 is read as smaller requests from then on. */
-    int read_all(TemcoTstatValues *out);
+     *  exception 2 is read as smaller requests from then on. Allocates nothing but the memory of
+     *  text and list values. */
+    [[nodiscard]] int read_all(TemcoTstatValues *out);
 
 private:
-    int read_table_(int table, int start, int count, uint16_t *dest);
-    int write_table_(int table, int start, int count, const uint16_t *src);
+    [[nodiscard]] int read_table_(int table, int start, int count, uint16_t *dest);
+    [[nodiscard]] int write_table_(int table, int start, int count, const uint16_t *src);
+    void drop_stale_bytes_();
+    [[nodiscard]] int check_reply_ended_();
 
     modbus_t *ctx_;
-    std::array<bool, 9> refused_{};
+    std::array<bool, 9> refused_{};  // groups of the read plan read as smaller requests
 };
 
 #endif  // MDL_TEMCO_TSTAT_H

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TypedDict
 
 from pymodbus.client import ModbusBaseClient, ModbusBaseSyncClient
@@ -42,16 +43,47 @@ class ModbusExceptionError(DeviceError):
 
 
 class ValueRangeError(DeviceError, ValueError):
-    """A value to write is outside the function's range or format."""
+    """A value to write is outside the function's range or format, or its write fragment has no
+    registers for it."""
 
 
-def _check_read(rr: ModbusPDU, table: str, start: int, count: int) -> list[int]:
+# the function code of a read of each table
+_READ_CODES = {"coil": 1, "discrete": 2, "holding": 3, "input": 4}
+
+
+def _check_code(rr: ModbusPDU, what: str, code: int) -> None:
+    """A reply for another function is refused; an exception reply raises ModbusExceptionError."""
+    if rr.function_code & 0x7F != code:
+        raise CommunicationError(f"{what}: the reply has function code {rr.function_code & 0x7F}, expected {code}")
     if rr.isError():
-        raise ModbusExceptionError(rr.exception_code, f"reading {count} {table} from {start}")
-    values = [int(b) for b in rr.bits] if table in ("coil", "discrete") else list(rr.registers)
-    if len(values) < count:
-        raise CommunicationError(f"reading {count} {table} from {start}: short reply of {len(values)}")
-    return values[:count]
+        raise ModbusExceptionError(rr.exception_code, what)
+
+
+def _check_read(rr: ModbusPDU, what: str, table: str, count: int) -> list[int]:
+    """The values of a read reply: exactly `count` registers, or `count` bits padded to whole bytes."""
+    _check_code(rr, what, _READ_CODES[table])
+    if table in ("coil", "discrete"):
+        bits = [int(b) for b in rr.bits]
+        if not count <= len(bits) <= 8 * ((count + 7) // 8):
+            raise CommunicationError(f"{what}: the reply carries {len(bits)} bits, expected {count}")
+        return bits[:count]
+    registers = list(rr.registers)
+    if len(registers) != count:
+        raise CommunicationError(f"{what}: the reply carries {len(registers)} registers, expected {count}")
+    return registers
+
+
+def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[int]) -> None:
+    """A write reply must echo the address and the value (5, 6) or the count (16) written."""
+    _check_code(rr, what, code)
+    if code == 5:
+        echo, sent = [1 if b else 0 for b in rr.bits[:1]], [1 if values[0] else 0]
+    elif code == 6:
+        echo, sent = list(rr.registers), values
+    else:
+        echo, sent = [rr.count], [len(values)]
+    if rr.address != start or echo != sent:
+        raise CommunicationError(f"{what}: the reply does not echo the request")
 
 
 def _keys(table: str, start: int, count: int) -> list[tuple[str, int]]:
@@ -64,11 +96,6 @@ def _need(raw: dict[tuple[str, int], int], name: str, table: str, addresses: tup
     if len(regs) < len(addresses):
         raise ModbusExceptionError(2, f"reading {name}")
     return regs
-
-
-def _wrap(x: int, bits: int, signed: bool) -> int:
-    x &= (1 << bits) - 1
-    return x - (1 << bits) if signed and x >> (bits - 1) else x
 
 
 def _decode_serial_number(r: list[int]) -> int:
@@ -123,7 +150,7 @@ def _decode_humidity(r: list[int]) -> float:
 def _decode_occupancy(r: list[int]) -> float:
     r1 = r[0]
     arg = 0.0
-    arg = float(_wrap(r1 & 1, 32, True))
+    arg = float(r1 & 1)
     return arg
 
 
@@ -450,12 +477,25 @@ class TemcoTstat:
             return self.client.read_input_registers(start, count=count, device_id=self.unit)
         return self.client.read_holding_registers(start, count=count, device_id=self.unit)
 
+    def _connect(self) -> None:
+        """Connect the client where it is not connected (again, after a failure closed it)."""
+        if not self.client.connect():
+            raise CommunicationError("cannot connect to the device")
+
+    def _disconnect(self) -> None:
+        """Close a connection that failed: the next call connects again."""
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
+
     def _read(self, table: str, start: int, count: int) -> list[int]:
+        what = f"reading {count} {table} from {start}"
         try:
+            self._connect()
             rr = self._request(table, start, count)
-        except ModbusException as exc:
-            raise CommunicationError(f"reading {count} {table} from {start}: {exc}") from exc
-        return _check_read(rr, table, start, count)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        return _check_read(rr, what, table, count)
 
     def _read_runs(self, runs: list[_Request]) -> list[int]:
         regs: list[int] = []
@@ -464,17 +504,19 @@ class TemcoTstat:
         return regs
 
     def _write(self, table: str, start: int, values: list[int]) -> None:
+        what = f"writing {table} {start}"
         try:
+            self._connect()
             if table == "coil":
-                rr = self.client.write_coil(start, bool(values[0]), device_id=self.unit)
+                code, rr = 5, self.client.write_coil(start, bool(values[0]), device_id=self.unit)
             elif len(values) == 1:
-                rr = self.client.write_register(start, values[0], device_id=self.unit)
+                code, rr = 6, self.client.write_register(start, values[0], device_id=self.unit)
             else:
-                rr = self.client.write_registers(start, values, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationError(f"writing {table} {start}: {exc}") from exc
-        if rr.isError():
-            raise ModbusExceptionError(rr.exception_code, f"writing {table} {start}")
+                code, rr = 16, self.client.write_registers(start, values, device_id=self.unit)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        _check_write(rr, what, code, start, values)
 
     def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0
@@ -641,12 +683,25 @@ class AsyncTemcoTstat:
             return await self.client.read_input_registers(start, count=count, device_id=self.unit)
         return await self.client.read_holding_registers(start, count=count, device_id=self.unit)
 
+    async def _connect(self) -> None:
+        """Connect the client where it is not connected (again, after a failure closed it)."""
+        if not self.client.connected and not await self.client.connect():
+            raise CommunicationError("cannot connect to the device")
+
+    def _disconnect(self) -> None:
+        """Close a connection that failed: the next call connects again."""
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
+
     async def _read(self, table: str, start: int, count: int) -> list[int]:
+        what = f"reading {count} {table} from {start}"
         try:
+            await self._connect()
             rr = await self._request(table, start, count)
-        except ModbusException as exc:
-            raise CommunicationError(f"reading {count} {table} from {start}: {exc}") from exc
-        return _check_read(rr, table, start, count)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        return _check_read(rr, what, table, count)
 
     async def _read_runs(self, runs: list[_Request]) -> list[int]:
         regs: list[int] = []
@@ -655,17 +710,19 @@ class AsyncTemcoTstat:
         return regs
 
     async def _write(self, table: str, start: int, values: list[int]) -> None:
+        what = f"writing {table} {start}"
         try:
+            await self._connect()
             if table == "coil":
-                rr = await self.client.write_coil(start, bool(values[0]), device_id=self.unit)
+                code, rr = 5, await self.client.write_coil(start, bool(values[0]), device_id=self.unit)
             elif len(values) == 1:
-                rr = await self.client.write_register(start, values[0], device_id=self.unit)
+                code, rr = 6, await self.client.write_register(start, values[0], device_id=self.unit)
             else:
-                rr = await self.client.write_registers(start, values, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationError(f"writing {table} {start}: {exc}") from exc
-        if rr.isError():
-            raise ModbusExceptionError(rr.exception_code, f"writing {table} {start}")
+                code, rr = 16, await self.client.write_registers(start, values, device_id=self.unit)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        _check_write(rr, what, code, start, values)
 
     async def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0

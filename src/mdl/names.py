@@ -16,6 +16,13 @@ The rule:
    and so must not be its stem).
 3. Within one device a name whose identifier an earlier name already has gets `_2`, `_3`, ...
    (after a trailing `_`: `type_` -> `type_2`, never a double underscore).
+3a. The device's file stem (`stem`) is its identifier, with `_` appended if it is the name of a
+   standard header: of C99 (`string`, `math`, `time`, `stdint`, ...) or of C++17 (`vector`, `map`,
+   `cstdint`, `string_view`, ...), STANDARD_HEADERS below, fixed like RESERVED. A generated
+   `<stem>.h` (or a C target's) then never has a standard header's name, with `.h` or without, so a
+   compiler searching the output directory cannot take it for the standard one: `String` ->
+   `string_.h`, `Time` -> `time_.py`. The rule is for the stem only: a function called `time` still
+   reads as `read_time`.
 4. The class name is the CamelCase of the device's identifier, `Device` in front if it would start
    with a digit, and `_` appended if it is in CLASS_RESERVED: the names the generated files define
    or import at the level of the class (`Request`, `Group`, `Table`, `Regs` in the .cc;
@@ -63,6 +70,23 @@ C_MACROS = frozenset(
 GENERATED = frozenset("all modbus pymodbus math struct decimal typing collections".split())
 RESERVED = PY_HARD_KEYWORDS | PY_SOFT_KEYWORDS | CPP_KEYWORDS | C_KEYWORDS | C_TYPES | C_MACROS | GENERATED
 
+C99_HEADERS = frozenset(
+    """assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal stdarg
+    stdbool stddef stdint stdio stdlib string tgmath time wchar wctype""".split()
+)
+CPP17_HEADERS = frozenset(
+    """algorithm any array atomic bitset cassert ccomplex cctype cerrno cfenv cfloat charconv chrono
+    cinttypes ciso646 climits clocale cmath codecvt complex condition_variable csetjmp csignal
+    cstdalign cstdarg cstdbool cstddef cstdint cstdio cstdlib cstring ctgmath ctime cuchar cwchar
+    cwctype deque exception execution filesystem forward_list fstream functional future
+    initializer_list iomanip ios iosfwd iostream istream iterator limits list locale map memory
+    memory_resource mutex new numeric optional ostream queue random ratio regex scoped_allocator set
+    shared_mutex sstream stack stdexcept streambuf string string_view strstream system_error thread
+    tuple type_traits typeindex typeinfo unordered_map unordered_set utility valarray variant
+    vector""".split()
+)
+STANDARD_HEADERS = C99_HEADERS | CPP17_HEADERS
+
 PY_BUILTIN_CLASSES = frozenset(
     """ArithmeticError AssertionError AttributeError BaseException BaseExceptionGroup
     BlockingIOError BrokenPipeError BufferError BytesWarning ChildProcessError
@@ -96,6 +120,12 @@ def identifier(name: str) -> str:
     if ident in RESERVED:
         ident += "_"
     return ident
+
+
+def stem(device_name: str) -> str:
+    """The stem of a device's generated files: its identifier, `_` appended if a standard header's name."""
+    ident = identifier(device_name)
+    return ident + "_" if ident in STANDARD_HEADERS else ident
 
 
 def unique_identifiers(names: Iterable[str]) -> list[str]:

@@ -67,21 +67,26 @@ def plan_reads(
 
 
 def split_request(device: Device, request: Request) -> list[Request]:
-    """Smaller requests for a group the device refused with exception 2: one run per function,
-    within the group's addresses."""
+    """Smaller requests for a group the device refused with exception 2: one per run of each
+    function's addresses within the group, each distinct run once (functions that share registers
+    share its request), in the order the group names the functions."""
     by_name = {fn.name: fn for fn in device.functions}
-    out = []
+    names_of: dict[tuple[int, int], list[str]] = {}  # (start, count) -> the functions whose run it is
     for name in request.functions:
         lay = layout(by_name[name])
-        addrs = sorted(a for a in lay.addresses if request.start <= a < request.end)
-        run = [addrs[0]]
-        for a in addrs[1:] + [None]:
-            if a is not None and a == run[-1] + 1:
-                run.append(a)
-                continue
-            sub = Request(lay.table, run[0], len(run), (name,))
-            if sub not in out:
-                out.append(sub)
-            if a is not None:
-                run = [a]
+        for run in _runs(sorted({a for a in lay.addresses if request.start <= a < request.end})):
+            names = names_of.setdefault(run, [])
+            if name not in names:
+                names.append(name)
+    return [Request(request.table, start, count, tuple(names)) for (start, count), names in names_of.items()]
+
+
+def _runs(addrs: list[int]) -> list[tuple[int, int]]:
+    """(start, count) of each run of consecutive addresses in a sorted list without repeats."""
+    out: list[tuple[int, int]] = []
+    for a in addrs:
+        if out and a == out[-1][0] + out[-1][1]:
+            out[-1] = (out[-1][0], out[-1][1] + 1)
+        else:
+            out.append((a, 1))
     return out

@@ -1,10 +1,25 @@
-"""Translate typed fragment trees to Python with C's semantics (helpers in pyhelpers.py)."""
+"""Typed fragment trees -> Python with the semantics of docs/fragments.md (helpers in pyhelpers.py)."""
 
 from __future__ import annotations
 
-from mdl.cfrag.parser import INT_TYPES, CNode, IntType, arith_type, int_type_of
+import math
+from functools import cache, lru_cache
+from pathlib import Path
+from typing import Any
 
-FLOATS = ("float", "double")
+from mdl.cfrag.tree import COMPARISONS, FLOATS, INT_TYPES, CNode, IntType, children, int_type_of
+
+HELPERS_SOURCE = (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
+# helpers whose errors a translated fragment can raise
+FALLIBLE = ("_idiv", "_imod", "_f2i", "_store")
+
+
+@cache
+def helpers_namespace() -> dict[str, Any]:
+    """The helpers, run: the globals translated fragments are evaluated in (never modified)."""
+    ns: dict[str, Any] = {}
+    exec(compile(HELPERS_SOURCE, "<mdl fragment helpers>", "exec"), ns)
+    return ns
 
 
 def _int_target(t: str | IntType) -> IntType:
@@ -30,10 +45,10 @@ def convert(code: str, src: str, dst: str | IntType) -> str:
     if dst == "double":
         return code if src == "float" else f"float({bare(code)})"
     if dst == "float":
-        return f"_f32({bare(code)})" if src == "double" else f"_f32(float({bare(code)}))"
+        return f"_f32({bare(code)})" if src == "double" else f"_i2f32({bare(code)})"
     bits, signed = _int_target(dst)
     if src in FLOATS:
-        return f"_wrap(_trunc({bare(code)}), {bits}, {signed})"
+        return f"_f2i({bare(code)}, {bits}, {signed})"
     sbits, ssigned = INT_TYPES[src]
     if (ssigned == signed and sbits <= bits) or (not ssigned and signed and sbits < bits):
         return code
@@ -51,13 +66,37 @@ def _arith(op: str, a: str, b: str, t: str) -> str:
         expr = f"_imod({bare(a)}, {bare(b)})"
     else:
         expr = f"{a} {op} {b}"
+    if op in ("&", "|", "^") or (op in ("/", "%") and not signed):
+        return f"({expr})"  # cannot leave the type
     return f"_wrap({expr}, {bits}, {signed})"
 
 
+def _literal(value: int | float) -> str:
+    return f"({value!r})" if str(value).startswith("-") else repr(value)
+
+
+def operand(node: CNode, t: str) -> str:
+    """`node` converted to type t: a literal where it is a constant."""
+    value = constant_value(node, t)
+    return _literal(value) if value is not None else convert(emit(node), node[1], t)
+
+
+def truth(node: CNode) -> str:
+    """A Python condition true where C takes the value of `node` as true."""
+    match node:
+        case ("unary", _, "!", inner):
+            return f"not {truth(inner)}"
+        case ("bin", _, op, left, right, optype) if op in ("&&", "||"):
+            return f"({truth(left)} {'and' if op == '&&' else 'or'} {truth(right)})"
+        case ("bin", _, op, left, right, optype) if optype is not None and op in COMPARISONS:
+            return f"({operand(left, optype)} {op} {operand(right, optype)})"
+    return emit(node)
+
+
 def _unary(t: str, op: str, inner: CNode) -> str:
-    code = emit(inner)
     if op == "!":
-        return f"(0 if {code} else 1)"
+        return f"(0 if {truth(inner)} else 1)"
+    code = emit(inner)
     if op == "+":
         return code
     if t in FLOATS:
@@ -67,22 +106,26 @@ def _unary(t: str, op: str, inner: CNode) -> str:
 
 
 def _binary(t: str, op: str, left: CNode, right: CNode, optype: str | None) -> str:
-    a, b = emit(left), emit(right)
-    if op in ("&&", "||"):
-        return f"(1 if ({bare(a)}) {'and' if op == '&&' else 'or'} ({bare(b)}) else 0)"
-    if op == ">>":
-        return f"({a} >> {b})"
-    if op == "<<":
+    if op in ("&&", "||") or op in COMPARISONS:
+        condition = truth(("bin", t, op, left, right, optype))
+        return f"(1 if {bare(condition)} else 0)"
+    if op in ("<<", ">>"):
+        a, b = emit(left), emit(right)
         bits, signed = INT_TYPES[t]
-        return f"_wrap({a} << {b}, {bits}, {signed})"
+        if op == "<<":
+            return f"_shl({bare(a)}, {bare(b)}, {bits}, {signed})"
+        return f"_shr({bare(a)}, {bare(b)}, {bits})"
     assert optype is not None  # only && and || have none
-    a, b = convert(a, left[1], optype), convert(b, right[1], optype)
-    if op in ("==", "!=", "<", ">", "<=", ">="):
-        return f"(1 if {a} {op} {b} else 0)"
-    return _arith(op, a, b, optype)
+    return _arith(op, operand(left, optype), operand(right, optype), optype)
 
 
-def emit(node: CNode) -> str:
+def emit(node: CNode, fold: bool = True) -> str:
+    """Python code computing the value of `node`, of its expression type; a constant expression
+    as its value unless `fold` is false."""
+    if fold and node[0] != "num":
+        value = constant_value(node)
+        if value is not None:
+            return _literal(value)
     match node:
         case ("num", _, value):
             return repr(value)
@@ -96,22 +139,69 @@ def emit(node: CNode) -> str:
         case ("unary", t, op, inner):
             return _unary(t, op, inner)
         case ("cond", t, c, a, b):
-            return f"({convert(emit(a), a[1], t)} if {emit(c)} else {convert(emit(b), b[1], t)})"
+            return f"({operand(a, t)} if {truth(c)} else {operand(b, t)})"
         case ("bin", t, op, left, right, optype):
             return _binary(t, op, left, right, optype)
     raise AssertionError(f"unknown fragment node {node[0]}")
 
 
+def _has_variable(node: CNode) -> bool:
+    return node[0] == "var" or any(_has_variable(child) for child in children(node))
+
+
+@lru_cache(maxsize=4096)
+def constant_value(node: CNode, as_type: str | None = None) -> int | float | None:
+    """The value of a node that names no variable (converted to `as_type` if given), as the
+    translation computes it; None for a node naming a variable, or of a value that is not finite."""
+    if _has_variable(node):
+        return None
+    code = emit(node, fold=False)
+    if as_type is not None:
+        code = convert(code, node[1], as_type)
+    value: int | float = evaluate(code)
+    return None if isinstance(value, float) and not math.isfinite(value) else value
+
+
+def register_ready(node: CNode) -> bool:
+    """Whether a node's value is an integer in 0..65535 whatever the registers: an assignment to a
+    register stores it as it is."""
+    match node:
+        case ("var", _, name):
+            return name != "arg"
+        case ("cast", _, (bits, False), _):
+            return bool(bits <= 16)
+    value = constant_value(node)
+    return node[1] in INT_TYPES and isinstance(value, int) and 0 <= value <= 0xFFFF
+
+
+def stored_constant(target: str, value: CNode) -> int | float | None:
+    """What an assignment of a constant value stores (ArithmeticError if it cannot), or None."""
+    const = constant_value(value, "double" if target == "arg" else None)
+    if const is None or target == "arg":
+        return const
+    stored: int = helpers_namespace()["_store"](const, target)
+    return stored
+
+
+def store(target: str, value: CNode) -> str:
+    """The value of an assignment to `target` (arg or rN), converted as the assignment converts it."""
+    const = stored_constant(target, value)
+    if const is not None:
+        return repr(const)
+    if target == "arg":
+        return bare(operand(value, "double"))
+    if register_ready(value):
+        return bare(emit(value))
+    return f"_store({bare(emit(value))}, {target!r})"
+
+
 def statement(target: str, op: str, value: CNode) -> str:
-    """One assignment as a Python line."""
-    ttype = "double" if target == "arg" else "int"
+    """One checked assignment (`target = value`, as the parser gives it) as a Python line."""
     if op != "=":
-        bop = op[:-1]
-        left: CNode = ("var", ttype, target)
-        if bop in ("<<", ">>"):
-            value = ("bin", ttype, bop, left, value, ttype)
-        else:
-            optype = arith_type(ttype, value[1])
-            value = ("bin", optype, bop, left, value, optype)
-    dst: str | IntType = "double" if target == "arg" else (16, False)
-    return f"{target} = {bare(convert(emit(value), value[1], dst))}"
+        raise AssertionError(f"compound assignment {op} reached the translation")
+    return f"{target} = {store(target, value)}"
+
+
+def evaluate(code: str) -> Any:
+    """The value of translated code that names no variable (a constant expression)."""
+    return eval(compile(code, "<mdl fragment constant>", "eval"), helpers_namespace())

@@ -7,14 +7,14 @@ from pathlib import Path
 from mdl.gen import python as pygen
 from mdl.gen.render import environment, require_dir, write_outputs
 from mdl.model import Device
-from mdl.names import identifier
+from mdl.names import stem as file_stem
 
 LANGS = ("python", "cpp", "all")
 
 
 def render(device: Device, source_name: str, lang: str) -> dict[str, str]:
     """File name -> content for the chosen language(s)."""
-    stem = identifier(device.name)
+    stem = file_stem(device.name)
     env = environment()
     out: dict[str, str] = {}
     if lang in ("python", "all"):

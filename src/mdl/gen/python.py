@@ -14,11 +14,12 @@ from functools import lru_cache
 from typing import Any
 
 from mdl import __version__
-from mdl.cfrag import python_body
+from mdl.cfrag import FALLIBLE, compile_fragment
 from mdl.codec import int_range, scales
 from mdl.expr.fields import evaluation_order
 from mdl.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
 from mdl.expr.pyemit import body as expr_body
+from mdl.gen.render import pycomment, pyrepr
 from mdl.gen.straight import span_bits, unit_shift, units_msb_first
 from mdl.layout import Layout, layout
 from mdl.model import Device, Function
@@ -29,13 +30,17 @@ from mdl.plan import plan_reads, split_request
 # arrived in 3.10.0 (before it: `slave=`). tests/test_generated_python_lint.py runs a driver on it.
 PYMODBUS_REQUIREMENT = "pymodbus >= 3.10.0, < 4"
 
-# standard-library names generated code may use -> the import that binds each
+# standard-library names generated code may use -> the module that binds each (`import m` where the
+# name is the module's)
 STDLIB_IMPORTS = {
-    "decimal": "import decimal",
-    "math": "import math",
-    "struct": "import struct",
-    "Sequence": "from collections.abc import Sequence",
+    "decimal": "decimal",
+    "math": "math",
+    "struct": "struct",
+    "Callable": "collections.abc",
+    "Sequence": "collections.abc",
 }
+# names the template's own code uses, wherever it is rendered
+TEMPLATE_NAMES = {"Callable"}
 
 # expression type -> Python type of its value (every expression value may be None)
 EXPR_TYPES = {"double": "float", "long": "int", "string": "str", "bool": "bool", "list": "list[str]"}
@@ -78,8 +83,13 @@ def helpers_for(names: set[str]) -> list[str]:
 
 
 def import_lines(names: set[str]) -> list[str]:
-    """Standard-library imports for `names`, in isort's order: `import x` first, then `from`."""
-    return sorted((STDLIB_IMPORTS[n] for n in names if n in STDLIB_IMPORTS), key=lambda line: (line[0] == "f", line))
+    """Standard-library imports for `names`, in isort's order: `import x` first, then `from x import a, b`."""
+    modules: dict[str, list[str]] = {}
+    for name in sorted(n for n in names if n in STDLIB_IMPORTS):
+        modules.setdefault(STDLIB_IMPORTS[name], []).append(name)
+    plain = [f"import {m}" for m, found in modules.items() if found == [m]]
+    froms = [f"from {m} import {', '.join(found)}" for m, found in modules.items() if found != [m]]
+    return sorted(plain) + sorted(froms)
 
 
 # -- value types
@@ -136,11 +146,26 @@ def _scale_lines(fn: Function, var: str) -> list[str]:
     return [f"return float(f'{{{var} * {_number(fn.eff_multiplier)} + {_number(fn.eff_offset)}:.15g}}')"]
 
 
+# what a translated fragment's errors (ArithmeticError) become in a driver: the device's registers
+# have no value, or the value written has no registers (docs/fragments.md)
+FRAGMENT_ERRORS = {"read_function_code": "FragmentDomainError", "write_function_code": "ValueRangeError"}
+
+
+def _guarded(fn: Function, attr: str, body: list[str]) -> list[str]:
+    """The fragment's lines; where they can fail, in a try that raises the driver's exception
+    naming the function."""
+    if not _names("\n".join(body)) & set(FALLIBLE):
+        return body
+    prefix = pyrepr(f"function {fn.name!r}: {attr}: ")
+    return ["try:", *("    " + line for line in body), "except ArithmeticError as exc:",
+            f"    raise {FRAGMENT_ERRORS[attr]}({prefix} + str(exc)) from None"]
+
+
 def _fragment_read_lines(fn: Function, nregs: int) -> list[str]:
-    body = python_body(fn.read_function_code or "", nregs)
+    body = compile_fragment(fn.read_function_code or "", nregs, True).python_lines()
     loaded = _loaded(body)
     unpack = [f"r{i + 1} = r[{i}]" for i in range(nregs) if f"r{i + 1}" in loaded]
-    return [*unpack, "arg = 0.0", *body, "return arg"]
+    return [*unpack, "arg = 0.0", *_guarded(fn, "read_function_code", body), "return arg"]
 
 
 def decode_lines(fn: Function) -> list[str]:
@@ -196,9 +221,10 @@ def _range_lines(fn: Function) -> list[str]:
 
 def _fragment_write_lines(fn: Function, nregs: int) -> list[str]:
     regs = [f"r{i + 1}" for i in range(nregs)]
-    body = python_body(fn.write_function_code or "", nregs)
+    body = compile_fragment(fn.write_function_code or "", nregs, False).python_lines()
     start = ["arg = float(value)"] if "arg" in _loaded(body) else []
-    return start + [f"{r} = 0" for r in regs] + body + [f"return [{', '.join(regs)}]"]
+    return [*start, *(f"{r} = 0" for r in regs), *_guarded(fn, "write_function_code", body),
+            f"return [{', '.join(regs)}]"]
 
 
 def _text_lines(span: int) -> list[str]:
@@ -265,6 +291,15 @@ def _encoder(fn: Function, ident: str) -> str:
 
 
 # -- the module
+
+
+def docstring(text: str) -> str:
+    """A docstring literal of `text` on one line: nothing in the text can end it early (a quote or a
+    backslash at its end, quotes inside, line breaks of any kind)."""
+    body = pycomment(text)
+    if body.endswith('"'):
+        body = body[:-1] + '\\"'
+    return f'"""{body}"""'
 
 
 def doc_text(fn: Function) -> str:
@@ -347,14 +382,16 @@ def context(device: Device, source_name: str) -> dict[str, Any]:
     code = [text for f in functions for text in (f.decoder, f.encoder) if text] + [f.gather for f in readable]
     used = set().union(*map(_names, code))
     helpers = helpers_for(used)
-    used = used.union(*map(_names, helpers))
+    used = used.union(*map(_names, helpers), TEMPLATE_NAMES)
     class_name = camel(identifier(device.name))
     exports = [class_name, f"Async{class_name}", f"{class_name}Values", "CommunicationError", "DeviceError",
                "ModbusExceptionError", "ValueRangeError"]
+    exports += [name for name in ("FragmentDomainError",) if name in used]
     return {
         "device": device, "version": __version__, "source": source_name, "requirement": PYMODBUS_REQUIREMENT,
         "functions": functions, "infos": infos, "readable": readable, "class_name": class_name,
         "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.fn.name for f in readable]),
         "groups": _read_plan(device), "imports": import_lines(used), "helpers": helpers, "uses": used,
         "exports": sorted(exports), "writes": any(f.encoder for f in functions),
+        "module_doc": docstring(f"Driver for {device.name}: {device.description}"),
     }

@@ -31,12 +31,17 @@ def pycomment(text: object) -> str:
 
 
 def ccomment(text: object) -> str:
-    """Text safe inside a C++ comment: ASCII, no line breaks, nothing that ends the comment."""
-    return _ascii_line(text).replace("*/", "* /").replace("/*", "/ *").rstrip("\\")
+    """Text for a C or C++ comment (`//` or `/* */`), as written (UTF-8) on one line, that cannot end
+    the comment or splice the next line into it: control characters and line breaks become a space,
+    `*/`, `/*` and the `??/` trigraph get a space inside, and a backslash that ends the text becomes
+    U+FF3C (a fullwidth backslash)."""
+    text = re.sub(r"\s*[\x00-\x1f\x7f-\x9f\u2028\u2029]+\s*", " ", str(text)).strip()
+    text = text.replace("*/", "* /").replace("/*", "/ *").replace("??/", "?? /")
+    return text[:-1] + "\uff3c" if text.endswith("\\") else text
 
 
 def cstring(text: object) -> str:
-    """A C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
+    """A C or C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
     out = []
     for byte in str(text).encode("utf-8"):
         ch = chr(byte)

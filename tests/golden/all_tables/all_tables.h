@@ -5,6 +5,7 @@
 #include <modbus.h>
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -34,7 +35,7 @@ struct AllTablesValues {
     uint16_t gap_low{};
     /** gap_high */
     uint16_t gap_high{};
-    /** setpoint [\xb0C] */
+    /** setpoint [°C] */
     double setpoint{};
     /** mode */
     uint16_t mode{};
@@ -60,7 +61,8 @@ struct AllTablesValues {
  * All Tables over a connected libmodbus context, which the caller owns (and whose
  * unit id the caller sets with modbus_set_slave). Every method returns 0, or -1 with errno set as
  * libmodbus sets it (EMBXILADD and the other Modbus exception codes included; EINVAL for a value
- * outside the function's range or format).
+ * outside the function's range or format; EDOM or ERANGE where a fragment has no value).
+ * A read that fails leaves *out as it was.
  */
 class AllTables {
 public:
@@ -69,114 +71,117 @@ public:
     explicit AllTables(modbus_t *ctx) : ctx_(ctx) {}
 
     /** Read pump */
-    int read_pump(bool *out);
+    [[nodiscard]] int read_pump(bool *out);
 
     /** Write pump */
-    int write_pump(bool value);
+    [[nodiscard]] int write_pump(bool value);
 
     /** Read fan */
-    int read_fan(bool *out);
+    [[nodiscard]] int read_fan(bool *out);
 
     /** Write fan */
-    int write_fan(bool value);
+    [[nodiscard]] int write_fan(bool value);
 
     /** Write alarm_reset */
-    int write_alarm_reset(bool value);
+    [[nodiscard]] int write_alarm_reset(bool value);
 
     /** Read door_open */
-    int read_door_open(bool *out);
+    [[nodiscard]] int read_door_open(bool *out);
 
     /** Read filter_dirty */
-    int read_filter_dirty(bool *out);
+    [[nodiscard]] int read_filter_dirty(bool *out);
 
     /** Read energy [kWh] */
-    int read_energy(double *out);
+    [[nodiscard]] int read_energy(double *out);
 
     /** Read power [W] */
-    int read_power(float *out);
+    [[nodiscard]] int read_power(float *out);
 
     /** Read voltage [V] */
-    int read_voltage(std::optional<double> *out);
+    [[nodiscard]] int read_voltage(std::optional<double> *out);
 
     /** Read gap_low */
-    int read_gap_low(uint16_t *out);
+    [[nodiscard]] int read_gap_low(uint16_t *out);
 
     /** Write gap_low */
-    int write_gap_low(uint16_t value);
+    [[nodiscard]] int write_gap_low(uint16_t value);
 
     /** Read gap_high */
-    int read_gap_high(uint16_t *out);
+    [[nodiscard]] int read_gap_high(uint16_t *out);
 
     /** Write gap_high */
-    int write_gap_high(uint16_t value);
+    [[nodiscard]] int write_gap_high(uint16_t value);
 
-    /** Read setpoint [\xb0C] */
-    int read_setpoint(double *out);
+    /** Read setpoint [°C] */
+    [[nodiscard]] int read_setpoint(double *out);
 
-    /** Write setpoint [\xb0C] */
-    int write_setpoint(double value);
+    /** Write setpoint [°C] */
+    [[nodiscard]] int write_setpoint(double value);
 
     /** Read mode */
-    int read_mode(uint16_t *out);
+    [[nodiscard]] int read_mode(uint16_t *out);
 
     /** Write mode */
-    int write_mode(uint16_t value);
+    [[nodiscard]] int write_mode(uint16_t value);
 
     /** Read label */
-    int read_label(std::string *out);
+    [[nodiscard]] int read_label(std::string *out);
 
     /** Write label */
-    int write_label(std::string value);
+    [[nodiscard]] int write_label(const std::string &value);
 
     /** Read status_bit */
-    int read_status_bit(double *out);
+    [[nodiscard]] int read_status_bit(double *out);
 
     /** Read flow */
-    int read_flow(double *out);
+    [[nodiscard]] int read_flow(double *out);
 
     /** Write flow */
-    int write_flow(double value);
+    [[nodiscard]] int write_flow(double value);
 
     /** Read big */
-    int read_big(int64_t *out);
+    [[nodiscard]] int read_big(int64_t *out);
 
     /** Write big */
-    int write_big(int64_t value);
+    [[nodiscard]] int write_big(int64_t value);
 
     /** Read temp_offset */
-    int read_temp_offset(double *out);
+    [[nodiscard]] int read_temp_offset(double *out);
 
     /** Write temp_offset */
-    int write_temp_offset(double value);
+    [[nodiscard]] int write_temp_offset(double value);
 
     /** Read serial */
-    int read_serial(uint32_t *out);
+    [[nodiscard]] int read_serial(uint32_t *out);
 
     /** Write serial */
-    int write_serial(uint32_t value);
+    [[nodiscard]] int write_serial(uint32_t value);
 
     /** Read low_byte */
-    int read_low_byte(int8_t *out);
+    [[nodiscard]] int read_low_byte(int8_t *out);
 
     /** Write low_byte */
-    int write_low_byte(int8_t value);
+    [[nodiscard]] int write_low_byte(int8_t value);
 
     /** Read high_byte */
-    int read_high_byte(uint8_t *out);
+    [[nodiscard]] int read_high_byte(uint8_t *out);
 
     /** Write high_byte */
-    int write_high_byte(uint8_t value);
+    [[nodiscard]] int write_high_byte(uint8_t value);
 
     /** Read every readable function with the fewest requests; a group the device refuses with
-     *  exception 2 is read as smaller requests from then on. */
-    int read_all(AllTablesValues *out);
+     *  exception 2 is read as smaller requests from then on. Allocates nothing but the memory of
+     *  text and list values. */
+    [[nodiscard]] int read_all(AllTablesValues *out);
 
 private:
-    int read_table_(int table, int start, int count, uint16_t *dest);
-    int write_table_(int table, int start, int count, const uint16_t *src);
+    [[nodiscard]] int read_table_(int table, int start, int count, uint16_t *dest);
+    [[nodiscard]] int write_table_(int table, int start, int count, const uint16_t *src);
+    void drop_stale_bytes_();
+    [[nodiscard]] int check_reply_ended_();
 
     modbus_t *ctx_;
-    std::array<bool, 11> refused_{};
+    std::array<bool, 11> refused_{};  // groups of the read plan read as smaller requests
 };
 
 #endif  // MDL_ALL_TABLES_H

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from typing import TypedDict
 
 from pymodbus.client import ModbusBaseClient, ModbusBaseSyncClient
@@ -43,16 +44,47 @@ class ModbusExceptionError(DeviceError):
 
 
 class ValueRangeError(DeviceError, ValueError):
-    """A value to write is outside the function's range or format."""
+    """A value to write is outside the function's range or format, or its write fragment has no
+    registers for it."""
 
 
-def _check_read(rr: ModbusPDU, table: str, start: int, count: int) -> list[int]:
+# the function code of a read of each table
+_READ_CODES = {"coil": 1, "discrete": 2, "holding": 3, "input": 4}
+
+
+def _check_code(rr: ModbusPDU, what: str, code: int) -> None:
+    """A reply for another function is refused; an exception reply raises ModbusExceptionError."""
+    if rr.function_code & 0x7F != code:
+        raise CommunicationError(f"{what}: the reply has function code {rr.function_code & 0x7F}, expected {code}")
     if rr.isError():
-        raise ModbusExceptionError(rr.exception_code, f"reading {count} {table} from {start}")
-    values = [int(b) for b in rr.bits] if table in ("coil", "discrete") else list(rr.registers)
-    if len(values) < count:
-        raise CommunicationError(f"reading {count} {table} from {start}: short reply of {len(values)}")
-    return values[:count]
+        raise ModbusExceptionError(rr.exception_code, what)
+
+
+def _check_read(rr: ModbusPDU, what: str, table: str, count: int) -> list[int]:
+    """The values of a read reply: exactly `count` registers, or `count` bits padded to whole bytes."""
+    _check_code(rr, what, _READ_CODES[table])
+    if table in ("coil", "discrete"):
+        bits = [int(b) for b in rr.bits]
+        if not count <= len(bits) <= 8 * ((count + 7) // 8):
+            raise CommunicationError(f"{what}: the reply carries {len(bits)} bits, expected {count}")
+        return bits[:count]
+    registers = list(rr.registers)
+    if len(registers) != count:
+        raise CommunicationError(f"{what}: the reply carries {len(registers)} registers, expected {count}")
+    return registers
+
+
+def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[int]) -> None:
+    """A write reply must echo the address and the value (5, 6) or the count (16) written."""
+    _check_code(rr, what, code)
+    if code == 5:
+        echo, sent = [1 if b else 0 for b in rr.bits[:1]], [1 if values[0] else 0]
+    elif code == 6:
+        echo, sent = list(rr.registers), values
+    else:
+        echo, sent = [rr.count], [len(values)]
+    if rr.address != start or echo != sent:
+        raise CommunicationError(f"{what}: the reply does not echo the request")
 
 
 def _keys(table: str, start: int, count: int) -> list[tuple[str, int]]:
@@ -78,11 +110,6 @@ def _not_implemented(r: list[int], patterns: tuple[str, ...]) -> bool:
     return False
 
 
-def _wrap(x: int, bits: int, signed: bool) -> int:
-    x &= (1 << bits) - 1
-    return x - (1 << bits) if signed and x >> (bits - 1) else x
-
-
 def _f32(x: float) -> float:
     try:
         return float(struct.unpack("<f", struct.pack("<f", x))[0])
@@ -90,9 +117,24 @@ def _f32(x: float) -> float:
         return math.copysign(math.inf, x)
 
 
-def _trunc(x: float) -> int:
-    if not math.isfinite(x):
-        raise ValueError("fragment converts a non-finite value to an integer")
+def _i2f32(n: int) -> float:
+    """An integer converted to float as C converts it: rounded once, to nearest, ties to even."""
+    m = abs(n)
+    drop = m.bit_length() - 24
+    if drop > 0:
+        q, rest, half = m >> drop, m & ((1 << drop) - 1), 1 << (drop - 1)
+        if rest > half or (rest == half and q & 1):
+            q += 1
+        m = q << drop
+    return float(m) if n >= 0 else -float(m)
+
+
+def _f2i(x: float, bits: int, signed: bool) -> int:
+    """A float converted to an integer type, truncated toward zero; an error where C's result is undefined."""
+    low, high = (-(1 << (bits - 1)), 1 << (bits - 1)) if signed else (0, 1 << bits)
+    if not low - 1 < x < high:
+        name = f"{'' if signed else 'u'}int{bits}_t"
+        raise FloatingPointError(f"converts {x!r} to {name}, outside its range")
     return int(x)
 
 
@@ -102,6 +144,11 @@ def _fdiv(a: float, b: float) -> float:
             return math.nan
         return math.copysign(math.inf, a) * math.copysign(1.0, b)
     return a / b
+
+
+def _shr(a: int, n: int, bits: int) -> int:
+    """a >> n, arithmetic for a negative a; a count outside 0..bits-1 shifts every bit out."""
+    return a >> n if 0 <= n < bits else (-1 if a < 0 else 0)
 
 
 def _decode_pump(r: list[int]) -> bool:
@@ -247,14 +294,14 @@ def _encode_label(value: str) -> list[int]:
 def _decode_status_bit(r: list[int]) -> float:
     r1 = r[0]
     arg = 0.0
-    arg = float(_wrap((r1 >> 3) & 1, 32, True))
+    arg = float(_shr(r1, 3, 32) & 1)
     return arg
 
 
 def _decode_flow(r: list[int]) -> float:
     r1 = r[0]
     arg = 0.0
-    arg = _f32(_fdiv(_f32(float(r1)), 10.0))
+    arg = _f32(_fdiv(_i2f32(r1), 10.0))
     return arg
 
 
@@ -263,7 +310,10 @@ def _encode_flow(value: float) -> list[int]:
         raise ValueRangeError(f'expects a number, got {value!r}')
     arg = float(value)
     r1 = 0
-    r1 = _wrap(_wrap(_trunc(arg * 10.0), 16, False), 16, False)
+    try:
+        r1 = _f2i(arg * 10.0, 16, False)
+    except ArithmeticError as exc:
+        raise ValueRangeError("function 'flow': write_function_code: " + str(exc)) from None
     return [r1]
 
 
@@ -467,12 +517,25 @@ class AllTables:
             return self.client.read_input_registers(start, count=count, device_id=self.unit)
         return self.client.read_holding_registers(start, count=count, device_id=self.unit)
 
+    def _connect(self) -> None:
+        """Connect the client where it is not connected (again, after a failure closed it)."""
+        if not self.client.connect():
+            raise CommunicationError("cannot connect to the device")
+
+    def _disconnect(self) -> None:
+        """Close a connection that failed: the next call connects again."""
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
+
     def _read(self, table: str, start: int, count: int) -> list[int]:
+        what = f"reading {count} {table} from {start}"
         try:
+            self._connect()
             rr = self._request(table, start, count)
-        except ModbusException as exc:
-            raise CommunicationError(f"reading {count} {table} from {start}: {exc}") from exc
-        return _check_read(rr, table, start, count)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        return _check_read(rr, what, table, count)
 
     def _read_runs(self, runs: list[_Request]) -> list[int]:
         regs: list[int] = []
@@ -481,17 +544,19 @@ class AllTables:
         return regs
 
     def _write(self, table: str, start: int, values: list[int]) -> None:
+        what = f"writing {table} {start}"
         try:
+            self._connect()
             if table == "coil":
-                rr = self.client.write_coil(start, bool(values[0]), device_id=self.unit)
+                code, rr = 5, self.client.write_coil(start, bool(values[0]), device_id=self.unit)
             elif len(values) == 1:
-                rr = self.client.write_register(start, values[0], device_id=self.unit)
+                code, rr = 6, self.client.write_register(start, values[0], device_id=self.unit)
             else:
-                rr = self.client.write_registers(start, values, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationError(f"writing {table} {start}: {exc}") from exc
-        if rr.isError():
-            raise ModbusExceptionError(rr.exception_code, f"writing {table} {start}")
+                code, rr = 16, self.client.write_registers(start, values, device_id=self.unit)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        _check_write(rr, what, code, start, values)
 
     def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0
@@ -678,12 +743,25 @@ class AsyncAllTables:
             return await self.client.read_input_registers(start, count=count, device_id=self.unit)
         return await self.client.read_holding_registers(start, count=count, device_id=self.unit)
 
+    async def _connect(self) -> None:
+        """Connect the client where it is not connected (again, after a failure closed it)."""
+        if not self.client.connected and not await self.client.connect():
+            raise CommunicationError("cannot connect to the device")
+
+    def _disconnect(self) -> None:
+        """Close a connection that failed: the next call connects again."""
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
+
     async def _read(self, table: str, start: int, count: int) -> list[int]:
+        what = f"reading {count} {table} from {start}"
         try:
+            await self._connect()
             rr = await self._request(table, start, count)
-        except ModbusException as exc:
-            raise CommunicationError(f"reading {count} {table} from {start}: {exc}") from exc
-        return _check_read(rr, table, start, count)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        return _check_read(rr, what, table, count)
 
     async def _read_runs(self, runs: list[_Request]) -> list[int]:
         regs: list[int] = []
@@ -692,17 +770,19 @@ class AsyncAllTables:
         return regs
 
     async def _write(self, table: str, start: int, values: list[int]) -> None:
+        what = f"writing {table} {start}"
         try:
+            await self._connect()
             if table == "coil":
-                rr = await self.client.write_coil(start, bool(values[0]), device_id=self.unit)
+                code, rr = 5, await self.client.write_coil(start, bool(values[0]), device_id=self.unit)
             elif len(values) == 1:
-                rr = await self.client.write_register(start, values[0], device_id=self.unit)
+                code, rr = 6, await self.client.write_register(start, values[0], device_id=self.unit)
             else:
-                rr = await self.client.write_registers(start, values, device_id=self.unit)
-        except ModbusException as exc:
-            raise CommunicationError(f"writing {table} {start}: {exc}") from exc
-        if rr.isError():
-            raise ModbusExceptionError(rr.exception_code, f"writing {table} {start}")
+                code, rr = 16, await self.client.write_registers(start, values, device_id=self.unit)
+        except (ModbusException, OSError) as exc:
+            self._disconnect()
+            raise CommunicationError(f"{what}: {exc}") from exc
+        _check_write(rr, what, code, start, values)
 
     async def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0
