@@ -498,6 +498,7 @@ def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
     assert compile_driver(cc, compiler).stat().st_size > 0
 
 
+@pytest.mark.exhaustive  # clang-tidy takes seconds a driver: CI runs it, a quick local run need not
 @pytest.mark.parametrize("driver", ["all_tables", "temco_tstat", "formats", "fragments", "expressions"])
 def test_clang_tidy_finds_nothing(driver, tmp_path):
     if driver in ("formats", "fragments"):  # every format and order; every fragment test_cfrag.py knows

@@ -22,6 +22,8 @@ from hostile_server import MODES, hostile_server
 
 from mdl.mdlxml import load_device
 
+pytestmark = pytest.mark.exhaustive  # slow (sanitizer builds / a venv from the registry): CI runs it
+
 TIMEOUT_MS = 500
 CALL_BOUND = 2.5  # seconds a call may take: the response timeout, a byte timeout, and sanitizer overhead
 EMBXSFAIL = MODBUS_ENOBASE + 4

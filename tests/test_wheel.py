@@ -13,6 +13,8 @@ from pathlib import Path
 import pytest
 from conftest import DATA, ROOT, skip_or_fail
 
+pytestmark = pytest.mark.exhaustive  # slow (sanitizer builds / a venv from the registry): CI runs it
+
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
 
 
