@@ -95,6 +95,12 @@ UNDEFINED_READS = [
     "r1 = r1 - 40000; arg = r1;",
     "r1 = -1; arg = r1;",
     "r3 = r1 * r2; arg = r3 / 2;",
+    # what compilers and clang-tidy call suspicious: identical operands, self-assignment, constants
+    "arg = ((r1 % r2) ? r3 : r3) * 2 + (r1 ? 7 : 7);",
+    "arg = (uint64_t)~r1 + (r1 && r1) + (r2 & r2) + (r3 ^ r3) + (r1 > r1) + ((r1 | 3) != 0);",
+    "r1 = r1; r2 = (uint16_t)r2; arg = arg; arg = r1 + r2;",
+    "r2 = 33; arg = r2 ? 64 : r4 >= 2147483648;",
+    "arg = 0.0 - (double)r1 + (0.0f - (float)r2) + (0.0 + -1.0 * r3);",  # gcc folds these to -0.0
 ]
 WRITES = [
     ("r1 = (uint16_t)(arg/10.0f);", (0.0, 600000.0)),

@@ -1,13 +1,13 @@
 """Typed fragment trees -> C99 or C++17 functions with the semantics of docs/fragments.md.
 
 The code is printed from the tree, never from the fragment's text (comments never reach it).
-Every conversion C makes implicitly is written out, every operation C leaves undefined or
-implementation-defined calls a helper of chelpers.c, and no comparison has a constant operand a
-compiler could call always true: the functions compile without a warning under
-`-Wall -Wextra -Wpedantic -Wconversion -Wshadow` (gcc and clang, C99 and C++17) and run clean
-under UBSan. A helper that fails records EDOM or ERANGE; the function then returns -1 with errno
-set to it. In C++ the casts are static_casts and nothing is `static` (the driver puts the
-functions in its anonymous namespace).
+Every conversion C makes implicitly is written out; every operation C leaves undefined or
+implementation-defined, every comparison and every floating + or - with a zero operand calls a
+helper of chelpers.c (docs/fragments.md says why): the functions compile without a warning under
+`-Wall -Wextra -Wpedantic -Wconversion -Wshadow` (gcc and clang, C99 and C++17), pass the C++
+driver's clang-tidy checks and run clean under UBSan. A helper that fails records EDOM or ERANGE;
+the function then returns -1 with errno set to it. In C++ the casts are static_casts and nothing
+is `static` (the driver puts the functions in its anonymous namespace).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from mdl.cfrag.tree import (
     INT_TYPES,
     CNode,
     IntType,
+    NumNode,
     Statement,
     c_type_name,
     int_range,
@@ -100,6 +101,31 @@ def literal(value: int | float, t: str) -> str:
         return f"(-{text})" if math.copysign(1.0, value) < 0 else text
     assert isinstance(value, int)
     return int_literal(value, t)
+
+
+def _stored(target: str, value: CNode) -> int | float | None:
+    """What an assignment of a constant value stores; None if the value is not constant, or the
+    assignment fails (then at run time, as it does in Python)."""
+    try:
+        return stored_constant(target, value)
+    except ArithmeticError:
+        return None
+
+
+def _substituted(node: CNode, known: dict[str, NumNode]) -> CNode:
+    """`node` with the variables whose value is a known constant replaced by it."""
+    match node:
+        case ("var", _, name):
+            return known.get(name, node)
+        case ("cast", t, target, inner):
+            return ("cast", t, target, _substituted(inner, known))
+        case ("unary", t, op, inner):
+            return ("unary", t, op, _substituted(inner, known))
+        case ("bin", t, op, left, right, optype):
+            return ("bin", t, op, _substituted(left, known), _substituted(right, known), optype)
+        case ("cond", t, c, a, b):
+            return ("cond", t, _substituted(c, known), _substituted(a, known), _substituted(b, known))
+    return node
 
 
 def _fails(code: str) -> bool:
@@ -209,7 +235,9 @@ class _Emitter:
         if chosen is not None:  # C evaluates the chosen operand only
             return self.operand(a if chosen else b, t)
         condition, yes, no = self.truth(c), self.operand(a, t), self.operand(b, t)
-        return yes if yes == no and not _fails(condition) else f"({condition} ? {yes} : {no})"
+        if yes != no:
+            return f"({condition} ? {yes} : {no})"
+        return f"((void)({bare(condition)}), {yes})" if _fails(condition) else yes  # (linters flag `c ? a : a`)
 
     def unary(self, t: str, op: str, inner: CNode) -> str:
         if op == "!" or op == "+":
@@ -228,6 +256,9 @@ class _Emitter:
         a, b = self.operand(left, optype), self.operand(right, optype)
         if a == b and op in ("&", "|") or a == b and op == "^" and not _fails(a):  # (a linter's finding)
             return a if op != "^" else literal(0, optype)
+        if optype in FLOATS and op in ("+", "-") and 0 in (constant_value(left, optype), constant_value(right, optype)):
+            # gcc folds `0.0 - (double)i` to `-(double)i`, which is -0.0 where i is 0
+            return self.call(f"mdl_frag_{'add' if op == '+' else 'sub'}_{'f32' if optype == 'float' else 'f64'}", a, b)
         if optype in FLOATS or op in ("&", "|", "^"):
             return f"({a} {op} {b})"
         name = {"+": "add", "-": "sub", "*": "mul", "/": "div", "%": "mod"}[op]
@@ -242,7 +273,7 @@ class _Emitter:
 
     def store(self, target: str, value: CNode) -> str:
         """The value an assignment to `target` stores (a double for arg, an int32_t 0..65535 for rN)."""
-        const = stored_constant(target, value)
+        const = _stored(target, value)
         if const is not None:
             return literal(const, "double" if target == "arg" else "int")
         if target == "arg":
@@ -284,11 +315,20 @@ class CFragment:
         self.nregs, self.reading, self.dialect = nregs, reading, dialect
         emitter = _Emitter()
         self._lines: list[_Line] = []
+        # registers holding a known constant (0 before a write fragment, then constants assigned) are
+        # that constant: a compiler's or clang's analysis finds no test whose outcome it knows
+        known: dict[str, NumNode] = {} if reading else {f"r{i}": ("num", "int", 0) for i in range(1, nregs + 1)}
         for target, op, value in statements:
             if op != "=":
                 raise AssertionError(f"compound assignment {op} reached the C emitter")
+            value = _substituted(value, known)
             code = bare(emitter.store(target, value))
             self._lines.append(_Line(target, code, frozenset(_NAME.findall(code)), _fails(code)))
+            const = _stored(target, value)
+            if const is None or target == "arg":
+                known.pop(target, None)
+            else:
+                known[target] = ("num", "int", int(const))
         self.helpers = frozenset(name for line in self._statements() for name in _HELPER_NAME.findall(line))
 
     def _liveness(self) -> tuple[set[str], list[str]]:

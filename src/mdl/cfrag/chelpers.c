@@ -106,6 +106,24 @@ static uint64_t mdl_frag_neg_u64(uint64_t a) {
     return UINT64_C(0) - a;
 }
 
+/* + and - with a zero operand: gcc folds `0.0 - (double)i` to `-(double)i` (and `0.0 + x` to x)
+ * where IEEE 754 gives +0.0, not -0.0; a call keeps the operation as written */
+static double mdl_frag_add_f64(double a, double b) {
+    return a + b;
+}
+
+static double mdl_frag_sub_f64(double a, double b) {
+    return a - b;
+}
+
+static float mdl_frag_add_f32(float a, float b) {
+    return a + b;
+}
+
+static float mdl_frag_sub_f32(float a, float b) {
+    return a - b;
+}
+
 /* ~, kept out of casts as well */
 static int32_t mdl_frag_not_i32(int32_t a) {
     return ~a;

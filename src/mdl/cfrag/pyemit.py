@@ -27,14 +27,15 @@ def _int_target(t: str | IntType) -> IntType:
 
 
 def bare(code: str) -> str:
-    """`code` without parentheses that enclose all of it: the argument of a call needs none."""
+    """`code` without parentheses that enclose all of it: the argument of a call needs none. A
+    comma inside them (C's comma operator) keeps them."""
     if not (code.startswith("(") and code.endswith(")")):
         return code
     depth = 0
     for i, ch in enumerate(code):
         depth += {"(": 1, ")": -1}.get(ch, 0)
-        if depth == 0 and i < len(code) - 1:
-            return code  # the first parenthesis closes before the end: "(a) + (b)"
+        if (depth == 0 and i < len(code) - 1) or (depth == 1 and ch == ","):
+            return code  # the first parenthesis closes before the end, "(a) + (b)", or "(f(a), b)"
     return code[1:-1]
 
 
@@ -158,7 +159,10 @@ def constant_value(node: CNode, as_type: str | None = None) -> int | float | Non
     code = emit(node, fold=False)
     if as_type is not None:
         code = convert(code, node[1], as_type)
-    value: int | float = evaluate(code)
+    try:
+        value: int | float = evaluate(code)
+    except ArithmeticError:  # no value: computed where it runs, and fails there (the checker refuses it in a fragment)
+        return None
     return None if isinstance(value, float) and not math.isfinite(value) else value
 
 
