@@ -73,7 +73,8 @@ def test_meter_with_title_rows_modicon_input_registers_and_floats():
 
 
 def test_european_export_bom_semicolons_decimal_commas_degree_sign(tmp_path):
-    proc = run_mdl("csv2xml", DATA / "room_controller.csv", "--ini", DATA / "room_controller.ini", "-o", tmp_path / "rc.xml")
+    proc = run_mdl("csv2xml", DATA / "room_controller.csv", "--ini", DATA / "room_controller.ini",
+                   "-o", tmp_path / "rc.xml")
     assert proc.returncode == 0, proc.stderr
     text = (tmp_path / "rc.xml").read_text(encoding="ascii")
     fns = functions(text)
@@ -108,7 +109,8 @@ def test_address_forms_and_all():
     proc = run_mdl("csv2xml", DATA / "address_forms.csv", "--all", "--threshold", "1")
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
-    got = {name: (f["addresses"], f.get("register_type", "holding"), f.get("format"), f.get("count")) for name, f in fns.items()}
+    got = {name: (f["addresses"], f.get("register_type", "holding"), f.get("format"), f.get("count"))
+           for name, f in fns.items()}
     assert got == {
         "hex_address": ("16", "holding", "UINT16", None),
         "range_with_to": ("20 21", "holding", "UINT32", "2"),
@@ -167,7 +169,8 @@ def test_options_win_over_the_ini(tmp_path):
     ("device_name = x\n", ["error: a key before any [section]"]),
     ("[Modbus Device]\ndevice_name = a\ndevice_name = b\n", [":3: error: key 'device_name' appears twice"]),
     ("[Column/Field Indices]\naddresses = No Such Header\n", ["no row holds the header texts 'No Such Header'"]),
-    ("[Column/Field Indices]\naddresses = Register\nunits = Unit Name\n", ["units = Unit Name: no such column in the header row (line 4)"]),
+    ("[Column/Field Indices]\naddresses = Register\nunits = Unit Name\n",
+     ["units = Unit Name: no such column in the header row (line 4)"]),
 ])
 def test_bad_ini_values_are_errors(tmp_path, ini_text, fragments):
     ini = tmp_path / "bad.ini"
@@ -180,7 +183,8 @@ def test_bad_ini_values_are_errors(tmp_path, ini_text, fragments):
 
 
 def test_unknown_ini_sections_and_keys_warn(tmp_path):
-    text = (EXAMPLE / "temco_tstat.ini").read_text().replace("[Input/Output]", "[Extras]\ncolour = red\n\n[Input/Output]\nspeed = 3")
+    text = (EXAMPLE / "temco_tstat.ini").read_text().replace(
+        "[Input/Output]", "[Extras]\ncolour = red\n\n[Input/Output]\nspeed = 3")
     ini = tmp_path / "temco_tstat.ini"
     ini.write_text(text)
     shutil.copy(EXAMPLE / "temco_tstat.csv", tmp_path)
@@ -218,7 +222,8 @@ def test_no_match_is_an_error(tmp_path):
     ini = tmp_path / "d.ini"
     ini.write_text("[Function Name Search Synonyms]\nxyzzy = plugh\n")
     out = tmp_path / "o.xml"
-    assert_clean_error(run_mdl("csv2xml", EXAMPLE / "temco_tstat.csv", "--ini", ini, "-o", out), 1, "no function matched")
+    proc = run_mdl("csv2xml", EXAMPLE / "temco_tstat.csv", "--ini", ini, "-o", out)
+    assert_clean_error(proc, 1, "no function matched")
     assert not out.exists()
 
 

@@ -75,8 +75,10 @@ def test_generated_module_imports_only_pymodbus_and_stdlib(tmp_path):
 ])
 @pytest.mark.parametrize("lang", ["python", "cpp", "all"])
 @pytest.mark.parametrize("code_element", ["read_function_code", "write_function_code"])
-def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_device, fragment, token, lang, code_element):
-    path = write_device(fn_xml("good", "1", format="UINT16") + fn_xml("evil", "2", format="UINT16", **{code_element: fragment}))
+def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_device, fragment, token, lang,
+                                                              code_element):
+    evil = fn_xml("evil", "2", format="UINT16", **{code_element: fragment})
+    path = write_device(fn_xml("good", "1", format="UINT16") + evil)
     out = tmp_path / "out"
     proc = run_mdl("gen", path, "--lang", lang, "-o", out)
     assert_clean_error(proc, 1, "function 'evil'", code_element, token)

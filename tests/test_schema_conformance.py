@@ -49,7 +49,9 @@ CORPUS = {
     "extension_in_09b": doc(fn(F + "<addresses>1</addresses><register_type>input</register_type>")),
     "wrong_root": doc(root="devices"),
     "empty_units_and_name": doc(fn("<name></name><description>d</description><addresses>1</addresses><units></units>")),
-    "function_before_description": doc(fn(F + "<addresses>1</addresses>"), head="<name>D</name>" + fn(F + "<addresses>1</addresses>") + "<description>x</description>"),
+    "function_before_description": doc(fn(F + "<addresses>1</addresses>"),
+                                       head="<name>D</name>" + fn(F + "<addresses>1</addresses>")
+                                       + "<description>x</description>"),
     "version_attribute": doc().replace("<device ", '<device version="1.0" '),
 }
 

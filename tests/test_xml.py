@@ -35,7 +35,8 @@ def test_entity_bombs_and_external_entities_are_refused(tmp_path):
 
 def test_malformed_xml_names_line_and_column(tmp_path):
     path = tmp_path / "bad.xml"
-    path.write_text('<?xml version="1.0"?>\n<device xmlns="http://www.ornl.gov/ModbusXMLSchema">\n  <name>x</nam>\n</device>\n')
+    path.write_text('<?xml version="1.0"?>\n<device xmlns="http://www.ornl.gov/ModbusXMLSchema">\n'
+                    '  <name>x</nam>\n</device>\n')
     proc = run_mdl("validate", path)
     assert_clean_error(proc, 1, f"{path}:3:", "malformed XML")
 
