@@ -11,14 +11,14 @@ from __future__ import annotations
 import json
 import math
 import random
-import shutil
 import struct
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, assert_clean_error, fn_xml, run_mdl, skip_or_fail
+from conftest import ROOT, assert_clean_error, fn_xml, run_mdl
+from cpp_harness import tool
 
 from mdl.cfrag import (
     INCLUDES,
@@ -127,15 +127,6 @@ C99_STRICT = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Ws
 CPP_STRICT = ["-std=c++17", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wshadow", "-Werror"]
 TIDY_CONFIG = ROOT / "tests" / "cpp" / "clang-tidy.yaml"
 NREGS = 4
-
-
-def tool(name: str) -> str:
-    """A compiler or clang tool's path; skip without it (fail under CI=true)."""
-    found = shutil.which(name) or shutil.which(f"{name}-14")
-    if found is None:
-        skip_or_fail(f"{name} is not installed")
-    assert found is not None
-    return found
 
 
 # ---- the Python translation's results, written as the batch program writes the C ones

@@ -8,6 +8,7 @@ import json
 import math
 import random
 import re
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -33,6 +34,7 @@ from mdl.gen import render
 from mdl.layout import layout
 from mdl.loading import load_any
 from mdl.mdlxml import load_device
+from mdl.names import stem as file_stem
 
 ALL = DATA / "all_tables.xml"
 ALL_SETTINGS = ["--set", "setpoint=21.5", "--set", "mode=Cool", "--set", "label=Hall", "--set", "energy=1234.567",
@@ -245,24 +247,34 @@ BITS = (fn_xml("coil_a", "0", format="BIT", register_type="coil")
         + fn_xml("coil_b", "1", format="BIT", register_type="coil"))
 
 
-@pytest.fixture(scope="module")
-def diff_setup(tmp_path_factory):
+@contextmanager
+def _served(tmp_path_factory, functions: str, name: str):
+    """A device built from `functions`: its C++ harness and Python driver module, both against one `mdl sim`."""
     toolchain()
-    d = tmp_path_factory.mktemp("diff")
-    path = d / "diff.xml"
-    path.write_text(device_xml(DIFF_FUNCTIONS + BITS, name="Diff Device"))
+    d = tmp_path_factory.mktemp("device")
+    path = d / "device.xml"
+    path.write_text(device_xml(functions, name=name))
     device = load_device(path)
     exe = build(device, d)
-    (d / "diff_device.py").write_text(render(device, "diff.xml", "python")["diff_device.py"])
-    module = import_generated(d / "diff_device.py", "diff_device_py")
+    stem = file_stem(name)
+    (d / f"{stem}.py").write_text(render(device, "device.xml", "python")[f"{stem}.py"])
+    module = import_generated(d / f"{stem}.py", f"{stem}_py")
     sim = Sim(path)
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
     h = Harness(exe, sim.port)
-    yield path, module, client, h, sim
-    h.close()
-    client.close()
-    sim.stop()
+    try:
+        yield path, module, client, h, sim
+    finally:
+        h.close()
+        client.close()
+        sim.stop()
+
+
+@pytest.fixture(scope="module")
+def diff_setup(tmp_path_factory):
+    with _served(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device") as served:
+        yield served
 
 
 def _load(client, regs, bits):
@@ -343,22 +355,8 @@ EDOM, ERANGE = 33, 34
 
 @pytest.fixture(scope="module")
 def fragment_setup(tmp_path_factory):
-    toolchain()
-    d = tmp_path_factory.mktemp("fragments")
-    path = d / "fragments.xml"
-    path.write_text(device_xml(FRAGMENT_READS + FRAGMENT_WRITES, name="Fragment Device"))
-    device = load_device(path)
-    exe = build(device, d)
-    (d / "fragment_device.py").write_text(render(device, "fragments.xml", "python")["fragment_device.py"])
-    module = import_generated(d / "fragment_device.py", "fragment_device_py")
-    sim = Sim(path)
-    client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
-    assert client.connect()
-    h = Harness(exe, sim.port)
-    yield module.FragmentDevice(client), client, h
-    h.close()
-    client.close()
-    sim.stop()
+    with _served(tmp_path_factory, FRAGMENT_READS + FRAGMENT_WRITES, "Fragment Device") as (_, module, client, h, _):
+        yield module.FragmentDevice(client), client, h
 
 
 def _register_sets(n: int) -> list[list[int]]:
