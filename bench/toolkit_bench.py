@@ -68,8 +68,8 @@ def cli(*args) -> None:
 
 
 def main() -> int:
-    from mdl.formats.toolkit import import_schema
-    from mdl.gen import render
+    from mdl.sources.toolkit import import_schema
+    from mdl.targets import render
 
     with tempfile.TemporaryDirectory() as d:
         d = Path(d)

@@ -14,8 +14,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
-from mdl.gen import render  # noqa: E402  (after the sys.path line: runs from a checkout without an install)
-from mdl.mdlxml import load_device  # noqa: E402
+from mdl.sources.mdlxml import load_device  # noqa: E402
+from mdl.targets import render  # noqa: E402  (after the sys.path line: runs from a checkout without an install)
 
 # MDL source -> directory its generated files are pinned in
 GOLDEN = {

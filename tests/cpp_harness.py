@@ -35,10 +35,10 @@ from pathlib import Path
 
 from conftest import skip_or_fail
 
-from mdl.gen import cpp as cppgen
-from mdl.gen import render
-from mdl.gen.render import cstring
 from mdl.model import Device
+from mdl.targets import render
+from mdl.targets.cpp import emit as cppgen
+from mdl.targets.render import cstring
 
 STRICT = ["-std=c++17", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wshadow", "-Werror"]
 COMPILERS = ("g++", "clang++")

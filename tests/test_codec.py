@@ -11,10 +11,10 @@ from conftest import import_generated
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from mdl import codec
-from mdl.gen import render
-from mdl.layout import LayoutError, layout
 from mdl.model import Device, Function
+from mdl.model.layout import LayoutError, layout
+from mdl.targets import render
+from mdl.values import codec
 
 INT_FORMATS = ["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64"]
 ORDERS = ["big", "little"]

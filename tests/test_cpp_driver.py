@@ -30,11 +30,11 @@ from pymodbus.client import ModbusTcpClient
 from test_cfrag import READS as CFRAG_READS
 from test_cfrag import WRITES as CFRAG_WRITES
 
-from mdl.gen import render
-from mdl.layout import layout
-from mdl.loading import load_any
-from mdl.mdlxml import load_device
-from mdl.names import stem as file_stem
+from mdl.model.layout import layout
+from mdl.model.names import stem as file_stem
+from mdl.sources.loading import load_any
+from mdl.sources.mdlxml import load_device
+from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"
 ALL_SETTINGS = ["--set", "setpoint=21.5", "--set", "mode=Cool", "--set", "label=Hall", "--set", "energy=1234.567",
@@ -70,7 +70,7 @@ def _python_values(path, sim, module_name):
     out.mkdir(exist_ok=True)
     assert run_mdl("gen", path, "--lang", "python", "-o", out).returncode == 0
     device = load_device(path)
-    from mdl.names import identifier
+    from mdl.model.names import identifier
 
     module = import_generated(out / f"{identifier(device.name)}.py", module_name)
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)

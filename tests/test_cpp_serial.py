@@ -20,8 +20,8 @@ from cpp_harness import MODBUS_ENOBASE, Harness, build, rtu
 from test_cpp_driver import ALL_SETTINGS, assert_same_values
 from test_serial import LIES
 
-from mdl.mdlxml import load_device
-from mdl.output import shown
+from mdl.device.output import shown
+from mdl.sources.mdlxml import load_device
 
 ALL = DATA / "all_tables.xml"
 TSTAT = EXAMPLE / "temco_tstat.xml"

@@ -12,7 +12,7 @@ import pytest
 from conftest import ROOT, fn_xml, import_generated, run_mdl
 from cpp_harness import STRICT, toolchain
 
-from mdl.names import camel, identifier, stem, unique_identifiers
+from mdl.model.names import camel, identifier, stem, unique_identifiers
 
 # name -> identifier; each of these once depended on the Python running mdl, or gave code that does not compile
 EXPECTED = {
@@ -33,7 +33,7 @@ def test_reserved_words_get_an_underscore():
 @pytest.mark.skipif(not OTHER_PYTHONS, reason="no other Python interpreter installed beside this one")
 @pytest.mark.parametrize("python", OTHER_PYTHONS, ids=lambda p: p.parent.parent.name)
 def test_identifiers_do_not_depend_on_the_python_running_mdl(python):
-    code = ("import json, sys; from mdl.names import identifier; "
+    code = ("import json, sys; from mdl.model.names import identifier; "
             "print(json.dumps([identifier(n) for n in sys.argv[1:]]))")
     proc = subprocess.run([str(python), "-c", code, *EXPECTED], capture_output=True, text=True,
                           env={"PYTHONPATH": str(ROOT / "src")}, timeout=60)

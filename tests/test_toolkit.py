@@ -12,10 +12,10 @@ from conftest import REFERENCE, ROOT, Sim, assert_clean_error, cli, import_gener
 from cpp_harness import Harness, build
 from pymodbus.client import ModbusTcpClient
 
-from mdl.gen import render
-from mdl.loading import load_any
-from mdl.names import stem
-from mdl.testing import matches
+from mdl.device.scenarios import matches
+from mdl.model.names import stem
+from mdl.sources.loading import load_any
+from mdl.targets import render
 
 FILES = sorted(REFERENCE.glob("*.yaml"))
 TOTAL_SCENARIOS = 59

@@ -49,8 +49,8 @@ def installed(wheel, tmp_path_factory) -> Path:
 def test_wheel_carries_schemas_and_templates(wheel):
     names = zipfile.ZipFile(wheel).namelist()
     assert "mdl/schema/mdl-1.0.xsd" in names and "mdl/schema/mdl-0.9b.xsd" in names
-    assert "mdl/templates/python/device.py.j2" in names
-    assert any(n.startswith("mdl/templates/cpp/") for n in names)
+    assert "mdl/targets/python/templates/device.py.j2" in names
+    assert any(n.startswith("mdl/targets/cpp/templates/") for n in names)
 
 
 def test_installed_wheel_runs_every_file_command(installed, tmp_path):

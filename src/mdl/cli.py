@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
-from mdl import __version__
-from mdl.connection import Connection, connection_options
+from mdl import __version__, targets
+from mdl.device.connection import Connection, connection_options
 from mdl.diagnostics import EXIT_INVALID, MdlError
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
@@ -95,7 +95,7 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -o tstat.xml
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
     """
-    from mdl.csvmap.convert import run_csv2xml
+    from mdl.sources.csvmap.convert import run_csv2xml
 
     _stdin_once([source] + ([ini] if ini else []))
     target = _csv2xml_target(source, ini, output, allow_outside)
@@ -104,9 +104,9 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
 
 def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_outside: bool) -> Path:
     """-o if given; in the `mdl csv2xml DEVICE.ini` form the INI's output_xml_file if any; else stdout."""
-    from mdl.csvmap.convert import _is_ini
-    from mdl.csvmap.ini import read_ini
     from mdl.diagnostics import error
+    from mdl.sources.csvmap.convert import _is_ini
+    from mdl.sources.csvmap.ini import read_ini
 
     if output is not None:
         return output
@@ -134,7 +134,7 @@ def validate(files: tuple[Path, ...], version: str) -> None:
       mdl validate examples/temco_tstat/temco_tstat.xml tstat.xml
       mdl validate tstat.xml --schema 1.0
     """
-    from mdl.mdlxml import validate_file
+    from mdl.sources.mdlxml import validate_file
 
     _stdin_once(files)
     bad = False
@@ -155,12 +155,13 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 
 @main.command()
 @click.argument("file", type=INPUT)
-@click.option("--lang", type=click.Choice(["cpp", "python", "all"]), default="all", show_default=True)
+@click.option("--lang", type=click.Choice([*targets.names(), "all"]), default="all", show_default=True,
+              help="A registered target (" + "; ".join(targets.summaries()) + "), or all of them.")
 @click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
               show_default=True, help="Directory for the generated files.")
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
 def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
-    """Generate drivers: <stem>.py (pymodbus) and/or <stem>.h/.cc (libmodbus) from MDL (or Toolkit YAML).
+    """Generate drivers for the registered targets (--lang) from MDL (or Toolkit YAML).
 
     Files are written only when their content changes (Makefile friendly), and all of a run's files
     or none: a failed run leaves the old ones as they were.
@@ -170,8 +171,8 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
       mdl gen examples/temco_tstat/temco_tstat.xml --lang all -o drivers/
     """
     from mdl.fileio import all_or_none
-    from mdl.gen import generate
-    from mdl.loading import load_any
+    from mdl.sources.loading import load_any
+    from mdl.targets import generate
 
     if str(outdir) == STDIO_ARG:
         raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
@@ -220,9 +221,9 @@ def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...],
     On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
       $ mdl sim examples/temco_tstat/temco_tstat.xml --serial /dev/pts/3 --baud 9600 --parity E
     """
-    from mdl import sim as simulator
-    from mdl.loading import load_any
-    from mdl.testing import find_scenario
+    from mdl.device import sim as simulator
+    from mdl.device.scenarios import find_scenario
+    from mdl.sources.loading import load_any
 
     _stdin_once(files + registers)
     served = _sim_units(units, len(files))
@@ -284,9 +285,9 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """
     from mdl.diagnostics import error
     from mdl.fileio import write_atomic
-    from mdl.formats.toolkit import import_schema
-    from mdl.loading import is_yaml
-    from mdl.mdlxml import device_to_xml
+    from mdl.sources.loading import is_yaml
+    from mdl.sources.mdlxml import device_to_xml
+    from mdl.sources.toolkit import import_schema
 
     if fmt is None and not is_yaml(file):
         raise error("cannot tell the format from the file name; give --from schema", file)
@@ -308,8 +309,8 @@ def test_(files: tuple[Path, ...]) -> None:
     Example:
       mdl test examples/toolkit_heat_pump/heat_pump.yaml heat_pump.xml
     """
-    from mdl.loading import load_any
-    from mdl.testing import run_scenario
+    from mdl.device.scenarios import run_scenario
+    from mdl.sources.loading import load_any
 
     _stdin_once(files)
     passed = failed = 0
@@ -379,10 +380,10 @@ def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, 
       $ mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --baud 9600 --parity E --unit 3
       $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 1 --format csv > log.csv
     """
-    from mdl import output
-    from mdl.loading import load_any
-    from mdl.poll import poll
-    from mdl.runtime import Session
+    from mdl.device import output
+    from mdl.device.poll import poll
+    from mdl.device.runtime import Session
+    from mdl.sources.loading import load_any
 
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
@@ -412,10 +413,10 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     On a serial line:
       $ mdl write examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --unit 3 fan_speed=2
     """
-    from mdl import codec
+    from mdl.device.runtime import Session
     from mdl.diagnostics import error
-    from mdl.loading import load_any
-    from mdl.runtime import Session
+    from mdl.sources.loading import load_any
+    from mdl.values import codec
 
     device = load_any(file)
     todo = []

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mdl.layout import MAX_BITS, MAX_REGISTERS, layout
 from mdl.model import Device, Function
+from mdl.model.layout import MAX_BITS, MAX_REGISTERS, layout
 
 TABLE_ORDER = ("coil", "discrete", "holding", "input")
 

@@ -1,4 +1,4 @@
-"""Locate schema/ and templates/: inside an installed wheel (mdl/schema) or a source checkout."""
+"""Locate schema/: inside an installed wheel (mdl/schema) or a source checkout."""
 
 from __future__ import annotations
 

@@ -7,10 +7,10 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.addressing import AddressError, address_range, address_run, match_address, parse_address
-from mdl.expr.nodes import ExprError, Registers
-from mdl.expr.parser import Parser
-from mdl.layout import MAX_ADDRESS, MAX_BITS
+from mdl.lang.expr.nodes import ExprError, Registers
+from mdl.lang.expr.parser import Parser
+from mdl.model.addressing import AddressError, address_range, address_run, match_address, parse_address
+from mdl.model.layout import MAX_ADDRESS, MAX_BITS
 
 PREFIXES = ["hr:", "HR :", "holding-register:", "holding_register:", "ir:", "input-register:", "c:", "coil:", "di:",
             "discrete-input:", "4x", "3X", "1x", "0x", "2x", "4", "3", "0", "1", "x:", ""]

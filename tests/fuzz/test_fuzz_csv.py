@@ -15,9 +15,9 @@ from conftest import assert_clean_error, run_mdl
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
-from mdl.csvmap.convert import run_csv2xml
 from mdl.diagnostics import EXIT_INVALID, MdlError
-from mdl.mdlxml import validate_file
+from mdl.sources.csvmap.convert import run_csv2xml
+from mdl.sources.mdlxml import validate_file
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep
 ADDRESSES = (["0", "1", "2", "7", "100", "101", "40001", "400001", "30010", "10001", "0x10", "10h", "hr:2..hr:5",

@@ -30,7 +30,7 @@ from test_cfrag import (
     tool,
 )
 
-from mdl.cfrag import FragmentError, compile_fragment
+from mdl.lang.cfrag import FragmentError, compile_fragment
 
 LEAVES = ["r1", "r2", "r3", "r4", "arg", "0", "1", "2", "3", "7", "10", "15", "16", "31", "32", "33", "63", "64",
           "100", "255", "256", "1000", "32767", "32768", "65535", "65536", "2147483647", "2147483648", "4294967295",

@@ -9,9 +9,9 @@ from pathlib import Path
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from mdl.device.scenarios import run_scenario
 from mdl.diagnostics import MdlError
-from mdl.formats.toolkit import MAX_YAML_DEPTH, import_schema
-from mdl.testing import run_scenario
+from mdl.sources.toolkit import MAX_YAML_DEPTH, import_schema
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / "examples" / "toolkit_heat_pump" / "heat_pump.yaml").read_text()
 MINIMAL = """description: 'x'

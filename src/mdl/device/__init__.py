@@ -1,0 +1,1 @@
+"""src/mdl/device"""

@@ -1,0 +1,293 @@
+"""`mdl read` / `mdl write`: the model, the codec and the read plan over a pymodbus client.
+
+Replies are checked before they are trusted: pymodbus decodes a reply for a function other than the
+one asked, more or fewer registers than asked, or a byte count that disagrees with the data, without
+a word. The client's trace hook keeps the bytes of each request and of its reply (Modbus TCP or RTU
+frames), and `reply_problem` holds the reply against the request; anything wrong, and any broken
+connection, is a DeviceError (exit 3) naming the connection, the unit and what was wrong.
+"""
+
+from __future__ import annotations
+
+import logging
+import struct
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
+from pymodbus.framer import FramerRTU
+from pymodbus.pdu import ModbusPDU
+
+from mdl.device.connection import Connection
+from mdl.diagnostics import DeviceError, error
+from mdl.lang.expr.fields import evaluation_order
+from mdl.model import Device, Function, Scalar, Value
+from mdl.model.layout import layout
+from mdl.plan import Request, plan_reads, split_request
+from mdl.values import codec
+from mdl.values.evaluate import evaluate
+
+EXCEPTION_NAMES = {
+    1: "ILLEGAL FUNCTION", 2: "ILLEGAL DATA ADDRESS", 3: "ILLEGAL DATA VALUE",
+    4: "SERVER DEVICE FAILURE", 5: "ACKNOWLEDGE", 6: "SERVER DEVICE BUSY",
+    8: "MEMORY PARITY ERROR", 10: "GATEWAY PATH UNAVAILABLE", 11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
+}
+MBAP = struct.Struct(">HHHB")  # transaction id, protocol id (0), length of what follows, unit id
+RTU_MIN = 4  # unit id, function code, CRC (2 bytes)
+Frame = tuple[int, int, bytes]  # transaction id (0 on RTU), unit id, PDU
+
+
+class ModbusExceptionError(DeviceError):
+    def __init__(self, what: str, code: int):
+        super().__init__(f"{what}: Modbus exception {code} ({EXCEPTION_NAMES.get(code, 'unknown')})", code)
+
+
+def frames(data: bytes) -> Iterator[Frame]:
+    """(transaction id, unit id, PDU) of each whole Modbus TCP frame at the start of `data`."""
+    while len(data) > MBAP.size:
+        tid, protocol, length, unit = MBAP.unpack_from(data)
+        end = MBAP.size - 1 + length
+        if protocol != 0 or length < 2 or end > len(data):
+            return
+        yield tid, unit, data[MBAP.size:end]
+        data = data[end:]
+
+
+def rtu_frames(data: bytes) -> Iterator[Frame]:
+    """(0, unit id, PDU) of each Modbus RTU reply frame with a good CRC in `data`; bytes that start no
+    such frame are skipped, as a client hunting for a frame on a noisy line skips them."""
+    start = 0
+    while len(data) - start >= RTU_MIN:
+        size = _rtu_reply_size(data[start:])
+        end = start + size
+        if size and end <= len(data) and FramerRTU.compute_CRC(data[start:end - 2]) == int.from_bytes(
+                data[end - 2:end], "big"):
+            yield 0, data[start], data[start + 1:end - 2]
+            start = end
+        else:
+            start += 1
+
+
+def _rtu_reply_size(data: bytes) -> int:
+    """The length of the RTU reply frame at the start of `data`, from its function code (0: not a reply)."""
+    fc = data[1]
+    if fc & 0x80:
+        return 5  # unit, function code, exception code, CRC
+    if fc in (1, 2, 3, 4):
+        return 5 + data[2] if len(data) > 2 else 0  # unit, function code, byte count, data, CRC
+    return 8 if fc in (5, 6, 15, 16) else 0  # unit, function code, address, value or count, CRC
+
+
+def reply_problem(request: bytes, reply: bytes) -> str | None:
+    """What is wrong with the PDU `reply` as the answer to the PDU `request` (functions 1-6, 15, 16), or None."""
+    fc = request[0]
+    if reply[0] & 0x7F != fc:
+        return f"the reply has function code {reply[0] & 0x7F}, expected {fc}"
+    if reply[0] & 0x80:
+        return None if len(reply) == 2 else f"the exception reply has {len(reply)} bytes, expected 2"
+    if fc in (5, 6):  # the echo of the request
+        expected = request
+    elif fc in (15, 16):  # the echo of the address and the count
+        expected = request[:5]
+    else:
+        return _read_reply_problem(request, reply)
+    return None if reply == expected else f"the reply {reply.hex(' ')} does not echo the request {expected.hex(' ')}"
+
+
+def _read_reply_problem(request: bytes, reply: bytes) -> str | None:
+    _, count = struct.unpack_from(">HH", request, 1)
+    registers = request[0] in (3, 4)
+    size = 2 * count if registers else (count + 7) // 8  # bits come padded to whole bytes
+    if len(reply) < 2 or reply[1] != len(reply) - 2:
+        said = f"byte count {reply[1]}" if len(reply) > 1 else "no byte count"
+        return f"the reply's {said} does not match the {max(len(reply) - 2, 0)} data bytes that follow"
+    if reply[1] != size:
+        kind = "register" if registers else "bit"
+        return f"the reply carries {reply[1]} data bytes, expected {size} for {count} {kind}{'s' * (count != 1)}"
+    return None
+
+
+class Wire:
+    """The bytes of the last request and of what came back, from pymodbus's packet trace hook."""
+
+    def __init__(self, rtu: bool = False) -> None:
+        self.rtu = rtu
+        self.request = b""
+        self.received: list[bytes] = []  # the client's receive buffer each time data arrived
+
+    def clear(self) -> None:
+        """Forget the last request: nothing stale is blamed on a request that failed before it was sent."""
+        self.request, self.received = b"", []
+
+    def trace(self, sending: bool, data: bytes) -> bytes:
+        if sending:
+            self.request, self.received = data, []
+        else:
+            self.received.append(data)
+        return data
+
+    def _sent(self) -> Frame:
+        """(transaction id, unit id, PDU) of the last request."""
+        if self.rtu:
+            return 0, self.request[0], self.request[1:-2]
+        tid, _, _, unit = MBAP.unpack_from(self.request)
+        return tid, unit, self.request[MBAP.size:]
+
+    def _frames(self, data: bytes) -> Iterator[Frame]:
+        return rtu_frames(data) if self.rtu else frames(data)
+
+    def accepted_problem(self) -> str | None:
+        """What is wrong with the reply the client accepted: the frame it decoded is in its last buffer."""
+        tid, unit, request = self._sent()
+        pdu = next((pdu for t, u, pdu in self._frames(self.received[-1] if self.received else b"")
+                    if (t, u) == (tid, unit)), None)
+        if pdu is None:
+            return "the reply the client decoded is not in the bytes received"
+        return reply_problem(request, pdu)
+
+    def refused_problem(self) -> str | None:
+        """What is wrong with what came back for a request the client got no reply to, or None if nothing did."""
+        if not self.received:
+            return None
+        data = self.received[0]  # from where the reply began
+        found = next(self._frames(data), None)
+        if found is None:
+            kind = "RTU" if self.rtu else "TCP"
+            return f"the reply is not a Modbus {kind} frame ({len(data)} bytes: {data[:16].hex(' ')})"
+        tid, unit, request = self._sent()
+        if found[0] != tid:
+            return f"the reply's transaction id is {found[0]}, expected {tid}"
+        if found[1] != unit:
+            return f"the reply comes from unit {found[1]}"
+        return reply_problem(request, found[2]) or "the reply could not be decoded"
+
+
+class Session:
+    """A connection to one unit of a device: Modbus TCP, RTU on a serial line, or RTU over TCP."""
+
+    def __init__(self, device: Device, connection: Connection, unit: int = 1):
+        self.device = device
+        self.connection, self.unit = connection, unit
+        self.tries = connection.retries + 1
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+        self.wire = Wire(connection.rtu)
+        self.client = connection.client(self.wire.trace)
+        self.refused: set[Request] = set()
+
+    def __enter__(self) -> Session:
+        self.connect()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def connect(self) -> None:
+        """Open the connection unless it is open (again, after `close`); DeviceError if it cannot be opened."""
+        connect: Callable[[], bool] = self.client.connect  # typed here: pymodbus leaves it unannotated
+        if connect():
+            return
+        conn = self.connection
+        if conn.serial is not None:
+            raise DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
+        nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
+        raise DeviceError(f"cannot connect to {conn}: {nobody}")
+
+    def close(self) -> None:
+        close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
+        close()
+
+    def where(self, what: str) -> str:
+        return f"{self.connection} unit {self.unit}: {what}"
+
+    def _call(self, what: str, method: Callable[..., ModbusPDU], *args: Any, **kw: Any) -> ModbusPDU:
+        self.wire.clear()
+        try:
+            result = method(*args, device_id=self.unit, **kw)
+        except (ModbusException, OSError) as exc:
+            raise DeviceError(f"{self.where(what)}: {self._failure(exc)}") from None
+        problem = self.wire.accepted_problem()
+        if problem:
+            raise DeviceError(f"{self.where(what)}: {problem}")
+        if result.isError():
+            raise ModbusExceptionError(self.where(what), getattr(result, "exception_code", 0))
+        return result
+
+    def _failure(self, exc: ModbusException | OSError) -> str:
+        """Why a request got no reply the client would decode; on an RTU line that gave no answer at all,
+        or no RTU frame, what to check."""
+        problem = self.wire.refused_problem()
+        hint = self.connection.silence_hint()
+        if problem:
+            return f"{problem}; {hint}" if hint and problem.startswith("the reply is not") else problem
+        if isinstance(exc, ConnectionException):
+            if self.connection.serial is not None:
+                return f"the serial device failed: {self.connection.open_error() or 'it closed'}"
+            return "the connection closed without a reply"
+        if isinstance(exc, ModbusIOException):
+            tries = f"{self.tries} {'try' if self.tries == 1 else 'tries'}"
+            silent = f"no reply within {self.connection.timeout:g} s ({tries})"
+            return f"{silent}; {hint}" if hint else silent
+        if isinstance(exc, OSError):
+            return f"connection error: {exc.strerror or exc}"
+        return str(exc)
+
+    def read_request(self, req: Request) -> list[int]:
+        what = f"reading {req.count} {req.table} from {req.start}"
+        method = {"holding": self.client.read_holding_registers, "input": self.client.read_input_registers,
+                  "coil": self.client.read_coils, "discrete": self.client.read_discrete_inputs}[req.table]
+        result = self._call(what, method, req.start, count=req.count)
+        if req.table in ("coil", "discrete"):  # the byte count was checked; the padding bits are dropped
+            return [int(b) for b in result.bits[: req.count]]
+        return list(result.registers)
+
+    def read(self, functions: list[Function]) -> dict[str, Value]:
+        """Values of the functions (reading what their expressions depend on too)."""
+        needed = evaluation_order(self.device, [fn.name for fn in functions])
+        raw: dict[tuple[str, int], int] = {}
+        pending = list(plan_reads(self.device, needed))
+        missing: list[Request] = []
+        while pending:
+            req = pending.pop(0)
+            try:
+                values = self.read_request(req)
+            except ModbusExceptionError as exc:
+                if exc.code != 2:
+                    raise
+                smaller = split_request(self.device, req)
+                if smaller != [req]:
+                    self.refused.add(req)
+                    pending[:0] = smaller
+                else:
+                    missing.append(req)  # refused even alone: these registers have no value
+                continue
+            for i, v in enumerate(values):
+                raw[(req.table, req.start + i)] = v
+        for fn in needed:  # only expressions may read a register the device does not answer
+            lay = layout(fn)
+            if fn.compiled is None and any((lay.table, a) not in raw for a in lay.addresses):
+                req = next(r for r in missing
+                           if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
+                raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
+        try:
+            computed = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
+        except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
+            raise error(f"cannot compute a value: {exc}") from None
+        return {fn.name: computed[fn.name] for fn in functions}
+
+    def write(self, fn: Function, value: Scalar) -> None:
+        regs = codec.encode(fn, value)
+        lay = layout(fn)
+        runs: list[tuple[int, list[int]]] = []
+        for a, v in zip(lay.addresses, regs, strict=True):
+            if runs and runs[-1][0] + len(runs[-1][1]) == a:
+                runs[-1][1].append(v)
+            else:
+                runs.append((a, [v]))
+        for start, values in runs:
+            what = f"writing {fn.name} at {lay.table} {start}"
+            if lay.table == "coil":
+                self._call(what, self.client.write_coil, start, bool(values[0]))
+            elif len(values) == 1:
+                self._call(what, self.client.write_register, start, values[0])
+            else:
+                self._call(what, self.client.write_registers, start, values)

@@ -1,0 +1,215 @@
+"""`mdl sim`: devices as a Modbus server, each at its unit id, holding exactly the addresses it uses.
+
+The server is Modbus TCP, RTU on a serial line, or RTU frames over TCP (mdl.device.connection builds it).
+The datastore is our own (a ModbusServerContext that answers itself), so that every address the
+device does not define gets exception 2 (ILLEGAL DATA ADDRESS), bits included, and writes to
+functions the description marks read-only are refused with exception 2 as well.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import signal
+import sys
+from collections.abc import Awaitable, Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, TextIO
+
+from pymodbus.constants import ExcCodes
+from pymodbus.datastore import ModbusServerContext
+from pymodbus.exceptions import NoSuchIdException
+
+from mdl.device.connection import Connection
+from mdl.diagnostics import error
+from mdl.fileio import read_text
+from mdl.model import Device, Function, Scenario
+from mdl.model.layout import layout
+from mdl.plan import TABLE_ORDER, defined_addresses
+from mdl.values import codec
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
+
+FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
+            3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
+
+
+class Registers:
+    """The four tables of a simulated device: address -> value for defined addresses only."""
+
+    def __init__(self, device: Device, permissive: bool = False):
+        self.device = device
+        self.permissive = permissive
+        self.missing: set[tuple[str, int]] = set()  # no value in a scenario: answer exception 2
+        self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
+        self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
+        for fn in device.functions:
+            if not fn.writable:
+                lay = layout(fn)
+                self.read_only[lay.table].update(lay.addresses)
+        for fn in device.functions:  # an address shared with a writable function stays writable
+            if fn.writable:
+                lay = layout(fn)
+                self.read_only[lay.table].difference_update(lay.addresses)
+
+    def defined(self, table: str, address: int, count: int) -> bool:
+        return self.permissive or all(a in self.tables[table] for a in range(address, address + count))
+
+    def get(self, table: str, address: int, count: int) -> list[int]:
+        return [self.tables[table].get(a, 0) for a in range(address, address + count)]
+
+    def put(self, table: str, address: int, values: Iterable[int]) -> None:
+        for i, v in enumerate(values):
+            self.tables[table][address + i] = int(v) & (1 if table in ("coil", "discrete") else 0xFFFF)
+
+    def load_json(self, path: StrPath) -> None:
+        text = read_text(path)
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise error(f"invalid JSON: {exc.msg}", path, exc.lineno, exc.colno) from None
+        except ValueError as exc:  # a number of more digits than int() converts
+            raise error(f"invalid JSON: {exc}", path) from None
+        if not isinstance(data, dict):
+            raise error("expected an object with keys holding, input, coil, discrete", path)
+        for table, values in data.items():
+            if table not in self.tables or not isinstance(values, dict):
+                raise error(f"unknown table '{table}' (expected holding, input, coil, discrete)", path)
+            for key, value in values.items():
+                try:
+                    address = int(key, 0)
+                    if isinstance(value, float) and not value.is_integer():  # 1.5, Infinity, NaN
+                        raise ValueError(value)
+                    value = int(value)
+                except (TypeError, ValueError):
+                    raise error(f"{table} {key!r}: expected a wire address and an integer value", path) from None
+                if not self.defined(table, address, 1):
+                    raise error(f"{table} address {address} is not defined by the device", path)
+                limit = 1 if table in ("coil", "discrete") else 0xFFFF
+                if not 0 <= value <= limit:
+                    raise error(f"{table} {address}: value {value} is out of range 0..{limit}", path)
+                self.put(table, address, [value])
+
+    def load_scenario(self, sc: Scenario) -> None:
+        """Registers from a test scenario. A register the scenario gives no value ("----", or none
+        at all) or a read error ("xxxx") answers exception 2, as one the device lacks: drivers then
+        read it as having no value, as `mdl test` does (the wire cannot carry the difference)."""
+        from mdl.device.scenarios import READ_ERROR, scenario_registers
+
+        given = scenario_registers(sc)
+        for table, addresses in self.tables.items():
+            for address in addresses:
+                value = given.get((table, address))
+                if value is None or value == READ_ERROR:
+                    self.missing.add((table, address))
+                else:
+                    addresses[address] = value
+
+    def set_value(self, fn: Function, text: str) -> None:
+        try:
+            regs = codec.encode(fn, codec.parse_value(fn, text))
+        except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
+            raise error(f"--set {fn.name}={text}: {exc}") from None
+        lay = layout(fn)
+        for address, value in zip(lay.addresses, regs, strict=True):
+            self.tables[lay.table][address] = value
+
+
+def set_value(devices: Sequence[Registers], name: str, text: str) -> None:
+    """`--set NAME=VALUE`: the value of the function in every device that has it (one at least)."""
+    found = [(registers, fn) for registers in devices for fn in registers.device.functions if fn.name == name]
+    if not found:
+        where = "the device" if len(devices) == 1 else f"any of the {len(devices)} devices"
+        raise error(f"--set {name}: no function '{name}' in {where}")
+    for registers, fn in found:
+        registers.set_value(fn, text)
+
+
+class SimContext(ModbusServerContext):
+    """Answers requests from the `Registers` of each unit served; pymodbus calls async_getValues/async_setValues.
+
+    A request for a unit id no device is served at gets exception 11 (GATEWAY TARGET DEVICE FAILED TO
+    RESPOND), as from a gateway to a bus; `silent` (RTU framing, where the server is the bus): no
+    answer at all, as no device on a bus answers for another. Unit 0 stands for any unit id (one device only)."""
+
+    def __init__(self, units: dict[int, Registers], silent: bool = False):  # pylint: disable=super-init-not-called
+        self.units = units
+        self.silent = silent
+        self.old_simulator = True
+        self.simdevices = []
+
+    def device_ids(self) -> list[int]:
+        return list(self.units)
+
+    def _registers(self, device_id: int) -> Registers | None:
+        """The device at `device_id`; None (exception 11) or, when silent, no answer if there is none."""
+        registers = self.units.get(device_id, self.units.get(0))
+        if registers is None and self.silent:
+            raise NoSuchIdException(f"no device at unit {device_id}")  # the server then sends nothing
+        return registers
+
+    async def async_getValues(
+        self, device_id: int, func_code: int, address: int, count: int = 1
+    ) -> list[int] | list[bool] | ExcCodes:
+        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
+        if registers is None:  # no device at this unit id
+            return ExcCodes.GATEWAY_NO_RESPONSE
+        if not table:
+            return ExcCodes.ILLEGAL_FUNCTION
+        if not registers.defined(table, address, count):
+            return ExcCodes.ILLEGAL_ADDRESS
+        span = {(table, a) for a in range(address, address + count)}
+        if span & registers.missing:
+            return ExcCodes.ILLEGAL_ADDRESS
+        values = registers.get(table, address, count)
+        return [bool(v) for v in values] if table in ("coil", "discrete") else values
+
+    async def async_setValues(
+        self, device_id: int, func_code: int, address: int, values: Sequence[int] | Sequence[bool]
+    ) -> ExcCodes | None:
+        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
+        if registers is None:  # no device at this unit id
+            return ExcCodes.GATEWAY_NO_RESPONSE
+        if table not in ("coil", "holding"):
+            return ExcCodes.ILLEGAL_FUNCTION
+        if not registers.defined(table, address, len(values)):
+            return ExcCodes.ILLEGAL_ADDRESS
+        if any(a in registers.read_only[table] for a in range(address, address + len(values))):
+            return ExcCodes.ILLEGAL_ADDRESS
+        registers.put(table, address, values)
+        registers.missing -= {(table, a) for a in range(address, address + len(values))}
+        return None
+
+
+async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
+    """Serve every device at its unit on one connection; once listening, one ready line per device."""
+    if connection.serial is not None:
+        reason = connection.open_error()
+        if reason:
+            raise error(f"cannot serve on {connection.serial}: {reason}")
+    server = connection.server(SimContext(units, silent=connection.rtu))
+    await server.serve_forever(background=True)
+    sockets = getattr(server.transport, "sockets", None) or []
+    where = connection.serving_at(sockets[0].getsockname()[1] if sockets else connection.port)
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    out.write("".join(f"mdl sim: serving {registers.device.name} on {where} unit {unit}\n"
+                      for unit, registers in units.items()))
+    out.flush()
+    try:
+        await stop.wait()
+    finally:
+        shutdown: Callable[[], Awaitable[None]] = server.shutdown  # typed here: pymodbus leaves it unannotated
+        await shutdown()
+
+
+def run(units: dict[int, Registers], connection: Connection) -> None:
+    where = connection.serving_at(connection.port)
+    try:
+        asyncio.run(serve(units, connection))
+    except RuntimeError as exc:
+        raise error(f"cannot serve on {where}: {exc}") from None
+    except OSError as exc:
+        raise error(f"cannot serve on {where}: {exc.strerror or exc}") from None

@@ -1,0 +1,160 @@
+"""Compile the expressions of a device: resolve field references within each block, order the
+fields so that every field comes after those it names, type-check and lower each expression."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from functools import cache
+from typing import Any
+
+from mdl.lang.expr.lower import Lowered, lower, refs_of
+from mdl.lang.expr.nodes import ExprError, Node
+from mdl.lang.expr.parser import MAX_DEPTH, parse
+from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
+from mdl.model import Device, Function, Value
+
+# a translated expression: (the function's registers, ascending, None where missing; p0, p1, ...) -> value
+FieldFunction = Callable[..., Value]
+
+
+@dataclass
+class Compiled:
+    lowered: Lowered
+    deps: list[str]  # function names, in parameter order (p0, p1, ...)
+
+    @property
+    def type(self) -> str:
+        return self.lowered.type
+
+
+@dataclass
+class FieldError:
+    function: Function
+    message: str
+    col: int | None
+
+
+def plain_type(fn: Function) -> str:
+    """The expression type of a function without an expression."""
+    from mdl.model.layout import layout
+    from mdl.values.codec import scales
+
+    kind = layout(fn).kind
+    if fn.read_function_code or kind == "float" or (kind == "int" and scales(fn)):
+        return "double"
+    return {"int": "long", "string": "string", "bool": "bool"}[kind]
+
+
+def compile_device(device: Device) -> list[FieldError]:
+    """Attach fn.compiled to every expression function; return the problems found."""
+    errors: list[FieldError] = []
+    blocks: dict[str, dict[str, Function]] = {}
+    for fn in device.functions:
+        blocks.setdefault(fn.block, {})[fn.field_id] = fn
+    parsed: dict[str, Node] = {}
+    for fn in device.functions:
+        fn.compiled = None
+        if fn.expression is None:
+            continue
+        try:
+            parsed[fn.name] = parse(fn.expression, blocks[fn.block].keys())
+        except ExprError as exc:
+            errors.append(FieldError(fn, str(exc), exc.col))
+    done: dict[str, str] = {}  # name -> type, for compiled or plain functions
+    chain: dict[str, int] = {}  # name -> how many fields deep its references go (evaluation_order recurses that deep)
+    too_deep: set[str] = set()
+    visiting: set[str] = set()
+
+    def refuse_depth(fn: Function) -> None:
+        too_deep.add(fn.name)
+        errors.append(FieldError(fn, f"fields refer to each other more than {MAX_DEPTH} deep", 1))
+
+    def visit(fn: Function, depth: int = 0) -> str | None:
+        if fn.name in done:
+            return done[fn.name]
+        if fn.name in too_deep:
+            return None
+        if depth > MAX_DEPTH:  # checked going down, so this recursion stays shallow
+            refuse_depth(fn)
+            return None
+        if fn.expression is None:
+            try:
+                done[fn.name] = plain_type(fn)
+            except (ValueError, KeyError):
+                return None
+            return done[fn.name]
+        if fn.name not in parsed or fn.name in visiting:
+            if fn.name in visiting:
+                errors.append(FieldError(fn, "the expression refers to itself through other fields", 1))
+            return None
+        visiting.add(fn.name)
+        refs: list[str] = []
+        refs_of(parsed[fn.name], refs)
+        types: dict[str, str] = {}
+        block = blocks[fn.block]
+        for ref in refs:
+            t = visit(block[ref], depth + 1)
+            if t is None:
+                visiting.discard(fn.name)
+                if fn.name not in {e.function.name for e in errors}:
+                    errors.append(FieldError(fn, f"field '{ref}' it refers to has an error", None))
+                return None
+            types[ref] = t
+        visiting.discard(fn.name)
+        chain[fn.name] = 1 + max((chain.get(block[r].name, 0) for r in refs), default=0)
+        if chain[fn.name] > MAX_DEPTH:  # and coming up, whatever order the fields were visited in
+            refuse_depth(fn)
+            return None
+        try:
+            lowered = lower(parsed[fn.name], types, device.max_registers or 125)
+        except ExprError as exc:
+            errors.append(FieldError(fn, str(exc), exc.col))
+            return None
+        fn.compiled = Compiled(lowered, [block[r].name for r in lowered.refs])
+        done[fn.name] = lowered.type
+        return lowered.type
+
+    for fn in device.functions:
+        if fn.expression is not None:
+            visit(fn)
+    return errors
+
+
+def evaluation_order(device: Device, names: Iterable[str]) -> list[Function]:
+    """The named functions and every function they depend on, dependencies first."""
+    by_name = {fn.name: fn for fn in device.functions}
+    out: list[Function] = []
+    seen: set[str] = set()
+
+    def add(name: str) -> None:
+        if name in seen:
+            return
+        seen.add(name)
+        fn = by_name[name]
+        if fn.compiled is not None:
+            for dep in fn.compiled.deps:
+                add(dep)
+        out.append(fn)
+
+    for name in names:
+        add(name)
+    return out
+
+
+def python_source(lowered: Lowered, func_name: str = "_field") -> str:
+    lines = [f"def {func_name}({signature(lowered)}):"] + ["    " + line for line in body(lowered)]
+    return "\n".join(lines) + "\n"
+
+
+@cache
+def _namespace_for(source: str) -> FieldFunction:
+    ns: dict[str, Any] = {}
+    exec(compile(HELPERS_SOURCE, "<mdl expression helpers>", "exec"), ns)
+    exec(compile(source, "<mdl expression>", "exec"), ns)
+    field: FieldFunction = ns["_field"]
+    return field
+
+
+def python_function(compiled: Compiled) -> FieldFunction:
+    return _namespace_for(python_source(compiled.lowered))

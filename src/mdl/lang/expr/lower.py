@@ -1,0 +1,227 @@
+"""Type-check an expression tree and lower it to straight-line operations.
+
+Types: long (64-bit signed), double, string, bool, list (of strings, from bitset), regs (register
+values, only as function arguments). Every value may be null: a "not implemented" value, a
+missing register, or a null operand make an operation null; concat prints a null as ''.
+
+An operation is Op(tmp, kind, type, args, data); args name earlier temps or parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypedDict
+
+from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
+REGISTER_COUNT = {"int16": 1, "uint16": 1, "int32": 2, "uint32": 2, "int64": 4, "uint64": 4,
+                  "ieee754_32": 2, "ieee754_64": 4, "ipv4addr": 2, "ipv6addr": 8}
+RESULT = {"int16": "long", "uint16": "long", "int32": "long", "uint32": "long", "int64": "long",
+          "uint64": "long", "ieee754_32": "double", "ieee754_64": "double", "utf8": "string",
+          "hexstring": "string", "eui48": "string", "ipv4addr": "string", "ipv6addr": "string",
+          "enum": "string", "bitset": "list", "bitsetbit": "bool"}
+BIT_TABLES = ("coil", "discrete")
+
+
+class OpData(TypedDict, total=False):
+    """What an operation needs besides its arguments; which keys depend on its kind."""
+
+    value: int | float | str | bool  # lit
+    count: int  # regs, const, swaps, register functions: the number of registers
+    index: list[int]  # regs: positions in the function's registers
+    words: list[int]  # const
+    op: str  # arith, div, pow: the operator
+    types: list[str]  # concat: the type of each part
+    labels: tuple[str, str]  # label: (false text, true text)
+    ni: list[list[int]]  # register functions: the "not implemented" register values
+    mapping: dict[int, str]  # enum, bitset
+    bit: int | None  # bitsetbit
+
+
+@dataclass
+class Op:
+    tmp: str
+    kind: str
+    type: str
+    args: list[str] = field(default_factory=list)
+    data: OpData = field(default_factory=OpData)
+
+
+@dataclass
+class Lowered:
+    ops: list[Op]
+    result: str  # the temp (or parameter) holding the value
+    type: str
+    table: str | None
+    addresses: list[int]  # the function's own registers, ascending
+    refs: list[str]  # referenced field ids, in parameter order
+
+
+def registers_of(node: Node, out: list[tuple[str, list[int], int]]) -> None:
+    """Every register set in the tree: (table, addresses, col)."""
+    if isinstance(node, Registers):
+        out.append((node.table, node.addresses, node.col))
+    for child in _children(node):
+        registers_of(child, out)
+
+
+def refs_of(node: Node, out: list[str]) -> None:
+    if isinstance(node, Ref) and node.name not in out:
+        out.append(node.name)
+    for child in _children(node):
+        refs_of(child, out)
+
+
+def _children(node: Node) -> list[Node]:
+    if isinstance(node, Swap):
+        return [node.arg]
+    if isinstance(node, Call):
+        return node.args
+    if isinstance(node, Unary):
+        return [node.arg]
+    if isinstance(node, Binary):
+        return [node.left, node.right]
+    return []
+
+
+class Lowerer:
+    def __init__(self, ref_types: dict[str, str], max_registers: int = 125):
+        self.ref_types = ref_types
+        self.ops: list[Op] = []
+        self.max_registers = max_registers
+
+    def tmp(self) -> str:
+        return f"t{len(self.ops)}"
+
+    def emit(self, kind: str, type_: str, args: Iterable[str] = (), **data: Unpack[OpData]) -> tuple[str, str]:
+        op = Op(self.tmp(), kind, type_, list(args), data)
+        self.ops.append(op)
+        return op.tmp, type_
+
+    def lower(self, node: Node) -> Lowered:
+        found: list[tuple[str, list[int], int]] = []
+        registers_of(node, found)
+        tables = {t for t, _, _ in found}
+        if len(tables) > 1:
+            first = found[0][0]
+            col = next(c for t, _, c in found if t != first)
+            raise ExprError(f"the expression mixes register tables ({', '.join(sorted(tables))})", col)
+        self.table = found[0][0] if found else None
+        self.addresses = sorted({a for _, addrs, _ in found for a in addrs})
+        limit = 2000 if self.table in BIT_TABLES else self.max_registers
+        if len(self.addresses) > limit:
+            needs = f"the expression needs {len(self.addresses)} registers"
+            raise ExprError(f"{needs}; one request reads at most {limit}", 1)
+        self.refs: list[str] = []
+        refs_of(node, self.refs)
+        result, type_ = self.value(node)
+        if type_ == "regs":
+            raise ExprError("registers need a function such as int16(...) or utf8(...)", node.col)
+        return Lowered(self.ops, result, type_, self.table, self.addresses, self.refs)
+
+    # -- values
+    def value(self, node: Node) -> tuple[str, str]:
+        if isinstance(node, Num):
+            return self.emit("lit", "double" if isinstance(node.value, float) else "long", value=node.value)
+        if isinstance(node, Str):
+            return self.emit("lit", "string", value=node.value)
+        if isinstance(node, Bool):
+            return self.emit("lit", "bool", value=node.value)
+        if isinstance(node, Ref):
+            return f"p{self.refs.index(node.name)}", self.ref_types[node.name]
+        if isinstance(node, (Registers, Constant, Swap)):
+            return self.regs(node)
+        if isinstance(node, Unary):
+            arg, t = self.number(node.arg)
+            return self.emit("neg", t, [arg])
+        if isinstance(node, Binary):
+            return self.binary(node)
+        assert isinstance(node, Call), node  # the one kind of node left
+        return self.call(node)
+
+    def number(self, node: Node) -> tuple[str, str]:
+        tmp, t = self.value(node)
+        if t not in ("long", "double"):
+            raise ExprError(f"arithmetic needs numbers, but this is a {'text' if t == 'string' else t}", node.col)
+        return tmp, t
+
+    def binary(self, node: Binary) -> tuple[str, str]:
+        a, ta = self.number(node.left)
+        b, tb = self.number(node.right)
+        if node.op in ("/", "^") or "double" in (ta, tb):
+            if ta == "long":
+                a, ta = self.emit("todouble", "double", [a])
+            if tb == "long":
+                b, tb = self.emit("todouble", "double", [b])
+        kind = {"/": "div", "^": "pow"}.get(node.op, "arith")
+        return self.emit(kind, "double" if kind != "arith" else ta, [a, b], op=node.op)
+
+    def regs(self, node: Node, bits_ok: bool = False) -> tuple[str, str]:
+        if isinstance(node, Registers):
+            if node.table in BIT_TABLES and not bits_ok:
+                raise ExprError("coils and discrete inputs are read with boolean(...)", node.col)
+            if node.table not in BIT_TABLES and bits_ok:
+                raise ExprError("boolean(...) reads a coil or discrete input (c:N, di:N)", node.col)
+            idx = [self.addresses.index(a) for a in node.addresses]
+            return self.emit("regs", "regs", count=len(idx), index=idx)
+        if isinstance(node, Constant):
+            return self.emit("const", "regs", count=len(node.words), words=node.words)
+        if isinstance(node, Swap):
+            inner, _ = self.regs(node.arg)
+            return self.emit(node.kind, "regs", [inner], count=self.ops[-1].data["count"])
+        raise ExprError("expected registers (hr:N#count, \"0x1234\", swapbytes(...))", node.col)
+
+    def call(self, node: Call) -> tuple[str, str]:
+        name = node.name
+        if name == "concat":
+            parts = []
+            for arg in node.args:
+                tmp, t = self.value(arg)
+                if t == "regs":
+                    raise ExprError("registers need a function such as utf8(...) inside concat", arg.col)
+                parts.append((tmp, t))
+            return self.emit("concat", "string", [p for p, _ in parts], types=[t for _, t in parts])
+        if name == "boolean":
+            arg = node.args[0]
+            if isinstance(arg, Registers):
+                if len(arg.addresses) != 1:
+                    raise ExprError("boolean(...) reads exactly one coil or discrete input", arg.col)
+                regs, _ = self.regs(arg, bits_ok=True)
+                value, _ = self.emit("bit", "bool", [regs])
+            else:
+                value, t = self.value(arg)
+                if t != "bool":
+                    raise ExprError(f"boolean(...) needs a boolean or a discrete, not a {t}", arg.col)
+            if node.labels is None:
+                return value, "bool"
+            return self.emit("label", "string", [value], labels=node.labels)
+        regs, _ = self.regs(node.args[0])
+        count = self.ops[-1].data["count"]
+        want = REGISTER_COUNT.get(name)
+        if want is not None and count != want:
+            raise ExprError(f"{name} needs {want} register{'s' if want > 1 else ''}, got {count}", node.args[0].col)
+        if name == "eui48" and count not in (3, 4):
+            raise ExprError(f"eui48 needs 3 or 4 registers, got {count}", node.args[0].col)
+        if name == "enum" and count > 4:
+            raise ExprError(f"enum reads at most 4 registers (64 bits), got {count}", node.args[0].col)
+        for group in node.not_implemented:
+            if len(group) != count:
+                raise ExprError(f"a 'not implemented' value of {len(group)} register(s) for {count} register(s)",
+                                node.col)
+        if name == "bitsetbit":
+            if node.bit is None or not 0 <= node.bit < 16 * count:
+                raise ExprError(f"bitsetbit needs a bit number from 0 to {16 * count - 1}", node.col)
+        elif node.bit is not None:
+            raise ExprError(f"{name} takes no bit number", node.col)
+        if node.mapping and name not in ("enum", "bitset"):
+            raise ExprError(f"{name} takes no mapping", node.col)
+        ni = [list(g) for g in node.not_implemented]
+        return self.emit(name, RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping), bit=node.bit)
+
+
+def lower(node: Node, ref_types: dict[str, str], max_registers: int = 125) -> Lowered:
+    return Lowerer(ref_types, max_registers).lower(node)

@@ -1,6 +1,0 @@
-"""MDL XML: secure parsing, XSD validation with positions, model <-> XML."""
-
-from mdl.mdlxml.load import load_device, validate_file
-from mdl.mdlxml.write import device_to_xml
-
-__all__ = ["load_device", "validate_file", "device_to_xml"]

@@ -1,0 +1,183 @@
+"""The typed model of an MDL document.
+
+Fields hold exactly what the document says (None where an element is absent); the properties
+apply the defaults of SPEC section 2, so writing a loaded model back never adds defaults.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeAlias
+
+if TYPE_CHECKING:
+    from mdl.lang.expr.fields import Compiled
+
+LENGTHS = ("Lower byte", "Upper byte", "Full word")
+FORMATS_09 = ("INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32")
+FORMATS = FORMATS_09 + ("INT64", "UINT64", "FLOAT32", "FLOAT64", "STRING", "BIT")
+REGISTER_TYPES = ("holding", "input", "coil", "discrete")
+ORDERS = ("big", "little")
+ACCESS = ("read", "write", "read_write")
+BIT_TABLES = ("coil", "discrete")
+READ_ONLY_TABLES = ("input", "discrete")
+
+Scalar: TypeAlias = bool | int | float | str  # a value the codec decodes or encodes
+Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bitset: its labels; None: no value)
+
+# element name -> attribute, in schema order; used by the loader and writer alike
+EXTENSION_FIELDS = (
+    "register_type",
+    "byte_order",
+    "word_order",
+    "offset",
+    "access",
+    "minimum",
+    "maximum",
+    "not_implemented",
+    "values",
+    "expression",
+    "immutable",
+    "system",
+    "fetch_group",
+)
+
+
+@dataclass
+class Function:
+    name: str
+    description: str
+    addresses: list[int]
+    length: str | None = None
+    count: int | None = None
+    format: str | None = None
+    block_labels: list[str] = field(default_factory=list)
+    multiplier: float | None = None
+    units: str | None = None
+    read_function_code: str | None = None
+    write_function_code: str | None = None
+    register_type: str | None = None
+    byte_order: str | None = None
+    word_order: str | None = None
+    offset: float | None = None
+    access: str | None = None
+    minimum: float | None = None
+    maximum: float | None = None
+    not_implemented: list[str] | None = None
+    values: dict[int, str] | None = None
+    expression: str | None = None
+    immutable: bool | None = None
+    system: bool | None = None
+    fetch_group: str | None = None
+    line: int | None = field(default=None, compare=False, repr=False)
+    expression_line: int | None = field(default=None, compare=False, repr=False)
+    compiled: Compiled | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def eff_length(self) -> str:
+        return self.length or "Full word"
+
+    @property
+    def eff_count(self) -> int:
+        return self.count if self.count is not None else 1
+
+    @property
+    def eff_format(self) -> str:
+        return self.format or "INT8"
+
+    @property
+    def eff_multiplier(self) -> float:
+        return 1.0 if self.multiplier is None else self.multiplier
+
+    @property
+    def eff_offset(self) -> float:
+        return 0.0 if self.offset is None else self.offset
+
+    @property
+    def table(self) -> str:
+        return self.register_type or "holding"
+
+    @property
+    def eff_byte_order(self) -> str:
+        return self.byte_order or "big"
+
+    @property
+    def eff_word_order(self) -> str:
+        return self.word_order or "big"
+
+    @property
+    def eff_access(self) -> str:
+        if self.access:
+            return self.access
+        if self.expression is not None:
+            return "read"
+        return "read" if self.table in READ_ONLY_TABLES else "read_write"
+
+    @property
+    def block(self) -> str:
+        return self.block_labels[0] if self.block_labels else ""
+
+    @property
+    def field_id(self) -> str:
+        """The name expressions of its block use: the function name without a "<block>." prefix."""
+        prefix = self.block + "."
+        return self.name[len(prefix):] if self.block and self.name.startswith(prefix) else self.name
+
+    @property
+    def readable(self) -> bool:
+        return self.eff_access in ("read", "read_write")
+
+    @property
+    def writable(self) -> bool:
+        return (self.eff_access in ("write", "read_write") and self.table not in READ_ONLY_TABLES
+                and self.expression is None)
+
+    def extensions(self) -> list[str]:
+        used = [name for name in EXTENSION_FIELDS if getattr(self, name) is not None]
+        if self.format and self.format not in FORMATS_09:
+            used.insert(0, f"format {self.format}")
+        return used
+
+
+@dataclass
+class ScenarioInput:
+    table: str
+    address: int
+    values: list[str]  # 4-hex-digit words, "----" no value, "xxxx" read error; 0/1 for bits
+
+
+@dataclass
+class Scenario:
+    """A test: raw values in, the value each named function must then read (None: null)."""
+
+    id: str
+    description: str | None = None
+    inputs: list[ScenarioInput] = field(default_factory=list)
+    expected: dict[str, list[str] | None] = field(default_factory=dict)
+    line: int | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass
+class Device:
+    name: str
+    description: str
+    functions: list[Function] = field(default_factory=list)
+    version: str | None = None
+    max_registers: int | None = None  # per request (the Toolkit's maxRegistersPerModbusRequest)
+    tests: list[Scenario] = field(default_factory=list)
+    source: str | None = field(default=None, compare=False, repr=False)
+
+    def extensions(self) -> list[str]:
+        used: list[str] = []
+        if self.max_registers is not None:
+            used.append("max_registers")
+        if self.tests:
+            used.append("tests")
+        for fn in self.functions:
+            for ext in fn.extensions():
+                if ext not in used:
+                    used.append(ext)
+        return used
+
+    @property
+    def schema_version(self) -> str:
+        return "1.0" if self.version or self.extensions() else "0.9b"

@@ -1,0 +1,102 @@
+"""The resolve step: a document model (from any source) -> an immutable resolved device.
+
+`resolve(device)` runs every check of SPEC 2 in order (mdl.resolve.checks), compiles fragments
+and expressions, computes each function's layout and value IR once, its identifier, the order
+functions are decoded in (expressions after the fields they name) and the read plan. Everything
+after it (the runtime, the simulator, scenarios, every target) reads the resolved device and
+derives nothing again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+from mdl.diagnostics import Diagnostic, MdlError
+from mdl.lang.expr.fields import evaluation_order
+from mdl.model import Device, Function
+from mdl.model.layout import Layout, layout
+from mdl.model.names import camel, stem, unique_identifiers
+from mdl.plan import Request, plan_reads, split_request
+from mdl.resolve.checks import check_device
+from mdl.values.build import build
+from mdl.values.ir import Codec
+
+
+@dataclass(frozen=True)
+class ResolvedFunction:
+    fn: Function
+    ident: str  # its identifier in generated code (SPEC 3)
+    layout: Layout
+    codec: Codec
+
+    @property
+    def name(self) -> str:
+        return self.fn.name
+
+    @property
+    def deps(self) -> tuple[str, ...]:
+        """The functions its expression names, in parameter order."""
+        return tuple(self.fn.compiled.deps) if self.fn.compiled is not None else ()
+
+
+@dataclass(frozen=True)
+class PlanGroup:
+    """A request of the read plan, and the smaller ones used when the device refuses it (exception 2)."""
+
+    request: Request
+    smaller: tuple[Request, ...]
+
+
+@dataclass(frozen=True)
+class ResolvedDevice:
+    device: Device
+    functions: tuple[ResolvedFunction, ...]
+    warnings: tuple[Diagnostic, ...]
+
+    @cached_property
+    def by_name(self) -> dict[str, ResolvedFunction]:
+        return {f.name: f for f in self.functions}
+
+    @property
+    def name(self) -> str:
+        return self.device.name
+
+    @cached_property
+    def stem(self) -> str:
+        return stem(self.device.name)
+
+    @cached_property
+    def class_name(self) -> str:
+        return camel(self.stem)
+
+    def closure(self, names: list[str]) -> list[ResolvedFunction]:
+        """The named functions and those their expressions need, each after what it needs."""
+        return [self.by_name[fn.name] for fn in evaluation_order(self.device, names)]
+
+    @cached_property
+    def readable(self) -> tuple[ResolvedFunction, ...]:
+        """Every readable function, in decode order."""
+        return tuple(self.closure([f.name for f in self.functions if f.fn.readable]))
+
+    @cached_property
+    def plan(self) -> tuple[PlanGroup, ...]:
+        out = []
+        for req in plan_reads(self.device):
+            parts = split_request(self.device, req)
+            out.append(PlanGroup(req, tuple(parts) if parts != [req] else ()))
+        return tuple(out)
+
+
+def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
+    """The resolved device, or MdlError with every error found (warnings are kept on the result)."""
+    found = check_device(device, path)
+    errors = [d for d in found if d.severity == "error"]
+    if errors:
+        raise MdlError(errors)
+    names = [fn.name for fn in device.functions]
+    functions = []
+    for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):
+        lay = layout(fn)
+        functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay)))
+    return ResolvedDevice(device, tuple(functions), tuple(d for d in found if d.severity != "error"))

@@ -1,0 +1,105 @@
+"""Checks an XSD cannot make: duplicate names, where values live, fragments, ranges."""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from mdl.diagnostics import Diagnostic
+from mdl.lang.cfrag import FragmentError, check
+from mdl.lang.expr.fields import compile_device
+from mdl.model import READ_ONLY_TABLES, Device, Function
+from mdl.model.layout import Layout, LayoutError, layout
+
+
+class Report(Protocol):
+    """Records a diagnostic about a function."""
+
+    def __call__(self, fn: Function, message: str, severity: str = "error") -> None: ...
+
+
+def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
+    out: list[Diagnostic] = []
+
+    def err(fn: Function, message: str, severity: str = "error") -> None:
+        out.append(Diagnostic(path, fn.line, None, f"function '{fn.name}': {message}", severity))
+
+    seen: dict[str, int | None] = {}
+    for fn in device.functions:
+        if fn.name in seen:
+            err(fn, f"duplicate function name (first defined on line {seen[fn.name]})")
+        else:
+            seen[fn.name] = fn.line
+    for problem in compile_device(device):
+        fn = problem.function
+        out.append(Diagnostic(path, fn.expression_line or fn.line, problem.col,
+                              f"function '{fn.name}': expression: {problem.message}"))
+    for fn in device.functions:
+        if fn.expression is not None:
+            _check_expression_function(fn, err)
+            continue
+        try:
+            lay = layout(fn)
+        except LayoutError as exc:
+            err(fn, str(exc))
+            continue
+        if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
+            err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
+        for attr, code in (("read_function_code", fn.read_function_code),
+                           ("write_function_code", fn.write_function_code)):
+            if code is None:
+                continue
+            try:
+                check(code, len(lay.addresses))
+            except FragmentError as exc:
+                err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""))
+        if fn.read_function_code is not None and lay.kind in ("string", "bool"):
+            err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
+        for message in bound_problems(fn, lay):
+            err(fn, message)
+        for token in fn.not_implemented or ():
+            digits = len(token) - 2
+            if digits > 4 and digits > 4 * len(lay.addresses):
+                err(fn, f"not_implemented value {token} is wider than the function's "
+                        f"{len(lay.addresses)} register(s)")
+    out += check_tests(device, path)
+    return out
+
+
+def bound_problems(fn: Function, lay: Layout) -> list[str]:
+    """minimum/maximum that mean nothing: any on text, or crossed ones.
+
+    A bound that excludes one of a bit's values is allowed: a coil that only accepts 1 is a trigger."""
+    bounds = [(attr, value) for attr, value in (("minimum", fn.minimum), ("maximum", fn.maximum)) if value is not None]
+    if lay.kind == "string":
+        return [f"{attr} {value:g} cannot apply to a STRING value: text has no order to bound"
+                for attr, value in bounds]
+    if fn.minimum is not None and fn.maximum is not None and fn.minimum > fn.maximum:
+        return [f"minimum {fn.minimum:g} is above maximum {fn.maximum:g}"]
+    return []
+
+
+def _check_expression_function(fn: Function, err: Report) -> None:
+    if fn.compiled is None:
+        return
+    lay = fn.compiled.lowered
+    if fn.register_type and lay.table and fn.register_type != lay.table:
+        err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
+    if fn.access in ("write", "read_write"):
+        err(fn, "a function computed by an expression can only be read")
+    for attr in ("read_function_code", "write_function_code", "not_implemented"):
+        if getattr(fn, attr) is not None:
+            err(fn, f"{attr} cannot be combined with an expression")
+    if fn.addresses and sorted(fn.addresses) != lay.addresses:
+        err(fn, f"addresses {' '.join(map(str, fn.addresses))} differ from the registers the expression reads "
+                f"({' '.join(map(str, lay.addresses)) or 'none'})", "warning")
+
+
+def check_tests(device: Device, path: str | None) -> list[Diagnostic]:
+    """Scenario references: every expected function exists and is readable."""
+    out: list[Diagnostic] = []
+    names = {fn.name: fn for fn in device.functions}
+    for sc in device.tests:
+        for name in sc.expected:
+            if name not in names:
+                out.append(Diagnostic(path, sc.line, None, f"test '{sc.id}': no function '{name}'"))
+    return out

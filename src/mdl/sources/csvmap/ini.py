@@ -1,0 +1,176 @@
+"""The device INI file (ORNL's format plus the extensions of SPEC section 4)."""
+
+from __future__ import annotations
+
+import configparser
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mdl.diagnostics import Diagnostic, MdlError
+from mdl.fileio import read_text
+from mdl.sources.mdlxml.write import unwritable
+
+COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
+               "multiplier", "units", "read_function_code", "write_function_code", "register_type",
+               "access", "minimum", "maximum", "offset")
+DEVICE_KEYS = ("device_name", "device_description", "register_type", "address_base", "byte_order",
+               "word_order", "count_unit", "threshold", "default_synonyms")
+IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file")
+SECTIONS = {
+    "modbus device": "device",
+    "input/output": "io",
+    "column/field indices": "columns",
+    "additional column/field indices": "additional",
+    "function name search synonyms": "synonyms",
+}
+CHOICES = {
+    "register_type": ("holding", "input", "coil", "discrete"),
+    "address_base": ("0", "1", "modicon"),
+    "byte_order": ("big", "little"),
+    "word_order": ("big", "little"),
+    "count_unit": ("words", "bytes"),
+    "default_synonyms": ("yes", "no", "true", "false", "1", "0", "on", "off"),
+}
+
+
+@dataclass
+class DeviceIni:
+    path: Path | None = None
+    device: dict[str, str] = field(default_factory=dict)
+    csv_file: Path | None = None
+    lines_to_skip: int | None = None
+    output_file: Path | None = None
+    columns: dict[str, int | str] = field(default_factory=dict)  # key -> index or header text
+    blank_columns: set[str] = field(default_factory=set)  # keys the INI lists as absent
+    claimed: list[int | str] = field(default_factory=list)  # columns of [Additional ...]
+    default_synonyms: bool = False
+    synonyms: dict[str, list[str]] = field(default_factory=dict)
+    threshold: float | None = None
+    warnings: list[Diagnostic] = field(default_factory=list)
+
+
+def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
+    """(section, key) -> line, with (section, None) for the header line."""
+    out: dict[tuple[str, str | None], int] = {}
+    section = ""
+    for no, line in enumerate(text.splitlines(), 1):
+        m = re.match(r"\s*\[(.+?)\]", line)
+        if m:
+            section = m.group(1).strip().lower()
+            out.setdefault((section, None), no)
+            continue
+        m = re.match(r"\s*([^#;=:\s][^=:]*?)\s*[=:]", line)
+        if m and section:
+            out.setdefault((section, m.group(1).strip()), no)
+    return out
+
+
+def _whole(value: str) -> int | None:
+    """ASCII digits -> int (up to 9 of them: no table has more lines or columns); None for anything else."""
+    return int(value) if re.fullmatch(r"[0-9]{1,9}", value) else None
+
+
+class _CaseKeepingParser(configparser.ConfigParser):
+    """Keys keep their case: they name functions."""
+
+    def optionxform(self, optionstr: str) -> str:
+        return optionstr
+
+
+def _parse(text: str, path: Path) -> configparser.ConfigParser:
+    parser = _CaseKeepingParser(interpolation=None, inline_comment_prefixes=(";",),
+                                comment_prefixes=("#", ";"), strict=True, empty_lines_in_values=False)
+    try:
+        parser.read_string(text, source=str(path))
+    except configparser.Error as exc:
+        raise MdlError(Diagnostic(str(path), getattr(exc, "lineno", None), None, _problem(exc))) from None
+    return parser
+
+
+def _problem(exc: configparser.Error) -> str:
+    if isinstance(exc, configparser.MissingSectionHeaderError):
+        return "a key before any [section]"
+    if isinstance(exc, configparser.DuplicateSectionError):
+        return f"section [{exc.section}] appears twice"
+    if isinstance(exc, configparser.DuplicateOptionError):
+        return f"key '{exc.option}' appears twice in [{exc.section}]"
+    return f"not an INI file: {exc.message.splitlines()[0]}"
+
+
+def read_ini(path: Path) -> DeviceIni:
+    text = read_text(path, ("utf-8-sig", "cp1252"))
+    lines = _line_numbers(text)
+    parser = _parse(text, path)
+    ini = DeviceIni(path=path)
+    errors: list[Diagnostic] = []
+
+    def where(section: str, key: str | None = None) -> int | None:
+        return lines.get((section.lower(), key)) or lines.get((section.lower(), None))
+
+    def warn(section: str, key: str | None, message: str) -> None:
+        ini.warnings.append(Diagnostic(str(path), where(section, key), None, message, "warning"))
+
+    def err(section: str, key: str | None, message: str) -> None:
+        errors.append(Diagnostic(str(path), where(section, key), None, message))
+
+    base = path.parent
+    for section in parser.sections():
+        kind = SECTIONS.get(section.strip().lower())
+        if kind is None:
+            warn(section, None, f"unknown section [{section}] is ignored")
+            continue
+        for key, raw in parser.items(section):
+            value = (raw or "").strip()
+            lkey = key.strip().lower()
+            if "\n" in value and kind != "synonyms":  # only synonym lists may go on over indented lines
+                err(section, key, f"the value of '{key}' goes on over the next line: an indented line continues "
+                                  "the one before it")
+            elif kind == "synonyms":
+                words = [w.strip() for w in re.split(r"[,\n]", value) if w.strip()]
+                if not words:
+                    err(section, key, f"function '{key}' has no synonyms")
+                ini.synonyms[key.strip()] = words
+            elif kind == "additional":
+                if value:  # user-defined columns (e.g. operation_info): informational, never guessed
+                    index = _whole(value)
+                    ini.claimed.append(value if index is None else index)
+            elif kind == "columns":
+                if lkey not in COLUMN_KEYS:
+                    warn(section, key, f"unknown column key '{key}' is ignored")
+                elif value:
+                    index = _whole(value)
+                    ini.columns[lkey] = value if index is None else index
+                else:
+                    ini.blank_columns.add(lkey)
+            elif kind == "device":
+                if lkey not in DEVICE_KEYS:
+                    warn(section, key, f"unknown key '{key}' in [{section}] is ignored")
+                elif lkey == "threshold":
+                    try:
+                        ini.threshold = float(value)
+                        if not 0 <= ini.threshold <= 1:
+                            raise ValueError
+                    except ValueError:
+                        err(section, key, f"threshold must be a number from 0 to 1, not '{value}'")
+                elif lkey in CHOICES and value and value.lower() not in CHOICES[lkey]:
+                    err(section, key, f"{lkey} must be one of {', '.join(CHOICES[lkey])}, not '{value}'")
+                elif unwritable(value):
+                    err(section, key, f"{lkey} holds the character {unwritable(value)}, which MDL (XML) cannot carry")
+                elif value:
+                    ini.device[lkey] = value.lower() if lkey in CHOICES else value
+            elif kind == "io":
+                if lkey not in IO_KEYS:
+                    warn(section, key, f"unknown key '{key}' in [{section}] is ignored")
+                elif lkey == "lines_to_skip" and value:
+                    ini.lines_to_skip = _whole(value)
+                    if ini.lines_to_skip is None:
+                        err(section, key, f"lines_to_skip must be a whole number, not '{value}'")
+                elif lkey == "address_map_csv_file" and value:
+                    ini.csv_file = base / value
+                elif lkey == "output_xml_file" and value:
+                    ini.output_file = base / value
+    ini.default_synonyms = ini.device.pop("default_synonyms", "no") in ("yes", "true", "1", "on")
+    if errors:
+        raise MdlError(errors)
+    return ini

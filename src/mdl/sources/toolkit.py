@@ -1,0 +1,274 @@
+"""Modbus Schema Toolkit YAML -> MDL 1.0 (description, blocks, fields, tests).
+
+Fields become functions named by their id; where an id repeats in several blocks, those
+functions are named "<block>.<id>". Expressions name fields of their own block by id.
+
+The YAML is read from the parser's events without recursion: aliases are refused (Toolkit files
+need none, and expanding them turns a few hundred bytes into gigabytes) and so is nesting deeper
+than MAX_YAML_DEPTH, each with the file, line and column.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING, TypeVar
+
+import yaml
+from yaml.events import (
+    AliasEvent,
+    CollectionEndEvent,
+    DocumentStartEvent,
+    Event,
+    MappingStartEvent,
+    ScalarEvent,
+    SequenceStartEvent,
+)
+
+from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.fileio import read_text
+from mdl.lang.expr.fields import compile_device
+from mdl.model import Device, Function, Scenario, ScenarioInput
+from mdl.model.addressing import AddressError, parse_address
+from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
+
+# Toolkit files nest 7 levels (tests > test > blocks > block > expected > field > values); deeper
+# input is refused while it is read, before the YAML scanner's look-ahead grows with the depth.
+MAX_YAML_DEPTH = 32
+
+
+class _Node:
+    """A YAML value with its line and column (1-based)."""
+
+    def __init__(self, line: int, col: int):
+        self.line, self.col = line, col
+
+
+class _Text(_Node):
+    def __init__(self, value: str, line: int, col: int):
+        super().__init__(line, col)
+        self.value = value
+
+
+class _List(_Node):
+    def __init__(self, line: int, col: int):
+        super().__init__(line, col)
+        self.value: list[_Node] = []
+
+
+class _Map(_Node):
+    def __init__(self, line: int, col: int):
+        super().__init__(line, col)
+        self.value: dict[str, _Node] = {}
+        self.key: _Text | None = None  # while reading: a key waiting for its value
+
+
+N = TypeVar("N", bound=_Node)
+KIND_NAMES: dict[type[_Node], str] = {_Text: "a text", _List: "a list", _Map: "a mapping"}
+
+
+def _position(event: Event) -> tuple[int, int]:
+    mark = event.start_mark
+    return (mark.line + 1, mark.column + 1) if mark else (1, 1)
+
+
+def _node(event: Event, path: StrPath) -> _Node:
+    """The node an event opens; an alias is refused (see above)."""
+    line, col = _position(event)
+    if isinstance(event, AliasEvent):
+        raise error("YAML aliases are not supported", path, line, col)
+    if isinstance(event, ScalarEvent):
+        return _Text(event.value, line, col)
+    if isinstance(event, SequenceStartEvent):
+        return _List(line, col)
+    assert isinstance(event, MappingStartEvent)  # the last kind of event that opens a node
+    return _Map(line, col)
+
+
+def _attach(parent: _Node, node: _Node, path: StrPath) -> None:
+    if isinstance(parent, _List):
+        parent.value.append(node)
+    elif not isinstance(parent, _Map):
+        raise AssertionError("only collections are open")
+    elif parent.key is not None:
+        parent.value[parent.key.value] = node
+        parent.key = None
+    elif isinstance(node, _Text):
+        parent.key = node
+    else:
+        raise error("a mapping key must be a plain text", path, node.line, node.col)
+
+
+def _compose(text: str, path: StrPath) -> _Node | None:
+    """The document of a YAML text as nodes, built from the parser's events without recursion."""
+    root: _Node | None = None
+    open_nodes: list[_Node] = []
+    documents = 0
+    for event in yaml.parse(text, Loader=yaml.BaseLoader):  # every scalar stays text: "0001" is not 1
+        if isinstance(event, DocumentStartEvent):
+            documents += 1
+            if documents > 1:
+                raise error("a Toolkit file holds one YAML document", path, *_position(event))
+        elif isinstance(event, CollectionEndEvent):
+            open_nodes.pop()
+        elif isinstance(event, (AliasEvent, ScalarEvent, SequenceStartEvent, MappingStartEvent)):
+            node = _node(event, path)
+            if open_nodes:
+                _attach(open_nodes[-1], node, path)
+            else:
+                root = node
+            if isinstance(node, (_List, _Map)):
+                open_nodes.append(node)
+                if len(open_nodes) > MAX_YAML_DEPTH:
+                    raise error(f"YAML nested more than {MAX_YAML_DEPTH} levels deep", path, node.line, node.col)
+    return root
+
+
+def load_yaml(path: StrPath) -> _Map:
+    text = read_text(path)
+    try:
+        root = _compose(text, path)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise error(f"malformed YAML: {getattr(exc, 'problem', None) or exc}", path,
+                    mark.line + 1 if mark else None, mark.column + 1 if mark else None) from None
+    if not isinstance(root, _Map):
+        raise error("not a Modbus Schema Toolkit file (expected a mapping with description and blocks)", path, 1)
+    return root
+
+
+def _opt(node: _Node, key: str, path: StrPath, kind: type[N]) -> N | None:
+    """node[key] if node is a mapping that has it, else None; an error if it is not a `kind`."""
+    item = node.value.get(key) if isinstance(node, _Map) else None
+    if item is None:
+        return None
+    if not isinstance(item, kind):
+        raise error(f"'{key}' must be {KIND_NAMES[kind]}", path, item.line, item.col)
+    return item
+
+
+def _need(node: _Node, key: str, path: StrPath, kind: type[N]) -> N:
+    item = _opt(node, key, path, kind)
+    if item is None:
+        raise error(f"missing '{key}'", path, node.line, node.col)
+    return item
+
+
+def import_schema(path: StrPath) -> Device:
+    path = Path(path)
+    root = load_yaml(path)
+    desc = _opt(root, "description", path, _Text)
+    device = Device(path.stem, desc.value if desc else f"Imported from {path.name}", version="1.0", source=str(path))
+    maxregs = _opt(root, "maxRegistersPerModbusRequest", path, _Text)
+    if maxregs is not None:
+        if not re.fullmatch(r"[0-9]{1,3}", maxregs.value) or not 1 <= int(maxregs.value) <= MAX_REGISTERS:
+            raise error(f"maxRegistersPerModbusRequest must be a whole number from 1 to {MAX_REGISTERS}", path,
+                        maxregs.line, maxregs.col)
+        device.max_registers = int(maxregs.value)
+    fields: list[tuple[str, _Node, _Text]] = []
+    for block in _need(root, "blocks", path, _List).value:
+        block_id = _need(block, "id", path, _Text).value
+        for fld in _need(block, "fields", path, _List).value:
+            fields.append((block_id, fld, _need(fld, "id", path, _Text)))
+    counts: dict[str, int] = {}
+    for _, _, fid in fields:
+        counts[fid.value] = counts.get(fid.value, 0) + 1
+    positions: dict[str, _Node] = {}
+    names: dict[tuple[str, str], str] = {}
+    for block_id, fld, fid in fields:
+        name = fid.value if counts[fid.value] == 1 else f"{block_id}.{fid.value}"
+        if (block_id, fid.value) in names:
+            raise error(f"field '{fid.value}' appears twice in block '{block_id}'", path, fid.line, fid.col)
+        names[(block_id, fid.value)] = name
+        expr = _need(fld, "expression", path, _Text)
+        device.functions.append(_function(name, block_id, fld, fid, expr, path))
+        positions[name] = expr
+    problems = compile_device(device)
+    if problems:
+        raise MdlError([Diagnostic(str(path), positions[p.function.name].line, p.col,
+                                   f"field '{p.function.field_id}' of block '{p.function.block}': {p.message}")
+                        for p in problems])
+    for fn in device.functions:
+        assert fn.compiled is not None  # compile_device compiled every expression without a problem
+        lowered = fn.compiled.lowered
+        fn.addresses = list(lowered.addresses)
+        if lowered.table and lowered.table != "holding":
+            fn.register_type = lowered.table
+    tests = _opt(root, "tests", path, _List)
+    for test in tests.value if tests else []:
+        device.tests.append(_scenario(test, names, path))
+    return device
+
+
+def _function(name: str, block_id: str, fld: _Node, fid: _Text, expr: _Text, path: Path) -> Function:
+    description = _opt(fld, "description", path, _Text)
+    unit = _opt(fld, "unit", path, _Text)
+    fn = Function(name, description.value if description else fid.value, [], block_labels=[block_id],
+                  units=unit.value if unit else None, expression=expr.value, line=fid.line,
+                  expression_line=expr.line)
+    for key in ("immutable", "system"):
+        flag = _opt(fld, key, path, _Text)
+        if flag is not None:
+            if flag.value.lower() not in ("true", "false"):
+                raise error(f"'{key}' must be true or false", path, flag.line, flag.col)
+            setattr(fn, key, flag.value.lower() == "true")
+    group = _opt(fld, "fetchGroup", path, _Text)
+    if group is not None:
+        fn.fetch_group = group.value
+    return fn
+
+
+def _scenario(test: _Node, names: dict[tuple[str, str], str], path: Path) -> Scenario:
+    sc = Scenario(_need(test, "id", path, _Text).value, line=test.line)
+    desc = _opt(test, "description", path, _Text)
+    sc.description = desc.value if desc else None
+    inputs = _opt(test, "input", path, _List)
+    for item in inputs.value if inputs else []:
+        sc.inputs.append(_scenario_input(item, path))
+    blocks = _opt(test, "blocks", path, _List)
+    for block in blocks.value if blocks else []:
+        block_id = _need(block, "id", path, _Text).value
+        for field_id, values in _need(block, "expected", path, _Map).value.items():
+            name = names.get((block_id, field_id))
+            if name is None:
+                raise error(f"test '{sc.id}': block '{block_id}' has no field '{field_id}'", path,
+                            values.line, values.col)
+            sc.expected[name] = _expected(values, sc.id, path) or None
+    return sc
+
+
+def _expected(values: _Node, test_id: str, path: Path) -> list[str]:
+    """An expected value, or a list of them (a bitset's names; [] for null)."""
+    items = values.value if isinstance(values, _List) else [values]
+    texts = []
+    for item in items:
+        if not isinstance(item, _Text):
+            raise error(f"test '{test_id}': an expected value must be a text or a number", path, item.line, item.col)
+        texts.append(item.value)
+    return texts
+
+
+def _scenario_input(item: _Node, path: Path) -> ScenarioInput:
+    # the Toolkit's files spell these firstAddress/rawValues, later ones firstRegisterAddress/registers
+    given = item.value if isinstance(item, _Map) else {}
+    first = _need(item, "firstRegisterAddress" if "firstRegisterAddress" in given else "firstAddress", path, _Text)
+    try:
+        table, address = parse_address(first.value)
+    except AddressError as exc:
+        raise error(str(exc), path, first.line, first.col) from None
+    raw = _need(item, "registers" if "registers" in given else "rawValues", path, _Text)
+    bits = table in ("coil", "discrete")
+    words = raw.value.split()
+    for w in words:
+        ok = (len(w) == 4 and (all(c in "0123456789abcdefABCDEF" for c in w) or w == "----" or w.lower() == "xxxx")) \
+            or (bits and set(w.lower()) <= {"0", "1", "-", "x"})
+        if not ok:
+            raise error(f"raw value '{w}' is not 4 hex digits, '----' or 'xxxx'"
+                        + (" (or bits 0, 1, -, x)" if bits else ""), path, raw.line, raw.col)
+    last = address + (sum(len(w) for w in words) if bits else len(words)) - 1
+    if last > MAX_ADDRESS:
+        raise error(f"the raw values run past address {MAX_ADDRESS} (to {last})", path, raw.line, raw.col)
+    return ScenarioInput(table, address, words)

@@ -1,0 +1,47 @@
+"""`mdl gen`: the target registry, and drivers written only when their content changes.
+
+A target is a folder here (python/, cpp/, c/) holding its emitter (`emit.py`, whose `TARGET`
+registers it), its Jinja templates (`templates/`) and the runtime files its drivers carry. Adding a
+language is adding a folder and one line to `_TARGET_MODULES` (docs/architecture.md walks through it).
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+from mdl.model import Device
+from mdl.targets.base import Target
+from mdl.targets.render import require_dir, write_outputs
+
+# name -> the module holding its TARGET, in the order `--lang all` writes them
+_TARGET_MODULES = {"python": "mdl.targets.python.emit", "cpp": "mdl.targets.cpp.emit"}
+
+
+def names() -> list[str]:
+    """The registered targets, in `--lang all` order."""
+    return list(_TARGET_MODULES)
+
+
+def summaries() -> list[str]:
+    """`name: what it writes` for each registered target."""
+    return [f"{name}: {target(name).summary}" for name in names()]
+
+
+def target(name: str) -> Target:
+    found: Target = importlib.import_module(_TARGET_MODULES[name]).TARGET
+    return found
+
+
+def render(device: Device, source_name: str, lang: str) -> dict[str, str]:
+    """File name -> content for the chosen target, or for every target with lang "all"."""
+    out: dict[str, str] = {}
+    for name in names() if lang == "all" else [lang]:
+        out.update(target(name).render(device, source_name))
+    return out
+
+
+def generate(device: Device, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:
+    require_dir(outdir)
+    files = render(device, source.name, lang)
+    return write_outputs({outdir / name: text for name, text in files.items()}, check)

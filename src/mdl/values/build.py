@@ -1,0 +1,162 @@
+"""A function of the model -> its value IR (`mdl.values.ir.Codec`), the one place that knows how
+formats, byte and word orders, "not implemented", scaling, fragments and expressions combine
+(SPEC section 2.3). Every consumer gets the IR from here through `mdl.resolve`."""
+
+from __future__ import annotations
+
+from mdl.lang.cfrag import compile_fragment
+from mdl.model import Function
+from mdl.model.layout import Layout, int_type_bits
+from mdl.values.ir import (
+    CheckRange,
+    Codec,
+    Compose,
+    DecodeStep,
+    EncodeStep,
+    Expression,
+    Fragment,
+    FromBool,
+    FromFloat,
+    FromText,
+    Mask,
+    NotImplemented,
+    RoundInt,
+    Scale,
+    SignExtend,
+    Split,
+    ToBool,
+    ToFloat,
+    ToText,
+    Unit,
+    Unscale,
+    ValueType,
+)
+
+# the largest divisor the rounding rule uses: below 2**53 every integer is exact in a double
+_MAX_DIVISOR = 1 << 53
+
+
+def divisor_of(multiplier: float) -> int | None:
+    """The integer d with multiplier == 1/d exactly (0.1 -> 10, 0.25 -> 4), else None."""
+    if not 0 < multiplier < 1:
+        return None
+    d = round(1.0 / multiplier)
+    return d if 1 < d < _MAX_DIVISOR and 1.0 / d == multiplier else None
+
+
+def units(lay: Layout) -> tuple[Unit, ...]:
+    """The units of a value, most significant first: which register, which part, what shift."""
+    n = len(lay.addresses)
+    order = range(n) if lay.word_order == "big" else reversed(range(n))
+    part = ("word" if lay.byte_order == "big" else "swap") if lay.unit == "word" else lay.unit
+    unit_bits = 16 if lay.unit == "word" else 8
+    return tuple(Unit(i, part, unit_bits * (n - 1 - pos)) for pos, i in enumerate(order))  # type: ignore[arg-type]
+
+
+def span_bits(lay: Layout) -> int:
+    return len(lay.addresses) * (16 if lay.unit == "word" else 8)
+
+
+def int_range(lay: Layout) -> tuple[int, int]:
+    if lay.signed:
+        return -(1 << (lay.bits - 1)), (1 << (lay.bits - 1)) - 1
+    return 0, (1 << lay.bits) - 1
+
+
+def scales(fn: Function) -> bool:
+    return fn.eff_multiplier != 1.0 or fn.eff_offset != 0.0
+
+
+def not_implemented_patterns(fn: Function, n: int) -> tuple[tuple[int, ...], ...]:
+    """Each `not_implemented` value as the register values it stands for: one of up to 4 hex digits
+    in every register, a longer one split into words, first register most significant."""
+    out = []
+    for token in fn.not_implemented or ():
+        pattern = int(token, 16)
+        if len(token) <= 6:
+            out.append((pattern,) * n)
+        else:
+            out.append(tuple((pattern >> (16 * (n - 1 - i))) & 0xFFFF for i in range(n)))
+    return tuple(out)
+
+
+def value_type(fn: Function, lay: Layout) -> ValueType:
+    nullable = bool(fn.not_implemented)
+    if fn.compiled is not None:
+        return ValueType("expr", nullable=True, expr_type=fn.compiled.type)
+    if fn.read_function_code or (lay.kind == "int" and scales(fn)) or (lay.kind == "float" and scales(fn)):
+        return ValueType("float", 64, True, nullable=nullable)
+    if lay.kind == "int":
+        return ValueType("int", int_type_bits(lay.bits), lay.signed, nullable=nullable)
+    if lay.kind == "float":
+        return ValueType("float", lay.bits, True, nullable=nullable)
+    if lay.kind == "string":
+        return ValueType("string", nbytes=span_bits(lay) // 8, nullable=nullable)
+    return ValueType("bool", nullable=nullable)
+
+
+def write_type(fn: Function, lay: Layout) -> ValueType:
+    if fn.write_function_code or ((lay.kind in ("int", "float")) and scales(fn)):
+        return ValueType("float", 64, True)
+    return value_type(fn, lay)
+
+
+def decode_steps(fn: Function, lay: Layout) -> tuple[DecodeStep, ...]:
+    if fn.compiled is not None:
+        return (Expression(fn.compiled.lowered, tuple(fn.compiled.deps)),)
+    n = len(lay.addresses)
+    steps: list[DecodeStep] = []
+    if fn.not_implemented:
+        steps.append(NotImplemented(not_implemented_patterns(fn, n)))
+    if fn.read_function_code:
+        code = fn.read_function_code
+        return (*steps, Fragment(code, n, True, compile_fragment(code, n, True)))
+    if lay.kind == "bool":
+        return (*steps, ToBool())
+    if lay.kind == "string":
+        return (*steps, ToText(units(lay), span_bits(lay) // 8))
+    steps.append(Compose(units(lay)))
+    if lay.kind == "float":
+        steps.append(ToFloat(lay.bits))
+    else:
+        if lay.bits < span_bits(lay):
+            steps.append(Mask(lay.bits))
+        if lay.signed:
+            steps.append(SignExtend(lay.bits))
+    if scales(fn):
+        steps.append(Scale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
+    return tuple(steps)
+
+
+def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
+    steps: list[EncodeStep] = []
+    if lay.kind != "string" and (fn.minimum is not None or fn.maximum is not None):
+        steps.append(CheckRange(fn.minimum, fn.maximum))
+    n = len(lay.addresses)
+    if fn.write_function_code:
+        code = fn.write_function_code
+        return (*steps, Fragment(code, n, False, compile_fragment(code, n, False)))
+    if lay.kind == "bool":
+        return (*steps, FromBool())
+    if lay.kind == "string":
+        return (*steps, FromText(units(lay), span_bits(lay) // 8))
+    if scales(fn):
+        steps.append(Unscale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
+    if lay.kind == "float":
+        steps.append(FromFloat(lay.bits))
+    else:
+        low, high = int_range(lay)
+        steps.append(RoundInt(low, high, span_bits(lay), lay.signed, lay.bits))
+    return (*steps, Split(units(lay)))
+
+
+def build(fn: Function, lay: Layout) -> Codec:
+    """The function's IR; `lay` is its layout (mdl.model.layout), computed once by the caller."""
+    return Codec(
+        table=lay.table,
+        addresses=lay.addresses,
+        value_type=value_type(fn, lay),
+        write_type=write_type(fn, lay),
+        decode=decode_steps(fn, lay) if fn.readable else None,
+        encode=encode_steps(fn, lay) if fn.writable else None,
+    )

@@ -1,0 +1,197 @@
+"""The value IR: what each function's value is, as a short list of language-neutral steps.
+
+`mdl.values.build` turns a resolved function into a `Codec` once; the Python evaluator
+(`mdl.values.evaluate`) runs it for `mdl read`/`write`/`sim --set`/`test`, and each target
+(`mdl.targets.<lang>`) prints it. Every step below says exactly what it computes, so that the
+evaluator and every target compute the same bits.
+
+Decoding starts from `r`, the function's registers (or bits) in address order, and a 64-bit
+unsigned accumulator `v`:
+
+- `NotImplemented(patterns)`: if `r` equals one of the patterns (a value per register), the value
+  is null (None / std::nullopt / the C driver's `has_` flag false). Always first when present.
+- `Fragment(code, nregs)`: the read fragment's `arg` (a double) is the value. Ends the program.
+- `Expression(lowered, deps)`: the Toolkit expression's value. Ends the program.
+- `ToBool()`: the value is `r[0] != 0`. Ends the program.
+- `Compose(units)`: `v = OR of unit << shift` over the units (see `Unit`).
+- `ToText(units, nbytes)`: the units' bytes, most significant first, without trailing NUL and
+  space bytes, read as UTF-8 (a malformed sequence as U+FFFD in Python). Ends the program.
+- `Mask(bits)`: `v &= 2**bits - 1` (an 8-bit format in a full word keeps the lower byte).
+- `SignExtend(bits)`: `v` as a signed `bits`-bit integer.
+- `ToFloat(bits)`: `v` as the IEEE 754 float of `bits` (32 or 64) bits; a float32 widens to double.
+- `Scale(divisor, multiplier, offset)`: the rounding rule of every target. `x = double(v)`; then
+  `x = x / divisor` when the multiplier is the exact reciprocal of an integer (0.1 -> / 10, so 87
+  reads 8.7, the double nearest 87 * 0.1), else `x = x * multiplier`; then, as a separate
+  operation (never a fused multiply-add), `x = x + offset` when the offset is not 0.
+
+Encoding starts from `value` and ends with `r`:
+
+- `CheckRange(minimum, maximum)`: a value below/above the bound (or NaN) is refused.
+- `Fragment(code, nregs)`: the write fragment sets `r`. Ends the program.
+- `FromBool()`: `r[0] = 1 if value else 0`. Ends the program.
+- `FromText(units, nbytes)`: the UTF-8 bytes, NUL-padded; longer text is refused; then split.
+- `Unscale(divisor, multiplier, offset)`: `x = value - offset` (when the offset is not 0), then
+  `x = x * divisor`, or `x = x / multiplier`; in doubles.
+- `FromFloat(bits)`: `v` = the IEEE bits of `x` (rounded to float32 for 32 bits).
+- `RoundInt(low, high, span)`: a non-finite `x` is refused; `x = floor(x + 0.5)` for a
+  fraction; outside `low..high` is refused; `v = x mod 2**span`.
+- `Split(units)`: each unit of `v` back into its register (the inverse of `Compose`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Literal, TypeAlias
+
+if TYPE_CHECKING:
+    from mdl.lang.cfrag import Fragment as FragmentTree
+    from mdl.lang.expr.lower import Lowered
+
+Part = Literal["word", "swap", "low", "high"]  # the register as is, its bytes swapped, its low / high byte
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One unit of a composed value: `(part of r[index]) << shift`. For `low` and `high` the part
+    is the byte value (0..255); `high` puts it back into bits 8-15 when splitting."""
+
+    index: int
+    part: Part
+    shift: int
+
+
+@dataclass(frozen=True)
+class NotImplemented:
+    patterns: tuple[tuple[int, ...], ...]
+
+
+@dataclass(frozen=True)
+class Fragment:
+    code: str  # the checked fragment text (mdl.lang.cfrag compiles it for each target)
+    nregs: int
+    reading: bool
+    tree: FragmentTree
+
+
+@dataclass(frozen=True)
+class Expression:
+    lowered: Lowered
+    deps: tuple[str, ...]  # the function names it refers to, in parameter order
+
+
+@dataclass(frozen=True)
+class ToBool:
+    pass
+
+
+@dataclass(frozen=True)
+class Compose:
+    units: tuple[Unit, ...]
+
+
+@dataclass(frozen=True)
+class ToText:
+    units: tuple[Unit, ...]
+    nbytes: int
+
+
+@dataclass(frozen=True)
+class Mask:
+    bits: int
+
+
+@dataclass(frozen=True)
+class SignExtend:
+    bits: int
+
+
+@dataclass(frozen=True)
+class ToFloat:
+    bits: int
+
+
+@dataclass(frozen=True)
+class Scale:
+    divisor: int | None  # x / divisor, when the multiplier is its exact reciprocal
+    multiplier: float  # else x * multiplier
+    offset: float
+
+
+@dataclass(frozen=True)
+class CheckRange:
+    minimum: float | None
+    maximum: float | None
+
+
+@dataclass(frozen=True)
+class FromBool:
+    pass
+
+
+@dataclass(frozen=True)
+class FromText:
+    units: tuple[Unit, ...]
+    nbytes: int
+
+
+@dataclass(frozen=True)
+class Unscale:
+    divisor: int | None
+    multiplier: float
+    offset: float
+
+
+@dataclass(frozen=True)
+class FromFloat:
+    bits: int
+
+
+@dataclass(frozen=True)
+class RoundInt:
+    low: int
+    high: int
+    span: int  # bits of v that reach the registers
+    signed: bool
+    bits: int  # the integer's own width, for messages ("does not fit int16")
+
+
+@dataclass(frozen=True)
+class Split:
+    units: tuple[Unit, ...]
+
+
+DecodeStep: TypeAlias = (NotImplemented | Fragment | Expression | ToBool | Compose | ToText | Mask | SignExtend
+                          | ToFloat | Scale)
+EncodeStep: TypeAlias = CheckRange | Fragment | FromBool | FromText | Unscale | FromFloat | RoundInt | Split
+
+ValueKind = Literal["int", "float", "string", "bool", "expr"]
+
+
+@dataclass(frozen=True)
+class ValueType:
+    """The type of a function's value, which every target spells its own way.
+
+    kind int: an integer of `bits` (8/16/32/64) bits, `signed`; float: a float of `bits` (32/64)
+    bits (a scaled or fragment value is a 64-bit float); string: text of at most `nbytes` bytes;
+    bool; expr: a Toolkit expression's type `expr_type` (long, double, string, bool, list).
+    `nullable`: the value may be null ("not implemented", an expression's null)."""
+
+    kind: ValueKind
+    bits: int = 0
+    signed: bool = False
+    nbytes: int = 0
+    nullable: bool = False
+    expr_type: str = ""
+
+
+@dataclass(frozen=True)
+class Codec:
+    """A function's value IR. `decode` is None for a function that cannot be read, `encode` for
+    one that cannot be written; `write_type` is the type a write takes (a number for fragments)."""
+
+    table: str
+    addresses: tuple[int, ...]
+    value_type: ValueType
+    write_type: ValueType
+    decode: tuple[DecodeStep, ...] | None
+    encode: tuple[EncodeStep, ...] | None
