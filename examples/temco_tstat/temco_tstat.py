@@ -105,7 +105,9 @@ def _decode_serial_number(r: list[int]) -> int:
 
 def _decode_firmware_version(r: list[int]) -> float:
     v = ((r[0] & 0xFF) << 8) | (r[1] & 0xFF)
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _decode_modbus_address(r: list[int]) -> int:
@@ -116,17 +118,20 @@ def _decode_modbus_address(r: list[int]) -> int:
 def _encode_modbus_address(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 1.0:
         raise ValueRangeError(f'{value} is below the minimum 1')
     if value > 254.0:
         raise ValueRangeError(f'{value} is above the maximum 254')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -139,12 +144,16 @@ def _decode_room_temperature(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _decode_humidity(r: list[int]) -> float:
     v = r[0]
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _decode_occupancy(r: list[int]) -> float:
@@ -162,17 +171,20 @@ def _decode_fan_speed(r: list[int]) -> int:
 def _encode_fan_speed(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 4.0:
         raise ValueRangeError(f'{value} is above the maximum 4')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -184,17 +196,20 @@ def _decode_system_mode(r: list[int]) -> int:
 def _encode_system_mode(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 2.0:
         raise ValueRangeError(f'{value} is above the maximum 2')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -206,17 +221,20 @@ def _decode_fan_relay_on(r: list[int]) -> int:
 def _encode_fan_relay_on(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 1.0:
         raise ValueRangeError(f'{value} is above the maximum 1')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -228,17 +246,20 @@ def _decode_cooling_stage1_relay_on(r: list[int]) -> int:
 def _encode_cooling_stage1_relay_on(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 1.0:
         raise ValueRangeError(f'{value} is above the maximum 1')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -250,17 +271,20 @@ def _decode_cooling_stage2_relay_on(r: list[int]) -> int:
 def _encode_cooling_stage2_relay_on(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 1.0:
         raise ValueRangeError(f'{value} is above the maximum 1')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -272,17 +296,20 @@ def _decode_heating_stage1_relay_on(r: list[int]) -> int:
 def _encode_heating_stage1_relay_on(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 1.0:
         raise ValueRangeError(f'{value} is above the maximum 1')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -294,17 +321,20 @@ def _decode_heating_stage2_relay_on(r: list[int]) -> int:
 def _encode_heating_stage2_relay_on(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 0.0:
         raise ValueRangeError(f'{value} is below the minimum 0')
     if value > 1.0:
         raise ValueRangeError(f'{value} is above the maximum 1')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -312,24 +342,29 @@ def _decode_occupied_setpoint(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _encode_occupied_setpoint(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 10.0:
         raise ValueRangeError(f'{value} is below the minimum 10')
     if value > 30.0:
         raise ValueRangeError(f'{value} is above the maximum 30')
-    value = value / 0.1
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = float(value)
+    x = x * 10.0
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -32768 <= value <= 32767:
+        x = math.floor(x + 0.5)
+    if not -32768 <= x <= 32767:
         raise ValueRangeError(f'{value} does not fit int16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -337,24 +372,29 @@ def _decode_unoccupied_setpoint(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _encode_unoccupied_setpoint(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 5.0:
         raise ValueRangeError(f'{value} is below the minimum 5')
     if value > 35.0:
         raise ValueRangeError(f'{value} is above the maximum 35')
-    value = value / 0.1
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = float(value)
+    x = x * 10.0
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -32768 <= value <= 32767:
+        x = math.floor(x + 0.5)
+    if not -32768 <= x <= 32767:
         raise ValueRangeError(f'{value} does not fit int16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -362,24 +402,29 @@ def _decode_occupied_heating_setpoint(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _encode_occupied_heating_setpoint(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 10.0:
         raise ValueRangeError(f'{value} is below the minimum 10')
     if value > 30.0:
         raise ValueRangeError(f'{value} is above the maximum 30')
-    value = value / 0.1
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = float(value)
+    x = x * 10.0
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -32768 <= value <= 32767:
+        x = math.floor(x + 0.5)
+    if not -32768 <= x <= 32767:
         raise ValueRangeError(f'{value} does not fit int16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 

@@ -14,8 +14,12 @@ from mdl.model import Device
 from mdl.targets.base import Target
 from mdl.targets.render import require_dir, write_outputs
 
-# name -> the module holding its TARGET, in the order `--lang all` writes them
-_TARGET_MODULES = {"python": "mdl.targets.python.emit", "cpp": "mdl.targets.cpp.emit"}
+# name -> (the module holding its TARGET, what it writes), in the order `--lang all` writes them; the
+# modules are imported only when a target renders, so `mdl --help` and `mdl sim` start fast
+_TARGET_MODULES = {
+    "python": ("mdl.targets.python.emit", "<stem>.py, a module over pymodbus with sync and asyncio classes"),
+    "cpp": ("mdl.targets.cpp.emit", "<stem>.h/<stem>.cc, C++17 on libmodbus"),
+}
 
 
 def names() -> list[str]:
@@ -25,11 +29,11 @@ def names() -> list[str]:
 
 def summaries() -> list[str]:
     """`name: what it writes` for each registered target."""
-    return [f"{name}: {target(name).summary}" for name in names()]
+    return [f"{name}: {summary}" for name, (_, summary) in _TARGET_MODULES.items()]
 
 
 def target(name: str) -> Target:
-    found: Target = importlib.import_module(_TARGET_MODULES[name]).TARGET
+    found: Target = importlib.import_module(_TARGET_MODULES[name][0]).TARGET
     return found
 
 

@@ -1,4 +1,4 @@
-"""What a target registers: its name, a line for `--help`, and how it renders a device."""
+"""What a target registers: its name and how it renders a device."""
 
 from __future__ import annotations
 
@@ -11,5 +11,4 @@ from mdl.model import Device
 @dataclass(frozen=True)
 class Target:
     name: str
-    summary: str  # what it writes, for `mdl gen --help`
     render: Callable[[Device, str], dict[str, str]]  # (device, source file name) -> file name -> text

@@ -1,192 +1,282 @@
-"""Registers <-> values: the one place that knows formats, orders, scaling and "not implemented".
+"""The value IR run in Python: registers <-> values for `mdl read`, `mdl write`, `mdl sim --set`
+and `mdl test`.
 
-Runtime (`mdl read`/`mdl write`) and simulator (`mdl sim --set`) use this module; the generated
-drivers inline the same rules and tests prove they agree.
+Each `Codec` (mdl.values.ir) is compiled once into a pair of Python closures (`compile_codec`),
+one small function per step, so a poll decodes without looking at the model again. The generated
+drivers print the same steps; the tests compare them with this module bit for bit.
 """
 
 from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
-from mdl.model import Function, Scalar
-from mdl.model.layout import Layout, layout
+from mdl.diagnostics import error
+from mdl.lang.cfrag import compile_read, compile_write
+from mdl.model import Function, Scalar, Value
+from mdl.model.layout import layout
+from mdl.values import ir
+from mdl.values.build import build, decode_steps, encode_steps, int_range, scales
+
+__all__ = ["CodecError", "compile_codec", "decode", "encode", "int_range", "parse_value", "scales"]
 
 
 class CodecError(ValueError):
     """A value cannot be encoded (out of range, wrong type) or registers cannot be decoded."""
 
 
-def _units_to_bytes(lay: Layout, regs: Sequence[int]) -> bytes:
-    if lay.unit == "word":
-        units = [
-            bytes(((r >> 8) & 0xFF, r & 0xFF)) if lay.byte_order == "big" else bytes((r & 0xFF, (r >> 8) & 0xFF))
-            for r in regs
-        ]
-    elif lay.unit == "low":
-        units = [bytes((r & 0xFF,)) for r in regs]
+Decoder = Callable[[Sequence[int]], Value]  # registers (address order) -> value
+Encoder = Callable[[Scalar], list[int]]  # value -> registers (address order)
+
+
+def _part(unit: ir.Unit) -> Callable[[Sequence[int]], int]:
+    i = unit.index
+    if unit.part == "word":
+        return lambda r: r[i]
+    if unit.part == "swap":
+        return lambda r: ((r[i] & 0xFF) << 8) | (r[i] >> 8)
+    if unit.part == "low":
+        return lambda r: r[i] & 0xFF
+    return lambda r: r[i] >> 8
+
+
+def _compose(units: tuple[ir.Unit, ...]) -> Callable[[Sequence[int]], int]:
+    parts = [(_part(u), u.shift) for u in units]
+    if len(parts) == 1 and parts[0][1] == 0:
+        return parts[0][0]
+
+    def compose(r: Sequence[int]) -> int:
+        v = 0
+        for part, shift in parts:
+            v |= part(r) << shift
+        return v
+
+    return compose
+
+
+def _split(units: tuple[ir.Unit, ...], n: int) -> Callable[[int], list[int]]:
+    def split(v: int) -> list[int]:
+        regs = [0] * n
+        for u in units:
+            x = (v >> u.shift) & (0xFFFF if u.part in ("word", "swap") else 0xFF)
+            regs[u.index] = {"word": x, "swap": ((x & 0xFF) << 8) | (x >> 8), "low": x, "high": x << 8}[u.part]
+        return regs
+
+    return split
+
+
+def _scale(step: ir.Scale) -> Callable[[int | float], float]:
+    d, m, o = step.divisor, step.multiplier, step.offset
+
+    def scale(v: int | float) -> float:
+        x = float(v)
+        x = x / d if d is not None else x * m
+        return x + o if o != 0.0 else x
+
+    return scale
+
+
+def _value_step(step: ir.DecodeStep) -> Callable[[int | float], int | float]:
+    """A step after Compose: v -> v."""
+    if isinstance(step, ir.Mask):
+        mask = (1 << step.bits) - 1
+        return lambda v: int(v) & mask
+    if isinstance(step, ir.SignExtend):
+        top, full = 1 << (step.bits - 1), 1 << step.bits
+        return lambda v: int(v) - full if int(v) & top else v
+    if isinstance(step, ir.ToFloat):
+        fmt, size = (">f", 4) if step.bits == 32 else (">d", 8)
+        return lambda v: float(struct.unpack(fmt, int(v).to_bytes(size, "big"))[0])
+    if isinstance(step, ir.Scale):
+        return _scale(step)
+    raise AssertionError(f"not a value step: {step}")
+
+
+def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
+    """The steps as one function: registers -> value (ArithmeticError becomes MdlError naming the function)."""
+    head: list[ir.DecodeStep] = list(steps)
+    missing: frozenset[tuple[int, ...]] = frozenset()
+    if head and isinstance(head[0], ir.NotImplemented):
+        missing = frozenset(head.pop(0).patterns)  # type: ignore[union-attr]
+    first = head[0]
+    body: Decoder
+    if isinstance(first, ir.Fragment):
+        fragment = compile_read(first.code, first.nregs)
+
+        def body(r: Sequence[int]) -> Value:
+            try:
+                return fragment(list(r))
+            except ArithmeticError as exc:  # the fragment has no value for these registers (docs/fragments.md)
+                raise error(f"function '{name}': read_function_code: {exc}") from None
+
+    elif isinstance(first, ir.ToBool):
+        def body(r: Sequence[int]) -> Value:
+            return bool(r[0])
+
+    elif isinstance(first, ir.ToText):
+        compose, nbytes = _compose(first.units), first.nbytes
+
+        def body(r: Sequence[int]) -> Value:
+            return compose(r).to_bytes(nbytes, "big").rstrip(b"\x00 ").decode("utf-8", errors="replace")
+
+    elif isinstance(first, ir.Compose):
+        compose = _compose(first.units)
+        rest = [_value_step(step) for step in head[1:]]
+
+        def body(r: Sequence[int]) -> Value:
+            v: int | float = compose(r)
+            for step in rest:
+                v = step(v)
+            return v
+
     else:
-        units = [bytes(((r >> 8) & 0xFF,)) for r in regs]
-    if lay.word_order == "little":
-        units.reverse()
-    return b"".join(units)
+        raise AssertionError(f"a decode cannot start with {first}")
+    if not missing:
+        return body
+    return lambda r: None if tuple(r) in missing else body(r)
 
 
-def _bytes_to_units(lay: Layout, data: bytes) -> list[int]:
-    size = 2 if lay.unit == "word" else 1
-    units = [data[i : i + size] for i in range(0, len(data), size)]
-    if lay.word_order == "little":
-        units.reverse()
-    if lay.unit == "word":
-        if lay.byte_order == "big":
-            return [(u[0] << 8) | u[1] for u in units]
-        return [(u[1] << 8) | u[0] for u in units]
-    if lay.unit == "low":
-        return [u[0] for u in units]
-    return [u[0] << 8 for u in units]
+def _number(value: Scalar) -> int | float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise CodecError(f"expects a number, got {value!r}")
+    return value
 
 
-def decode_raw(lay: Layout, regs: Sequence[int]) -> Scalar:
-    """Registers (address order) -> the format's value, before scaling."""
-    if lay.kind == "bool":
-        return bool(regs[0])
-    data = _units_to_bytes(lay, regs)
-    if lay.kind == "string":
-        return data.rstrip(b"\x00 ").decode("utf-8", errors="replace")
-    if lay.kind == "float":
-        value: float = struct.unpack(">f" if lay.bits == 32 else ">d", data)[0]
-        return value
-    raw = int.from_bytes(data, "big") & ((1 << lay.bits) - 1)
-    if lay.signed and raw >> (lay.bits - 1):
-        raw -= 1 << lay.bits
-    return raw
+def compile_encoder(codec: ir.Codec, steps: tuple[ir.EncodeStep, ...]) -> Encoder:
+    n = len(codec.addresses)
+    checks: list[Callable[[Scalar], None]] = []
+    todo = list(steps)
+    if todo and isinstance(todo[0], ir.CheckRange):
+        checks.append(_range_check(todo.pop(0)))  # type: ignore[arg-type]
+    last = todo[0]
+    body: Encoder
+    if isinstance(last, ir.Fragment):
+        fragment = compile_write(last.code, last.nregs)
 
+        def body(value: Scalar) -> list[int]:
+            try:
+                return fragment(float(_number(value)))
+            except ArithmeticError as exc:  # no registers for this value, or one out of range (docs/fragments.md)
+                raise CodecError(f"write_function_code: {exc}") from None
 
-def int_range(lay: Layout) -> tuple[int, int]:
-    if lay.signed:
-        return -(1 << (lay.bits - 1)), (1 << (lay.bits - 1)) - 1
-    return 0, (1 << lay.bits) - 1
+    elif isinstance(last, ir.FromBool):
+        def body(value: Scalar) -> list[int]:
+            return [1 if value else 0]
 
+    elif isinstance(last, ir.FromText):
+        split, nbytes = _split(last.units, n), last.nbytes
 
-def encode_raw(lay: Layout, value: Scalar) -> list[int]:
-    """The format's value -> registers (address order)."""
-    n = len(lay.addresses)
-    if lay.kind == "bool":
-        return [1 if value else 0]
-    if lay.kind == "string":
-        if not isinstance(value, str):
-            raise CodecError(f"expects text, got {value!r}")
-        data = value.encode("utf-8")
-        size = n * (2 if lay.unit == "word" else 1)
-        if len(data) > size:
-            raise CodecError(f"text of {len(data)} bytes does not fit {size} bytes")
-        data = data.ljust(size, b"\x00")
-    elif lay.kind == "float":
-        try:
-            data = struct.pack(">f" if lay.bits == 32 else ">d", float(value))
-        except OverflowError:  # 1e39 has no FLOAT32
-            raise CodecError(f"{value} does not fit float{lay.bits}") from None
+        def body(value: Scalar) -> list[int]:
+            if not isinstance(value, str):
+                raise CodecError(f"expects text, got {value!r}")
+            data = value.encode("utf-8")
+            if len(data) > nbytes:
+                raise CodecError(f"text of {len(data)} bytes does not fit {nbytes} bytes")
+            return split(int.from_bytes(data.ljust(nbytes, b"\x00"), "big"))
+
     else:
-        if not isinstance(value, int):
-            raise CodecError(f"expects a whole number, got {value!r}")
-        lo, hi = int_range(lay)
-        if not lo <= value <= hi:
-            raise CodecError(f"{value} does not fit {'' if lay.signed else 'u'}int{lay.bits}")
-        span = n * (16 if lay.unit == "word" else 8)
-        data = (value & ((1 << span) - 1)).to_bytes(span // 8, "big")
-    return _bytes_to_units(lay, data)
+        body = _numeric_encoder(todo, n)
+    if not checks:
+        return body
+    check = checks[0]
+
+    def checked(value: Scalar) -> list[int]:
+        check(value)
+        return body(value)
+
+    return checked
 
 
-def is_not_implemented(fn: Function, regs: Sequence[int]) -> bool:
-    """`not_implemented` values: one of up to 4 hex digits matches when every register holds it;
-    a longer one matches the registers composed in address order, first most significant."""
-    if not fn.not_implemented:
-        return False
-    composed = 0
-    for r in regs:
-        composed = (composed << 16) | r
-    for token in fn.not_implemented:
-        pattern = int(token, 16)
-        if len(token) <= 6:
-            if all(r == pattern for r in regs):
-                return True
-        elif composed == pattern:
-            return True
-    return False
+def _range_check(step: ir.CheckRange) -> Callable[[Scalar], None]:
+    low, high = step.minimum, step.maximum
+
+    def check(value: Scalar) -> None:
+        x = _number(value)
+        if isinstance(x, float) and math.isnan(x):
+            raise CodecError("NaN is outside every range")
+        if low is not None and x < low:
+            raise CodecError(f"{value} is below the minimum {low:g}")
+        if high is not None and x > high:
+            raise CodecError(f"{value} is above the maximum {high:g}")
+
+    return check
 
 
-def scales(fn: Function) -> bool:
-    return fn.eff_multiplier != 1.0 or fn.eff_offset != 0.0
+def _numeric_encoder(steps: list[ir.EncodeStep], n: int) -> Encoder:
+    unscale = next((s for s in steps if isinstance(s, ir.Unscale)), None)
+    to_float = next((s for s in steps if isinstance(s, ir.FromFloat)), None)
+    to_int = next((s for s in steps if isinstance(s, ir.RoundInt)), None)
+    split_step = steps[-1]
+    assert isinstance(split_step, ir.Split)
+    split = _split(split_step.units, n)
+
+    def encode(value: Scalar) -> list[int]:
+        x = _number(value)
+        if unscale is not None:
+            x = float(x)
+            if unscale.offset != 0.0:
+                x = x - unscale.offset
+            x = x * unscale.divisor if unscale.divisor is not None else x / unscale.multiplier
+        if to_float is not None:
+            fmt = ">f" if to_float.bits == 32 else ">d"
+            try:
+                return split(int.from_bytes(struct.pack(fmt, float(x)), "big"))
+            except OverflowError:  # 1e39 has no FLOAT32
+                raise CodecError(f"{value} does not fit float{to_float.bits}") from None
+        assert to_int is not None
+        if isinstance(x, float):
+            if not math.isfinite(x):
+                raise CodecError(f"{value} is not a finite number")
+            x = math.floor(x + 0.5)
+        if not to_int.low <= x <= to_int.high:
+            raise CodecError(f"{value} does not fit {'' if to_int.signed else 'u'}int{to_int.bits}")
+        return split(x & ((1 << to_int.span) - 1))
+
+    return encode
 
 
-def decode(fn: Function, regs: Sequence[int]) -> Scalar | None:
-    """Registers -> the engineering value (None where "not implemented")."""
-    if is_not_implemented(fn, regs):
-        return None
-    lay = layout(fn)
-    if fn.read_function_code:
-        from mdl.diagnostics import error
-        from mdl.lang.cfrag import compile_read
+@dataclass(frozen=True)
+class Compiled:
+    """A function's decoder and encoder (None where it cannot be read or written)."""
 
-        try:
-            return compile_read(fn.read_function_code, len(lay.addresses))(list(regs))
-        except ArithmeticError as exc:  # the fragment has no value for these registers (docs/fragments.md)
-            raise error(f"function '{fn.name}': read_function_code: {exc}") from None
-    raw = decode_raw(lay, regs)
-    if isinstance(raw, (str, bool)) or not scales(fn):
-        return raw
-    return tidy(raw * fn.eff_multiplier + fn.eff_offset)
+    decode: Decoder | None
+    encode: Encoder | None
 
 
-def tidy(x: float) -> float:
-    """A scaled value to 15 significant digits, so 3 * 0.1 reads 0.3, not 0.30000000000000004."""
-    return float(f"{x:.15g}")
+def compile_codec(name: str, codec: ir.Codec) -> Compiled:
+    """The IR of a function without an expression as Python closures (expressions are run by
+    mdl.values.evaluate with their dependencies)."""
+    decode = None
+    if codec.decode is not None and not isinstance(codec.decode[0], ir.Expression):
+        decode = compile_decoder(name, codec.decode)
+    encode = compile_encoder(codec, codec.encode) if codec.encode is not None else None
+    return Compiled(decode, encode)
 
 
-def check_range(fn: Function, value: Scalar) -> None:
-    if isinstance(value, (int, float)) and not isinstance(value, bool):
-        if fn.minimum is not None and value < fn.minimum:
-            raise CodecError(f"{value} is below the minimum {fn.minimum:g}")
-        if fn.maximum is not None and value > fn.maximum:
-            raise CodecError(f"{value} is above the maximum {fn.maximum:g}")
+def decode(fn: Function, regs: Sequence[int]) -> Value:
+    """Registers -> the engineering value (None where "not implemented"), for one function of the
+    model without an expression, readable or not (the simulator decodes write-only ones)."""
+    return compile_decoder(fn.name, decode_steps(fn, layout(fn)))(regs)
 
 
 def encode(fn: Function, value: Scalar) -> list[int]:
     """The engineering value -> registers, refusing values outside minimum/maximum."""
-    check_range(fn, value)
     lay = layout(fn)
-    if fn.write_function_code:
-        from mdl.lang.cfrag import compile_write
-
-        try:
-            return compile_write(fn.write_function_code, len(lay.addresses))(float(value))
-        except ArithmeticError as exc:  # no registers for this value, or one out of range (docs/fragments.md)
-            raise CodecError(f"write_function_code: {exc}") from None
-    if lay.kind in ("string", "bool"):
-        return encode_raw(lay, value)
-    if not isinstance(value, (int, float)) or isinstance(value, bool):
-        raise CodecError(f"expects a number, got {value!r}")
-    raw = (value - fn.eff_offset) / fn.eff_multiplier if scales(fn) else value
-    if lay.kind == "float":
-        return encode_raw(lay, raw)
-    if isinstance(raw, float):
-        if not math.isfinite(raw):
-            raise CodecError(f"{value} is not a finite number")
-        raw = math.floor(raw + 0.5)
-    return encode_raw(lay, raw)
+    return compile_encoder(build(fn, lay), encode_steps(fn, lay))(value)
 
 
 def parse_value(fn: Function, text: str) -> Scalar:
     """A value typed by a user (`NAME=VALUE`) -> a Python value for `encode`."""
-    lay = layout(fn)
+    kind = layout(fn).kind
     if fn.values:
         for key, label in fn.values.items():
             if label == text:
                 return key
-    if lay.kind == "string" and not fn.write_function_code:
+    if kind == "string" and not fn.write_function_code:
         return text
-    if lay.kind == "bool" and not fn.write_function_code:
+    if kind == "bool" and not fn.write_function_code:
         low = text.strip().lower()
         if low in ("1", "true", "on", "yes"):
             return True

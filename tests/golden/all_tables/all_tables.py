@@ -99,17 +99,6 @@ def _need(raw: dict[tuple[str, int], int], name: str, table: str, addresses: tup
     return regs
 
 
-def _not_implemented(r: list[int], patterns: tuple[str, ...]) -> bool:
-    composed = 0
-    for x in r:
-        composed = (composed << 16) | x
-    for token in patterns:
-        pattern = int(token, 16)
-        if (len(token) <= 6 and all(x == pattern for x in r)) or (len(token) > 6 and composed == pattern):
-            return True
-    return False
-
-
 def _f32(x: float) -> float:
     try:
         return float(struct.unpack("<f", struct.pack("<f", x))[0])
@@ -181,7 +170,9 @@ def _decode_filter_dirty(r: list[int]) -> bool:
 
 def _decode_energy(r: list[int]) -> float:
     v = (r[1] << 16) | r[0]
-    return float(f'{v * 0.001 + 0:.15g}')
+    x = float(v)
+    x = x / 1000.0
+    return x
 
 
 def _decode_power(r: list[int]) -> float:
@@ -191,10 +182,12 @@ def _decode_power(r: list[int]) -> float:
 
 
 def _decode_voltage(r: list[int]) -> float | None:
-    if _not_implemented(r, ('0xFFFF',)):
+    if tuple(r) in ((0xFFFF,),):  # not implemented
         return None
     v = r[0]
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _decode_gap_low(r: list[int]) -> int:
@@ -205,13 +198,14 @@ def _decode_gap_low(r: list[int]) -> int:
 def _encode_gap_low(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 65535:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 65535:
         raise ValueRangeError(f'{value} does not fit uint16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -223,13 +217,14 @@ def _decode_gap_high(r: list[int]) -> int:
 def _encode_gap_high(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 65535:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 65535:
         raise ValueRangeError(f'{value} does not fit uint16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -237,24 +232,29 @@ def _decode_setpoint(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.1 + 0:.15g}')
+    x = float(v)
+    x = x / 10.0
+    return x
 
 
 def _encode_setpoint(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
+    if math.isnan(value):
+        raise ValueRangeError('NaN is outside every range')
     if value < 5.0:
         raise ValueRangeError(f'{value} is below the minimum 5')
     if value > 35.0:
         raise ValueRangeError(f'{value} is above the maximum 35')
-    value = value / 0.1
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = float(value)
+    x = x * 10.0
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -32768 <= value <= 32767:
+        x = math.floor(x + 0.5)
+    if not -32768 <= x <= 32767:
         raise ValueRangeError(f'{value} does not fit int16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -266,13 +266,14 @@ def _decode_mode(r: list[int]) -> int:
 def _encode_mode(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 65535:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 65535:
         raise ValueRangeError(f'{value} does not fit uint16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -327,13 +328,14 @@ def _decode_big(r: list[int]) -> int:
 def _encode_big(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -9223372036854775808 <= value <= 9223372036854775807:
+        x = math.floor(x + 0.5)
+    if not -9223372036854775808 <= x <= 9223372036854775807:
         raise ValueRangeError(f'{value} does not fit int64')
-    v = value & 0xffffffffffffffff
+    v = x & 0xFFFFFFFFFFFFFFFF
     return [(v >> 48) & 0xFFFF, (v >> 32) & 0xFFFF, (v >> 16) & 0xFFFF, v & 0xFFFF]
 
 
@@ -341,21 +343,25 @@ def _decode_temp_offset(r: list[int]) -> float:
     v = r[0]
     if v >> 15:
         v -= 0x10000
-    return float(f'{v * 0.5 + -40:.15g}')
+    x = float(v)
+    x = x / 2.0
+    x = x + -40.0
+    return x
 
 
 def _encode_temp_offset(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    value = value - -40
-    value = value / 0.5
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = float(value)
+    x = x - -40.0
+    x = x * 2.0
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -32768 <= value <= 32767:
+        x = math.floor(x + 0.5)
+    if not -32768 <= x <= 32767:
         raise ValueRangeError(f'{value} does not fit int16')
-    v = value & 0xffff
+    v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
@@ -367,13 +373,14 @@ def _decode_serial(r: list[int]) -> int:
 def _encode_serial(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 4294967295:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 4294967295:
         raise ValueRangeError(f'{value} does not fit uint32')
-    v = value & 0xffffffff
+    v = x & 0xFFFFFFFF
     return [(((v >> 16) & 0xFF) << 8) | (((v >> 16) >> 8) & 0xFF), ((v & 0xFF) << 8) | ((v >> 8) & 0xFF)]
 
 
@@ -387,13 +394,14 @@ def _decode_low_byte(r: list[int]) -> int:
 def _encode_low_byte(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not -128 <= value <= 127:
+        x = math.floor(x + 0.5)
+    if not -128 <= x <= 127:
         raise ValueRangeError(f'{value} does not fit int8')
-    v = value & 0xff
+    v = x & 0xFF
     return [v & 0xFF]
 
 
@@ -405,13 +413,14 @@ def _decode_high_byte(r: list[int]) -> int:
 def _encode_high_byte(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueRangeError(f'expects a number, got {value!r}')
-    if not isinstance(value, int):
-        if not math.isfinite(value):
+    x = value
+    if not isinstance(x, int):
+        if not math.isfinite(x):
             raise ValueRangeError(f'{value} is not a finite number')
-        value = math.floor(value + 0.5)
-    if not 0 <= value <= 255:
+        x = math.floor(x + 0.5)
+    if not 0 <= x <= 255:
         raise ValueRangeError(f'{value} does not fit uint8')
-    v = value & 0xff
+    v = x & 0xFF
     return [(v & 0xFF) << 8]
 
 

@@ -380,4 +380,4 @@ def render_files(device: Device, source_name: str) -> dict[str, str]:
             f"{ctx['stem']}.cc": env.get_template("cpp/templates/device.cc.j2").render(**ctx)}
 
 
-TARGET = Target("cpp", "<stem>.h/<stem>.cc: C++17 on libmodbus", render_files)
+TARGET = Target("cpp", render_files)
