@@ -36,6 +36,7 @@ from pathlib import Path
 from conftest import skip_or_fail
 
 from mdl.model import Device
+from mdl.resolve import resolve
 from mdl.targets import render
 from mdl.targets.cpp import emit as cppgen
 from mdl.targets.render import cstring
@@ -175,10 +176,10 @@ def _parse(t: str) -> str:
 
 
 def harness_source(device: Device, stem: str) -> str:
-    ctx = cppgen.context(device, "harness")
+    ctx = cppgen.context(resolve(device), "harness")
     cls = ctx["class_name"]
     fns = ctx["functions"]
-    reads = [f for f in fns if f.decode is not None]
+    reads = [f for f in fns if f.readable]
     all_lines = "".join(f"            put({cstring(f.fn.name)}, v.{f.ident});\n" for f in reads)
     poison_all = "".join(f"        poison(&v.{f.ident});\n" for f in reads)
     check_all = "".join(f"                still_poison({cstring(f.fn.name)}, v.{f.ident});\n" for f in reads)
@@ -188,7 +189,7 @@ def harness_source(device: Device, stem: str) -> str:
         f"else put({cstring(f.fn.name)}, x); }}\n" for f in reads)
     write_cases = "".join(
         f"        if (name == {cstring(f.fn.name)}) {{ if (dev.write_{f.ident}({_parse(f.t)}) == -1) "
-        f'error(errno); else std::printf("ok\\n"); }}\n' for f in fns if f.encode is not None)
+        f'error(errno); else std::printf("ok\\n"); }}\n' for f in fns if f.writable)
     return f"""#include "{stem}.h"
 
 #include <cerrno>

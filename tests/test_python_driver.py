@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import socket
+import struct
 
 import pytest
 from conftest import DATA, EXAMPLE, fn_xml, import_generated, run_mdl
@@ -41,7 +42,7 @@ def test_sync_driver_reads_and_writes(all_tables, sim_factory):
         assert dev.read_low_byte() == -3
         assert dev.read_high_byte() == 200
         assert dev.read_pump() is True
-        assert dev.read_flow() == pytest.approx(12.3, abs=1e-5)
+        assert dev.read_flow() == struct.unpack('>f', struct.pack('>f', 12.3))[0]  # FLOAT32: 12.3 as float32
         assert dev.read_voltage() == 0.0
         dev.write_setpoint(19.0)
         dev.write_fan(True)

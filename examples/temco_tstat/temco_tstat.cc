@@ -64,7 +64,6 @@ uint32_t decode_serial_number(const std::array<uint16_t, 4> &r) {
     v |= static_cast<uint64_t>(r[1] & 0xFFU) << 16U;
     v |= static_cast<uint64_t>(r[2] & 0xFFU) << 8U;
     v |= static_cast<uint64_t>(r[3] & 0xFFU);
-    v &= 0xFFFFFFFFULL;
     return static_cast<uint32_t>(v);
 }
 
@@ -73,15 +72,15 @@ double decode_firmware_version(const std::array<uint16_t, 2> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU) << 8U;
     v |= static_cast<uint64_t>(r[1] & 0xFFU);
-    v &= 0xFFFFULL;
-    return static_cast<double>(v) * 0.1 + 0.0;
+    double x = static_cast<double>(v);
+    x = x / 10.0;
+    return x;
 }
 
 // modbus_address
 uint8_t decode_modbus_address(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -104,7 +103,6 @@ int encode_modbus_address(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_product_model(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -112,17 +110,19 @@ uint8_t decode_product_model(const std::array<uint16_t, 1> &r) {
 double decode_room_temperature(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.1 + 0.0;
+    double x = static_cast<double>(s);
+    x = x / 10.0;
+    return x;
 }
 
 // humidity
 double decode_humidity(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
-    return static_cast<double>(v) * 0.1 + 0.0;
+    double x = static_cast<double>(v);
+    x = x / 10.0;
+    return x;
 }
 
 // occupancy
@@ -137,7 +137,6 @@ int decode_occupancy(const std::array<uint16_t, 1> &r, double *out) {
 uint8_t decode_fan_speed(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -156,7 +155,6 @@ int encode_fan_speed(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_system_mode(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -175,7 +173,6 @@ int encode_system_mode(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_fan_relay_on(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -194,7 +191,6 @@ int encode_fan_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_cooling_stage1_relay_on(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -213,7 +209,6 @@ int encode_cooling_stage1_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_cooling_stage2_relay_on(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -232,7 +227,6 @@ int encode_cooling_stage2_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_heating_stage1_relay_on(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -251,7 +245,6 @@ int encode_heating_stage1_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_heating_stage2_relay_on(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 
@@ -270,9 +263,10 @@ int encode_heating_stage2_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
 double decode_occupied_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.1 + 0.0;
+    double x = static_cast<double>(s);
+    x = x / 10.0;
+    return x;
 }
 
 int encode_occupied_setpoint(double value, std::array<uint16_t, 1> &r) {
@@ -288,7 +282,9 @@ int encode_occupied_setpoint(double value, std::array<uint16_t, 1> &r) {
         errno = EINVAL;
         return -1;
     }
-    const double x = std::floor((value - 0.0) / 0.1 + 0.5);
+    double x = value;
+    x = x * 10.0;
+    x = std::floor(x + 0.5);
     if (!(x >= -32768.0 && x <= 32767.0)) {
         errno = EINVAL;
         return -1;
@@ -303,9 +299,10 @@ int encode_occupied_setpoint(double value, std::array<uint16_t, 1> &r) {
 double decode_unoccupied_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.1 + 0.0;
+    double x = static_cast<double>(s);
+    x = x / 10.0;
+    return x;
 }
 
 int encode_unoccupied_setpoint(double value, std::array<uint16_t, 1> &r) {
@@ -321,7 +318,9 @@ int encode_unoccupied_setpoint(double value, std::array<uint16_t, 1> &r) {
         errno = EINVAL;
         return -1;
     }
-    const double x = std::floor((value - 0.0) / 0.1 + 0.5);
+    double x = value;
+    x = x * 10.0;
+    x = std::floor(x + 0.5);
     if (!(x >= -32768.0 && x <= 32767.0)) {
         errno = EINVAL;
         return -1;
@@ -336,9 +335,10 @@ int encode_unoccupied_setpoint(double value, std::array<uint16_t, 1> &r) {
 double decode_occupied_heating_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.1 + 0.0;
+    double x = static_cast<double>(s);
+    x = x / 10.0;
+    return x;
 }
 
 int encode_occupied_heating_setpoint(double value, std::array<uint16_t, 1> &r) {
@@ -354,7 +354,9 @@ int encode_occupied_heating_setpoint(double value, std::array<uint16_t, 1> &r) {
         errno = EINVAL;
         return -1;
     }
-    const double x = std::floor((value - 0.0) / 0.1 + 0.5);
+    double x = value;
+    x = x * 10.0;
+    x = std::floor(x + 0.5);
     if (!(x >= -32768.0 && x <= 32767.0)) {
         errno = EINVAL;
         return -1;

@@ -19,6 +19,7 @@ from mdl.targets.render import require_dir, write_outputs
 _TARGET_MODULES = {
     "python": ("mdl.targets.python.emit", "<stem>.py, a module over pymodbus with sync and asyncio classes"),
     "cpp": ("mdl.targets.cpp.emit", "<stem>.h/<stem>.cc, C++17 on libmodbus"),
+    "c": ("mdl.targets.c.emit", "<stem>.h/<stem>.c, C99 on libmodbus"),
 }
 
 
@@ -41,8 +42,17 @@ def render(device: Device, source_name: str, lang: str) -> dict[str, str]:
     """File name -> content for the chosen target, or for every target with lang "all"."""
     out: dict[str, str] = {}
     for name in names() if lang == "all" else [lang]:
-        out.update(target(name).render(device, source_name))
+        for file_name, text in target(name).render(device, source_name).items():
+            out[file_name] = shared_header(out[file_name], text) if file_name in out else text
     return out
+
+
+def shared_header(cpp: str, c: str) -> str:
+    """One `<stem>.h` for the C++ and the C driver (SPEC 5 names both `<stem>.h`): C++ code sees the
+    C++ driver's declarations, C code the C driver's (docs/c-api.md)."""
+    first = cpp.split("\n", 1)[0]
+    return (f"{first}\n// With --lang all, this header serves both drivers: C++ code (<stem>.cc) sees the C++17\n"
+            f"// class, C code (<stem>.c) the C99 functions.\n#ifdef __cplusplus\n{cpp}#else\n{c}#endif\n")
 
 
 def generate(device: Device, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:

@@ -123,8 +123,9 @@ double decode_energy(const std::array<uint16_t, 2> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[1]) << 16U;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFFFFFULL;
-    return static_cast<double>(v) * 0.001 + 0.0;
+    double x = static_cast<double>(v);
+    x = x / 1000.0;
+    return x;
 }
 
 // power
@@ -140,20 +141,20 @@ float decode_power(const std::array<uint16_t, 2> &r) {
 
 // voltage
 std::optional<double> decode_voltage(const std::array<uint16_t, 1> &r) {
-    if (r[0] == 0xFFFFU) {  // not implemented: 0xFFFF
+    if (r[0] == 0xFFFFU) {  // not implemented
         return std::nullopt;
     }
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
-    return static_cast<double>(v) * 0.1 + 0.0;
+    double x = static_cast<double>(v);
+    x = x / 10.0;
+    return x;
 }
 
 // gap_low
 uint16_t decode_gap_low(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     return static_cast<uint16_t>(v);
 }
 
@@ -168,7 +169,6 @@ int encode_gap_low(uint16_t value, std::array<uint16_t, 1> &r) {
 uint16_t decode_gap_high(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     return static_cast<uint16_t>(v);
 }
 
@@ -183,9 +183,10 @@ int encode_gap_high(uint16_t value, std::array<uint16_t, 1> &r) {
 double decode_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.1 + 0.0;
+    double x = static_cast<double>(s);
+    x = x / 10.0;
+    return x;
 }
 
 int encode_setpoint(double value, std::array<uint16_t, 1> &r) {
@@ -201,7 +202,9 @@ int encode_setpoint(double value, std::array<uint16_t, 1> &r) {
         errno = EINVAL;
         return -1;
     }
-    const double x = std::floor((value - 0.0) / 0.1 + 0.5);
+    double x = value;
+    x = x * 10.0;
+    x = std::floor(x + 0.5);
     if (!(x >= -32768.0 && x <= 32767.0)) {
         errno = EINVAL;
         return -1;
@@ -216,7 +219,6 @@ int encode_setpoint(double value, std::array<uint16_t, 1> &r) {
 uint16_t decode_mode(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     return static_cast<uint16_t>(v);
 }
 
@@ -316,9 +318,11 @@ int encode_big(int64_t value, std::array<uint16_t, 4> &r) {
 double decode_temp_offset(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    v &= 0xFFFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    return static_cast<double>(s) * 0.5 + -40.0;
+    double x = static_cast<double>(s);
+    x = x / 2.0;
+    x = x + -40.0;
+    return x;
 }
 
 int encode_temp_offset(double value, std::array<uint16_t, 1> &r) {
@@ -326,7 +330,10 @@ int encode_temp_offset(double value, std::array<uint16_t, 1> &r) {
         errno = EINVAL;
         return -1;
     }
-    const double x = std::floor((value - -40.0) / 0.5 + 0.5);
+    double x = value;
+    x = x - -40.0;
+    x = x * 2.0;
+    x = std::floor(x + 0.5);
     if (!(x >= -32768.0 && x <= 32767.0)) {
         errno = EINVAL;
         return -1;
@@ -342,7 +349,6 @@ uint32_t decode_serial(const std::array<uint16_t, 2> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(((r[0] & 0xFFU) << 8U) | (r[0] >> 8U)) << 16U;
     v |= static_cast<uint64_t>(((r[1] & 0xFFU) << 8U) | (r[1] >> 8U));
-    v &= 0xFFFFFFFFULL;
     return static_cast<uint32_t>(v);
 }
 
@@ -358,7 +364,6 @@ int encode_serial(uint32_t value, std::array<uint16_t, 2> &r) {
 int8_t decode_low_byte(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    v &= 0xFFULL;
     const int64_t s = static_cast<int64_t>(v ^ 0x80ULL) - static_cast<int64_t>(0x80ULL);
     return static_cast<int8_t>(s);
 }
@@ -374,7 +379,6 @@ int encode_low_byte(int8_t value, std::array<uint16_t, 1> &r) {
 uint8_t decode_high_byte(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] >> 8U);
-    v &= 0xFFULL;
     return static_cast<uint8_t>(v);
 }
 

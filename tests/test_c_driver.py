@@ -1,0 +1,283 @@
+"""Generated C99 drivers (mdl.targets.c): compiled by gcc and clang with the strict flags docs/c-api.md
+promises, run against `mdl sim`, and compared value for value (floats bit for bit) with `mdl read`
+and the generated Python driver, on the example devices and on random registers."""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import subprocess
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+from c_harness import COMPILERS, build, compile_driver
+from conftest import DATA, EXAMPLE, REFERENCE, ROOT, Sim, device_xml, fn_xml, import_generated, run_mdl
+from cpp_harness import MODBUS_ENOBASE, Harness
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from pymodbus.client import ModbusTcpClient
+from test_cpp_driver import ALL_SETTINGS, BITS, DIFF_FUNCTIONS, DIFF_REGISTERS, FRAGMENT_READS, FRAGMENT_WRITES
+
+from mdl.device.scenarios import matches
+from mdl.model.names import stem as file_stem
+from mdl.sources.loading import load_any
+from mdl.sources.mdlxml import load_device
+from mdl.targets import render
+from mdl.targets.c.emit import render_files
+
+ALL = DATA / "all_tables.xml"
+HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
+XML_DEVICES = sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml"))
+DEVICES = [*XML_DEVICES, HEAT_PUMP]
+
+
+def exactly(c_value, other) -> bool:
+    """The C driver's value is the other's: floats bit for bit (NaN for NaN), text as C text (up to
+    its first NUL, docs/c-api.md)."""
+    if isinstance(other, float) and isinstance(c_value, float):
+        if math.isnan(other):
+            return math.isnan(c_value)
+        return c_value == other and math.copysign(1, c_value) == math.copysign(1, other)
+    if isinstance(c_value, float) and other in ("nan", "inf", "-inf"):  # mdl read's JSON for them
+        return str(c_value) == other
+    if isinstance(other, str) and isinstance(c_value, str):
+        return c_value == other.split("\x00", 1)[0]
+    if isinstance(other, bool) or isinstance(c_value, bool):
+        return c_value is other or (isinstance(c_value, bool) and isinstance(other, bool) and c_value == other)
+    return c_value == other and type(c_value) is type(other)
+
+
+def assert_exactly(c_values: dict, other: dict):
+    assert set(c_values) == set(other), set(c_values) ^ set(other)
+    bad = {n: (c_values[n], other[n]) for n in other if not exactly(c_values[n], other[n])}
+    assert not bad, bad
+
+
+def mdl_read(path: Path, sim) -> dict:
+    """`mdl read --format json`, with enumerations as the number a driver reads (mdl read shows the label)."""
+    proc = run_mdl("read", path, "--host", sim.host, "--port", sim.port, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    values = json.loads(proc.stdout, parse_constant=float)
+    for fn in load_any(path).functions:
+        if fn.values and isinstance(values.get(fn.name), str):
+            values[fn.name] = next(k for k, label in fn.values.items() if label == values[fn.name])
+    return values
+
+
+@pytest.mark.parametrize("compiler", COMPILERS)
+@pytest.mark.parametrize("source", DEVICES, ids=lambda p: f"{p.parent.name}/{p.name}")
+def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
+    for name, text in render_files(load_any(source), source.name).items():
+        (tmp_path / name).write_text(text, encoding="utf-8")
+    c_file = next(tmp_path.glob("*.c"))
+    assert "malloc" not in c_file.read_text() and "calloc" not in c_file.read_text()
+    assert compile_driver(c_file, compiler).stat().st_size > 0
+
+
+@pytest.mark.parametrize("source", XML_DEVICES, ids=lambda p: p.name)
+def test_example_devices_read_as_mdl_read_does(source, tmp_path, sim_factory):
+    device = load_device(source)
+    exe = build(device, tmp_path, source.name)
+    sim = sim_factory(source, *(ALL_SETTINGS if source == ALL else ()))
+    with Harness(exe, sim.port) as h:
+        got = h.values()
+        want = mdl_read(source, sim)
+        assert_exactly(got, want)
+        for name in want:
+            if " " not in name:
+                assert_exactly(h.values(f"read {name}"), {name: want[name]})
+
+
+def test_all_tables_values_and_writes_both_ways(tmp_path, sim_factory):
+    exe = build(load_device(ALL), tmp_path, ALL.name)
+    sim = sim_factory(ALL, *ALL_SETTINGS)
+    with Harness(exe, sim.port) as h:
+        c = h.values()
+        assert c["setpoint"] == 21.5 and c["mode"] == 2 and c["label"] == "Hall"
+        assert c["big"] == -5000000000 and c["serial"] == 305419896 and c["low_byte"] == -3
+        assert c["pump"] is True and c["door_open"] is True
+        # C writes, mdl read reads
+        assert h.ask("write setpoint 23.5") == ["ok"]
+        assert h.ask(f"write label {b'Kitchen'.hex()}") == ["ok"]
+        assert h.ask("write big -42") == ["ok"]
+        got = mdl_read(ALL, sim)
+        assert got["setpoint"] == 23.5 and got["label"] == "Kitchen" and got["big"] == -42
+        assert h.values(f"write label {b'abcdefghi'.hex()}") == {"error": 22}  # 9 bytes do not fit 8
+        # mdl write writes, C reads
+        proc = run_mdl("write", ALL, "--host", sim.host, "--port", sim.port, "setpoint=19.5", "label=Den",
+                       "big=-7")
+        assert proc.returncode == 0, proc.stderr
+        assert h.values("read setpoint") == {"setpoint": 19.5}
+        assert h.values("read label") == {"label": "Den"}
+        assert h.values("read big") == {"big": -7}
+        assert_exactly(h.values(), mdl_read(ALL, sim))
+
+
+def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_device, sim_factory):
+    described = load_device(write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
+        + fn_xml("b", "12", format="UINT16") + fn_xml("c", "40", format="INT16"), name="Planned"))
+    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
+                          name="Planned", filename="actual.xml")
+    exe = build(described, tmp_path)
+    sim = sim_factory(actual, "--set", "a=7", "--set", "b=9")
+    with Harness(exe, sim.port) as h:
+        assert h.values("read c") == {"error": MODBUS_ENOBASE + 2}  # EMBXILADD
+        assert h.values("read a") == {"a": 7}
+        assert h.values() == {"error": MODBUS_ENOBASE + 2}
+    device2 = load_device(write_device(fn_xml("a", "10", format="UINT16")
+                                       + fn_xml("cmd", "11", format="UINT16", access="write")
+                                       + fn_xml("b", "12", format="UINT16"), name="Planned", filename="p2.xml"))
+    (tmp_path / "p2").mkdir()
+    with Harness(build(device2, tmp_path / "p2"), sim.port) as h:
+        assert h.values() == {"a": 7, "b": 9}
+        assert h.values() == {"a": 7, "b": 9}  # the refused group is remembered by the driver struct
+
+
+def test_unreachable_device(tmp_path):
+    exe = build(load_device(ALL), tmp_path, ALL.name)
+    proc = subprocess.run([str(exe), "1"], input="", capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 1 and "connect failed" in proc.stdout
+
+
+# ---- differential: random registers, the C driver, the Python driver and mdl read ----
+
+@contextmanager
+def _served(tmp_path_factory, functions: str, name: str):
+    d = tmp_path_factory.mktemp("cdevice")
+    path = d / "device.xml"
+    path.write_text(device_xml(functions, name=name))
+    device = load_device(path)
+    exe = build(device, d)
+    stem = file_stem(name)
+    (d / f"{stem}.py").write_text(render(device, "device.xml", "python")[f"{stem}.py"])
+    module = import_generated(d / f"{stem}.py", f"{stem}_cpy")
+    sim = Sim(path)
+    client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+    assert client.connect()
+    h = Harness(exe, sim.port)
+    try:
+        yield path, module, client, h, sim
+    finally:
+        h.close()
+        client.close()
+        sim.stop()
+
+
+@pytest.fixture(scope="module")
+def diff_setup(tmp_path_factory):
+    with _served(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device") as served:
+        yield served
+
+
+def _load(client, regs, bits):
+    for start in range(0, len(regs), 120):
+        assert not client.write_registers(start, regs[start:start + 120], device_id=1).isError()
+    for i, b in enumerate(bits):
+        assert not client.write_coil(i, b, device_id=1).isError()
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
+       bits=st.lists(st.booleans(), min_size=2, max_size=2))
+def test_c_and_python_agree_on_random_registers(diff_setup, regs, bits):
+    _, module, client, h, _ = diff_setup
+    _load(client, regs, bits)
+    assert_exactly(h.values(), module.DiffDevice(client).read_all())
+
+
+def test_mdl_read_agrees_with_the_c_driver(diff_setup):
+    path, _, client, h, sim = diff_setup
+    rng = random.Random(7)
+    for _ in range(4):
+        regs = [rng.choice([0, 0xFFFF, 0x8000, 0x7FFF, rng.randrange(65536)]) for _ in range(DIFF_REGISTERS)]
+        _load(client, regs, [rng.random() < 0.5, rng.random() < 0.5])
+        assert_exactly(h.values(), mdl_read(path, sim))
+
+
+@pytest.mark.parametrize("name, value", [("v0", -5), ("v12", 200), ("v40", -1), ("v3", -32768)])
+def test_writes_round_trip_both_ways(diff_setup, name, value):
+    _, module, client, h, _ = diff_setup
+    dev = module.DiffDevice(client)
+    assert h.ask(f"write {name} {value}") == ["ok"]
+    assert exactly(h.values(f"read {name}")[name], getattr(dev, f"read_{name}")())
+    getattr(dev, f"write_{name}")(getattr(dev, f"read_{name}")())
+    assert exactly(h.values(f"read {name}")[name], getattr(dev, f"read_{name}")())
+
+
+def test_scaled_and_string_writes_round_trip(diff_setup):
+    path, module, client, h, _ = diff_setup
+    dev = module.DiffDevice(client)
+    functions = load_device(path).functions
+    for fn in [f for f in functions if f.multiplier]:
+        assert h.ask(f"write {fn.name} 12.5") == ["ok"], fn.name
+        assert exactly(h.values(f"read {fn.name}")[fn.name], getattr(dev, f"read_{fn.name}")())
+        getattr(dev, f"write_{fn.name}")(7.5)
+        assert exactly(h.values(f"read {fn.name}")[fn.name], getattr(dev, f"read_{fn.name}")())
+    for fn in [f for f in functions if f.format == "STRING"]:
+        assert h.ask(f"write {fn.name} {b'Abc'.hex()}") == ["ok"]
+        assert getattr(dev, f"read_{fn.name}")() == "Abc"
+        getattr(dev, f"write_{fn.name}")("xyz")
+        assert h.values(f"read {fn.name}") == {fn.name: "xyz"}
+
+
+@pytest.fixture(scope="module")
+def fragment_setup(tmp_path_factory):
+    with _served(tmp_path_factory, FRAGMENT_READS + FRAGMENT_WRITES, "Fragment Device") as (_, module, client, h, _):
+        yield module.FragmentDevice(client), client, h
+
+
+def test_fragment_reads_agree_with_python(fragment_setup):
+    from test_cfrag import READS
+    from test_cpp_driver import EDOM, ERANGE, FRAGMENT_WRITE_BASE, _register_sets
+
+    dev, client, h = fragment_setup
+    for regs in _register_sets(FRAGMENT_WRITE_BASE):
+        _load(client, regs, [])
+        for i, code in enumerate(READS):
+            try:
+                python = {f"rd{i}": getattr(dev, f"read_rd{i}")()}
+            except ArithmeticError:
+                python = {"error": (EDOM, ERANGE)}
+            got = h.values(f"read rd{i}")
+            if "error" in got:
+                assert got["error"] in python.get("error", ()), (code, got, python)
+            else:
+                assert_exactly(got, python)
+
+
+# ---- Toolkit expressions: the heat pump example and the 59 reference scenarios ----
+
+TOOLKIT_FILES = [HEAT_PUMP, *sorted(REFERENCE.glob("*.yaml"))]
+
+
+@pytest.mark.parametrize("yaml_file", TOOLKIT_FILES, ids=lambda p: p.stem)
+def test_toolkit_scenarios_through_the_c_driver(yaml_file, tmp_path):
+    """One simulator per file serves scenario k at unit k; the C harness reads every unit and agrees
+    with each scenario's expected values and, exactly, with the generated Python driver."""
+    from test_toolkit import _python_device
+
+    device = load_any(yaml_file)
+    driver_cls = _python_device(device, tmp_path)
+    exe = build(device, tmp_path, yaml_file.name)
+    sim = Sim([yaml_file] * len(device.tests), *[arg for sc in device.tests for arg in ("--scenario", sc.id)])
+    try:
+        client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+        assert client.connect()
+        try:
+            python = {unit: driver_cls(client, unit=unit).read_all() for unit in sim.units}
+        finally:
+            client.close()
+        c_values = {}
+        for unit in sim.units:
+            with Harness(exe, sim.port, unit=unit) as h:
+                c_values[unit] = h.values()
+    finally:
+        sim.stop()
+    for unit, sc in zip(sim.units, device.tests, strict=True):
+        for name, want in sc.expected.items():
+            assert matches(c_values[unit][name], want), (sc.id, name, c_values[unit][name], want)
+        assert_exactly(c_values[unit], python[unit])
