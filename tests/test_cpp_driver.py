@@ -33,7 +33,7 @@ from test_cfrag import WRITES as CFRAG_WRITES
 
 from mdl.model.layout import layout
 from mdl.model.names import stem as file_stem
-from mdl.sources.loading import load_any
+from mdl.sources.loading import load_resolved
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
@@ -507,7 +507,7 @@ def test_clang_tidy_finds_nothing(driver, tmp_path):
     elif driver == "expressions":
         if not QUICK_TEST_DEVICE.exists():
             pytest.skip(f"no conformance data at {QUICK_TEST_DEVICE}")
-        cc = _driver(load_any(QUICK_TEST_DEVICE), QUICK_TEST_DEVICE.name, tmp_path)
+        cc = _driver(load_resolved(QUICK_TEST_DEVICE).device, QUICK_TEST_DEVICE.name, tmp_path)
     else:
         cc = next(p for p in GOLDEN_DRIVERS if p.stem == driver)
     proc = clang_tidy(cc)

@@ -14,7 +14,7 @@ from pymodbus.client import ModbusTcpClient
 
 from mdl.device.scenarios import matches
 from mdl.model.names import stem
-from mdl.sources.loading import load_any
+from mdl.sources.loading import load_any, load_resolved
 from mdl.targets import render
 
 FILES = sorted(REFERENCE.glob("*.yaml"))
@@ -91,7 +91,7 @@ def _python_device(device, workdir: Path):
 def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
     """One simulator per file serves scenario k at unit k (k = 1, 2, ...); the Python driver and the C++
     harness read every unit."""
-    device = load_any(yaml_file)
+    device = load_resolved(yaml_file).device
     driver_cls = _python_device(device, tmp_path)
     exe = build(device, tmp_path)
     sim = Sim([yaml_file] * len(device.tests), *[arg for sc in device.tests for arg in ("--scenario", sc.id)])
@@ -134,7 +134,7 @@ def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
 
 @reference
 def test_max_registers_per_request_is_honoured(tmp_path):
-    device = load_any(REFERENCE / "QuickTestDevice.yaml")
+    device = load_resolved(REFERENCE / "QuickTestDevice.yaml").device
     assert device.max_registers == 42
     from mdl.plan import plan_reads
 
@@ -168,6 +168,7 @@ blocks:
 ])
 def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, message):
     path = _schema(tmp_path, expression)
+    col += 21  # the expression's text starts in column 22 of its line, after the quote
     for command in ("import", "test"):
         assert_clean_error(cli(command, path), 1, f"{path}:8:{col}: error: field 'Bad' of block 'Main':", message)
 
@@ -175,7 +176,7 @@ def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, 
 def test_sim_reports_expression_errors(tmp_path):
     path = _schema(tmp_path, "Good + Nosuch")
     assert_clean_error(run_mdl("sim", path, "--port", "0"), 1,
-                       f"{path}:8:8: error: field 'Bad' of block 'Main':", "unknown field 'Nosuch'")
+                       f"{path}:8:29: error: field 'Bad' of block 'Main':", "unknown field 'Nosuch'")
 
 
 def test_mdl_validate_lists_every_expression_problem(tmp_path):
@@ -187,7 +188,7 @@ def test_mdl_validate_lists_every_expression_problem(tmp_path):
     proc = cli("validate", xml)
     assert proc.returncode == 1
     errors = [line for line in proc.stderr.splitlines() if "error:" in line]
-    unknown = r":\d+:8: error: function 'Bad': expression: unknown field 'Nosuch'"
+    unknown = r":\d+:24: error: function 'Bad': expression: unknown field 'Nosuch'"  # <expression> at column 5
     assert any(re.search(unknown, e) for e in errors), errors
     not_implemented = "function 'Good': expression: a 'not implemented' value of 2 register(s) for 1"
     assert any(not_implemented in e for e in errors), errors

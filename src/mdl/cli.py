@@ -12,11 +12,12 @@ import click
 
 from mdl import __version__, targets
 from mdl.device.connection import Connection, connection_options
-from mdl.diagnostics import EXIT_INVALID, MdlError
+from mdl.diagnostics import EXIT_INVALID, Diagnostic, MdlError
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
 if TYPE_CHECKING:
     from mdl.model import Device, Function
+    from mdl.resolve import ResolvedDevice
 
 SCHEMAS = click.Choice(["0.9b", "1.0"])
 STDOUT = Path(STDIO_ARG)
@@ -45,6 +46,46 @@ def _fail(exc: MdlError) -> NoReturn:
     for diag in exc.diagnostics:
         click.echo(str(diag), err=True)
     sys.exit(exc.exit_code)
+
+
+_FAIL_ON_WARNING = "mdl.fail_on_warning"
+
+
+def _remember_fail_on_warning(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    ctx.meta[_FAIL_ON_WARNING] = value
+
+
+fail_on_warning_option = click.option(
+    "--fail-on-warning", is_flag=True, expose_value=False, callback=_remember_fail_on_warning,
+    help="Exit 1, before doing anything, if reading the input gives any warning (they print either way).")
+
+
+def _warning_refusal(warnings: Iterable[Diagnostic], file: Path) -> Diagnostic | None:
+    """With --fail-on-warning, the error that warnings about `file` make; else None."""
+    n = sum(1 for d in warnings if d.severity == "warning")
+    if n and click.get_current_context().meta.get(_FAIL_ON_WARNING):
+        return Diagnostic(str(file), None, None, f"{n} warning{'s' * (n != 1)} and --fail-on-warning")
+    return None
+
+
+def _report_warnings(warnings: Iterable[Diagnostic], file: Path) -> None:
+    """Print each warning once; with --fail-on-warning, any of them ends the command (exit 1)."""
+    warnings = list(warnings)
+    for diag in warnings:
+        click.echo(str(diag), err=True)
+    refusal = _warning_refusal(warnings, file)
+    if refusal is not None:
+        raise MdlError(refusal)
+
+
+def _resolved(path: Path, fmt: str | None = None) -> ResolvedDevice:
+    """The description in `path` through the resolve step, its warnings printed (every command that
+    reads one calls this once per file): MdlError with every error otherwise."""
+    from mdl.sources.loading import load_resolved
+
+    resolved = load_resolved(path, fmt)
+    _report_warnings(resolved.warnings, path)
+    return resolved
 
 
 class Group(click.Group):
@@ -82,6 +123,7 @@ def main() -> None:
 @click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
+@fail_on_warning_option
 def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, interactive: bool,
             threshold: float | None, emit_all: bool) -> None:
     """Convert a vendor register table (CSV) to MDL XML.
@@ -99,7 +141,8 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
 
     _stdin_once([source] + ([ini] if ini else []))
     target = _csv2xml_target(source, ini, output, allow_outside)
-    run_csv2xml(source, ini, target, interactive, threshold, emit_all)
+    fail_on_warning = bool(click.get_current_context().meta.get(_FAIL_ON_WARNING))
+    run_csv2xml(source, ini, target, interactive, threshold, emit_all, fail_on_warning=fail_on_warning)
 
 
 def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_outside: bool) -> Path:
@@ -126,6 +169,7 @@ def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_o
 @click.argument("files", nargs=-1, required=True, type=INPUT)
 @click.option("--schema", "version", type=SCHEMAS, default="1.0", show_default=True,
               help="Schema to validate against; 1.0 accepts every 0.9b document.")
+@fail_on_warning_option
 def validate(files: tuple[Path, ...], version: str) -> None:
     """Validate MDL files (- for stdin) against the XSD and the semantic rules.
 
@@ -139,10 +183,11 @@ def validate(files: tuple[Path, ...], version: str) -> None:
     _stdin_once(files)
     bad = False
     for path in files:
-        device, diagnostics = validate_file(path, version)
-        for diag in diagnostics:
+        device, diagnostics = validate_file(path, version)  # the XSD, then the resolve step
+        refusal = _warning_refusal(diagnostics, path)
+        for diag in [*diagnostics, *([refusal] if refusal else [])]:
             click.echo(str(diag), err=True)
-        if device is None or any(d.severity == "error" for d in diagnostics):
+        if device is None or any(d.severity == "error" for d in diagnostics) or refusal:
             bad = True
             continue
         used = device.extensions()
@@ -160,6 +205,7 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 @click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
               show_default=True, help="Directory for the generated files.")
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
+@fail_on_warning_option
 def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
     """Generate drivers for the registered targets (--lang) from MDL (or Toolkit YAML).
 
@@ -171,14 +217,13 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
       mdl gen examples/temco_tstat/temco_tstat.xml --lang all -o drivers/
     """
     from mdl.fileio import all_or_none
-    from mdl.sources.loading import load_any
     from mdl.targets import generate
 
     if str(outdir) == STDIO_ARG:
         raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
-    device = load_any(file)
+    resolved = _resolved(file)
     with all_or_none():
-        changed = generate(device, file, lang, outdir, check)
+        changed = generate(resolved.device, file, lang, outdir, check)
     for path in changed:
         click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
     if check and changed:
@@ -199,6 +244,7 @@ MAX_UNIT = 247
 @click.option("--scenario", "scenarios", multiple=True,
               help="Seed each FILE's registers from its embedded test scenario of this id, by position.")
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
+@fail_on_warning_option
 def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...], registers: tuple[Path, ...],
         settings: tuple[str, ...], scenarios: tuple[str, ...], permissive: bool) -> None:
     """Serve devices (MDL or Toolkit YAML) on one connection until SIGINT/SIGTERM: Modbus TCP, Modbus RTU
@@ -223,14 +269,13 @@ def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...],
     """
     from mdl.device import sim as simulator
     from mdl.device.scenarios import find_scenario
-    from mdl.sources.loading import load_any
 
     _stdin_once(files + registers)
     served = _sim_units(units, len(files))
     raw_files = _by_position("--registers", registers, len(files))
     scenario_ids = _by_position("--scenario", scenarios, len(files))
-    loaded = {path: load_any(path) for path in dict.fromkeys(files)}
-    devices = [simulator.Registers(loaded[path], permissive) for path in files]
+    loaded = {path: _resolved(path) for path in dict.fromkeys(files)}
+    devices = [simulator.Registers(loaded[path].device, permissive) for path in files]
     for regs, raw, scenario in zip(devices, raw_files, scenario_ids, strict=True):
         if scenario is not None:
             regs.load_scenario(find_scenario(regs.device, scenario))
@@ -276,6 +321,7 @@ def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
               help="Input format (guessed from the file: .yaml/.yml is a Modbus Schema Toolkit schema).")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
               help="Output MDL file, - for stdout (default: stdout).")
+@fail_on_warning_option
 def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """Convert another device description to MDL 1.0.
 
@@ -287,11 +333,11 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     from mdl.fileio import write_atomic
     from mdl.sources.loading import is_yaml
     from mdl.sources.mdlxml import device_to_xml
-    from mdl.sources.toolkit import import_schema
+    from mdl.sources.toolkit import with_registers
 
     if fmt is None and not is_yaml(file):
         raise error("cannot tell the format from the file name; give --from schema", file)
-    xml = device_to_xml(import_schema(file))
+    xml = device_to_xml(with_registers(_resolved(file, "schema")))
     if output is None or str(output) == STDIO_ARG:
         click.echo(xml, nl=False)
     else:
@@ -300,6 +346,7 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
 
 @main.command(name="test")
 @click.argument("files", nargs=-1, required=True, type=INPUT)
+@fail_on_warning_option
 def test_(files: tuple[Path, ...]) -> None:
     """Run the test scenarios embedded in MDL 1.0 or Toolkit YAML files.
 
@@ -310,12 +357,12 @@ def test_(files: tuple[Path, ...]) -> None:
       mdl test examples/toolkit_heat_pump/heat_pump.yaml heat_pump.xml
     """
     from mdl.device.scenarios import run_scenario
-    from mdl.sources.loading import load_any
 
     _stdin_once(files)
     passed = failed = 0
-    for path in files:
-        device = load_any(path)
+    loaded = [(path, _resolved(path)) for path in files]  # every file checked before any scenario runs
+    for path, resolved in loaded:
+        device = resolved.device
         for sc in device.tests:
             failures = run_scenario(device, sc)
             for failure in failures:
@@ -359,6 +406,7 @@ unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, sho
 @click.option("--interval", type=click.FloatRange(0.1, 86400), metavar="S",
               help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.")
 @click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
+@fail_on_warning_option
 def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, fmt: str, interval: float | None,
          count: int | None) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
@@ -383,11 +431,10 @@ def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, 
     from mdl.device import output
     from mdl.device.poll import poll
     from mdl.device.runtime import Session
-    from mdl.sources.loading import load_any
 
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
-    device = load_any(file)
+    device = _resolved(file).device
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
     if interval is not None:
         sys.exit(poll(Session(device, connection, unit), functions, fmt, interval, count))
@@ -401,6 +448,7 @@ def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, 
 @click.argument("assignments", nargs=-1, required=True, metavar="NAME=VALUE...")
 @connection_options()
 @unit_option
+@fail_on_warning_option
 def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit: int) -> None:
     """Encode and write values; read-only functions and values outside minimum/maximum are refused.
 
@@ -415,10 +463,9 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     """
     from mdl.device.runtime import Session
     from mdl.diagnostics import error
-    from mdl.sources.loading import load_any
     from mdl.values import codec
 
-    device = load_any(file)
+    device = _resolved(file).device
     todo = []
     for item in assignments:
         name, sep, text = item.partition("=")

@@ -5,10 +5,13 @@ Exit codes follow SPEC section 1: 1 invalid input, 3 the device could not be rea
 
 from __future__ import annotations
 
+import re
 import unicodedata
+import weakref
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from functools import partial
+from typing import TYPE_CHECKING, Literal
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -67,3 +70,84 @@ class DeviceError(MdlError):
     def __init__(self, message: str, code: int | None = None):
         super().__init__(message, exit_code=EXIT_DEVICE)
         self.code = code
+
+
+TextStyle = Literal["xml", "plain", "single", "double"]  # how raw source text maps to the parsed text
+_XML_REFERENCE = re.compile(r"&(?:#[0-9]+|#x[0-9a-fA-F]+|[A-Za-z_][\w.-]*);")
+_YAML_ESCAPE = {"x": 4, "u": 6, "U": 10}  # raw length of \xHH, \uHHHH, \UHHHHHHHH; other escapes: 2
+
+
+@dataclass(frozen=True)
+class TextSpan:
+    """Where a text of the model (an element's text, a YAML scalar) starts in its source file, and the
+    raw source from there on, so that an offset inside the parsed text (an expression's column) maps
+    to the file's line and column: character references, `\r\n`, YAML quotes, escapes and folded
+    lines all taken into account."""
+
+    line: int
+    col: int
+    raw: str = ""
+    style: TextStyle = "xml"
+    label: str | None = None  # how messages name the thing this text belongs to, where the source has its own words
+
+    def at(self, offset: int) -> tuple[int, int]:
+        """(line, column) in the file of the parsed text's character number `offset` (0-based)."""
+        line, col, i, raw = self.line, self.col, 0, self.raw
+        if self.style in ("single", "double") and raw[:1] in ("'", '"'):
+            i, col = 1, col + 1
+        done = 0
+        while done < max(offset, 0) and i < len(raw):
+            step = self._step(raw, i)
+            for ch in raw[i:i + step]:
+                line, col = (line + 1, 1) if ch == "\n" else (line, col + 1)
+            i += step
+            done += 1
+        return line, col
+
+    def _step(self, raw: str, i: int) -> int:
+        """How many raw characters make the parsed character at raw[i]."""
+        ch = raw[i]
+        if ch == "\r" and raw[i + 1:i + 2] == "\n":
+            return 2
+        if self.style == "xml":
+            if ch == "&":
+                m = _XML_REFERENCE.match(raw, i)
+                return len(m.group(0)) if m else 1
+            return 1
+        if ch == "\n":  # YAML: a folded line break: the break and the next line's indentation
+            j = i + 1
+            while j < len(raw) and raw[j] in " \t":
+                j += 1
+            return j - i
+        if self.style == "double" and ch == "\\" and i + 1 < len(raw):
+            return _YAML_ESCAPE.get(raw[i + 1], 2)
+        if self.style == "single" and raw[i:i + 2] == "\'\'":
+            return 2
+        return 1
+
+
+# Where each text of a model object came from: the sources record it, the checks of mdl.resolve read it.
+# Keyed by the object's identity (model objects are mutable dataclasses, so not hashable); an entry
+# goes when its object does.
+_SPANS: dict[int, tuple[weakref.ref[object], dict[str, TextSpan]]] = {}
+
+
+def record_span(owner: object, key: str, span: TextSpan) -> None:
+    """Remember where `owner`'s text `key` (an element name, or "" for the owner itself) starts."""
+    key_of = id(owner)
+    entry = _SPANS.get(key_of)
+    if entry is None or entry[0]() is not owner:
+        entry = (weakref.ref(owner, partial(_forget, key_of)), {})
+        _SPANS[key_of] = entry
+    entry[1][key] = span
+
+
+def _forget(key: int, _ref: object) -> None:
+    _SPANS.pop(key, None)
+
+
+def span_of(owner: object, key: str) -> TextSpan | None:
+    entry = _SPANS.get(id(owner))
+    if entry is None or entry[0]() is not owner:
+        return None
+    return entry[1].get(key)

@@ -89,11 +89,11 @@ class ResolvedDevice:
 
 
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
-    """The resolved device, or MdlError with every error found (warnings are kept on the result)."""
+    """The resolved device, or MdlError with every problem found, errors and warnings in file order
+    (warnings are kept on the result when there is no error)."""
     found = check_device(device, path)
-    errors = [d for d in found if d.severity == "error"]
-    if errors:
-        raise MdlError(errors)
+    if any(d.severity == "error" for d in found):
+        raise MdlError(found)
     names = [fn.name for fn in device.functions]
     functions = []
     for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):

@@ -1,28 +1,53 @@
-"""Checks an XSD cannot make: duplicate names, where values live, fragments, ranges."""
+"""Checks an XSD cannot make: numbers that are not finite, duplicate names, where values live,
+fragments, expressions, ranges.
+
+Positions come from where the source recorded each text (mdl.diagnostics.span_of): an error inside
+an expression or a fragment points at its column in the file; a model built in code has none.
+"""
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
-from mdl.diagnostics import Diagnostic
+from mdl.diagnostics import Diagnostic, span_of
 from mdl.lang.cfrag import FragmentError, check
 from mdl.lang.expr.fields import compile_device
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
 
+FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float element of MDL 1.0
+
 
 class Report(Protocol):
-    """Records a diagnostic about a function."""
+    """Records a diagnostic about a function (at its element `key`, `offset` characters into its text)."""
 
-    def __call__(self, fn: Function, message: str, severity: str = "error") -> None: ...
+    def __call__(self, fn: Function, message: str, severity: str = "error", key: str = "",
+                 offset: int = 0) -> None: ...
+
+
+def position(owner: object, key: str = "", offset: int = 0, line: int | None = None) -> tuple[int | None, int | None]:
+    """(line, column) in the file of `owner`'s text `key` ("": the owner's own element), `offset`
+    characters in; the owner's line without a column where the source recorded no position."""
+    span = span_of(owner, key) if key else None
+    if span is not None:
+        return span.at(offset)
+    span = span_of(owner, "")
+    if span is not None:
+        return span.line, span.col
+    return line, None
 
 
 def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
     out: list[Diagnostic] = []
 
-    def err(fn: Function, message: str, severity: str = "error") -> None:
-        out.append(Diagnostic(path, fn.line, None, f"function '{fn.name}': {message}", severity))
+    def err(fn: Function, message: str, severity: str = "error", key: str = "", offset: int = 0) -> None:
+        line, col = position(fn, key, offset, fn.line)
+        out.append(Diagnostic(path, line, col, f"function '{fn.name}': {message}", severity))
 
+    infinite = [fn for fn in device.functions if not_finite(fn, err)]
+    if infinite:  # nothing below is meant for such numbers
+        return out
     seen: dict[str, int | None] = {}
     for fn in device.functions:
         if fn.name in seen:
@@ -30,9 +55,7 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
         else:
             seen[fn.name] = fn.line
     for problem in compile_device(device):
-        fn = problem.function
-        out.append(Diagnostic(path, fn.expression_line or fn.line, problem.col,
-                              f"function '{fn.name}': expression: {problem.message}"))
+        out.append(_expression_problem(problem.function, problem.message, problem.col, path))
     for fn in device.functions:
         if fn.expression is not None:
             _check_expression_function(fn, err)
@@ -51,7 +74,8 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
             try:
                 check(code, len(lay.addresses))
             except FragmentError as exc:
-                err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""))
+                err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""), key=attr,
+                    offset=(exc.col or 1) - 1)
         if fn.read_function_code is not None and lay.kind in ("string", "bool"):
             err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
         for message in bound_problems(fn, lay):
@@ -62,7 +86,36 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
                 err(fn, f"not_implemented value {token} is wider than the function's "
                         f"{len(lay.addresses)} register(s)")
     out += check_tests(device, path)
-    return out
+    return sorted(out, key=_in_file_order)
+
+
+def _in_file_order(diag: Diagnostic) -> tuple[bool, int, int]:
+    return diag.line is None, diag.line or 0, diag.col or 0
+
+
+def not_finite(fn: Function, err: Report) -> bool:
+    """Report each float of `fn` that is infinite or NaN (no target can compute with one)."""
+    bad = False
+    for attr in FLOAT_FIELDS:
+        value = getattr(fn, attr)
+        if value is not None and not math.isfinite(value):
+            text = "NaN" if math.isnan(value) else ("INF" if value > 0 else "-INF")
+            err(fn, f"<{attr}> {text} is not a finite number", key=attr)
+            bad = True
+    return bad
+
+
+def _expression_problem(fn: Function, message: str, col: int | None, path: str | None) -> Diagnostic:
+    """An expression's problem at its column in the file; the source may name the function its own way
+    (the Toolkit's "field 'x' of block 'y'")."""
+    span = span_of(fn, "expression")
+    if span is None:  # no position for the text: the column inside the expression goes into the message
+        where = f" (column {col})" if col else ""
+        return Diagnostic(path, fn.expression_line or fn.line, None,
+                          f"function '{fn.name}': expression: {message}{where}")
+    line, file_col = span.at((col or 1) - 1)
+    subject = span.label or f"function '{fn.name}': expression"
+    return Diagnostic(path, line, file_col, f"{subject}: {message}")
 
 
 def bound_problems(fn: Function, lay: Layout) -> list[str]:
@@ -101,5 +154,5 @@ def check_tests(device: Device, path: str | None) -> list[Diagnostic]:
     for sc in device.tests:
         for name in sc.expected:
             if name not in names:
-                out.append(Diagnostic(path, sc.line, None, f"test '{sc.id}': no function '{name}'"))
+                out.append(Diagnostic(path, *position(sc, line=sc.line), f"test '{sc.id}': no function '{name}'"))
     return out

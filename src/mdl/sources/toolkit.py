@@ -25,15 +25,16 @@ from yaml.events import (
     SequenceStartEvent,
 )
 
-from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.diagnostics import TextSpan, TextStyle, error, record_span
 from mdl.fileio import read_text
-from mdl.lang.expr.fields import compile_device
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.model.addressing import AddressError, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
+
+    from mdl.resolve import ResolvedDevice
 
 # Toolkit files nest 7 levels (tests > test > blocks > block > expected > field > values); deeper
 # input is refused while it is read, before the YAML scanner's look-ahead grows with the depth.
@@ -48,9 +49,13 @@ class _Node:
 
 
 class _Text(_Node):
-    def __init__(self, value: str, line: int, col: int):
+    def __init__(self, value: str, line: int, col: int, raw: str = "", style: TextStyle = "plain"):
         super().__init__(line, col)
         self.value = value
+        self.raw, self.style = raw, style  # the scalar as written, for positions inside it
+
+    def span(self, label: str | None = None) -> TextSpan:
+        return TextSpan(self.line, self.col, self.raw, self.style, label)
 
 
 class _List(_Node):
@@ -75,13 +80,19 @@ def _position(event: Event) -> tuple[int, int]:
     return (mark.line + 1, mark.column + 1) if mark else (1, 1)
 
 
-def _node(event: Event, path: StrPath) -> _Node:
+_STYLES: dict[str | None, TextStyle] = {"'": "single", '"': "double"}
+
+
+def _node(event: Event, path: StrPath, text: str) -> _Node:
     """The node an event opens; an alias is refused (see above)."""
     line, col = _position(event)
     if isinstance(event, AliasEvent):
         raise error("YAML aliases are not supported", path, line, col)
     if isinstance(event, ScalarEvent):
-        return _Text(event.value, line, col)
+        start, end = event.start_mark, event.end_mark
+        written = event.style in ("'", '"', None)  # a block scalar (| >): positions at its start
+        raw = text[start.index:end.index] if written and start is not None and end is not None else ""
+        return _Text(event.value, line, col, raw, _STYLES.get(event.style, "plain"))
     if isinstance(event, SequenceStartEvent):
         return _List(line, col)
     assert isinstance(event, MappingStartEvent)  # the last kind of event that opens a node
@@ -115,7 +126,7 @@ def _compose(text: str, path: StrPath) -> _Node | None:
         elif isinstance(event, CollectionEndEvent):
             open_nodes.pop()
         elif isinstance(event, (AliasEvent, ScalarEvent, SequenceStartEvent, MappingStartEvent)):
-            node = _node(event, path)
+            node = _node(event, path, text)
             if open_nodes:
                 _attach(open_nodes[-1], node, path)
             else:
@@ -158,6 +169,29 @@ def _need(node: _Node, key: str, path: StrPath, kind: type[N]) -> N:
 
 
 def import_schema(path: StrPath) -> Device:
+    """`read_schema`, resolved (MdlError with every error), with each field's registers written into
+    the model (`addresses`, `register_type`) as an MDL document needs them."""
+    from mdl.resolve import resolve
+
+    return with_registers(resolve(read_schema(path), str(Path(path))))
+
+
+def with_registers(resolved: ResolvedDevice) -> Device:
+    """The resolved device's model with every expression function's registers filled in from its
+    compiled expression, as MDL's `addresses` (and `register_type`) hold them."""
+    device = resolved.device
+    for rf in resolved.functions:
+        fn = rf.fn
+        if fn.expression is not None and not fn.addresses:
+            fn.addresses = list(rf.layout.addresses)
+            if rf.layout.table != "holding" and fn.register_type is None:
+                fn.register_type = rf.layout.table
+    return device
+
+
+def read_schema(path: StrPath) -> Device:
+    """The model of a Toolkit file: its fields as functions with expressions (not compiled: that and
+    every check is mdl.resolve's), the positions of their texts recorded."""
     path = Path(path)
     root = load_yaml(path)
     desc = _opt(root, "description", path, _Text)
@@ -176,7 +210,6 @@ def import_schema(path: StrPath) -> Device:
     counts: dict[str, int] = {}
     for _, _, fid in fields:
         counts[fid.value] = counts.get(fid.value, 0) + 1
-    positions: dict[str, _Node] = {}
     names: dict[tuple[str, str], str] = {}
     for block_id, fld, fid in fields:
         name = fid.value if counts[fid.value] == 1 else f"{block_id}.{fid.value}"
@@ -184,22 +217,15 @@ def import_schema(path: StrPath) -> Device:
             raise error(f"field '{fid.value}' appears twice in block '{block_id}'", path, fid.line, fid.col)
         names[(block_id, fid.value)] = name
         expr = _need(fld, "expression", path, _Text)
-        device.functions.append(_function(name, block_id, fld, fid, expr, path))
-        positions[name] = expr
-    problems = compile_device(device)
-    if problems:
-        raise MdlError([Diagnostic(str(path), positions[p.function.name].line, p.col,
-                                   f"field '{p.function.field_id}' of block '{p.function.block}': {p.message}")
-                        for p in problems])
-    for fn in device.functions:
-        assert fn.compiled is not None  # compile_device compiled every expression without a problem
-        lowered = fn.compiled.lowered
-        fn.addresses = list(lowered.addresses)
-        if lowered.table and lowered.table != "holding":
-            fn.register_type = lowered.table
+        fn = _function(name, block_id, fld, fid, expr, path)
+        record_span(fn, "", TextSpan(fid.line, fid.col))
+        record_span(fn, "expression", expr.span(f"field '{fid.value}' of block '{block_id}'"))
+        device.functions.append(fn)
     tests = _opt(root, "tests", path, _List)
     for test in tests.value if tests else []:
-        device.tests.append(_scenario(test, names, path))
+        sc = _scenario(test, names, path)
+        record_span(sc, "", TextSpan(test.line, test.col))
+        device.tests.append(sc)
     return device
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable
 
@@ -165,7 +166,7 @@ def parse_length(text: str) -> str:
 _NUM = re.compile(r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?")
 
 
-def parse_number(text: str, decimal_comma: bool = False) -> float:
+def parse_number(text: str, decimal_comma: bool = False, what: str = "") -> float:
     """A number cell (`0.1`, `0,1` with decimal commas, `0.1(?)`, `x10`, `1/10`) -> float."""
     t = text.strip().replace("\u2212", "-")
     if decimal_comma or re.fullmatch(r"[-+]?\d+,\d+", t):
@@ -174,11 +175,15 @@ def parse_number(text: str, decimal_comma: bool = False) -> float:
         t = t.replace(",", ".")
     frac = re.fullmatch(r"\s*([-+]?\d+(?:\.\d+)?)\s*/\s*(\d+(?:\.\d+)?)\s*", t)
     if frac and float(frac.group(2)) != 0:
-        return float(frac.group(1)) / float(frac.group(2))
-    m = _NUM.search(t)
-    if not m:
-        raise CellError(f"'{text.strip()}' is not a number")
-    return float(m.group(0))
+        value = float(frac.group(1)) / float(frac.group(2))
+    else:
+        m = _NUM.search(t)
+        if not m:
+            raise CellError(f"'{text.strip()}' is not a number")
+        value = float(m.group(0))
+    if not math.isfinite(value):  # 1e999: no target computes with it
+        raise CellError(f"{what} '{text.strip()}' is not a finite number".lstrip())
+    return value
 
 
 def parse_int(text: str) -> int:

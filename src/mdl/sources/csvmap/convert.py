@@ -24,7 +24,11 @@ from mdl.sources.mdlxml.write import device_to_xml
 DEFAULT_THRESHOLD = 0.6
 
 
+_warned: list[Diagnostic] = []  # this run's warnings (--fail-on-warning)
+
+
 def _warn(diag: Diagnostic) -> None:
+    _warned.append(diag)
     click.echo(str(diag), err=True)
 
 
@@ -153,7 +157,12 @@ def _self_check(xml: str, device: Device) -> None:
 
 
 def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, interactive: bool,
-                threshold: float | None, emit_all: bool) -> None:
+                threshold: float | None, emit_all: bool, *, fail_on_warning: bool = False) -> None:
+    """Convert and write; with fail_on_warning, a warning (a skipped row, an unknown INI key) is an
+    error: nothing is written, exit 1."""
+    from mdl.resolve import resolve
+
+    _warned.clear()
     ini = None
     csv_given: Path | None = source
     if ini_path is None and _is_ini(source):
@@ -167,6 +176,11 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
         raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",
                     ini_path)
     device = convert(csv_path, ini, interactive, threshold, emit_all)
+    for diag in resolve(device, str(csv_path)).warnings:  # the checks every description passes
+        _warn(diag)
+    if fail_on_warning and _warned:
+        n = len(_warned)
+        raise error(f"{n} warning{'s' * (n != 1)} and --fail-on-warning: nothing written", ini_path or csv_path)
     xml = device_to_xml(device)
     _self_check(xml, device)
     target = output if output is not None else (ini.output_file if ini else None)

@@ -120,7 +120,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         fn.block_labels = [cell(ix["block_label"])]
     for key in ("multiplier", "offset", "minimum", "maximum"):
         if key in ix and cell(ix[key]):
-            value = parse_number(cell(ix[key]), st.decimal_comma)
+            value = parse_number(cell(ix[key]), st.decimal_comma, key)
             if key == "multiplier" and value == 0:
                 raise CellError("multiplier 0 would lose every value")
             neutral = (key == "multiplier" and value == 1) or (key == "offset" and value == 0)

@@ -1,15 +1,16 @@
-"""XML -> model, and the checks an XSD cannot make (names, layouts, fragments)."""
+"""XML -> model: the XSD, then the elements read into the document model, each function's texts
+with their positions in the file. The checks an XSD cannot make are mdl.resolve's."""
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 from lxml import etree
 
-from mdl.diagnostics import Diagnostic, MdlError
+from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
 from mdl.model import Device, Function, Scenario, ScenarioInput
-from mdl.resolve.checks import check_device
-from mdl.sources.mdlxml.parse import NS, parse_file, schema_errors
+from mdl.sources.mdlxml.parse import NS, StartTag, decoded, parse_source, schema_errors, start_tags
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -22,6 +23,8 @@ _STRINGS = ("length", "format", "units", "read_function_code", "write_function_c
 # elements the XSDs give a default: empty, they take it, as the model does for an absent one
 _DEFAULTED = ("length", "count", "format", "multiplier", "register_type", "byte_order", "word_order", "offset",
               "immutable", "system")
+_CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
+_SPANNED = _CODE + _FLOATS  # the texts mdl.resolve may point at
 _MAX_DIGITS = 18  # more than any address, count or key of MDL needs; int() refuses over 4300
 
 
@@ -40,26 +43,65 @@ def _float(text: str) -> float:
 
 
 class _Reader:
-    """Elements -> model objects; MdlError at the element for an integer too long to be one MDL can use."""
+    """Elements -> model objects, recording where each function's texts start (for the messages of
+    mdl.resolve); MdlError at the element for an integer too long to be one MDL can use, and
+    `problems` for a number that is not finite."""
 
-    def __init__(self, source: str | None):
+    def __init__(self, source: str | None, text: str = "", tags: dict[etree._Element, StartTag] | None = None):
         self.source = source
+        self.text = text
+        self.tags = tags or {}
+        self.problems: list[Diagnostic] = []
 
-    def integer(self, text: str | None, el: etree._Element, what: str) -> int:
+    def where(self, el: etree._Element, inside: bool = True) -> tuple[int | None, int | None]:
+        """(line, column) of the element's text (inside) or of its start tag."""
+        tag = self.tags.get(el)
+        if tag is None:
+            return el.sourceline, None
+        return (tag.text_line, tag.text_col) if inside else (tag.line, tag.col)
+
+    def span(self, el: etree._Element, owner: object, key: str) -> None:
+        tag = self.tags.get(el)
+        if tag is None:
+            return
+        if key:
+            end = self.text.find("<", tag.text_start)
+            raw = self.text[tag.text_start:end if end >= 0 else len(self.text)] if key in _CODE else ""
+            record_span(owner, key, TextSpan(tag.text_line, tag.text_col, raw))
+        else:
+            record_span(owner, key, TextSpan(tag.line, tag.col))
+
+    def integer(self, text: str | None, el: etree._Element, what: str, inside: bool = True) -> int:
+        """An integer of the element's text (inside) or of one of its attributes."""
         t = (text or "").strip()
         digits = t.lstrip("+-").lstrip("0")  # leading zeros count towards int()'s limit too
         if len(digits) > _MAX_DIGITS:
-            raise MdlError(Diagnostic(self.source, el.sourceline, None,
+            raise MdlError(Diagnostic(self.source, *self.where(el, inside),
                                       f"{what} '{t[:20]}...' is too large ({len(digits)} digits)"))
         return -int(digits or "0") if t.startswith("-") else int(digits or "0")
 
+    def number(self, text: str, el: etree._Element, tag: str, owner: str | None) -> float:
+        value = _float(text)
+        if not math.isfinite(value):
+            line, col = self.where(el)
+            if col is not None:
+                lead = len(text) - len(text.lstrip())
+                line, col = TextSpan(line or 1, col, text).at(lead)
+            subject = f"function '{owner}': " if owner is not None else ""
+            self.problems.append(Diagnostic(self.source, line, col,
+                                            f"{subject}<{tag}> {text.strip()[:40]} is not a finite number"))
+        return value
+
     def function(self, el: etree._Element) -> Function:
-        kw: dict[str, Any] = {"block_labels": [], "line": el.sourceline}
+        kw: dict[str, Any] = {"block_labels": [], "line": self.where(el, False)[0]}
+        spans: list[tuple[etree._Element, str]] = [(el, "")]
         for child in el:
             if not isinstance(child.tag, str):
                 continue
             tag = etree.QName(child).localname
             text = _text(child)
+            if tag in _SPANNED:
+                spans.append((child, tag))
             if tag in _DEFAULTED and not text.strip():
                 continue
             if tag in ("name", "description"):
@@ -71,24 +113,29 @@ class _Reader:
             elif tag == "block_label":
                 kw["block_labels"].append(text)
             elif tag in _FLOATS:
-                kw[tag] = _float(text)
+                kw[tag] = self.number(text, child, tag, kw.get("name"))
             elif tag in _STRINGS:
                 kw[tag] = text.strip() if tag not in ("units", "read_function_code", "write_function_code") else text
             elif tag == "not_implemented":
                 kw["not_implemented"] = text.split()
             elif tag == "values":
-                kw["values"] = {self.integer(v.get("key"), v, "key"): _text(v) for v in child if isinstance(v.tag, str)}
+                kw["values"] = {self.integer(v.get("key"), v, "key", False): _text(v)
+                                for v in child if isinstance(v.tag, str)}
             elif tag == "expression":
                 kw["expression"] = text
-                kw["expression_line"] = child.sourceline
+                kw["expression_line"] = self.where(child)[0]
             elif tag in ("immutable", "system"):
                 kw[tag] = text.strip() in ("true", "1")
             elif tag == "fetch_group":
                 kw["fetch_group"] = text
-        return Function(**kw)
+        fn = Function(**kw)
+        for element, key in spans:
+            self.span(element, fn, key)
+        return fn
 
     def scenario(self, el: etree._Element) -> Scenario:
-        sc = Scenario(el.get("id"), line=el.sourceline)
+        sc = Scenario(el.get("id"), line=self.where(el, False)[0])
+        self.span(el, sc, "")
         for child in el:
             if not isinstance(child.tag, str):
                 continue
@@ -96,7 +143,7 @@ class _Reader:
             if tag == "description":
                 sc.description = _text(child)
             elif tag == "input":
-                address = self.integer(child.get("address"), child, "address")
+                address = self.integer(child.get("address"), child, "address", False)
                 sc.inputs.append(ScenarioInput(child.get("register_type", "holding"), address, _text(child).split()))
             elif tag == "expect":
                 values = [_text(v) for v in child if isinstance(v.tag, str)]
@@ -104,39 +151,61 @@ class _Reader:
         return sc
 
 
-def tree_to_device(tree: etree._ElementTree, source: str | None = None) -> Device:
-    """The model of a document that passed the XSD; MdlError for an integer too long to be used."""
-    read = _Reader(source)
+def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: bytes | None = None) -> Device:
+    """The model of a document that passed the XSD (with `data`, the bytes it was parsed from, every
+    function's texts get their positions); MdlError for an integer too long to be used or a number
+    that is not finite."""
     root = tree.getroot()
+    text = decoded(tree, data) if data is not None else ""
+    tags: dict[etree._Element, StartTag] = {}
+    if data is not None:
+        elements = [el for el in root.iter() if isinstance(el.tag, str)]
+        found = start_tags(text)
+        if len(found) == len(elements) and all(etree.QName(el).localname == tag.localname
+                                               for el, tag in zip(elements, found, strict=True)):
+            tags = dict(zip(elements, found, strict=True))
+    read = _Reader(source, text, tags)
     name = root.find(_q("name"))
     desc = root.find(_q("description"))
     functions = [read.function(el) for el in root.findall(_q("function"))]
     tests = root.find(_q("tests"))
     scenarios = [read.scenario(t) for t in tests.findall(_q("test"))] if tests is not None else []
     limit = root.get("max_registers")
-    max_registers = read.integer(limit, root, "max_registers") if limit else None
+    max_registers = read.integer(limit, root, "max_registers", False) if limit else None
+    if read.problems:
+        raise MdlError(read.problems)
     return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
 
 
-def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
-    """(device, diagnostics): every problem of the file; device is None if it did not load."""
-    try:
-        tree = parse_file(path)
-    except MdlError as exc:
-        return None, exc.diagnostics
+def read_device(path: StrPath, version: str = "1.0") -> Device:
+    """The model of an MDL file: well-formed, valid against the XSD, numbers usable. Nothing more is
+    checked here: `mdl.resolve.resolve` runs the checks of SPEC 2 (see mdl.sources.loading)."""
+    tree, data = parse_source(path)
     errors = schema_errors(tree, path, version)
     if errors:
-        return None, errors
+        raise MdlError(errors)
+    return tree_to_device(tree, str(path), data)
+
+
+def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
+    """(device, diagnostics) as `mdl validate` reports them: the XSD, then the checks of resolve
+    (errors, or the warnings of a device that resolved); device is None if the file did not load."""
+    from mdl.resolve import resolve
+
     try:
-        device = tree_to_device(tree, str(path))
+        device = read_device(path, version)
     except MdlError as exc:
         return None, exc.diagnostics
-    return device, check_device(device, str(path))
+    try:
+        resolved = resolve(device, str(path))
+    except MdlError as exc:
+        return device, exc.diagnostics
+    return device, list(resolved.warnings)
 
 
 def load_device(path: StrPath, version: str = "1.0") -> Device:
-    device, diagnostics = validate_file(path, version)
-    errors = [d for d in diagnostics if d.severity == "error"]
-    if errors or device is None:
-        raise MdlError(errors)
-    return device
+    """`read_device`, resolved (MdlError with every error): for tests and scripts that want a checked
+    model. Commands use mdl.sources.loading.load_resolved."""
+    from mdl.resolve import resolve
+
+    return resolve(read_device(path, version), str(path)).device

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+from bisect import bisect_right
+from dataclasses import dataclass
 from functools import cache
 from typing import TYPE_CHECKING
 
@@ -27,6 +29,11 @@ def secure_parser() -> etree.XMLParser:
 
 
 def parse_file(path: StrPath) -> etree._ElementTree:
+    return parse_source(path)[0]
+
+
+def parse_source(path: StrPath) -> tuple[etree._ElementTree, bytes]:
+    """The parsed document and the bytes it was parsed from (for positions: see `start_tags`)."""
     data = read_bytes(path)
     try:
         tree = etree.fromstring(data, secure_parser()).getroottree()
@@ -36,7 +43,52 @@ def parse_file(path: StrPath) -> etree._ElementTree:
         raise MdlError(Diagnostic(str(path), line, col, f"malformed XML: {msg}")) from None
     if tree.docinfo.internalDTD is not None or tree.docinfo.doctype:
         raise MdlError(Diagnostic(str(path), 1, None, "a DOCTYPE (DTD, entity declarations) is not allowed in MDL"))
-    return tree
+    return tree, data
+
+
+# markup that holds no element (comments, CDATA, processing instructions, declarations), or a tag
+_MARKUP = re.compile(r"<!--.*?-->|<!\[CDATA\[.*?\]\]>|<\?.*?\?>|<![^>]*>"
+                     r"|<(/?)((?:[^\s/>:]+:)?([^\s/>]+))((?:[^>\"']|\"[^\"]*\"|'[^']*')*)>", re.S)
+
+
+@dataclass(frozen=True)
+class StartTag:
+    """An element's start tag in the source text: where the tag and where its text begin (1-based)."""
+
+    localname: str
+    line: int
+    col: int
+    text_line: int
+    text_col: int
+    text_start: int  # index of the text in the decoded source
+
+
+def start_tags(text: str) -> list[StartTag]:
+    """Every element's start tag, in document order (the order of `root.iter()` over elements).
+
+    lxml gives an element's line (where its start tag ends) but no column; an error inside an
+    expression or fragment needs the column where the element's text starts."""
+    line_starts = [0] + [m.end() for m in re.finditer("\n", text)]
+
+    def where(index: int) -> tuple[int, int]:
+        line = bisect_right(line_starts, index)
+        return line, index - line_starts[line - 1] + 1
+
+    out = []
+    for m in _MARKUP.finditer(text):
+        if m.group(2) is None or m.group(1):
+            continue
+        out.append(StartTag(m.group(3), *where(m.start()), *where(m.end()), m.end()))
+    return out
+
+
+def decoded(tree: etree._ElementTree, data: bytes) -> str:
+    """The source text as characters (positions count characters, not bytes)."""
+    encoding = tree.docinfo.encoding or "utf-8"
+    try:
+        return data.decode(encoding, errors="replace")
+    except LookupError:
+        return data.decode("utf-8", errors="replace")
 
 
 @cache
