@@ -21,6 +21,7 @@ from cpp_harness import modbus_flags
 
 from mdl.model import Device
 from mdl.resolve import resolve
+from mdl.targets import render
 from mdl.targets.c import emit as cgen
 from mdl.targets.render import cstring
 
@@ -225,7 +226,7 @@ def build(device: Device, workdir: Path, source_name: str = "harness.xml") -> Pa
     and link it with the harness."""
     gcc = tool("gcc")
     cflags, libs = modbus_flags()
-    files = cgen.render_files(device, source_name)
+    files = render(device, source_name, "c")
     stem = next(name for name in files if name.endswith(".h"))[:-2]
     for name, text in files.items():
         (workdir / name).write_text(text, encoding="utf-8")

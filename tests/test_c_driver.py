@@ -25,7 +25,6 @@ from mdl.model.names import stem as file_stem
 from mdl.sources.loading import load_any
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render
-from mdl.targets.c.emit import render_files
 
 ALL = DATA / "all_tables.xml"
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
@@ -69,7 +68,7 @@ def mdl_read(path: Path, sim) -> dict:
 @pytest.mark.parametrize("compiler", COMPILERS)
 @pytest.mark.parametrize("source", DEVICES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
-    for name, text in render_files(load_any(source), source.name).items():
+    for name, text in render(load_any(source), source.name, "c").items():
         (tmp_path / name).write_text(text, encoding="utf-8")
     c_file = next(tmp_path.glob("*.c"))
     assert "malloc" not in c_file.read_text() and "calloc" not in c_file.read_text()

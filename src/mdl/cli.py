@@ -223,7 +223,7 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
         raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
     resolved = _resolved(file)
     with all_or_none():
-        changed = generate(resolved.device, file, lang, outdir, check)
+        changed = generate(resolved, file, lang, outdir, check)
     for path in changed:
         click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
     if check and changed:

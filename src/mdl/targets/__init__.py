@@ -11,6 +11,7 @@ import importlib
 from pathlib import Path
 
 from mdl.model import Device
+from mdl.resolve import ResolvedDevice, resolve
 from mdl.targets.base import Target
 from mdl.targets.render import require_dir, write_outputs
 
@@ -38,8 +39,11 @@ def target(name: str) -> Target:
     return found
 
 
-def render(device: Device, source_name: str, lang: str) -> dict[str, str]:
-    """File name -> content for the chosen target, or for every target with lang "all"."""
+def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict[str, str]:
+    """File name -> content for the chosen target, or for every target with lang "all". A model
+    not yet resolved is resolved here, once for every target."""
+    if not isinstance(device, ResolvedDevice):
+        device = resolve(device, source_name)
     out: dict[str, str] = {}
     for name in names() if lang == "all" else [lang]:
         for file_name, text in target(name).render(device, source_name).items():
@@ -55,7 +59,7 @@ def shared_header(cpp: str, c: str) -> str:
             f"// class, C code (<stem>.c) the C99 functions.\n#ifdef __cplusplus\n{cpp}#else\n{c}#endif\n")
 
 
-def generate(device: Device, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:
+def generate(device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:
     require_dir(outdir)
     files = render(device, source.name, lang)
     return write_outputs({outdir / name: text for name, text in files.items()}, check)

@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from mdl.model import Device
+from mdl.resolve import ResolvedDevice
 
 
 @dataclass(frozen=True)
 class Target:
     name: str
-    render: Callable[[Device, str], dict[str, str]]  # (device, source file name) -> file name -> text
+    render: Callable[[ResolvedDevice, str], dict[str, str]]  # (device, source file name) -> file name -> text

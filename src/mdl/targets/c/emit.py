@@ -18,8 +18,7 @@ from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.cfrag.cemit import float_literal
-from mdl.model import Device
-from mdl.resolve import ResolvedDevice, ResolvedFunction, resolve
+from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.c import expressions
 from mdl.targets.render import environment
@@ -288,8 +287,4 @@ def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
             f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render()}
 
 
-def render_files(device: Device, source_name: str) -> dict[str, str]:
-    return render_resolved(resolve(device), source_name)
-
-
-TARGET = Target("c", render_files)
+TARGET = Target("c", render_resolved)

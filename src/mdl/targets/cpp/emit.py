@@ -21,9 +21,9 @@ import jinja2
 from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
-from mdl.model import Device, Function
+from mdl.model import Function
 from mdl.model.layout import Layout
-from mdl.resolve import ResolvedDevice, ResolvedFunction, resolve
+from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
@@ -241,8 +241,7 @@ def environment() -> jinja2.Environment:
     return env
 
 
-def render_files(device: Device, source_name: str) -> dict[str, str]:
-    resolved = resolve(device, source_name)
+def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
     ctx = context(resolved, source_name)
     env = environment()
     return {f"{resolved.stem}.h": env.get_template("cpp/templates/device.h.j2").render(**ctx),

@@ -20,10 +20,10 @@ from mdl import __version__
 from mdl.lang.cfrag import FALLIBLE
 from mdl.lang.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
 from mdl.lang.expr.pyemit import body as expr_body
-from mdl.model import Device, Function
+from mdl.model import Function
 from mdl.model.layout import Layout
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
-from mdl.resolve import ResolvedDevice, ResolvedFunction, resolve
+from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.render import environment as render_environment
 from mdl.targets.render import pycomment, pyrepr
@@ -294,8 +294,7 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     }
 
 
-def render_files(device: Device, source_name: str) -> dict[str, str]:
-    resolved = resolve(device, source_name)
+def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
     env = environment()
     ctx = context(resolved, source_name, env)
     return {f"{resolved.stem}.py": env.get_template("python/templates/device.py.j2").render(**ctx)}
