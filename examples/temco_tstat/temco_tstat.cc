@@ -72,7 +72,7 @@ double decode_firmware_version(const std::array<uint16_t, 2> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU) << 8U;
     v |= static_cast<uint64_t>(r[1] & 0xFFU);
-    double x = static_cast<double>(v);
+    auto x = static_cast<double>(v);
     x = x / 10.0;
     return x;
 }
@@ -111,7 +111,7 @@ double decode_room_temperature(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 10.0;
     return x;
 }
@@ -120,7 +120,7 @@ double decode_room_temperature(const std::array<uint16_t, 1> &r) {
 double decode_humidity(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    double x = static_cast<double>(v);
+    auto x = static_cast<double>(v);
     x = x / 10.0;
     return x;
 }
@@ -264,7 +264,7 @@ double decode_occupied_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 10.0;
     return x;
 }
@@ -300,7 +300,7 @@ double decode_unoccupied_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 10.0;
     return x;
 }
@@ -336,7 +336,7 @@ double decode_occupied_heating_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 10.0;
     return x;
 }
@@ -364,6 +364,151 @@ int encode_occupied_heating_setpoint(double value, std::array<uint16_t, 1> &r) {
     auto v = static_cast<uint64_t>(static_cast<int64_t>(x));
     v &= 0xFFFFULL;
     r[0] = static_cast<uint16_t>(v & 0xFFFFU);
+    return 0;
+}
+
+
+// read_all's decoding, part 1 of 1: small functions keep the compile time
+// linear in the number of functions
+int decode_part_0(const std::array<uint16_t, 21> &raw, const std::array<bool, 21> &have, TemcoTstatValues &values) {
+    {
+        const std::array<uint16_t, 4> r{ raw[0], raw[1], raw[2], raw[3] };
+        if (!have[0] || !have[1] || !have[2] || !have[3]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.serial_number = decode_serial_number(r);
+    }
+    {
+        const std::array<uint16_t, 2> r{ raw[4], raw[5] };
+        if (!have[4] || !have[5]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.firmware_version = decode_firmware_version(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[6] };
+        if (!have[6]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.modbus_address = decode_modbus_address(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[7] };
+        if (!have[7]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.product_model = decode_product_model(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[8] };
+        if (!have[8]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.room_temperature = decode_room_temperature(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[11] };
+        if (!have[11]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.humidity = decode_humidity(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[12] };
+        if (!have[12]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        if (decode_occupancy(r, &values.occupancy) == -1) {
+            return -1;
+        }
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[10] };
+        if (!have[10]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.fan_speed = decode_fan_speed(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[9] };
+        if (!have[9]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.system_mode = decode_system_mode(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[13] };
+        if (!have[13]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.fan_relay_on = decode_fan_relay_on(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[14] };
+        if (!have[14]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.cooling_stage1_relay_on = decode_cooling_stage1_relay_on(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[15] };
+        if (!have[15]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.cooling_stage2_relay_on = decode_cooling_stage2_relay_on(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[16] };
+        if (!have[16]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.heating_stage1_relay_on = decode_heating_stage1_relay_on(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[17] };
+        if (!have[17]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.heating_stage2_relay_on = decode_heating_stage2_relay_on(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[18] };
+        if (!have[18]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.occupied_setpoint = decode_occupied_setpoint(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[19] };
+        if (!have[19]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.unoccupied_setpoint = decode_unoccupied_setpoint(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[20] };
+        if (!have[20]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.occupied_heating_setpoint = decode_occupied_heating_setpoint(r);
+    }
     return 0;
 }
 
@@ -739,143 +884,8 @@ int TemcoTstat::read_all(TemcoTstatValues *out) {
             std::fill_n(&have[q.offset + s.delta], s.count, true);
         }
     }
-    {
-        const std::array<uint16_t, 4> r{ raw[0], raw[1], raw[2], raw[3] };
-        if (!have[0] || !have[1] || !have[2] || !have[3]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.serial_number = decode_serial_number(r);
-    }
-    {
-        const std::array<uint16_t, 2> r{ raw[4], raw[5] };
-        if (!have[4] || !have[5]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.firmware_version = decode_firmware_version(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[6] };
-        if (!have[6]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.modbus_address = decode_modbus_address(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[7] };
-        if (!have[7]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.product_model = decode_product_model(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[8] };
-        if (!have[8]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.room_temperature = decode_room_temperature(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[11] };
-        if (!have[11]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.humidity = decode_humidity(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[12] };
-        if (!have[12]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        if (decode_occupancy(r, &values.occupancy) == -1) {
-            return -1;
-        }
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[10] };
-        if (!have[10]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan_speed = decode_fan_speed(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[9] };
-        if (!have[9]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.system_mode = decode_system_mode(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[13] };
-        if (!have[13]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan_relay_on = decode_fan_relay_on(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[14] };
-        if (!have[14]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.cooling_stage1_relay_on = decode_cooling_stage1_relay_on(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[15] };
-        if (!have[15]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.cooling_stage2_relay_on = decode_cooling_stage2_relay_on(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[16] };
-        if (!have[16]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.heating_stage1_relay_on = decode_heating_stage1_relay_on(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[17] };
-        if (!have[17]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.heating_stage2_relay_on = decode_heating_stage2_relay_on(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[18] };
-        if (!have[18]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.occupied_setpoint = decode_occupied_setpoint(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[19] };
-        if (!have[19]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.unoccupied_setpoint = decode_unoccupied_setpoint(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[20] };
-        if (!have[20]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.occupied_heating_setpoint = decode_occupied_heating_setpoint(r);
+    if (decode_part_0(raw, have, values) == -1) {
+        return -1;
     }
     *out = values;
     return 0;

@@ -123,7 +123,7 @@ double decode_energy(const std::array<uint16_t, 2> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[1]) << 16U;
     v |= static_cast<uint64_t>(r[0]);
-    double x = static_cast<double>(v);
+    auto x = static_cast<double>(v);
     x = x / 1000.0;
     return x;
 }
@@ -146,7 +146,7 @@ std::optional<double> decode_voltage(const std::array<uint16_t, 1> &r) {
     }
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
-    double x = static_cast<double>(v);
+    auto x = static_cast<double>(v);
     x = x / 10.0;
     return x;
 }
@@ -184,7 +184,7 @@ double decode_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 10.0;
     return x;
 }
@@ -319,7 +319,7 @@ double decode_temp_offset(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    double x = static_cast<double>(s);
+    auto x = static_cast<double>(s);
     x = x / 2.0;
     x = x + -40.0;
     return x;
@@ -386,6 +386,169 @@ int encode_high_byte(uint8_t value, std::array<uint16_t, 1> &r) {
     auto v = static_cast<uint64_t>(value);
     v &= 0xFFULL;
     r[0] = static_cast<uint16_t>((v & 0xFFU) << 8U);
+    return 0;
+}
+
+
+// read_all's decoding, part 1 of 1: small functions keep the compile time
+// linear in the number of functions
+int decode_part_0(const std::array<uint16_t, 28> &raw, const std::array<bool, 28> &have, AllTablesValues &values) {
+    {
+        const std::array<uint16_t, 1> r{ raw[0] };
+        if (!have[0]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.pump = decode_pump(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[1] };
+        if (!have[1]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.fan = decode_fan(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[2] };
+        if (!have[2]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.door_open = decode_door_open(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[3] };
+        if (!have[3]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.filter_dirty = decode_filter_dirty(r);
+    }
+    {
+        const std::array<uint16_t, 2> r{ raw[23], raw[24] };
+        if (!have[23] || !have[24]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.energy = decode_energy(r);
+    }
+    {
+        const std::array<uint16_t, 2> r{ raw[25], raw[26] };
+        if (!have[25] || !have[26]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.power = decode_power(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[27] };
+        if (!have[27]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.voltage = decode_voltage(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[4] };
+        if (!have[4]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.gap_low = decode_gap_low(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[5] };
+        if (!have[5]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.gap_high = decode_gap_high(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[6] };
+        if (!have[6]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.setpoint = decode_setpoint(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[7] };
+        if (!have[7]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.mode = decode_mode(r);
+    }
+    {
+        const std::array<uint16_t, 4> r{ raw[8], raw[9], raw[10], raw[11] };
+        if (!have[8] || !have[9] || !have[10] || !have[11]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.label = decode_label(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[12] };
+        if (!have[12]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        if (decode_status_bit(r, &values.status_bit) == -1) {
+            return -1;
+        }
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[13] };
+        if (!have[13]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        if (decode_flow(r, &values.flow) == -1) {
+            return -1;
+        }
+    }
+    {
+        const std::array<uint16_t, 4> r{ raw[14], raw[15], raw[16], raw[17] };
+        if (!have[14] || !have[15] || !have[16] || !have[17]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.big = decode_big(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[18] };
+        if (!have[18]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.temp_offset = decode_temp_offset(r);
+    }
+    {
+        const std::array<uint16_t, 2> r{ raw[19], raw[20] };
+        if (!have[19] || !have[20]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.serial = decode_serial(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[21] };
+        if (!have[21]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.low_byte = decode_low_byte(r);
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[22] };
+        if (!have[22]) {
+            errno = EMBXILADD;
+            return -1;
+        }
+        values.high_byte = decode_high_byte(r);
+    }
     return 0;
 }
 
@@ -814,161 +977,8 @@ int AllTables::read_all(AllTablesValues *out) {
             std::fill_n(&have[q.offset + s.delta], s.count, true);
         }
     }
-    {
-        const std::array<uint16_t, 1> r{ raw[0] };
-        if (!have[0]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.pump = decode_pump(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[1] };
-        if (!have[1]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan = decode_fan(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[2] };
-        if (!have[2]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.door_open = decode_door_open(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[3] };
-        if (!have[3]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.filter_dirty = decode_filter_dirty(r);
-    }
-    {
-        const std::array<uint16_t, 2> r{ raw[23], raw[24] };
-        if (!have[23] || !have[24]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.energy = decode_energy(r);
-    }
-    {
-        const std::array<uint16_t, 2> r{ raw[25], raw[26] };
-        if (!have[25] || !have[26]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.power = decode_power(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[27] };
-        if (!have[27]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.voltage = decode_voltage(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[4] };
-        if (!have[4]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.gap_low = decode_gap_low(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[5] };
-        if (!have[5]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.gap_high = decode_gap_high(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[6] };
-        if (!have[6]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.setpoint = decode_setpoint(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[7] };
-        if (!have[7]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.mode = decode_mode(r);
-    }
-    {
-        const std::array<uint16_t, 4> r{ raw[8], raw[9], raw[10], raw[11] };
-        if (!have[8] || !have[9] || !have[10] || !have[11]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.label = decode_label(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[12] };
-        if (!have[12]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        if (decode_status_bit(r, &values.status_bit) == -1) {
-            return -1;
-        }
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[13] };
-        if (!have[13]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        if (decode_flow(r, &values.flow) == -1) {
-            return -1;
-        }
-    }
-    {
-        const std::array<uint16_t, 4> r{ raw[14], raw[15], raw[16], raw[17] };
-        if (!have[14] || !have[15] || !have[16] || !have[17]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.big = decode_big(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[18] };
-        if (!have[18]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.temp_offset = decode_temp_offset(r);
-    }
-    {
-        const std::array<uint16_t, 2> r{ raw[19], raw[20] };
-        if (!have[19] || !have[20]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.serial = decode_serial(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[21] };
-        if (!have[21]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.low_byte = decode_low_byte(r);
-    }
-    {
-        const std::array<uint16_t, 1> r{ raw[22] };
-        if (!have[22]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.high_byte = decode_high_byte(r);
+    if (decode_part_0(raw, have, values) == -1) {
+        return -1;
     }
     *out = std::move(values);
     return 0;
