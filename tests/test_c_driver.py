@@ -280,3 +280,143 @@ def test_toolkit_scenarios_through_the_c_driver(yaml_file, tmp_path):
         for name, want in sc.expected.items():
             assert matches(c_values[unit][name], want), (sc.id, name, c_values[unit][name], want)
         assert_exactly(c_values[unit], python[unit])
+
+
+def test_fragment_writes_agree_with_python(fragment_setup):
+    """At the ends of, inside and outside each write fragment's range (test_cfrag.WRITES): the C driver
+    writes the registers the Python driver writes, or both refuse the value."""
+    from test_cfrag import WRITES as CFRAG_WRITES
+    from test_cpp_driver import FRAGMENT_WRITE_BASE
+
+    dev, client, h = fragment_setup
+    rng = random.Random(11)
+    compared = 0
+    for i, (code, (lo, hi)) in enumerate(CFRAG_WRITES):
+        address = FRAGMENT_WRITE_BASE + 2 * i
+        for value in [lo, hi, (lo + hi) / 2, hi * 10 + 1, lo - hi - 1, *(rng.uniform(lo, hi) for _ in range(4))]:
+            outcomes = []
+            for driver in ("c", "python"):
+                assert not client.write_registers(address, [0xDEAD, 0xBEEF], device_id=1).isError()
+                if driver == "c":
+                    failed = h.ask(f"write wr{i} {value!r}") != ["ok"]
+                else:
+                    try:
+                        getattr(dev, f"write_wr{i}")(value)
+                        failed = False
+                    except (ArithmeticError, ValueError):
+                        failed = True
+                registers = client.read_holding_registers(address, count=2, device_id=1).registers
+                outcomes.append("refused" if failed else registers)
+            assert outcomes[0] == outcomes[1], (code, value, outcomes)
+            compared += outcomes[0] != "refused"
+    assert compared > len(CFRAG_WRITES)  # most values inside the ranges are written, not refused
+
+
+# ---- hostile text: names, descriptions and units stay inside comments and string literals ----
+
+def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device, sim_factory):
+    """`*/`, `/*`, `??/` (C99 has trigraphs), quotes, a `#define` after a line break, a final backslash
+    and non-ASCII, in the device's name and a function's description and units, and function names
+    ending in `??/` and `\\`: the driver compiles under STRICT with gcc and clang (build), declares
+    nothing of the text, and reads as mdl read does. (Control characters and the header --lang all
+    shares: tests/test_c_all_header.py.)"""
+    import re
+
+    from c_harness import STRICT, tool
+    from cpp_harness import modbus_flags
+
+    nasty = 'x */ int evil_symbol; /* \\ " ??/ &#10;#define evil_macro 1&#10;// next\\'
+    path = write_device(fn_xml("t", "1", format="UINT16", units=nasty).replace(
+        "<description>t</description>", f"<description>{nasty}</description>")
+        + fn_xml("splice ??/", "2", format="UINT16") + fn_xml("splice \\", "3", format="UINT16"),
+        name=f"Dev {nasty} &#176;")
+    exe = build(load_device(path), tmp_path)
+    nm = subprocess.run(["nm", str(exe)], capture_output=True, text=True).stdout
+    symbols = {line.split()[-1] for line in nm.splitlines() if line.strip()}
+    assert "main" in symbols and not symbols & {"evil_symbol", "evil_macro"}
+    header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
+    driver = next(p for p in tmp_path.glob("*.c") if p.name != "c_harness.c").read_text(encoding="utf-8")
+    stem = next(tmp_path.glob("*.h")).stem
+    assert (f'#define {stem.upper()}_DEVICE_NAME "Dev x */ int evil_symbol; /* \\\\ \\" \\?\\?/ \\012#define '
+            f'evil_macro 1\\012// next\\\\ \\302\\260"\n') in header
+    # in comments: UTF-8 as written, `*/`, `/*` and `??/` broken by a space, a final backslash made U+FF3C
+    text = 'x * / int evil_symbol; / * \\ " ?? / #define evil_macro 1 // next'
+    assert f" * Driver for Dev {text}\\ \u00b0: test\n" in header
+    assert f"    /** {text}\uff3c [{text}\uff3c] */\n" in header
+    assert "\n/* splice ?? / */\n" in driver and "\n/* splice \uff3c */\n" in driver
+    for source in (header, driver):
+        assert not re.search(r"^[ \t]*#[ \t]*define[ \t]+evil", source, re.M)
+        assert not [line for line in source.splitlines() if line.endswith(("\\", "??/"))]
+    # the control: under STRICT (-std=c99: trigraphs on) a comment ending in `??/` splices the next line
+    spliced = tmp_path / "spliced.c"
+    spliced.write_text("/* splice */\n// splice ??/\nint evil_symbol;\n")
+    cflags, _ = modbus_flags()
+    proc = subprocess.run([tool("gcc"), *STRICT, "-fsyntax-only", *cflags, str(spliced)],
+                          capture_output=True, text=True)
+    assert proc.returncode != 0 and "trigraph" in proc.stderr, proc.stderr
+    # served under a plain name: `mdl sim` prints the device's name, line breaks and all, in its banner
+    served = tmp_path / "served.xml"
+    served.write_text(path.read_text(encoding="ascii").replace(f"<name>Dev {nasty} &#176;</name>", "<name>Dev</name>"))
+    sim = sim_factory(served, "--set", "t=7", "--set", "splice ??/=8")
+    with Harness(exe, sim.port) as h:
+        values = h.values()
+        assert values["t"] == 7 and values["splice ??/"] == 8
+        assert_exactly(values, mdl_read(served, sim))
+
+
+MODE_LABELS = ["Off */ int evil_symbol; /*", "Heat ??/", 'Cool "q" \\', "D\u00e9frost \u00b0"]
+ALARM_LABELS = ["a */ b", "??/", "\\", '\u00e9 "']
+
+
+def _hostile_toolkit() -> str:
+    """A Toolkit schema whose texts and enum and bitset labels hold `*/`, `??/`, quotes, backslashes and
+    non-ASCII, with four scenarios (Mode 0..3)."""
+    import yaml
+
+    def mapping(labels: list[str]) -> str:
+        return "; ".join(f"{i} -> '{label}'" for i, label in enumerate(labels))
+
+    schema = {
+        "description": 'Hostile */ ??/ "q" \\ \u00b0', "schemaFeatureLevel": 2,
+        "blocks": [{"id": "Status", "description": "Block */ /* ??/", "fields": [
+            {"id": "Mode", "description": "Mode */ #define evil_macro 1 ??/", "unit": "x */ ??/",
+             "expression": f"enum(hr:0 ; {mapping(MODE_LABELS)})"},
+            {"id": "Alarms", "description": "Active alarms \\",
+             "expression": f"bitset(hr:1 ; {mapping(ALARM_LABELS)})"},
+        ]}],
+        "tests": [{"id": f"S{mode}", "description": f"mode {mode}",
+                   "input": [{"firstAddress": "hr:0", "rawValues": f"{mode:04X} {alarms:04X}"}]}
+                  for mode, alarms in ((0, 0b0001), (1, 0b0010), (2, 0b0100), (3, 0b1111))],
+    }
+    return yaml.safe_dump(schema, allow_unicode=True, sort_keys=False)
+
+
+def test_hostile_expression_labels_stay_inside_string_literals(tmp_path):
+    """Toolkit enum and bitset labels become string literals of the C driver: `*/`, `??/`, quotes,
+    backslashes and non-ASCII there compile under STRICT (gcc and clang) and read back byte for byte,
+    as the generated Python driver reads them."""
+    from test_toolkit import _python_device
+
+    path = tmp_path / "hostile.yaml"
+    path.write_text(_hostile_toolkit(), encoding="utf-8")
+    device = load_any(path)
+    assert [f.description for f in device.functions] == ["Mode */ #define evil_macro 1 ??/", "Active alarms \\"]
+    driver_cls = _python_device(device, tmp_path)
+    exe = build(device, tmp_path, path.name)
+    nm = subprocess.run(["nm", str(exe)], capture_output=True, text=True).stdout
+    assert not {line.split()[-1] for line in nm.splitlines() if line.strip()} & {"evil_symbol", "evil_macro"}
+    sim = Sim([path] * len(device.tests), *[arg for sc in device.tests for arg in ("--scenario", sc.id)])
+    try:
+        client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
+        assert client.connect()
+        try:
+            python = {unit: driver_cls(client, unit=unit).read_all() for unit in sim.units}
+        finally:
+            client.close()
+        for unit, mode in zip(sim.units, range(4), strict=True):
+            assert python[unit]["Mode"] == MODE_LABELS[mode]
+            with Harness(exe, sim.port, unit=unit) as h:
+                assert_exactly(h.values(), python[unit])
+    finally:
+        sim.stop()
+    assert python[sim.units[3]]["Alarms"] == ALARM_LABELS

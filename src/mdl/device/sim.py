@@ -20,7 +20,7 @@ from pymodbus.datastore import ModbusServerContext
 from pymodbus.exceptions import NoSuchIdException
 
 from mdl.device.connection import Connection
-from mdl.diagnostics import error
+from mdl.diagnostics import error, one_line
 from mdl.fileio import read_text
 from mdl.model import Device, Function, Scenario
 from mdl.model.layout import layout
@@ -195,7 +195,7 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    out.write("".join(f"mdl sim: serving {registers.device.name} on {where} unit {unit}\n"
+    out.write("".join(f"mdl sim: serving {one_line(registers.device.name)} on {where} unit {unit}\n"
                       for unit, registers in units.items()))
     out.flush()
     try:

@@ -42,10 +42,12 @@ class ResolvedFunction:
 
 @dataclass(frozen=True)
 class PlanGroup:
-    """A request of the read plan, and the smaller ones used when the device refuses it (exception 2)."""
+    """A request of the read plan, the smaller ones used when the device refuses it (exception 2),
+    and where its registers go in a read_all buffer holding the whole plan's, group after group."""
 
     request: Request
     smaller: tuple[Request, ...]
+    offset: int
 
 
 @dataclass(frozen=True)
@@ -82,10 +84,27 @@ class ResolvedDevice:
     @cached_property
     def plan(self) -> tuple[PlanGroup, ...]:
         out = []
+        offset = 0
         for req in plan_reads(self.device):
             parts = split_request(self.device, req)
-            out.append(PlanGroup(req, tuple(parts) if parts != [req] else ()))
+            out.append(PlanGroup(req, tuple(parts) if parts != [req] else (), offset))
+            offset += req.count
         return tuple(out)
+
+    @cached_property
+    def buffer_size(self) -> int:
+        """The registers and bits of the whole read plan."""
+        return sum(g.request.count for g in self.plan)
+
+    @cached_property
+    def slots(self) -> dict[tuple[str, int], int]:
+        """(table, address) -> its position in the read plan's buffer."""
+        return {(g.request.table, a): g.offset + a - g.request.start
+                for g in self.plan for a in range(g.request.start, g.request.end)}
+
+    def slots_of(self, f: ResolvedFunction) -> tuple[int, ...]:
+        """Where a readable function's registers are in the read plan's buffer, in address order."""
+        return tuple(self.slots[(f.layout.table, a)] for a in f.layout.addresses)
 
 
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:

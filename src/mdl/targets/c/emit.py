@@ -19,7 +19,7 @@ from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Target
+from mdl.targets.base import Target, plan_rows
 from mdl.targets.c import expressions
 from mdl.targets.render import environment
 from mdl.values import ir
@@ -180,7 +180,7 @@ def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
     return out
 
 
-def _functions(rd: ResolvedDevice, slot: dict[tuple[str, int], int]) -> list[CFunction]:
+def _functions(rd: ResolvedDevice) -> list[CFunction]:
     out: dict[str, CFunction] = {}
     list_type = f"struct {rd.stem}_list"
     for rf in rd.functions:
@@ -196,7 +196,7 @@ def _functions(rd: ResolvedDevice, slot: dict[tuple[str, int], int]) -> list[CFu
             rf=rf, ident=rf.ident, n=len(rf.layout.addresses), t=c_type(vt, rd.stem),
             wt=c_type(codec.write_type, rd.stem),
             text_size=text_size, nullable=vt.nullable, expr=expr, decode=codec.decode, encode=codec.encode,
-            runs=_runs(rf), slots=[slot[(rf.layout.table, a)] for a in rf.layout.addresses] if codec.decode else [])
+            runs=_runs(rf), slots=list(rd.slots_of(rf)) if codec.decode else [])
         for step in codec.decode or ():
             if isinstance(step, ir.Fragment):
                 f.read_fragment = f"frag_read_{rf.ident}"
@@ -221,23 +221,6 @@ def _functions(rd: ResolvedDevice, slot: dict[tuple[str, int], int]) -> list[CFu
     return list(out.values())
 
 
-def _plan(rd: ResolvedDevice) -> tuple[list[dict[str, Any]], list[dict[str, Any]], dict[tuple[str, int], int], int]:
-    groups: list[dict[str, Any]] = []
-    splits: list[dict[str, Any]] = []
-    slot: dict[tuple[str, int], int] = {}
-    offset = 0
-    for group in rd.plan:
-        req = group.request
-        groups.append({"table": TABLE_CONST[req.table], "start": req.start, "count": req.count, "offset": offset,
-                       "split_first": len(splits), "split_count": len(group.smaller)})
-        for a in range(req.start, req.end):
-            slot[(req.table, a)] = offset + a - req.start
-        splits += [{"table": TABLE_CONST[s.table], "start": s.start, "count": s.count, "delta": s.start - req.start}
-                   for s in group.smaller]
-        offset += req.count
-    return groups, splits, slot, offset
-
-
 def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
     out = []
     for f in functions:
@@ -250,8 +233,9 @@ def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
 
 def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     file_stem = rd.stem
-    groups, splits, slot, raw_total = _plan(rd)
-    functions = _functions(rd, slot)
+    groups, splits = plan_rows(rd, TABLE_CONST)
+    raw_total = rd.buffer_size
+    functions = _functions(rd)
     by_name = {f.rf.name: f for f in functions}
     readable = [by_name[rf.name] for rf in rd.readable]
     fragments = _fragments(functions)

@@ -24,7 +24,7 @@ from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.model import Function
 from mdl.model.layout import Layout
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Target
+from mdl.targets.base import Target, plan_rows
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
 from mdl.targets.render import environment as render_environment
@@ -136,26 +136,6 @@ class CppFunction:
         return any(step.n for step in self.steps)
 
 
-Slots = dict[tuple[str, int], int]  # (table, address) -> its position in read_all's buffer
-
-
-def _plan(resolved: ResolvedDevice) -> tuple[list[dict[str, Any]], list[dict[str, Any]], Slots, int]:
-    groups: list[dict[str, Any]] = []
-    splits: list[dict[str, Any]] = []
-    slot: Slots = {}
-    offset = 0
-    for group in resolved.plan:
-        req, smaller = group.request, group.smaller
-        groups.append({"table": TABLE_CONST[req.table], "start": req.start, "count": req.count, "offset": offset,
-                       "split_first": len(splits), "split_count": len(smaller)})
-        for a in range(req.start, req.end):
-            slot[(req.table, a)] = offset + a - req.start
-        splits += [{"table": TABLE_CONST[s.table], "start": s.start, "count": s.count, "delta": s.start - req.start}
-                   for s in smaller]
-        offset += req.count
-    return groups, splits, slot, offset
-
-
 def _runs(lay: Layout) -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     for a in lay.addresses:
@@ -166,7 +146,7 @@ def _runs(lay: Layout) -> list[dict[str, Any]]:
     return out
 
 
-def _function(f: ResolvedFunction, slot: dict[tuple[str, int], int], ident_of: dict[str, str]) -> CppFunction:
+def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str, str]) -> CppFunction:
     fn, codec, lay = f.fn, f.codec, f.layout
     read_fragment = _step(codec.decode, ir.Fragment)
     write_fragment = _step(codec.encode, ir.Fragment)
@@ -184,7 +164,7 @@ def _function(f: ResolvedFunction, slot: dict[tuple[str, int], int], ident_of: d
         fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
         rt=f"std::optional<{t}>" if codec.value_type.nullable else t,
         deps=[ident_of[d] for d in f.deps], runs=_runs(lay),
-        slots=[slot[(lay.table, a)] for a in lay.addresses] if fn.readable else [],
+        slots=list(resolved.slots_of(f)) if fn.readable else [],
         readable=codec.decode is not None, writable=codec.encode is not None,
         status=read_fragment is not None, decode_lines=decode_lines,
         encode_lines=write_fragment.tree.c("c++").body() if write_fragment is not None else [],
@@ -192,9 +172,9 @@ def _function(f: ResolvedFunction, slot: dict[tuple[str, int], int], ident_of: d
         int_bits=codec.write_type.bits)
 
 
-def _functions(resolved: ResolvedDevice, slot: dict[tuple[str, int], int]) -> dict[str, CppFunction]:
+def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     ident_of = {f.name: f.ident for f in resolved.functions}
-    out = {f.ident: _function(f, slot, ident_of) for f in resolved.functions}
+    out = {f.ident: _function(resolved, f, ident_of) for f in resolved.functions}
     for f in out.values():
         f.params = ", ".join(([f"const std::array<uint16_t, {f.n}> &r"] if f.n else [])
                              + ([f"const std::array<bool, {f.n}> &present"] if f.n and f.expr else [])
@@ -213,8 +193,9 @@ def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
 def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     device = resolved.device
     file_stem = resolved.stem
-    groups, splits, slot, raw_total = _plan(resolved)
-    by_ident = _functions(resolved, slot)
+    groups, splits = plan_rows(resolved, TABLE_CONST)
+    raw_total = resolved.buffer_size
+    by_ident = _functions(resolved)
     functions = list(by_ident.values())
     readable = [by_ident[f.ident] for f in resolved.readable]
     code = [line for f in functions for line in f.decode_lines]
