@@ -86,16 +86,13 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
         raise CommunicationError(f"{what}: the reply does not echo the request")
 
 
-def _keys(table: str, start: int, count: int) -> list[tuple[str, int]]:
-    return [(table, start + i) for i in range(count)]
 
-
-def _need(raw: dict[tuple[str, int], int], name: str, table: str, addresses: tuple[int, ...]) -> list[int]:
-    """The registers at `addresses`; ModbusExceptionError if the device refused one of them."""
-    regs = [raw[(table, a)] for a in addresses if (table, a) in raw]
-    if len(regs) < len(addresses):
+def _need(name: str, regs: list[int | None]) -> list[int]:
+    """The registers of a function; ModbusExceptionError if the device refused one of them."""
+    present = [r for r in regs if r is not None]
+    if len(present) < len(regs):
         raise ModbusExceptionError(2, f"reading {name}")
-    return regs
+    return present
 
 
 def _decode_serial_number(r: list[int]) -> int:
@@ -428,18 +425,20 @@ def _encode_occupied_heating_setpoint(value: float) -> list[int]:
     return [v & 0xFFFF]
 
 
-# The read plan: (request, smaller requests used when the device refuses it with exception 2)
-_PLAN: tuple[tuple[_Request, tuple[_Request, ...]], ...] = (
-    (('holding', 0, 8), (('holding', 0, 4), ('holding', 4, 2), ('holding', 6, 1), ('holding', 7, 1))),
-    (('holding', 121, 1), ()),
-    (('holding', 128, 1), ()),
-    (('holding', 137, 1), ()),
-    (('holding', 140, 1), ()),
-    (('holding', 184, 1), ()),
-    (('holding', 255, 5), (('holding', 255, 1), ('holding', 256, 1), ('holding', 257, 1), ('holding', 258, 1), ('holding', 259, 1))),
-    (('holding', 345, 2), (('holding', 345, 1), ('holding', 346, 1))),
-    (('holding', 348, 1), ()),
+# The read plan: (request, its first slot in read_all's buffer, smaller requests used when the
+# device refuses it with exception 2)
+_PLAN: tuple[tuple[_Request, int, tuple[_Request, ...]], ...] = (
+    (('holding', 0, 8), 0, (('holding', 0, 4), ('holding', 4, 2), ('holding', 6, 1), ('holding', 7, 1))),
+    (('holding', 121, 1), 8, ()),
+    (('holding', 128, 1), 9, ()),
+    (('holding', 137, 1), 10, ()),
+    (('holding', 140, 1), 11, ()),
+    (('holding', 184, 1), 12, ()),
+    (('holding', 255, 5), 13, (('holding', 255, 1), ('holding', 256, 1), ('holding', 257, 1), ('holding', 258, 1), ('holding', 259, 1))),
+    (('holding', 345, 2), 18, (('holding', 345, 1), ('holding', 346, 1))),
+    (('holding', 348, 1), 20, ()),
 )
+_BUFFER_SIZE = 21
 
 
 class TemcoTstatValues(TypedDict):
@@ -464,25 +463,25 @@ class TemcoTstatValues(TypedDict):
     occupied_heating_setpoint: float
 
 
-def _values(raw: dict[tuple[str, int], int]) -> TemcoTstatValues:
+def _values(raw: list[int | None]) -> TemcoTstatValues:
     """Every readable function's value from the registers of the read plan, in dependency order."""
-    v_serial_number = _decode_serial_number(_need(raw, 'serial_number', 'holding', (0, 1, 2, 3)))
-    v_firmware_version = _decode_firmware_version(_need(raw, 'firmware_version', 'holding', (4, 5)))
-    v_modbus_address = _decode_modbus_address(_need(raw, 'modbus_address', 'holding', (6,)))
-    v_product_model = _decode_product_model(_need(raw, 'product_model', 'holding', (7,)))
-    v_room_temperature = _decode_room_temperature(_need(raw, 'room_temperature', 'holding', (121,)))
-    v_humidity = _decode_humidity(_need(raw, 'humidity', 'holding', (140,)))
-    v_occupancy = _decode_occupancy(_need(raw, 'occupancy', 'holding', (184,)))
-    v_fan_speed = _decode_fan_speed(_need(raw, 'fan_speed', 'holding', (137,)))
-    v_system_mode = _decode_system_mode(_need(raw, 'system_mode', 'holding', (128,)))
-    v_fan_relay_on = _decode_fan_relay_on(_need(raw, 'fan_relay_on', 'holding', (255,)))
-    v_cooling_stage1_relay_on = _decode_cooling_stage1_relay_on(_need(raw, 'cooling_stage1_relay_on', 'holding', (256,)))
-    v_cooling_stage2_relay_on = _decode_cooling_stage2_relay_on(_need(raw, 'cooling_stage2_relay_on', 'holding', (257,)))
-    v_heating_stage1_relay_on = _decode_heating_stage1_relay_on(_need(raw, 'heating_stage1_relay_on', 'holding', (258,)))
-    v_heating_stage2_relay_on = _decode_heating_stage2_relay_on(_need(raw, 'heating_stage2_relay_on', 'holding', (259,)))
-    v_occupied_setpoint = _decode_occupied_setpoint(_need(raw, 'occupied_setpoint', 'holding', (345,)))
-    v_unoccupied_setpoint = _decode_unoccupied_setpoint(_need(raw, 'unoccupied_setpoint', 'holding', (346,)))
-    v_occupied_heating_setpoint = _decode_occupied_heating_setpoint(_need(raw, 'occupied_heating_setpoint', 'holding', (348,)))
+    v_serial_number = _decode_serial_number(_need('serial_number', raw[0:4]))
+    v_firmware_version = _decode_firmware_version(_need('firmware_version', raw[4:6]))
+    v_modbus_address = _decode_modbus_address(_need('modbus_address', raw[6:7]))
+    v_product_model = _decode_product_model(_need('product_model', raw[7:8]))
+    v_room_temperature = _decode_room_temperature(_need('room_temperature', raw[8:9]))
+    v_humidity = _decode_humidity(_need('humidity', raw[11:12]))
+    v_occupancy = _decode_occupancy(_need('occupancy', raw[12:13]))
+    v_fan_speed = _decode_fan_speed(_need('fan_speed', raw[10:11]))
+    v_system_mode = _decode_system_mode(_need('system_mode', raw[9:10]))
+    v_fan_relay_on = _decode_fan_relay_on(_need('fan_relay_on', raw[13:14]))
+    v_cooling_stage1_relay_on = _decode_cooling_stage1_relay_on(_need('cooling_stage1_relay_on', raw[14:15]))
+    v_cooling_stage2_relay_on = _decode_cooling_stage2_relay_on(_need('cooling_stage2_relay_on', raw[15:16]))
+    v_heating_stage1_relay_on = _decode_heating_stage1_relay_on(_need('heating_stage1_relay_on', raw[16:17]))
+    v_heating_stage2_relay_on = _decode_heating_stage2_relay_on(_need('heating_stage2_relay_on', raw[17:18]))
+    v_occupied_setpoint = _decode_occupied_setpoint(_need('occupied_setpoint', raw[18:19]))
+    v_unoccupied_setpoint = _decode_unoccupied_setpoint(_need('unoccupied_setpoint', raw[19:20]))
+    v_occupied_heating_setpoint = _decode_occupied_heating_setpoint(_need('occupied_heating_setpoint', raw[20:21]))
     return {
         'serial_number': v_serial_number,
         'firmware_version': v_firmware_version,
@@ -681,21 +680,23 @@ class TemcoTstat:
         'Occupied heating setpoint [\xb0C]'
         self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
-    def _read_plan(self) -> dict[tuple[str, int], int]:
-        """(table, address) -> value of every register the read plan gets from the device."""
-        raw: dict[tuple[str, int], int] = {}
-        for group, smaller in _PLAN:
+    def _read_plan(self) -> list[int | None]:
+        """The registers and bits of the whole read plan, group after group; None where the device
+        refused one even when asked alone."""
+        raw: list[int | None] = [None] * _BUFFER_SIZE
+        for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw.update(zip(_keys(*group), self._read(*group), strict=True))
+                    raw[offset:offset + group[2]] = self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
-            for request in smaller:
+            for table, start, count in smaller:
+                at = offset + start - group[1]
                 try:
-                    raw.update(zip(_keys(*request), self._read(*request), strict=True))
+                    raw[at:at + count] = self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -887,21 +888,23 @@ class AsyncTemcoTstat:
         'Occupied heating setpoint [\xb0C]'
         await self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
-    async def _read_plan(self) -> dict[tuple[str, int], int]:
-        """(table, address) -> value of every register the read plan gets from the device."""
-        raw: dict[tuple[str, int], int] = {}
-        for group, smaller in _PLAN:
+    async def _read_plan(self) -> list[int | None]:
+        """The registers and bits of the whole read plan, group after group; None where the device
+        refused one even when asked alone."""
+        raw: list[int | None] = [None] * _BUFFER_SIZE
+        for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw.update(zip(_keys(*group), await self._read(*group), strict=True))
+                    raw[offset:offset + group[2]] = await self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
-            for request in smaller:
+            for table, start, count in smaller:
+                at = offset + start - group[1]
                 try:
-                    raw.update(zip(_keys(*request), await self._read(*request), strict=True))
+                    raw[at:at + count] = await self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise

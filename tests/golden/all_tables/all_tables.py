@@ -87,16 +87,13 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
         raise CommunicationError(f"{what}: the reply does not echo the request")
 
 
-def _keys(table: str, start: int, count: int) -> list[tuple[str, int]]:
-    return [(table, start + i) for i in range(count)]
 
-
-def _need(raw: dict[tuple[str, int], int], name: str, table: str, addresses: tuple[int, ...]) -> list[int]:
-    """The registers at `addresses`; ModbusExceptionError if the device refused one of them."""
-    regs = [raw[(table, a)] for a in addresses if (table, a) in raw]
-    if len(regs) < len(addresses):
+def _need(name: str, regs: list[int | None]) -> list[int]:
+    """The registers of a function; ModbusExceptionError if the device refused one of them."""
+    present = [r for r in regs if r is not None]
+    if len(present) < len(regs):
         raise ModbusExceptionError(2, f"reading {name}")
-    return regs
+    return present
 
 
 def _f32(x: float) -> float:
@@ -424,20 +421,22 @@ def _encode_high_byte(value: float) -> list[int]:
     return [(v & 0xFF) << 8]
 
 
-# The read plan: (request, smaller requests used when the device refuses it with exception 2)
-_PLAN: tuple[tuple[_Request, tuple[_Request, ...]], ...] = (
-    (('coil', 0, 2), (('coil', 0, 1), ('coil', 1, 1))),
-    (('discrete', 0, 2), (('discrete', 0, 1), ('discrete', 1, 1))),
-    (('holding', 50, 1), ()),
-    (('holding', 52, 1), ()),
-    (('holding', 100, 6), (('holding', 100, 1), ('holding', 101, 1), ('holding', 102, 4))),
-    (('holding', 110, 2), (('holding', 110, 1), ('holding', 111, 1))),
-    (('holding', 200, 4), ()),
-    (('holding', 300, 1), ()),
-    (('holding', 400, 4), (('holding', 400, 2), ('holding', 402, 1), ('holding', 403, 1))),
-    (('input', 0, 4), (('input', 0, 2), ('input', 2, 2))),
-    (('input', 10, 1), ()),
+# The read plan: (request, its first slot in read_all's buffer, smaller requests used when the
+# device refuses it with exception 2)
+_PLAN: tuple[tuple[_Request, int, tuple[_Request, ...]], ...] = (
+    (('coil', 0, 2), 0, (('coil', 0, 1), ('coil', 1, 1))),
+    (('discrete', 0, 2), 2, (('discrete', 0, 1), ('discrete', 1, 1))),
+    (('holding', 50, 1), 4, ()),
+    (('holding', 52, 1), 5, ()),
+    (('holding', 100, 6), 6, (('holding', 100, 1), ('holding', 101, 1), ('holding', 102, 4))),
+    (('holding', 110, 2), 12, (('holding', 110, 1), ('holding', 111, 1))),
+    (('holding', 200, 4), 14, ()),
+    (('holding', 300, 1), 18, ()),
+    (('holding', 400, 4), 19, (('holding', 400, 2), ('holding', 402, 1), ('holding', 403, 1))),
+    (('input', 0, 4), 23, (('input', 0, 2), ('input', 2, 2))),
+    (('input', 10, 1), 27, ()),
 )
+_BUFFER_SIZE = 28
 
 
 class AllTablesValues(TypedDict):
@@ -464,27 +463,27 @@ class AllTablesValues(TypedDict):
     high_byte: int
 
 
-def _values(raw: dict[tuple[str, int], int]) -> AllTablesValues:
+def _values(raw: list[int | None]) -> AllTablesValues:
     """Every readable function's value from the registers of the read plan, in dependency order."""
-    v_pump = _decode_pump(_need(raw, 'pump', 'coil', (0,)))
-    v_fan = _decode_fan(_need(raw, 'fan', 'coil', (1,)))
-    v_door_open = _decode_door_open(_need(raw, 'door_open', 'discrete', (0,)))
-    v_filter_dirty = _decode_filter_dirty(_need(raw, 'filter_dirty', 'discrete', (1,)))
-    v_energy = _decode_energy(_need(raw, 'energy', 'input', (0, 1)))
-    v_power = _decode_power(_need(raw, 'power', 'input', (2, 3)))
-    v_voltage = _decode_voltage(_need(raw, 'voltage', 'input', (10,)))
-    v_gap_low = _decode_gap_low(_need(raw, 'gap_low', 'holding', (50,)))
-    v_gap_high = _decode_gap_high(_need(raw, 'gap_high', 'holding', (52,)))
-    v_setpoint = _decode_setpoint(_need(raw, 'setpoint', 'holding', (100,)))
-    v_mode = _decode_mode(_need(raw, 'mode', 'holding', (101,)))
-    v_label = _decode_label(_need(raw, 'label', 'holding', (102, 103, 104, 105)))
-    v_status_bit = _decode_status_bit(_need(raw, 'status_bit', 'holding', (110,)))
-    v_flow = _decode_flow(_need(raw, 'flow', 'holding', (111,)))
-    v_big = _decode_big(_need(raw, 'big', 'holding', (200, 201, 202, 203)))
-    v_temp_offset = _decode_temp_offset(_need(raw, 'temp_offset', 'holding', (300,)))
-    v_serial = _decode_serial(_need(raw, 'serial', 'holding', (400, 401)))
-    v_low_byte = _decode_low_byte(_need(raw, 'low_byte', 'holding', (402,)))
-    v_high_byte = _decode_high_byte(_need(raw, 'high_byte', 'holding', (403,)))
+    v_pump = _decode_pump(_need('pump', raw[0:1]))
+    v_fan = _decode_fan(_need('fan', raw[1:2]))
+    v_door_open = _decode_door_open(_need('door_open', raw[2:3]))
+    v_filter_dirty = _decode_filter_dirty(_need('filter_dirty', raw[3:4]))
+    v_energy = _decode_energy(_need('energy', raw[23:25]))
+    v_power = _decode_power(_need('power', raw[25:27]))
+    v_voltage = _decode_voltage(_need('voltage', raw[27:28]))
+    v_gap_low = _decode_gap_low(_need('gap_low', raw[4:5]))
+    v_gap_high = _decode_gap_high(_need('gap_high', raw[5:6]))
+    v_setpoint = _decode_setpoint(_need('setpoint', raw[6:7]))
+    v_mode = _decode_mode(_need('mode', raw[7:8]))
+    v_label = _decode_label(_need('label', raw[8:12]))
+    v_status_bit = _decode_status_bit(_need('status_bit', raw[12:13]))
+    v_flow = _decode_flow(_need('flow', raw[13:14]))
+    v_big = _decode_big(_need('big', raw[14:18]))
+    v_temp_offset = _decode_temp_offset(_need('temp_offset', raw[18:19]))
+    v_serial = _decode_serial(_need('serial', raw[19:21]))
+    v_low_byte = _decode_low_byte(_need('low_byte', raw[21:22]))
+    v_high_byte = _decode_high_byte(_need('high_byte', raw[22:23]))
     return {
         'pump': v_pump,
         'fan': v_fan,
@@ -705,21 +704,23 @@ class AllTables:
         'high_byte'
         self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
-    def _read_plan(self) -> dict[tuple[str, int], int]:
-        """(table, address) -> value of every register the read plan gets from the device."""
-        raw: dict[tuple[str, int], int] = {}
-        for group, smaller in _PLAN:
+    def _read_plan(self) -> list[int | None]:
+        """The registers and bits of the whole read plan, group after group; None where the device
+        refused one even when asked alone."""
+        raw: list[int | None] = [None] * _BUFFER_SIZE
+        for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw.update(zip(_keys(*group), self._read(*group), strict=True))
+                    raw[offset:offset + group[2]] = self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
-            for request in smaller:
+            for table, start, count in smaller:
+                at = offset + start - group[1]
                 try:
-                    raw.update(zip(_keys(*request), self._read(*request), strict=True))
+                    raw[at:at + count] = self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -931,21 +932,23 @@ class AsyncAllTables:
         'high_byte'
         await self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
-    async def _read_plan(self) -> dict[tuple[str, int], int]:
-        """(table, address) -> value of every register the read plan gets from the device."""
-        raw: dict[tuple[str, int], int] = {}
-        for group, smaller in _PLAN:
+    async def _read_plan(self) -> list[int | None]:
+        """The registers and bits of the whole read plan, group after group; None where the device
+        refused one even when asked alone."""
+        raw: list[int | None] = [None] * _BUFFER_SIZE
+        for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw.update(zip(_keys(*group), await self._read(*group), strict=True))
+                    raw[offset:offset + group[2]] = await self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
-            for request in smaller:
+            for table, start, count in smaller:
+                at = offset + start - group[1]
                 try:
-                    raw.update(zip(_keys(*request), await self._read(*request), strict=True))
+                    raw[at:at + count] = await self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise

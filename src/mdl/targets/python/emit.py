@@ -175,19 +175,22 @@ def runs(lay: Layout) -> list[Request]:
     return [(table, start, count) for table, start, count in out]
 
 
-def _read_plan(resolved: ResolvedDevice) -> list[tuple[Request, tuple[Request, ...]]]:
-    """Each request of the read plan, with the smaller ones that replace it when the device refuses it."""
-    return [((g.request.table, g.request.start, g.request.count),
+def _read_plan(resolved: ResolvedDevice) -> list[tuple[Request, int, tuple[Request, ...]]]:
+    """Each request of the read plan, its first slot in the buffer, and the smaller requests that
+    replace it when the device refuses it."""
+    return [((g.request.table, g.request.start, g.request.count), g.offset,
              tuple((s.table, s.start, s.count) for s in g.smaller)) for g in resolved.plan]
 
 
-def _gather(f: ResolvedFunction) -> str:
-    """The expression in read_all giving the function's registers: None for a missing one where an
-    expression can take it, else ModbusExceptionError."""
-    lay = f.layout
-    if f.fn.compiled is not None:
-        return f"_get(raw, {lay.table!r}, {tuple(lay.addresses)!r})"
-    return f"_need(raw, {f.name!r}, {lay.table!r}, {tuple(lay.addresses)!r})"
+def _gather(resolved: ResolvedDevice, f: ResolvedFunction) -> str:
+    """The expression in read_all giving the function's registers from the buffer: None for a
+    missing one where an expression can take it, else ModbusExceptionError."""
+    slots = resolved.slots_of(f)
+    if slots and slots == tuple(range(slots[0], slots[0] + len(slots))):
+        regs = f"raw[{slots[0]}:{slots[0] + len(slots)}]"
+    else:
+        regs = "[" + ", ".join(f"raw[{s}]" for s in slots) + "]"
+    return regs if f.fn.compiled is not None else f"_need({f.name!r}, {regs})"
 
 
 def _typed_dict_form(names: list[str]) -> str:
@@ -231,7 +234,8 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
     return FunctionCode(
         fn=fn, ident=f.ident, codec=codec, runs=runs(f.layout), doc=doc_text(fn), type=types[fn.name],
         write_type=write_type(codec.write_type) if codec.encode is not None else None, params=params,
-        args="".join(f", v_{idents[d]}" for d in f.deps), gather=_gather(f),
+        args="".join(f", v_{idents[d]}" for d in f.deps),
+        gather=_gather(resolved, f) if fn.readable else "",
         closure=[g.name for g in resolved.closure([fn.name])[:-1]] if f.deps else [],
         fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
         fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
@@ -288,7 +292,8 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "device": device, "version": __version__, "source": source_name, "requirement": PYMODBUS_REQUIREMENT,
         "functions": functions, "infos": infos, "readable": readable, "class_name": class_name,
         "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.fn.name for f in readable]),
-        "groups": _read_plan(resolved), "imports": import_lines(used), "helpers": helpers, "uses": used,
+        "groups": _read_plan(resolved), "buffer_size": resolved.buffer_size, "imports": import_lines(used),
+        "helpers": helpers, "uses": used,
         "exports": sorted(exports), "writes": any(f.encoder for f in functions),
         "module_doc": docstring(f"Driver for {device.name}: {device.description}"),
     }
