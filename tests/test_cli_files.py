@@ -18,7 +18,7 @@ from mdl import fileio
 
 TSTAT = EXAMPLE / "temco_tstat.xml"
 ALL = DATA / "all_tables.xml"
-GENERATED = ("temco_tstat.py", "temco_tstat.h", "temco_tstat.cc")
+GENERATED = ("temco_tstat.py", "temco_tstat.h", "temco_tstat.cc", "temco_tstat.c")  # --lang all
 
 SCHEMA_YAML = """\
 description: 'Stdin test device'

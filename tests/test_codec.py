@@ -15,6 +15,7 @@ from mdl.model import Device, Function
 from mdl.model.layout import LayoutError, layout
 from mdl.targets import render
 from mdl.values import codec
+from mdl.values.build import int_range
 
 INT_FORMATS = ["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64"]
 ORDERS = ["big", "little"]
@@ -27,7 +28,7 @@ def make(fmt, length="Full word", byte_order="big", word_order="big", count=None
 
 
 def _int_strategy(fn):
-    lo, hi = codec.int_range(layout(fn))
+    lo, hi = int_range(layout(fn))
     return st.integers(lo, hi)
 
 
@@ -168,10 +169,10 @@ def test_generated_python_encodes_like_codec(generated, data):
         value = data.draw(st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=14))
     elif lay.kind == "bool":
         value = data.draw(st.booleans())
-    elif lay.kind == "float" or codec.scales(fn) or fn.write_function_code:
+    elif lay.kind == "float" or fn.scales or fn.write_function_code:
         value = data.draw(st.floats(-1e5, 1e5, allow_nan=False))
     else:
-        lo, hi = codec.int_range(lay)
+        lo, hi = int_range(lay)
         value = data.draw(st.integers(lo - 2, hi + 2))
     try:
         expected = codec.encode(fn, value)

@@ -101,11 +101,14 @@ def test_drivers_of_devices_named_like_headers_compile_beside_each_other(tmp_pat
         proc = run_mdl("gen", path, "-o", out)
         assert proc.returncode == 0, proc.stderr
     assert sorted(p.name for p in out.iterdir()) == sorted(f"{s}.{ext}" for s in HEADER_DEVICES.values()
-                                                           for ext in ("py", "h", "cc"))
+                                                           for ext in ("py", "h", "cc", "c"))
     gxx, cflags, _ = toolchain()
     for expected_stem in HEADER_DEVICES.values():
         module = import_generated(out / f"{expected_stem}.py", f"header_{expected_stem}")
         assert hasattr(getattr(module, camel(expected_stem)), "read_time")
         proc = subprocess.run([gxx, *STRICT, f"-I{out}", *cflags, "-fsyntax-only",
                                str(out / f"{expected_stem}.cc")], capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        proc = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", f"-I{out}", *cflags,
+                               "-fsyntax-only", str(out / f"{expected_stem}.c")], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr

@@ -3,14 +3,19 @@
 A request covers consecutive addresses of one table, up to 125 registers or 2000 bits, and never
 an address the device does not define. Greedy from the lowest needed address is optimal for
 covering points with intervals of bounded length.
+
+Every function here takes the layouts it needs as an optional `layouts` (function name -> Layout,
+as the resolve step computes them once); without it each computes them once per call. Planning is
+linear in the number of functions: `plan_groups` plans a device and splits every request in one pass.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from mdl.model import Device, Function
-from mdl.model.layout import MAX_BITS, MAX_REGISTERS, layout
+from mdl.model.layout import FUNCTIONS, MAX_BITS, MAX_REGISTERS, Layout, layouts_by_name
 
 TABLE_ORDER = ("coil", "discrete", "holding", "input")
 
@@ -27,58 +32,88 @@ class Request:
         return self.start + self.count
 
 
-def defined_addresses(device: Device) -> dict[str, set[int]]:
+Layouts = Mapping[str, Layout]  # function name -> its layout
+
+
+def defined_addresses(device: Device, layouts: Layouts | None = None) -> dict[str, set[int]]:
+    if layouts is None:
+        layouts = layouts_by_name(device.functions)
     tables: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
     for fn in device.functions:
-        lay = layout(fn)
+        lay = layouts[fn.name]
         tables[lay.table].update(lay.addresses)
     return tables
 
 
 def plan_reads(
-    device: Device, functions: list[Function] | None = None, max_registers: int | None = None
+    device: Device, functions: Iterable[Function] | None = None, max_registers: int | None = None,
+    layouts: Layouts | None = None, defined: Mapping[str, set[int]] | None = None,
 ) -> list[Request]:
+    """The requests that read `functions` (every readable one by default). `defined` (table -> the
+    addresses the device defines) may be given as `defined_addresses` computes it."""
     if max_registers is None:
         max_registers = device.max_registers or MAX_REGISTERS
     if functions is None:
         functions = [fn for fn in device.functions if fn.readable]
-    defined = defined_addresses(device)
+    if layouts is None:
+        layouts = layouts_by_name(device.functions)
+    if defined is None:
+        defined = defined_addresses(device, layouts)
     needed: dict[str, dict[int, list[str]]] = {t: {} for t in TABLE_ORDER}
     for fn in functions:
-        lay = layout(fn)
+        lay = layouts[fn.name]
+        at = needed[lay.table]
         for a in lay.addresses:
-            needed[lay.table].setdefault(a, []).append(fn.name)
+            names = at.get(a)
+            if names is None:
+                at[a] = [fn.name]
+            else:
+                names.append(fn.name)
     requests = []
     for table in TABLE_ORDER:
         limit = MAX_BITS if table in ("coil", "discrete") else max_registers
         points = sorted(needed[table])
+        there = defined[table]
         i = 0
         while i < len(points):
             start = end = points[i]
-            names: list[str] = []
-            while i < len(points) and points[i] - start < limit and all(
-                a in defined[table] for a in range(end + 1, points[i] + 1)
+            names_in: dict[str, None] = {}  # ordered, without repeats
+            while i < len(points) and points[i] - start < limit and (
+                points[i] == end + 1 or all(a in there for a in range(end + 1, points[i] + 1))
             ):
                 end = points[i]
-                names += [n for n in needed[table][end] if n not in names]
+                names_in.update(dict.fromkeys(needed[table][end]))
                 i += 1
-            requests.append(Request(table, start, end - start + 1, tuple(names)))
+            requests.append(Request(table, start, end - start + 1, tuple(names_in)))
     return requests
 
 
-def split_request(device: Device, request: Request) -> list[Request]:
+def split_request(device: Device, request: Request, layouts: Layouts | None = None) -> list[Request]:
     """Smaller requests for a group the device refused with exception 2: one per run of each
     function's addresses within the group, each distinct run once (functions that share registers
     share its request), in the order the group names the functions."""
-    by_name = {fn.name: fn for fn in device.functions}
+    if layouts is None:
+        layouts = layouts_by_name(FUNCTIONS.get(device, name) for name in request.functions)
     names_of: dict[tuple[int, int], list[str]] = {}  # (start, count) -> the functions whose run it is
     for name in request.functions:
-        lay = layout(by_name[name])
+        lay = layouts[name]
         for run in _runs(sorted({a for a in lay.addresses if request.start <= a < request.end})):
             names = names_of.setdefault(run, [])
             if name not in names:
                 names.append(name)
     return [Request(request.table, start, count, tuple(names)) for (start, count), names in names_of.items()]
+
+
+def plan_groups(device: Device, layouts: Layouts | None = None) -> list[tuple[Request, list[Request]]]:
+    """The read plan of every readable function, each request with the smaller ones `split_request`
+    gives for it (empty where that is the request itself), in one linear pass."""
+    if layouts is None:
+        layouts = layouts_by_name(device.functions)
+    out = []
+    for req in plan_reads(device, layouts=layouts):
+        parts = split_request(device, req, layouts)
+        out.append((req, parts if parts != [req] else []))
+    return out
 
 
 def _runs(addrs: list[int]) -> list[tuple[int, int]]:

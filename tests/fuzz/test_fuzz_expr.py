@@ -7,11 +7,11 @@ from __future__ import annotations
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from mdl.device.evaluate import evaluate
 from mdl.lang.expr.fields import compile_device
 from mdl.lang.expr.nodes import ExprError
 from mdl.lang.expr.parser import MAX_DEPTH, parse
 from mdl.model import BIT_TABLES, Device, Function
-from mdl.values.evaluate import evaluate
 
 FIELDS = ("A", "B c")
 TOKENS = [

@@ -19,13 +19,13 @@ from pymodbus.framer import FramerRTU
 from pymodbus.pdu import ModbusPDU
 
 from mdl.device.connection import Connection
+from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import DeviceError, error
-from mdl.lang.expr.fields import evaluation_order
 from mdl.model import Device, Function, Scalar, Value
-from mdl.model.layout import layout
-from mdl.plan import Request, plan_reads, split_request
+from mdl.model.layout import Layout, layout
+from mdl.plan import Request, defined_addresses, plan_reads, split_request
+from mdl.resolve import ResolvedDevice, resolve
 from mdl.values import codec
-from mdl.values.evaluate import evaluate
 
 EXCEPTION_NAMES = {
     1: "ILLEGAL FUNCTION", 2: "ILLEGAL DATA ADDRESS", 3: "ILLEGAL DATA VALUE",
@@ -162,17 +162,71 @@ class Wire:
         return reply_problem(request, found[2]) or "the reply could not be decoded"
 
 
+class _ReadPlan:
+    """What a read of some functions needs, worked out once: the decode order (dependencies first),
+    the requests (each with its smaller ones for exception 2, None: split when refused), and the
+    layout of every function without an expression (these must have all their registers)."""
+
+    __slots__ = ("order", "groups", "plain", "layouts")
+
+    def __init__(self, order: list[str], groups: list[tuple[Request, list[Request] | None]],
+                 plain: list[tuple[str, Layout]], layouts: dict[str, Layout]) -> None:
+        self.order, self.groups, self.plain, self.layouts = order, groups, plain, layouts
+
+
 class Session:
     """A connection to one unit of a device: Modbus TCP, RTU on a serial line, or RTU over TCP."""
 
-    def __init__(self, device: Device, connection: Connection, unit: int = 1):
-        self.device = device
+    def __init__(self, device: Device | ResolvedDevice, connection: Connection, unit: int = 1):
+        self._resolved: ResolvedDevice | None = None
+        if isinstance(device, ResolvedDevice):
+            self.device, self._resolved = device.device, device
+        else:
+            self.device = device
         self.connection, self.unit = connection, unit
         self.tries = connection.retries + 1
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         self.wire = Wire(connection.rtu)
         self.client = connection.client(self.wire.trace)
-        self.refused: set[Request] = set()
+        self._methods: dict[str, Callable[..., ModbusPDU]] = {
+            "holding": self.client.read_holding_registers, "input": self.client.read_input_registers,
+            "coil": self.client.read_coils, "discrete": self.client.read_discrete_inputs}
+        self.refused: set[Request] = set()  # groups the device refused (exception 2): read split from then on
+        self._evaluator: Evaluator | None = None
+        self._plans: dict[tuple[str, ...], _ReadPlan] = {}  # the names read -> how to read them
+
+    @property
+    def resolved(self) -> ResolvedDevice:
+        """The resolved device (resolved once, on first use)."""
+        if self._resolved is None:
+            self._resolved = resolve(self.device, self.device.source)
+        return self._resolved
+
+    @property
+    def evaluator(self) -> Evaluator:
+        """The device's decoders, compiled once per session."""
+        if self._evaluator is None:
+            self._evaluator = Evaluator(self.resolved)
+        return self._evaluator
+
+    def _plan(self, names: tuple[str, ...]) -> _ReadPlan:
+        """How to read `names`: computed once per list of names, then reused by every read (a poll)."""
+        plan = self._plans.get(names)
+        if plan is None:
+            resolved = self.resolved
+            order = self.evaluator.order(names)
+            layouts = {f.name: f.layout for f in resolved.functions}
+            groups: list[tuple[Request, list[Request] | None]]
+            if set(order) == {f.name for f in resolved.readable}:  # all: the plan resolve made
+                groups = [(g.request, list(g.smaller)) for g in resolved.plan]
+            else:
+                by_name = resolved.by_name
+                requests = plan_reads(self.device, [by_name[n].fn for n in order], layouts=layouts,
+                                      defined=defined_addresses(self.device, layouts))
+                groups = [(r, None) for r in requests]  # split only if the device refuses one
+            plain = [(n, layouts[n]) for n in order if resolved.by_name[n].fn.compiled is None]
+            plan = self._plans[names] = _ReadPlan(order, groups, plain, layouts)
+        return plan
 
     def __enter__(self) -> Session:
         self.connect()
@@ -233,43 +287,51 @@ class Session:
 
     def read_request(self, req: Request) -> list[int]:
         what = f"reading {req.count} {req.table} from {req.start}"
-        method = {"holding": self.client.read_holding_registers, "input": self.client.read_input_registers,
-                  "coil": self.client.read_coils, "discrete": self.client.read_discrete_inputs}[req.table]
-        result = self._call(what, method, req.start, count=req.count)
+        result = self._call(what, self._methods[req.table], req.start, count=req.count)
         if req.table in ("coil", "discrete"):  # the byte count was checked; the padding bits are dropped
             return [int(b) for b in result.bits[: req.count]]
         return list(result.registers)
 
     def read(self, functions: list[Function]) -> dict[str, Value]:
         """Values of the functions (reading what their expressions depend on too)."""
-        needed = evaluation_order(self.device, [fn.name for fn in functions])
-        raw: dict[tuple[str, int], int] = {}
-        pending = list(plan_reads(self.device, needed))
+        names = tuple(fn.name for fn in functions)
+        plan = self._plan(names)
+        tables: dict[str, dict[int, int]] = {"holding": {}, "input": {}, "coil": {}, "discrete": {}}
         missing: list[Request] = []
-        while pending:
-            req = pending.pop(0)
-            try:
-                values = self.read_request(req)
-            except ModbusExceptionError as exc:
-                if exc.code != 2:
-                    raise
-                smaller = split_request(self.device, req)
-                if smaller != [req]:
-                    self.refused.add(req)
-                    pending[:0] = smaller
+        for group, smaller in plan.groups:
+            if group not in self.refused:
+                try:
+                    values = self.read_request(group)
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
                 else:
-                    missing.append(req)  # refused even alone: these registers have no value
-                continue
-            for i, v in enumerate(values):
-                raw[(req.table, req.start + i)] = v
-        for fn in needed:  # only expressions may read a register the device does not answer
-            lay = layout(fn)
-            if fn.compiled is None and any((lay.table, a) not in raw for a in lay.addresses):
-                req = next(r for r in missing
-                           if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
-                raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
+                    tables[group.table].update(zip(range(group.start, group.end), values, strict=True))
+                    continue
+                if smaller is None:
+                    smaller = split_request(self.device, group, plan.layouts)
+                if smaller in ([], [group]):
+                    missing.append(group)  # refused even alone: these registers have no value
+                    continue
+                self.refused.add(group)
+            for req in smaller or ():
+                try:
+                    values = self.read_request(req)
+                except ModbusExceptionError as exc:
+                    if exc.code != 2:
+                        raise
+                    missing.append(req)
+                    continue
+                tables[req.table].update(zip(range(req.start, req.end), values, strict=True))
+        if missing:  # only expressions may read a register the device does not answer
+            for _, lay in plan.plain:
+                got = tables[lay.table]
+                if any(a not in got for a in lay.addresses):
+                    req = next(r for r in missing
+                               if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
+                    raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
         try:
-            computed = evaluate(self.device, [fn.name for fn in functions], lambda t, a: raw.get((t, a)))
+            computed = self.evaluator.values(names, lambda t, a: tables[t].get(a))
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
         return {fn.name: computed[fn.name] for fn in functions}

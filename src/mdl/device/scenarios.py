@@ -7,9 +7,9 @@ import math
 from dataclasses import dataclass
 from typing import Final, Literal, TypeAlias
 
+from mdl.device.evaluate import evaluate
 from mdl.lang.expr.pyhelpers import _x_text
 from mdl.model import Device, Scenario, Value
-from mdl.values.evaluate import evaluate
 
 ReadError: TypeAlias = Literal["error"]
 READ_ERROR: Final[ReadError] = "error"

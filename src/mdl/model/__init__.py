@@ -7,10 +7,7 @@ apply the defaults of SPEC section 2, so writing a loaded model back never adds 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypeAlias
-
-if TYPE_CHECKING:
-    from mdl.lang.expr.fields import Compiled
+from typing import Any, Protocol, TypeAlias
 
 LENGTHS = ("Lower byte", "Upper byte", "Full word")
 FORMATS_09 = ("INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32")
@@ -23,6 +20,22 @@ READ_ONLY_TABLES = ("input", "discrete")
 
 Scalar: TypeAlias = bool | int | float | str  # a value the codec decodes or encodes
 Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bitset: its labels; None: no value)
+
+
+
+class CompiledExpression(Protocol):
+    """What the resolve step attaches to a function with an expression (mdl.lang.expr.fields.Compiled:
+    the model names only what it reads, so it does not depend on the expression language)."""
+
+    @property
+    def lowered(self) -> Any: ...  # mdl.lang.expr.lower.Lowered
+
+    @property
+    def deps(self) -> list[str]: ...  # the functions it names, in parameter order
+
+    @property
+    def type(self) -> str: ...  # its value's type: long, double, string, bool or list
+
 
 # element name -> attribute, in schema order; used by the loader and writer alike
 EXTENSION_FIELDS = (
@@ -70,7 +83,7 @@ class Function:
     fetch_group: str | None = None
     line: int | None = field(default=None, compare=False, repr=False)
     expression_line: int | None = field(default=None, compare=False, repr=False)
-    compiled: Compiled | None = field(default=None, compare=False, repr=False)
+    compiled: CompiledExpression | None = field(default=None, compare=False, repr=False)
 
     @property
     def eff_length(self) -> str:
@@ -91,6 +104,11 @@ class Function:
     @property
     def eff_offset(self) -> float:
         return 0.0 if self.offset is None else self.offset
+
+    @property
+    def scales(self) -> bool:
+        """Whether a multiplier or an offset applies (SPEC 2.3: then the value is a float)."""
+        return self.eff_multiplier != 1.0 or self.eff_offset != 0.0
 
     @property
     def table(self) -> str:

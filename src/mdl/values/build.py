@@ -63,10 +63,6 @@ def int_range(lay: Layout) -> tuple[int, int]:
     return 0, (1 << lay.bits) - 1
 
 
-def scales(fn: Function) -> bool:
-    return fn.eff_multiplier != 1.0 or fn.eff_offset != 0.0
-
-
 def not_implemented_patterns(fn: Function, n: int) -> tuple[tuple[int, ...], ...]:
     """Each `not_implemented` value as the register values it stands for: one of up to 4 hex digits
     in every register, a longer one split into words, first register most significant."""
@@ -84,7 +80,7 @@ def value_type(fn: Function, lay: Layout) -> ValueType:
     nullable = bool(fn.not_implemented)
     if fn.compiled is not None:
         return ValueType("expr", nullable=True, expr_type=fn.compiled.type)
-    if fn.read_function_code or (lay.kind == "int" and scales(fn)) or (lay.kind == "float" and scales(fn)):
+    if fn.read_function_code or (lay.kind == "int" and fn.scales) or (lay.kind == "float" and fn.scales):
         return ValueType("float", 64, True, nullable=nullable)
     if lay.kind == "int":
         return ValueType("int", int_type_bits(lay.bits), lay.signed, nullable=nullable)
@@ -96,7 +92,7 @@ def value_type(fn: Function, lay: Layout) -> ValueType:
 
 
 def write_type(fn: Function, lay: Layout) -> ValueType:
-    if fn.write_function_code or ((lay.kind in ("int", "float")) and scales(fn)):
+    if fn.write_function_code or ((lay.kind in ("int", "float")) and fn.scales):
         return ValueType("float", 64, True)
     return value_type(fn, lay)
 
@@ -123,7 +119,7 @@ def decode_steps(fn: Function, lay: Layout) -> tuple[DecodeStep, ...]:
             steps.append(Mask(lay.bits))
         if lay.signed:
             steps.append(SignExtend(lay.bits))
-    if scales(fn):
+    if fn.scales:
         steps.append(Scale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
     return tuple(steps)
 
@@ -140,7 +136,7 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
         return (*steps, FromBool())
     if lay.kind == "string":
         return (*steps, FromText(units(lay), span_bits(lay) // 8))
-    if scales(fn):
+    if fn.scales:
         steps.append(Unscale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
     if lay.kind == "float":
         steps.append(FromFloat(lay.bits))

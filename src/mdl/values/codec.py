@@ -18,9 +18,7 @@ from mdl.lang.cfrag import compile_read, compile_write
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import layout
 from mdl.values import ir
-from mdl.values.build import build, decode_steps, encode_steps, int_range, scales
-
-__all__ = ["CodecError", "compile_codec", "decode", "encode", "int_range", "parse_value", "scales"]
+from mdl.values.build import build, decode_steps, encode_steps
 
 
 class CodecError(ValueError):
@@ -247,7 +245,7 @@ class Compiled:
 
 def compile_codec(name: str, codec: ir.Codec) -> Compiled:
     """The IR of a function without an expression as Python closures (expressions are run by
-    mdl.values.evaluate with their dependencies)."""
+    mdl.device.evaluate with their dependencies)."""
     decode = None
     if codec.decode is not None and not isinstance(codec.decode[0], ir.Expression):
         decode = compile_decoder(name, codec.decode)

@@ -3,7 +3,7 @@ fields so that every field comes after those it names, type-check and lower each
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -12,7 +12,8 @@ from mdl.lang.expr.lower import Lowered, lower, refs_of
 from mdl.lang.expr.nodes import ExprError, Node
 from mdl.lang.expr.parser import MAX_DEPTH, parse
 from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
-from mdl.model import Device, Function, Value
+from mdl.model import CompiledExpression, Device, Function, Value
+from mdl.model.layout import FUNCTIONS, MAX_REGISTERS
 
 # a translated expression: (the function's registers, ascending, None where missing; p0, p1, ...) -> value
 FieldFunction = Callable[..., Value]
@@ -38,10 +39,9 @@ class FieldError:
 def plain_type(fn: Function) -> str:
     """The expression type of a function without an expression."""
     from mdl.model.layout import layout
-    from mdl.values.codec import scales
 
     kind = layout(fn).kind
-    if fn.read_function_code or kind == "float" or (kind == "int" and scales(fn)):
+    if fn.read_function_code or kind == "float" or (kind == "int" and fn.scales):
         return "double"
     return {"int": "long", "string": "string", "bool": "bool"}[kind]
 
@@ -107,7 +107,7 @@ def compile_device(device: Device) -> list[FieldError]:
             refuse_depth(fn)
             return None
         try:
-            lowered = lower(parsed[fn.name], types, device.max_registers or 125)
+            lowered = lower(parsed[fn.name], types, device.max_registers or MAX_REGISTERS)
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
             return None
@@ -121,17 +121,23 @@ def compile_device(device: Device) -> list[FieldError]:
     return errors
 
 
-def evaluation_order(device: Device, names: Iterable[str]) -> list[Function]:
-    """The named functions and every function they depend on, dependencies first."""
-    by_name = {fn.name: fn for fn in device.functions}
+def evaluation_order(
+    device: Device, names: Iterable[str], by_name: Mapping[str, Function] | None = None
+) -> list[Function]:
+    """The named functions and every function they depend on, dependencies first. `by_name`
+    (name -> function) may be given; without it the names are looked up in a shared index of the
+    device's functions, so that calling this once per function stays linear."""
     out: list[Function] = []
     seen: set[str] = set()
+
+    def find(name: str) -> Function:
+        return by_name[name] if by_name is not None else FUNCTIONS.get(device, name)
 
     def add(name: str) -> None:
         if name in seen:
             return
         seen.add(name)
-        fn = by_name[name]
+        fn = find(name)
         if fn.compiled is not None:
             for dep in fn.compiled.deps:
                 add(dep)
@@ -156,5 +162,5 @@ def _namespace_for(source: str) -> FieldFunction:
     return field
 
 
-def python_function(compiled: Compiled) -> FieldFunction:
+def python_function(compiled: CompiledExpression) -> FieldFunction:
     return _namespace_for(python_source(compiled.lowered))

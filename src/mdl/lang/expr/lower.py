@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypedDict
 
 from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+from mdl.model import BIT_TABLES
+from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -24,7 +26,6 @@ RESULT = {"int16": "long", "uint16": "long", "int32": "long", "uint32": "long", 
           "uint64": "long", "ieee754_32": "double", "ieee754_64": "double", "utf8": "string",
           "hexstring": "string", "eui48": "string", "ipv4addr": "string", "ipv6addr": "string",
           "enum": "string", "bitset": "list", "bitsetbit": "bool"}
-BIT_TABLES = ("coil", "discrete")
 
 
 class OpData(TypedDict, total=False):
@@ -89,7 +90,7 @@ def _children(node: Node) -> list[Node]:
 
 
 class Lowerer:
-    def __init__(self, ref_types: dict[str, str], max_registers: int = 125):
+    def __init__(self, ref_types: dict[str, str], max_registers: int = MAX_REGISTERS):
         self.ref_types = ref_types
         self.ops: list[Op] = []
         self.max_registers = max_registers
@@ -112,7 +113,7 @@ class Lowerer:
             raise ExprError(f"the expression mixes register tables ({', '.join(sorted(tables))})", col)
         self.table = found[0][0] if found else None
         self.addresses = sorted({a for _, addrs, _ in found for a in addrs})
-        limit = 2000 if self.table in BIT_TABLES else self.max_registers
+        limit = MAX_BITS if self.table in BIT_TABLES else self.max_registers
         if len(self.addresses) > limit:
             needs = f"the expression needs {len(self.addresses)} registers"
             raise ExprError(f"{needs}; one request reads at most {limit}", 1)
@@ -223,5 +224,5 @@ class Lowerer:
         return self.emit(name, RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping), bit=node.bit)
 
 
-def lower(node: Node, ref_types: dict[str, str], max_registers: int = 125) -> Lowered:
+def lower(node: Node, ref_types: dict[str, str], max_registers: int = MAX_REGISTERS) -> Lowered:
     return Lowerer(ref_types, max_registers).lower(node)

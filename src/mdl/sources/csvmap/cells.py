@@ -15,6 +15,7 @@ from mdl.model.addressing import (
     match_address,
     whole_number,
 )
+from mdl.model.layout import MAX_ADDRESS
 
 
 class CellError(ValueError):
@@ -112,8 +113,8 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
             raise CellError(f"'{text}' mixes register tables")
         table = table or tbl
         addresses += run
-    if any(a > 65535 for a in addresses):
-        raise CellError(f"address {max(addresses)} is over 65535")
+    if any(a > MAX_ADDRESS for a in addresses):
+        raise CellError(f"address {max(addresses)} is over {MAX_ADDRESS}")
     if len(set(addresses)) != len(addresses):
         raise CellError(f"'{text}' lists an address twice")
     return addresses, table

@@ -19,13 +19,14 @@ from pathlib import Path
 
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.lang.expr.lower import Lowered, Op
+from mdl.model.layout import MAX_REGISTERS
 from mdl.targets.render import cstring
 
 RUNTIME_SOURCE = Path(__file__).resolve().parent / "runtime" / "expr.c"
 C_TYPES = {"long": "int64_t", "double": "double", "string": "char", "bool": "bool", "list": "struct {stem}_list"}
 LONG_TEXT = 20  # -9223372036854775808
 DOUBLE_TEXT = 26  # Java's Double.toString, at most -1.2345678901234567E-308
-MAX_LIST_BITS = 16 * 125
+MAX_LIST_BITS = 16 * MAX_REGISTERS
 _REGISTER_TEXT: dict[str, Callable[[int], int]] = {
     "hexstring": lambda n: 10 * n - 1, "utf8": lambda n: 6 * n, "eui48": lambda n: 17, "ipv4addr": lambda n: 15,
     "ipv6addr": lambda n: 5 * n - 1}
