@@ -17,7 +17,7 @@ from mdl.lang.expr.fields import evaluation_order
 from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
-from mdl.plan import Request, plan_reads, split_request
+from mdl.plan import Request, plan_groups
 from mdl.resolve.checks import check_device
 from mdl.values.build import build
 from mdl.values.ir import Codec
@@ -85,8 +85,7 @@ class ResolvedDevice:
     def plan(self) -> tuple[PlanGroup, ...]:
         out = []
         offset = 0
-        for req in plan_reads(self.device):
-            parts = split_request(self.device, req)
+        for req, parts in plan_groups(self.device, {f.name: f.layout for f in self.functions}):
             out.append(PlanGroup(req, tuple(parts) if parts != [req] else (), offset))
             offset += req.count
         return tuple(out)
@@ -110,12 +109,13 @@ class ResolvedDevice:
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
     """The resolved device, or MdlError with every problem found, errors and warnings in file order
     (warnings are kept on the result when there is no error)."""
-    found = check_device(device, path)
+    layouts: dict[str, Layout] = {}
+    found = check_device(device, path, layouts)
     if any(d.severity == "error" for d in found):
         raise MdlError(found)
     names = [fn.name for fn in device.functions]
     functions = []
     for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):
-        lay = layout(fn)
+        lay = layouts[fn.name] if fn.name in layouts else layout(fn)  # an expression's: from its registers
         functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay)))
     return ResolvedDevice(device, tuple(functions), tuple(d for d in found if d.severity != "error"))

@@ -38,7 +38,9 @@ def position(owner: object, key: str = "", offset: int = 0, line: int | None = N
     return line, None
 
 
-def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
+def check_device(device: Device, path: str | None = None, layouts: dict[str, Layout] | None = None) -> list[Diagnostic]:
+    """Every problem of the device, in file order. `layouts`, when given, receives the layout of
+    each function without an expression that has one (the resolve step keeps them)."""
     out: list[Diagnostic] = []
 
     def err(fn: Function, message: str, severity: str = "error", key: str = "", offset: int = 0) -> None:
@@ -65,6 +67,8 @@ def check_device(device: Device, path: str | None = None) -> list[Diagnostic]:
         except LayoutError as exc:
             err(fn, str(exc))
             continue
+        if layouts is not None:
+            layouts[fn.name] = lay
         if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
             err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
         for attr, code in (("read_function_code", fn.read_function_code),
