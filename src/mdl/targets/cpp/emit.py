@@ -121,16 +121,6 @@ class CppFunction:
     params: str = ""
     steps: list[CppFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
 
-    def decode_into(self, target: str, deps_from: str) -> list[str]:
-        """Statements that decode the registers r (with present) into target, an lvalue; the values
-        the function depends on are deps_from + their names."""
-        regs = ["r", "present"] if self.expr else ["r"]
-        args = (regs if self.n else []) + [deps_from + d for d in self.deps]
-        if not self.status:
-            return [f"{target} = decode_{self.ident}({', '.join(args)});"]
-        args.append(target[1:] if target.startswith("*") else f"&{target}")
-        return [f"if (decode_{self.ident}({', '.join(args)}) == -1) {{", "    return -1;", "}"]
-
     @property
     def reads_device(self) -> bool:
         return any(step.n for step in self.steps)

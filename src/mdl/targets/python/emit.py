@@ -274,10 +274,9 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     ops = env.get_template("python/templates/ops.j2").module
     for code in functions:
         if code.codec.decode is not None:
-            code.decoder = f"def _decode_{code.ident}({code.params}) -> {code.type}:\n" + ops.decode_body(code).rstrip()  # type: ignore[attr-defined]
+            code.decoder = ops.decoder(code).rstrip()  # type: ignore[attr-defined]
         if code.codec.encode is not None:
-            code.encoder = (f"def _encode_{code.ident}(value: {code.write_type}) -> list[int]:\n"
-                            + ops.encode_body(code).rstrip())  # type: ignore[attr-defined]
+            code.encoder = ops.encoder(code).rstrip()  # type: ignore[attr-defined]
     infos = {f.fn.name: f for f in functions}
     readable = [infos[f.name] for f in resolved.readable]
     code_text = [text for f in functions for text in (f.decoder, f.encoder) if text] + [f.gather for f in readable]
