@@ -331,7 +331,7 @@ class Session:
                                if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
                     raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
         try:
-            computed = self.evaluator.values(names, lambda t, a: tables[t].get(a))
+            computed = self.evaluator.values_from_tables(names, tables)
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
         return {fn.name: computed[fn.name] for fn in functions}

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Callable
-from typing import TypedDict
+from typing import TypedDict, cast
 
 from pymodbus.client import ModbusBaseClient, ModbusBaseSyncClient
 from pymodbus.exceptions import ModbusException
@@ -90,10 +90,9 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
 
 def _need(name: str, regs: list[int | None]) -> list[int]:
     """The registers of a function; ModbusExceptionError if the device refused one of them."""
-    present = [r for r in regs if r is not None]
-    if len(present) < len(regs):
+    if None in regs:
         raise ModbusExceptionError(2, f"reading {name}")
-    return present
+    return cast("list[int]", regs)
 
 
 def _f32(x: float) -> float:

@@ -221,9 +221,9 @@ class FunctionCode:
     encoder: str = ""  # the rendered _encode_<ident>, if writable
 
 
-def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str]) -> FunctionCode:
+def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str],
+                  idents: dict[str, str]) -> FunctionCode:
     fn, codec = f.fn, f.codec
-    idents = {g.name: g.ident for g in resolved.functions}
     if fn.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(f.deps)])
     else:
@@ -270,7 +270,8 @@ def environment() -> jinja2.Environment:
 def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment) -> dict[str, Any]:
     device = resolved.device
     types = {f.name: value_type(f.codec.value_type) for f in resolved.functions}
-    functions = [function_code(resolved, f, types) for f in resolved.functions]
+    idents = {f.name: f.ident for f in resolved.functions}
+    functions = [function_code(resolved, f, types, idents) for f in resolved.functions]
     ops = env.get_template("python/templates/ops.j2").module
     for code in functions:
         if code.codec.decode is not None:
