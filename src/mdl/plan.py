@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from mdl.model import Device, Function
-from mdl.model.layout import FUNCTIONS, MAX_BITS, MAX_REGISTERS, Layout, layouts_by_name
+from mdl.model.layout import MAX_BITS, MAX_REGISTERS, Layout, layouts_by_name
 
 TABLE_ORDER = ("coil", "discrete", "holding", "input")
 
@@ -93,7 +93,8 @@ def split_request(device: Device, request: Request, layouts: Layouts | None = No
     function's addresses within the group, each distinct run once (functions that share registers
     share its request), in the order the group names the functions."""
     if layouts is None:
-        layouts = layouts_by_name(FUNCTIONS.get(device, name) for name in request.functions)
+        wanted = set(request.functions)
+        layouts = layouts_by_name(fn for fn in device.functions if fn.name in wanted)
     names_of: dict[tuple[int, int], list[str]] = {}  # (start, count) -> the functions whose run it is
     for name in request.functions:
         lay = layouts[name]

@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-from mdl.model import BIT_TABLES, Device, Function
+from mdl.model import BIT_TABLES, Function
 
 MAX_REGISTERS = 125
 MAX_BITS = 2000
@@ -109,36 +109,6 @@ def layout(fn: Function) -> Layout:
 def layouts_by_name(functions: Iterable[Function]) -> dict[str, Layout]:
     """name -> layout of each function, computed once each (LayoutError as `layout` raises it)."""
     return {fn.name: layout(fn) for fn in functions}
-
-
-class FunctionIndex:
-    """name -> function of a device, kept between calls: `lookup(device)` answers from the index it
-    built last time for the same `device.functions` list, rebuilding it when that list changed
-    (another list, another length, or a function at an indexed place renamed or replaced), so that
-    callers asking one name at a time (a request, an expression's dependencies) stay linear."""
-
-    def __init__(self) -> None:
-        self._functions: list[Function] | None = None
-        self._size = -1
-        self._where: dict[str, int] = {}
-
-    def _build(self, functions: list[Function]) -> None:
-        self._functions, self._size = functions, len(functions)
-        self._where = {fn.name: i for i, fn in enumerate(functions)}
-
-    def get(self, device: Device, name: str) -> Function:
-        """The function named `name` (the last of that name); KeyError if there is none."""
-        functions = device.functions
-        if functions is not self._functions or len(functions) != self._size:
-            self._build(functions)
-        i = self._where.get(name)
-        if i is not None and i < len(functions) and functions[i].name == name:
-            return functions[i]
-        self._build(functions)  # renamed or replaced since: look again
-        return functions[self._where[name]]
-
-
-FUNCTIONS = FunctionIndex()  # the index shared by the read plan and expression ordering
 
 
 def int_type_bits(bits: int) -> int:

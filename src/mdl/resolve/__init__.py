@@ -74,7 +74,11 @@ class ResolvedDevice:
 
     def closure(self, names: list[str]) -> list[ResolvedFunction]:
         """The named functions and those their expressions need, each after what it needs."""
-        return [self.by_name[fn.name] for fn in evaluation_order(self.device, names)]
+        return [self.by_name[fn.name] for fn in evaluation_order(self.device, names, self._functions_by_name)]
+
+    @cached_property
+    def _functions_by_name(self) -> dict[str, Function]:
+        return {f.name: f.fn for f in self.functions}
 
     @cached_property
     def readable(self) -> tuple[ResolvedFunction, ...]:

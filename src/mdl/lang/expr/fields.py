@@ -13,7 +13,7 @@ from mdl.lang.expr.nodes import ExprError, Node
 from mdl.lang.expr.parser import MAX_DEPTH, parse
 from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
 from mdl.model import CompiledExpression, Device, Function, Value
-from mdl.model.layout import FUNCTIONS, MAX_REGISTERS
+from mdl.model.layout import MAX_REGISTERS
 
 # a translated expression: (the function's registers, ascending, None where missing; p0, p1, ...) -> value
 FieldFunction = Callable[..., Value]
@@ -124,14 +124,15 @@ def compile_device(device: Device) -> list[FieldError]:
 def evaluation_order(
     device: Device, names: Iterable[str], by_name: Mapping[str, Function] | None = None
 ) -> list[Function]:
-    """The named functions and every function they depend on, dependencies first. `by_name`
-    (name -> function) may be given; without it the names are looked up in a shared index of the
-    device's functions, so that calling this once per function stays linear."""
+    """The named functions and every function they depend on, dependencies first. A caller that
+    asks once per function passes `by_name` (name -> function, as the resolved device keeps it),
+    so that the device's names are not mapped again on every call."""
     out: list[Function] = []
     seen: set[str] = set()
+    found = by_name if by_name is not None else {fn.name: fn for fn in device.functions}
 
     def find(name: str) -> Function:
-        return by_name[name] if by_name is not None else FUNCTIONS.get(device, name)
+        return found[name]
 
     def add(name: str) -> None:
         if name in seen:

@@ -188,19 +188,15 @@ def read_device(path: StrPath, version: str = "1.0") -> Device:
 
 
 def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
-    """(device, diagnostics) as `mdl validate` reports them: the XSD, then the checks of resolve
-    (errors, or the warnings of a device that resolved); device is None if the file did not load."""
-    from mdl.resolve import resolve
+    """(device, diagnostics) as `mdl validate` reports them: the XSD, then the checks resolve runs
+    (validating needs no value IR, so it stops there); device is None if the file did not load."""
+    from mdl.resolve.checks import check_device
 
     try:
         device = read_device(path, version)
     except MdlError as exc:
         return None, exc.diagnostics
-    try:
-        resolved = resolve(device, str(path))
-    except MdlError as exc:
-        return device, exc.diagnostics
-    return device, list(resolved.warnings)
+    return device, check_device(device, str(path))
 
 
 def load_device(path: StrPath, version: str = "1.0") -> Device:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import math
+import re
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -52,8 +53,16 @@ EXPR_TYPES = {"double": "float", "long": "int", "string": "str", "bool": "bool",
 Request = tuple[str, int, int]  # (table, first address, count)
 
 
+# what is not code in generated Python: string literals (no triple quotes are generated inside
+# functions) and comments
+_NOT_CODE = re.compile(r"""'(?:\\.|[^'\\\n])*'|"(?:\\.|[^"\\\n])*"|#[^\n]*""")
+_IDENTIFIER = re.compile(r"\b[A-Za-z_]\w*\b")
+
+
 def _names(source: str) -> set[str]:
-    return {node.id for node in ast.walk(ast.parse(source)) if isinstance(node, ast.Name)}
+    """The identifiers of generated Python code outside strings and comments (a superset of the
+    names it uses: attribute names and keywords too, which match no helper and no import)."""
+    return set(_IDENTIFIER.findall(_NOT_CODE.sub(" ", source)))
 
 
 def _loaded(lines: list[str]) -> set[str]:
@@ -69,7 +78,8 @@ def runtime_helpers() -> dict[str, tuple[str, frozenset[str]]]:
         if isinstance(node, ast.FunctionDef):
             source = ast.get_source_segment(RUNTIME_SOURCE, node)
             assert source is not None
-            out[node.name] = (source, frozenset(_names(source)))
+            names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
+            out[node.name] = (source, frozenset(names))
     return out
 
 
