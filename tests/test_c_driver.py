@@ -8,20 +8,27 @@ import json
 import math
 import random
 import subprocess
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 from c_harness import COMPILERS, build, compile_driver
-from conftest import DATA, EXAMPLE, REFERENCE, ROOT, Sim, device_xml, fn_xml, import_generated, run_mdl
+from conftest import DATA, EXAMPLE, REFERENCE, ROOT, Sim, fn_xml, run_mdl
 from cpp_harness import MODBUS_ENOBASE, Harness
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
-from test_cpp_driver import ALL_SETTINGS, BITS, DIFF_FUNCTIONS, DIFF_REGISTERS, FRAGMENT_READS, FRAGMENT_WRITES
+from test_cpp_driver import (
+    ALL_SETTINGS,
+    BITS,
+    DIFF_FUNCTIONS,
+    DIFF_REGISTERS,
+    FRAGMENT_READS,
+    FRAGMENT_WRITES,
+    load_registers,
+    served_device,
+)
 
 from mdl.device.scenarios import matches
-from mdl.model.names import stem as file_stem
 from mdl.sources.loading import load_any
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render
@@ -143,39 +150,10 @@ def test_unreachable_device(tmp_path):
 
 # ---- differential: random registers, the C driver, the Python driver and mdl read ----
 
-@contextmanager
-def _served(tmp_path_factory, functions: str, name: str):
-    d = tmp_path_factory.mktemp("cdevice")
-    path = d / "device.xml"
-    path.write_text(device_xml(functions, name=name))
-    device = load_device(path)
-    exe = build(device, d)
-    stem = file_stem(name)
-    (d / f"{stem}.py").write_text(render(device, "device.xml", "python")[f"{stem}.py"])
-    module = import_generated(d / f"{stem}.py", f"{stem}_cpy")
-    sim = Sim(path)
-    client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
-    assert client.connect()
-    h = Harness(exe, sim.port)
-    try:
-        yield path, module, client, h, sim
-    finally:
-        h.close()
-        client.close()
-        sim.stop()
-
-
 @pytest.fixture(scope="module")
 def diff_setup(tmp_path_factory):
-    with _served(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device") as served:
+    with served_device(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device", build) as served:
         yield served
-
-
-def _load(client, regs, bits):
-    for start in range(0, len(regs), 120):
-        assert not client.write_registers(start, regs[start:start + 120], device_id=1).isError()
-    for i, b in enumerate(bits):
-        assert not client.write_coil(i, b, device_id=1).isError()
 
 
 @settings(max_examples=25, deadline=None,
@@ -184,7 +162,7 @@ def _load(client, regs, bits):
        bits=st.lists(st.booleans(), min_size=2, max_size=2))
 def test_c_and_python_agree_on_random_registers(diff_setup, regs, bits):
     _, module, client, h, _ = diff_setup
-    _load(client, regs, bits)
+    load_registers(client, regs, bits)
     assert_exactly(h.values(), module.DiffDevice(client).read_all())
 
 
@@ -193,7 +171,7 @@ def test_mdl_read_agrees_with_the_c_driver(diff_setup):
     rng = random.Random(7)
     for _ in range(4):
         regs = [rng.choice([0, 0xFFFF, 0x8000, 0x7FFF, rng.randrange(65536)]) for _ in range(DIFF_REGISTERS)]
-        _load(client, regs, [rng.random() < 0.5, rng.random() < 0.5])
+        load_registers(client, regs, [rng.random() < 0.5, rng.random() < 0.5])
         assert_exactly(h.values(), mdl_read(path, sim))
 
 
@@ -225,7 +203,8 @@ def test_scaled_and_string_writes_round_trip(diff_setup):
 
 @pytest.fixture(scope="module")
 def fragment_setup(tmp_path_factory):
-    with _served(tmp_path_factory, FRAGMENT_READS + FRAGMENT_WRITES, "Fragment Device") as (_, module, client, h, _):
+    functions = FRAGMENT_READS + FRAGMENT_WRITES
+    with served_device(tmp_path_factory, functions, "Fragment Device", build) as (_, module, client, h, _):
         yield module.FragmentDevice(client), client, h
 
 
@@ -235,7 +214,7 @@ def test_fragment_reads_agree_with_python(fragment_setup):
 
     dev, client, h = fragment_setup
     for regs in _register_sets(FRAGMENT_WRITE_BASE):
-        _load(client, regs, [])
+        load_registers(client, regs, [])
         for i, code in enumerate(READS):
             try:
                 python = {f"rd{i}": getattr(dev, f"read_rd{i}")()}

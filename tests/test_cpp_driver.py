@@ -249,17 +249,20 @@ BITS = (fn_xml("coil_a", "0", format="BIT", register_type="coil")
 
 
 @contextmanager
-def _served(tmp_path_factory, functions: str, name: str):
-    """A device built from `functions`: its C++ harness and Python driver module, both against one `mdl sim`."""
-    toolchain()
+def served_device(tmp_path_factory, functions: str, name: str, build_harness=None):
+    """A device built from `functions`: a harness of its driver (C++ by default; tests/c_harness.py's
+    `build` for C) and its Python driver module, both against one `mdl sim`."""
+    if build_harness is None:
+        toolchain()
+        build_harness = build
     d = tmp_path_factory.mktemp("device")
     path = d / "device.xml"
     path.write_text(device_xml(functions, name=name))
     device = load_device(path)
-    exe = build(device, d)
+    exe = build_harness(device, d)
     stem = file_stem(name)
     (d / f"{stem}.py").write_text(render(device, "device.xml", "python")[f"{stem}.py"])
-    module = import_generated(d / f"{stem}.py", f"{stem}_py")
+    module = import_generated(d / f"{stem}.py", f"{stem}_{d.name}")
     sim = Sim(path)
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
@@ -274,11 +277,11 @@ def _served(tmp_path_factory, functions: str, name: str):
 
 @pytest.fixture(scope="module")
 def diff_setup(tmp_path_factory):
-    with _served(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device") as served:
+    with served_device(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device") as served:
         yield served
 
 
-def _load(client, regs, bits):
+def load_registers(client, regs, bits):
     for start in range(0, len(regs), 120):
         assert not client.write_registers(start, regs[start:start + 120], device_id=1).isError()
     for i, b in enumerate(bits):
@@ -291,7 +294,7 @@ def _load(client, regs, bits):
        bits=st.lists(st.booleans(), min_size=2, max_size=2))
 def test_cpp_python_agree_on_random_registers(diff_setup, regs, bits):
     _, module, client, h, _ = diff_setup
-    _load(client, regs, bits)
+    load_registers(client, regs, bits)
     py = module.DiffDevice(client).read_all()
     assert_same_values(h.values(), py)
 
@@ -303,7 +306,7 @@ def test_mdl_read_agrees_with_both_drivers(diff_setup):
     rng = random.Random(7)
     for _ in range(4):
         regs = [rng.choice([0, 0xFFFF, 0x8000, 0x7FFF, rng.randrange(65536)]) for _ in range(DIFF_REGISTERS)]
-        _load(client, regs, [rng.random() < 0.5, rng.random() < 0.5])
+        load_registers(client, regs, [rng.random() < 0.5, rng.random() < 0.5])
         py = module.DiffDevice(client).read_all()
         proc = run_mdl("read", path, "--host", sim.host, "--port", sim.port, "--format", "json")
         assert proc.returncode == 0, proc.stderr
@@ -356,7 +359,8 @@ EDOM, ERANGE = 33, 34
 
 @pytest.fixture(scope="module")
 def fragment_setup(tmp_path_factory):
-    with _served(tmp_path_factory, FRAGMENT_READS + FRAGMENT_WRITES, "Fragment Device") as (_, module, client, h, _):
+    functions = FRAGMENT_READS + FRAGMENT_WRITES
+    with served_device(tmp_path_factory, functions, "Fragment Device") as (_, module, client, h, _):
         yield module.FragmentDevice(client), client, h
 
 
@@ -371,7 +375,7 @@ def test_fragment_reads_agree_with_python(fragment_setup):
     """Value for value, and failure (EDOM, ERANGE) for failure."""
     dev, client, h = fragment_setup
     for regs in _register_sets(FRAGMENT_WRITE_BASE):
-        _load(client, regs, [])
+        load_registers(client, regs, [])
         for i, code in enumerate(CFRAG_READS):
             try:
                 python = {f"rd{i}": getattr(dev, f"read_rd{i}")()}
