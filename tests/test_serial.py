@@ -8,6 +8,7 @@ import json
 import os
 import select
 import socket
+import subprocess
 import termios
 import threading
 import time
@@ -204,6 +205,19 @@ def test_serial_device_that_cannot_be_opened(tmp_path):
     assert_clean_error(cli("read", TSTAT, "--serial", not_a_terminal), 3, "not a serial device")
     assert_clean_error(run_mdl("sim", TSTAT, "--serial", missing, timeout=RUN), 1,
                        f"cannot serve on {missing}: No such file or directory")
+
+
+def test_settings_a_serial_device_refuses(serial_line):
+    """Parity on a pseudo terminal: some kernels refuse it (EINVAL), others take it. Either it works,
+    or every command says which settings the device refused: exit 3 (read) or 1 (sim), no traceback."""
+    end = serial_line.ends[0]
+    try:
+        proc = run_mdl("sim", TSTAT, "--serial", end, "--parity", "E", timeout=5)
+    except subprocess.TimeoutExpired:  # it serves: this kernel takes parity on a pseudo terminal
+        return
+    assert_clean_error(proc, 1, f"cannot serve on {end}: ")
+    assert_clean_error(cli("read", TSTAT, "--serial", end, "--parity", "E"), 3,
+                       f"cannot open serial device {end}: it refuses 19200 8E1 (")
 
 
 def test_a_serial_device_another_program_has_open(serial_line, sim_factory):

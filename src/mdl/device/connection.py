@@ -108,6 +108,21 @@ class Connection:
             return "another program has it open"
         finally:
             os.close(fd)  # which releases the lock
+        return self._settings_error()
+
+    def _settings_error(self) -> str | None:
+        """Why the device refuses this connection's baud rate, parity, stop bits or byte size (a
+        pseudo terminal refuses parity on some kernels), in the system's words; None if it takes them."""
+        import termios
+
+        import serial  # type: ignore[import-untyped]  # pyserial ships no types
+
+        try:
+            serial.Serial(self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits,
+                          bytesize=self.bytesize).close()
+        except (serial.SerialException, ValueError, OSError, termios.error) as exc:
+            reason = exc.args[-1] if isinstance(exc, (OSError, termios.error)) and exc.args else exc
+            return f"it refuses {self.baud} {self.bytesize}{self.parity}{self.stopbits} ({reason})"
         return None
 
     def silence_hint(self) -> str:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 import signal
 import sys
 from collections.abc import Awaitable, Callable, Iterable, Sequence
@@ -188,7 +189,16 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
         if reason:
             raise error(f"cannot serve on {connection.serial}: {reason}")
     server = connection.server(SimContext(units, silent=connection.rtu))
-    await server.serve_forever(background=True)
+    refused: tuple[type[Exception], ...] = (OSError,)
+    if os.name == "posix":
+        import termios
+
+        refused += (termios.error,)  # what pyserial raises for a setting the device refuses (parity on a pty)
+    try:
+        await server.serve_forever(background=True)
+    except refused as exc:
+        why = exc.args[-1] if exc.args else exc
+        raise error(f"cannot serve on {connection.serial or connection}: {why}") from None
     sockets = getattr(server.transport, "sockets", None) or []
     where = connection.serving_at(sockets[0].getsockname()[1] if sockets else connection.port)
     loop = asyncio.get_running_loop()
