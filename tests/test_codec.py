@@ -181,3 +181,12 @@ def test_generated_python_encodes_like_codec(generated, data):
             getattr(module, f"_encode_f{i}")(value)
         return
     assert getattr(module, f"_encode_f{i}")(value) == expected
+
+
+def test_a_bounded_bit_takes_the_values_inside_its_bounds():
+    """A coil that only accepts 1 (a trigger): writing True passes, False is below the minimum, in
+    the runtime as in every driver."""
+    fn = make("BIT", register_type="coil", minimum=1.0)
+    assert codec.encode(fn, True) == [1]
+    with pytest.raises(codec.CodecError, match="below the minimum 1"):
+        codec.encode(fn, False)

@@ -108,3 +108,31 @@ def test_read_falls_back_on_exception_2(sim_factory, write_device):
     proc = run_mdl("read", described, "--host", sim.host, "--port", sim.port, "--format", "json")
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == {"a": 7, "b": 9}
+
+
+def test_a_refused_group_is_read_as_smaller_requests_on_every_poll(write_device):
+    """A device that refuses any request of more than one register (exception 2): the first read of
+    a list of names finds the smaller requests, and every later read goes straight to them, values
+    and all (a regression returned nulls from the second poll on)."""
+    from mdl.device.connection import Connection
+    from mdl.device.runtime import ModbusExceptionError, Session
+    from mdl.sources.loading import load_resolved
+
+    path = write_device("".join(fn_xml(name, str(i), format="INT16") for i, name in enumerate("abc")))
+    resolved = load_resolved(path)
+    session = Session(resolved, Connection())
+    asked = []
+
+    def read_request(req):
+        asked.append((req.start, req.count))
+        if req.count > 1:
+            raise ModbusExceptionError("reading", 2)
+        return [7 + req.start]
+
+    session.read_request = read_request
+    a_and_b = [resolved.by_name[n].fn for n in "ab"]
+    assert session.read(a_and_b) == {"a": 7, "b": 8}
+    assert asked == [(0, 2), (0, 1), (1, 1)]
+    asked.clear()
+    assert session.read(a_and_b) == {"a": 7, "b": 8}
+    assert asked == [(0, 1), (1, 1)]

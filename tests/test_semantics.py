@@ -4,7 +4,7 @@ refused, so a bound on text, or crossed bounds, are a mistake in the document)."
 from __future__ import annotations
 
 import pytest
-from conftest import assert_clean_error, fn_xml, run_mdl
+from conftest import assert_clean_error, cli, fn_xml, run_mdl
 
 
 @pytest.mark.parametrize("function, message", [
@@ -26,3 +26,18 @@ def test_bounds_on_a_bit_are_accepted(write_device):
                         + fn_xml("fan", "2", format="BIT", register_type="coil", minimum="-1", maximum="5"))
     proc = run_mdl("validate", path)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_multipliers_no_driver_can_use(write_device):
+    """Zero makes every value the offset and nothing writable: refused. A tiny one (1e-320, whose
+    reciprocal is no double) is a plain multiplication: generated, no traceback."""
+    zero = write_device(fn_xml("z", "1", format="INT16", multiplier="0"), filename="zero.xml")
+    assert_clean_error(cli("validate", zero), 1, "multiplier 0 reads every value as the offset")
+    tiny = write_device(fn_xml("t", "1", format="INT16", multiplier="1e-320"), filename="tiny.xml")
+    proc = cli("gen", tiny, "--lang", "python", "-o", tiny.parent / "out")
+    assert proc.returncode == 0, proc.stderr
+
+
+def test_a_write_fragment_on_text_is_refused(write_device):
+    path = write_device(fn_xml("s", "1", format="STRING", count="2", write_function_code="r1 = arg;"))
+    assert_clean_error(cli("validate", path), 1, "a write fragment takes a number; format STRING cannot use one")

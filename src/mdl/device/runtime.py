@@ -298,7 +298,7 @@ class Session:
         plan = self._plan(names)
         tables: dict[str, dict[int, int]] = {"holding": {}, "input": {}, "coil": {}, "discrete": {}}
         missing: list[Request] = []
-        for group, smaller in plan.groups:
+        for i, (group, smaller) in enumerate(plan.groups):
             if group not in self.refused:
                 try:
                     values = self.read_request(group)
@@ -310,6 +310,7 @@ class Session:
                     continue
                 if smaller is None:
                     smaller = split_request(self.device, group, plan.layouts)
+                    plan.groups[i] = (group, smaller)  # the next read goes straight to them
                 if smaller in ([], [group]):
                     missing.append(group)  # refused even alone: these registers have no value
                     continue

@@ -82,6 +82,10 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
                     offset=(exc.col or 1) - 1)
         if fn.read_function_code is not None and lay.kind in ("string", "bool"):
             err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
+        if fn.write_function_code is not None and lay.kind == "string":
+            err(fn, "a write fragment takes a number; format STRING cannot use one")
+        if fn.multiplier == 0 and not fn.read_function_code:
+            err(fn, "multiplier 0 reads every value as the offset and can write none")
         for message in bound_problems(fn, lay):
             err(fn, message)
         for token in fn.not_implemented or ():

@@ -38,7 +38,7 @@ _MAX_DIVISOR = 1 << 53
 
 def divisor_of(multiplier: float) -> int | None:
     """The integer d with multiplier == 1/d exactly (0.1 -> 10, 0.25 -> 4), else None."""
-    if not 0 < multiplier < 1:
+    if not 1.0 / _MAX_DIVISOR < multiplier < 1:
         return None
     d = round(1.0 / multiplier)
     return d if 1 < d < _MAX_DIVISOR and 1.0 / d == multiplier else None

@@ -191,7 +191,7 @@ def _range_check(step: ir.CheckRange) -> Callable[[Scalar], None]:
     low, high = step.minimum, step.maximum
 
     def check(value: Scalar) -> None:
-        x = _number(value)
+        x = int(value) if isinstance(value, bool) else _number(value)  # a bit's bounds: 0 and 1
         if isinstance(x, float) and math.isnan(x):
             raise CodecError("NaN is outside every range")
         if low is not None and x < low:

@@ -278,10 +278,6 @@ int decode_flow(const std::array<uint16_t, 1> &r, double *out) {
 }
 
 int encode_flow(double value, std::array<uint16_t, 1> &r) {
-    if (std::isnan(value)) {
-        errno = EINVAL;
-        return -1;
-    }
     int frag_err = 0;
     const double arg = value;
     const auto r1 = static_cast<int32_t>(mdl_frag_f2i(arg * 10.0, -1.0, 65536.0, &frag_err));
@@ -326,10 +322,6 @@ double decode_temp_offset(const std::array<uint16_t, 1> &r) {
 }
 
 int encode_temp_offset(double value, std::array<uint16_t, 1> &r) {
-    if (std::isnan(value)) {
-        errno = EINVAL;
-        return -1;
-    }
     double x = value;
     x = x - -40.0;
     x = x * 2.0;
