@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from mdl.model import Device, Function
-from mdl.model.layout import MAX_BITS, MAX_REGISTERS, Layout, layouts_by_name
+from mdl.model.layout import MAX_BITS, MAX_REGISTERS, Layout, address_runs, layouts_by_name
 
 TABLE_ORDER = ("coil", "discrete", "holding", "input")
 
@@ -98,7 +98,7 @@ def split_request(device: Device, request: Request, layouts: Layouts | None = No
     names_of: dict[tuple[int, int], list[str]] = {}  # (start, count) -> the functions whose run it is
     for name in request.functions:
         lay = layouts[name]
-        for run in _runs(sorted({a for a in lay.addresses if request.start <= a < request.end})):
+        for run in address_runs(sorted({a for a in lay.addresses if request.start <= a < request.end})):
             names = names_of.setdefault(run, [])
             if name not in names:
                 names.append(name)
@@ -117,12 +117,3 @@ def plan_groups(device: Device, layouts: Layouts | None = None) -> list[tuple[Re
     return out
 
 
-def _runs(addrs: list[int]) -> list[tuple[int, int]]:
-    """(start, count) of each run of consecutive addresses in a sorted list without repeats."""
-    out: list[tuple[int, int]] = []
-    for a in addrs:
-        if out and a == out[-1][0] + out[-1][1]:
-            out[-1] = (out[-1][0], out[-1][1] + 1)
-        else:
-            out.append((a, 1))
-    return out

@@ -47,6 +47,12 @@ class Layout:
     word_order: str
 
     @property
+    def runs(self) -> tuple[tuple[int, int], ...]:
+        """(start, count) of each run of consecutive addresses, in the order the addresses are listed:
+        the requests that read (or write) the function alone."""
+        return address_runs(self.addresses)
+
+    @property
     def unit_bits(self) -> int:
         return {"word": 16, "low": 8, "high": 8, "bit": 1}[self.unit]
 
@@ -104,6 +110,17 @@ def layout(fn: Function) -> Layout:
     if bits > 64:
         raise LayoutError(f"an integer of {bits} bits is wider than 64 (format {fmt}, {n} units)")
     return Layout(table, addresses, unit, "int", bits, not fmt.startswith("U"), byte_order, word_order)
+
+
+def address_runs(addresses: Iterable[int]) -> tuple[tuple[int, int], ...]:
+    """(start, count) of each run of addresses that follow each other by one."""
+    out: list[tuple[int, int]] = []
+    for a in addresses:
+        if out and a == out[-1][0] + out[-1][1]:
+            out[-1] = (out[-1][0], out[-1][1] + 1)
+        else:
+            out.append((a, 1))
+    return tuple(out)
 
 
 def layouts_by_name(functions: Iterable[Function]) -> dict[str, Layout]:

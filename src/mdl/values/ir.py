@@ -41,11 +41,13 @@ Encoding starts from `value` and ends with `r`:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, TypeAlias
+from typing import TYPE_CHECKING, Literal, TypeAlias, TypeVar
 
 if TYPE_CHECKING:
     from mdl.lang.cfrag import Fragment as FragmentTree
     from mdl.lang.expr.lower import Lowered
+
+T = TypeVar("T")
 
 Part = Literal["word", "swap", "low", "high"]  # the register as is, its bytes swapped, its low / high byte
 
@@ -182,6 +184,11 @@ class ValueType:
     nbytes: int = 0
     nullable: bool = False
     expr_type: str = ""
+
+
+def find_step(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None, kind: type[T]) -> T | None:
+    """The step of that kind in a program, if it has one."""
+    return next((s for s in steps or () if isinstance(s, kind)), None)
 
 
 @dataclass(frozen=True)

@@ -131,16 +131,6 @@ def _param_type(d: CFunction, list_type: str) -> str:
     return f"{d.t} "
 
 
-def _runs(rf: ResolvedFunction) -> list[tuple[str, int, int]]:
-    out: list[list[Any]] = []
-    for a in rf.layout.addresses:
-        if out and out[-1][1] + out[-1][2] == a:
-            out[-1][2] += 1
-        else:
-            out.append([TABLE_CONST[rf.layout.table], a, 1])
-    return [(t, s, c) for t, s, c in out]
-
-
 def _int_limits(t: str) -> tuple[int, int] | None:
     if t == "bool":
         return 0, 1
@@ -196,7 +186,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             rf=rf, ident=rf.ident, n=len(rf.layout.addresses), t=c_type(vt, rd.stem),
             wt=c_type(codec.write_type, rd.stem),
             text_size=text_size, nullable=vt.nullable, expr=expr, decode=codec.decode, encode=codec.encode,
-            runs=_runs(rf), slots=list(rd.slots_of(rf)) if codec.decode else [])
+            runs=[(TABLE_CONST[rf.layout.table], s, c) for s, c in rf.layout.runs],
+            slots=list(rd.slots_of(rf)) if codec.decode else [])
         for step in codec.decode or ():
             if isinstance(step, ir.Fragment):
                 f.read_fragment = f"frag_read_{rf.ident}"

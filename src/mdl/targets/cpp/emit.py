@@ -22,7 +22,6 @@ from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.model import Function
-from mdl.model.layout import Layout
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target, plan_rows
 from mdl.targets.cpp.expressions import body as expr_body
@@ -93,10 +92,6 @@ def range_tests(step: ir.CheckRange | None, t: str) -> list[str] | None:
     return tests
 
 
-def _step(steps: tuple[Any, ...] | None, kind: type[Any]) -> Any:
-    return next((s for s in steps or () if isinstance(s, kind)), None)
-
-
 # ---- the template's view of the device ----
 
 @dataclass
@@ -126,23 +121,13 @@ class CppFunction:
         return any(step.n for step in self.steps)
 
 
-def _runs(lay: Layout) -> list[dict[str, Any]]:
-    out: list[dict[str, Any]] = []
-    for a in lay.addresses:
-        if out and out[-1]["start"] + out[-1]["count"] == a:
-            out[-1]["count"] += 1
-        else:
-            out.append({"table": TABLE_CONST[lay.table], "start": a, "count": 1})
-    return out
-
-
 def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str, str]) -> CppFunction:
     fn, codec, lay = f.fn, f.codec, f.layout
-    read_fragment = _step(codec.decode, ir.Fragment)
-    write_fragment = _step(codec.encode, ir.Fragment)
+    read_fragment = ir.find_step(codec.decode, ir.Fragment)
+    write_fragment = ir.find_step(codec.encode, ir.Fragment)
     # SPEC 5: T is double wherever a fragment applies, for the read and the write alike
     t = "double" if fn.write_function_code and fn.writable else value_type(codec.value_type)
-    expression = _step(codec.decode, ir.Expression)
+    expression = ir.find_step(codec.decode, ir.Expression)
     if expression is not None:
         decode_lines = expr_body(expression.lowered)
     elif read_fragment is not None:
@@ -153,12 +138,13 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
     return CppFunction(
         fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
         rt=f"std::optional<{t}>" if codec.value_type.nullable else t,
-        deps=[ident_of[d] for d in f.deps], runs=_runs(lay),
+        deps=[ident_of[d] for d in f.deps],
+        runs=[{"table": TABLE_CONST[lay.table], "start": s, "count": c} for s, c in lay.runs],
         slots=list(resolved.slots_of(f)) if fn.readable else [],
         readable=codec.decode is not None, writable=codec.encode is not None,
         status=read_fragment is not None, decode_lines=decode_lines,
         encode_lines=write_fragment.tree.c("c++").body() if write_fragment is not None else [],
-        range_tests=range_tests(_step(codec.encode, ir.CheckRange), wt) if codec.encode is not None else [],
+        range_tests=range_tests(ir.find_step(codec.encode, ir.CheckRange), wt) if codec.encode is not None else [],
         int_bits=codec.write_type.bits)
 
 

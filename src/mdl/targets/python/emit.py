@@ -22,7 +22,6 @@ from mdl.lang.cfrag import FALLIBLE
 from mdl.lang.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
 from mdl.lang.expr.pyemit import body as expr_body
 from mdl.model import Function
-from mdl.model.layout import Layout
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
@@ -154,10 +153,6 @@ def _fragment_write_lines(fn: Function, step: ir.Fragment) -> list[str]:
             f"return [{', '.join(regs)}]"]
 
 
-def _step(steps: tuple[Any, ...] | None, kind: type[Any]) -> Any:
-    return next((s for s in steps or () if isinstance(s, kind)), None)
-
-
 # -- the module
 
 
@@ -173,16 +168,6 @@ def docstring(text: str) -> str:
 def doc_text(fn: Function) -> str:
     text = " ".join(fn.description.split()) or fn.name
     return f"{text} [{fn.units.strip()}]" if fn.units and fn.units.strip() else text
-
-
-def runs(lay: Layout) -> list[Request]:
-    out: list[list[Any]] = []
-    for a in lay.addresses:
-        if out and out[-1][1] + out[-1][2] == a:
-            out[-1][2] += 1
-        else:
-            out.append([lay.table, a, 1])
-    return [(table, start, count) for table, start, count in out]
 
 
 def _read_plan(resolved: ResolvedDevice) -> list[tuple[Request, int, tuple[Request, ...]]]:
@@ -238,11 +223,12 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(f.deps)])
     else:
         params = "r: list[int]"
-    read_fragment = _step(codec.decode, ir.Fragment)
-    write_fragment = _step(codec.encode, ir.Fragment)
-    expression = _step(codec.decode, ir.Expression)
+    read_fragment = ir.find_step(codec.decode, ir.Fragment)
+    write_fragment = ir.find_step(codec.encode, ir.Fragment)
+    expression = ir.find_step(codec.decode, ir.Expression)
     return FunctionCode(
-        fn=fn, ident=f.ident, codec=codec, runs=runs(f.layout), doc=doc_text(fn), type=types[fn.name],
+        fn=fn, ident=f.ident, codec=codec, runs=[(f.layout.table, start, count) for start, count in f.layout.runs],
+        doc=doc_text(fn), type=types[fn.name],
         write_type=write_type(codec.write_type) if codec.encode is not None else None, params=params,
         args="".join(f", v_{idents[d]}" for d in f.deps),
         gather=_gather(resolved, f) if fn.readable else "",
