@@ -23,7 +23,7 @@ from mdl.model import Device
 from mdl.resolve import resolve
 from mdl.targets import render
 from mdl.targets.c import emit as cgen
-from mdl.targets.render import cstring
+from mdl.targets.templating import cstring
 
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wshadow", "-Werror"]
 COMPILERS = ("gcc", "clang")

@@ -39,7 +39,7 @@ from mdl.model import Device
 from mdl.resolve import resolve
 from mdl.targets import render
 from mdl.targets.cpp import emit as cppgen
-from mdl.targets.render import cstring
+from mdl.targets.templating import cstring
 
 STRICT = ["-std=c++17", "-Wall", "-Wextra", "-Wpedantic", "-Wconversion", "-Wshadow", "-Werror"]
 COMPILERS = ("g++", "clang++")

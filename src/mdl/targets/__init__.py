@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import importlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from mdl.model import Device
-from mdl.resolve import ResolvedDevice, resolve
-from mdl.targets.base import Target
-from mdl.targets.render import require_dir, write_outputs
+if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at every start
+    from mdl.model import Device
+    from mdl.resolve import ResolvedDevice
+    from mdl.targets.base import Target
 
 # name -> (the module holding its TARGET, what it writes), in the order `--lang all` writes them; the
 # modules are imported only when a target renders, so `mdl --help` and `mdl sim` start fast
@@ -42,6 +43,8 @@ def target(name: str) -> Target:
 def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict[str, str]:
     """File name -> content for the chosen target, or for every target with lang "all". A model
     not yet resolved is resolved here, once for every target."""
+    from mdl.resolve import ResolvedDevice, resolve
+
     if not isinstance(device, ResolvedDevice):
         device = resolve(device, source_name)
     out: dict[str, str] = {}
@@ -60,6 +63,8 @@ def shared_header(cpp: str, c: str) -> str:
 
 
 def generate(device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:
+    from mdl.targets.templating import require_dir, write_outputs
+
     require_dir(outdir)
     files = render(device, source.name, lang)
     return write_outputs({outdir / name: text for name, text in files.items()}, check)

@@ -21,7 +21,7 @@ from mdl.lang.cfrag.cemit import float_literal
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target, plan_rows
 from mdl.targets.c import expressions
-from mdl.targets.render import environment
+from mdl.targets.templating import environment
 from mdl.values import ir
 
 RUNTIME = Path(__file__).resolve().parent / "runtime"

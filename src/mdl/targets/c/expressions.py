@@ -20,7 +20,7 @@ from pathlib import Path
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.lang.expr.lower import Lowered, Op
 from mdl.model.layout import MAX_REGISTERS
-from mdl.targets.render import cstring
+from mdl.targets.templating import cstring
 
 RUNTIME_SOURCE = Path(__file__).resolve().parent / "runtime" / "expr.c"
 C_TYPES = {"long": "int64_t", "double": "double", "string": "char", "bool": "bool", "list": "struct {stem}_list"}

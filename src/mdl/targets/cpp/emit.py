@@ -6,7 +6,7 @@ out, every buffer is a std::array of a size known here, and read_all allocates n
 Values are packed and unpacked with the generated code's own shifts for every byte and word order
 (libmodbus 3.1.6's float helpers do not round-trip). Fragments are printed by mdl.lang.cfrag (as C
 drivers get them), expressions by mdl.targets.cpp.expressions; text from the input reaches comments through
-`ccomment` and string literals through `cstring` (mdl.targets.render).
+`ccomment` and string literals through `cstring` (mdl.targets.templating).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target, plan_rows
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
-from mdl.targets.render import environment as render_environment
+from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
 

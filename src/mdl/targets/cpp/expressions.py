@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from mdl.lang.expr.lower import Lowered, Op
-from mdl.targets.render import cstring
+from mdl.targets.templating import cstring
 
 CPP_TYPES = {"long": "int64_t", "double": "double", "string": "std::string", "bool": "bool",
              "list": "std::vector<std::string>"}

@@ -25,8 +25,8 @@ from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
-from mdl.targets.render import environment as render_environment
-from mdl.targets.render import pycomment, pyrepr
+from mdl.targets.templating import environment as render_environment
+from mdl.targets.templating import pycomment, pyrepr
 from mdl.values import ir
 from mdl.values.ir import ValueType
 
