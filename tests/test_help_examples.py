@@ -13,7 +13,7 @@ from conftest import ROOT, Sim, run_mdl
 from mdl.cli import main
 
 # the order a user would follow: what one example writes, a later one reads
-ORDER = ["csv2xml", "validate", "gen", "import", "test", "sim", "read", "write"]
+ORDER = ["csv2xml", "validate", "gen", "import", "export", "test", "sim", "read", "write", "discover"]
 
 
 def _examples(help_text: str) -> list[list[str]]:

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
-from mdl import __version__, targets
+from mdl import __version__, exports, targets
 from mdl.device.connection import Connection, connection_options
 from mdl.diagnostics import EXIT_INVALID, Diagnostic, MdlError
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
@@ -315,10 +315,15 @@ def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
     return served
 
 
+unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True,
+                           help="Unit (device) id to talk to.")
+
+
 @main.command(name="import")
 @click.argument("file", type=INPUT)
-@click.option("--from", "fmt", type=click.Choice(["schema"]),
-              help="Input format (guessed from the file: .yaml/.yml is a Modbus Schema Toolkit schema).")
+@click.option("--from", "fmt", type=click.Choice(["xif", "wise", "schema"]),
+              help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
+                   ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
               help="Output MDL file, - for stdout (default: stdout).")
 @fail_on_warning_option
@@ -326,22 +331,112 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """Convert another device description to MDL 1.0.
 
     \b
-    Example:
+    Examples:
       mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
+      mdl import meter.mod -o meter.xml
+      mdl import Modbus.ini --from wise
     """
     from mdl.diagnostics import error
-    from mdl.fileio import write_atomic
-    from mdl.sources.loading import is_yaml
+    from mdl.sources.loading import guess_format
     from mdl.sources.mdlxml import device_to_xml
     from mdl.sources.toolkit import with_registers
 
-    if fmt is None and not is_yaml(file):
-        raise error("cannot tell the format from the file name; give --from schema", file)
-    xml = device_to_xml(with_registers(_resolved(file, "schema")))
+    fmt = fmt or guess_format(file)
+    if fmt is None:
+        raise error("cannot tell the format from the file; give --from xif, wise or schema", file)
+    resolved = _resolved(file, fmt)
+    xml = device_to_xml(with_registers(resolved) if fmt == "schema" else resolved.device)
+    _emit_text(xml, output)
+
+
+def _emit_text(text: str, output: Path | None) -> None:
+    """`text` to standard output (no -o, or -o -) or to the file, written whole or not at all."""
+    from mdl.fileio import write_atomic
+
     if output is None or str(output) == STDIO_ARG:
-        click.echo(xml, nl=False)
+        click.echo(text, nl=False)
     else:
-        write_atomic(output, xml)
+        write_atomic(output, text)
+
+
+@main.command(name="export")
+@click.argument("file", type=INPUT)
+@click.option("--to", "fmt", required=True,
+              type=click.Choice(exports.names()),
+              help="Output format: " + "; ".join(f"{k}: {v}" for k, v in exports.summaries().items()) + ".")
+@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
+              help="Output file (default: stdout); a folder for volttron.")
+@connection_options(optional=True)
+@unit_option
+@click.option("--interval", type=click.FloatRange(0.1, 7 * 86400), metavar="S",
+              help="Seconds between polls the engine should use (default 60).")
+@fail_on_warning_option
+def export_(file: Path, fmt: str, output: Path | None, connection: Connection | None, unit: int,
+            interval: float | None) -> None:
+    """Convert an MDL description to another format or to a polling engine's configuration.
+
+    What the format cannot express is reported as a warning naming the function (exit 1 with
+    --fail-on-warning, before anything is written). Output is deterministic.
+
+    \b
+    Examples:
+      mdl export examples/temco_tstat/temco_tstat.xml --to xif -o temco.mod
+      mdl export examples/temco_tstat/temco_tstat.xml --to wise --host 192.0.2.10 --unit 3 --interval 5
+      mdl export examples/temco_tstat/temco_tstat.xml --to senml
+      mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
+      mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
+    """
+    from mdl.diagnostics import error
+    from mdl.fileio import all_or_none, write_atomic
+
+    if fmt in exports.FOLDER_FORMATS and (output is None or str(output) == STDIO_ARG):
+        raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
+    settings = exports.Settings(connection, unit, interval or exports.DEFAULT_INTERVAL, interval is not None)
+    result = exports.export(_resolved(file), fmt, settings)
+    _report_warnings(result.warnings, file)
+    if result.text is not None:
+        _emit_text(result.text, output)
+        return
+    assert output is not None
+    if output.exists() and not output.is_dir():
+        raise error("not a directory", output)
+    output.mkdir(parents=True, exist_ok=True)
+    with all_or_none():
+        for name, text in result.files.items():
+            write_atomic(output / name, text)
+
+
+@main.command()
+@click.argument("files", nargs=-1, required=True, type=INPUT)
+@connection_options(timeout=0.5, retries=0)
+@click.option("--units", default="1-247", show_default=True, metavar="LIST",
+              help="Unit ids to ask: numbers and ranges, e.g. 1-10,17.")
+@click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
+@fail_on_warning_option
+def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: str) -> None:
+    """Find which description answers at each unit id, by the marker values of its functions.
+
+    A description matches a unit when every function with a marker reads one of its marker values
+    there; one without markers never matches. Where a unit answers Read Device Identification
+    (function 43 / MEI 14), its vendor, product code and revision are shown too. A unit that does
+    not answer costs one --timeout. Progress goes to stderr. Exit 0 when some unit matched, else 1.
+
+    \b
+    Examples:
+      mdl discover library/*.xml --host 127.0.0.1 --port 5020 --units 1-10
+      mdl discover meter.xml --serial /dev/ttyUSB0 --baud 9600 --units 1-32,100 --format json
+    """
+    from mdl.device.discover import discover as find, parse_units, render
+
+    _stdin_once(files)
+    try:
+        wanted = parse_units(units)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--units") from None
+    library = [(path, _resolved(path)) for path in files]
+    results = find(library, connection, wanted)
+    click.echo(render(results, fmt), nl=False)
+    sys.exit(0 if any(r.matches for r in results) else 1)
 
 
 @main.command(name="test")
@@ -390,10 +485,6 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
             raise error(f"function '{name}' is write-only")
         out.append(fn)
     return out
-
-
-unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True,
-                           help="Unit (device) id to talk to.")
 
 
 @main.command()

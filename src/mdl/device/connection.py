@@ -134,28 +134,32 @@ class Connection:
         return ""
 
 
-def connection_options(serving: bool = False) -> Callable[[F], F]:
+def connection_options(serving: bool = False, optional: bool = False, timeout: float = 3.0,
+                       retries: int = 1) -> Callable[[F], F]:
     """The CONNECTION options of SPEC section 9, handed to the command as one `connection: Connection`.
 
     `serving` (mdl sim): --host defaults to 127.0.0.1 and --port to 5020 (0 picks a free port), and there
-    is no --timeout/--retries. Otherwise (a client) --host or --serial is required, --port defaults to 502."""
+    is no --timeout/--retries. Otherwise (a client) --host or --serial is required, --port defaults to 502;
+    `optional` (mdl export): neither is required, and without them `connection` is None. `timeout` and
+    `retries` are the defaults of --timeout and --retries (mdl discover asks many units that may not
+    answer: one short wait each)."""
 
     def decorate(command: F) -> F:
         @functools.wraps(command)
         def wrapper(*args: Any, **kwargs: Any) -> Any:
             given = {name: kwargs.pop(name) for name in OPTION_NAMES if name in kwargs}
-            kwargs["connection"] = _build(given, serving)
+            kwargs["connection"] = _build(given, serving, optional)
             return command(*args, **kwargs)
 
         decorated: Callable[..., Any] = wrapper
-        for option in reversed(_options(serving)):
+        for option in reversed(_options(serving, timeout, retries)):
             decorated = option(decorated)
         return cast(F, decorated)
 
     return decorate
 
 
-def _options(serving: bool) -> list[Decorator]:
+def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Decorator]:
     """The click options, in the order --help lists them."""
     if serving:
         address = [click.option("--host", default=SIM_HOST, show_default=True, help="Address to listen on (TCP)."),
@@ -178,16 +182,17 @@ def _options(serving: bool) -> list[Decorator]:
                           "converters carry them). A serial line always carries RTU."),
     ]
     client: list[Decorator] = [] if serving else [
-        click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True,
+        click.option("--timeout", type=click.FloatRange(0.1, 600), default=timeout, show_default=True,
                      help="Seconds to wait for each reply."),
-        click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True,
+        click.option("--retries", type=click.IntRange(0, 10), default=retries, show_default=True,
                      help="Times a request that got no reply is sent again."),
     ]
     return address + line + client
 
 
-def _build(given: dict[str, Any], serving: bool) -> Connection:
-    """The Connection the options describe; options that contradict each other are a usage error."""
+def _build(given: dict[str, Any], serving: bool, optional: bool = False) -> Connection | None:
+    """The Connection the options describe (None when `optional` and no --host or --serial is given);
+    options that contradict each other are a usage error."""
     ctx = click.get_current_context()
     explicit = {name for name in given if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT}
     serial, framer = given.get("serial"), given.get("framer")
@@ -202,6 +207,11 @@ def _build(given: dict[str, Any], serving: bool) -> Connection:
         if line_only:
             raise click.UsageError(f"--{line_only[0]} sets a serial line: it needs --serial DEVICE")
         if not serving and given.get("host") is None:
+            if optional:
+                given_too = sorted(explicit & {"port", "framer", "timeout", "retries"})
+                if given_too:
+                    raise click.UsageError(f"--{given_too[0]} needs a connection: give --host HOST or --serial DEVICE")
+                return None
             raise click.UsageError("no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)")
     values = {name: value for name, value in given.items() if name != "framer" and value is not None}
     return Connection(rtu=serial is not None or framer == "rtu", **values)

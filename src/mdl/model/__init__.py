@@ -7,7 +7,10 @@ apply the defaults of SPEC section 2, so writing a loaded model back never adds 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol, TypeAlias
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
+
+if TYPE_CHECKING:
+    from mdl.diagnostics import Diagnostic
 
 LENGTHS = ("Lower byte", "Upper byte", "Full word")
 FORMATS_09 = ("INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32")
@@ -52,7 +55,13 @@ EXTENSION_FIELDS = (
     "immutable",
     "system",
     "fetch_group",
+    "marker",
+    "precision",
+    "write_multiple",
 )
+
+# the device's identity elements (SPEC 2.2), in schema order, after its description
+IDENTITY_FIELDS = ("manufacturer", "product", "product_version", "program_id")
 
 
 @dataclass
@@ -81,6 +90,9 @@ class Function:
     immutable: bool | None = None
     system: bool | None = None
     fetch_group: str | None = None
+    marker: list[int] | None = None  # raw values it reads on a device of this kind (mdl discover)
+    precision: int | None = None  # decimal places to show; display only
+    write_multiple: bool | None = None  # FC16/FC15 even for one register or coil
     line: int | None = field(default=None, compare=False, repr=False)
     expression_line: int | None = field(default=None, compare=False, repr=False)
     compiled: CompiledExpression | None = field(default=None, compare=False, repr=False)
@@ -183,9 +195,16 @@ class Device:
     max_registers: int | None = None  # per request (the Toolkit's maxRegistersPerModbusRequest)
     tests: list[Scenario] = field(default_factory=list)
     source: str | None = field(default=None, compare=False, repr=False)
+    manufacturer: str | None = None
+    product: str | None = None
+    product_version: str | None = None
+    program_id: str | None = None
+    # what the source said while reading it (a column it could not map, text it kept as a comment):
+    # warnings the resolve step reports with its own
+    notes: list[Diagnostic] = field(default_factory=list, compare=False, repr=False)
 
     def extensions(self) -> list[str]:
-        used: list[str] = []
+        used: list[str] = [name for name in IDENTITY_FIELDS if getattr(self, name) is not None]
         if self.max_registers is not None:
             used.append("max_registers")
         if self.tests:

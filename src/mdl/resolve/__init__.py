@@ -122,4 +122,5 @@ def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
     for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):
         lay = layouts[fn.name] if fn.name in layouts else layout(fn)  # an expression's: from its registers
         functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay)))
-    return ResolvedDevice(device, tuple(functions), tuple(d for d in found if d.severity != "error"))
+    warnings = [*device.notes, *(d for d in found if d.severity != "error")]
+    return ResolvedDevice(device, tuple(functions), tuple(warnings))

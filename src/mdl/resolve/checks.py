@@ -15,6 +15,7 @@ from mdl.lang.cfrag import FragmentError, check
 from mdl.lang.expr.fields import compile_device
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
+from mdl.values.build import int_range
 
 FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float element of MDL 1.0
 
@@ -88,6 +89,8 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
             err(fn, "multiplier 0 reads every value as the offset and can write none")
         for message in bound_problems(fn, lay):
             err(fn, message)
+        for message, severity in marker_problems(fn, lay):
+            err(fn, message, severity)
         for token in fn.not_implemented or ():
             digits = len(token) - 2
             if digits > 4 and digits > 4 * len(lay.addresses):
@@ -139,6 +142,23 @@ def bound_problems(fn: Function, lay: Layout) -> list[str]:
     return []
 
 
+def marker_problems(fn: Function, lay: Layout) -> list[tuple[str, str]]:
+    """Markers no device can read (SPEC 10 compares them with the raw value: the registers composed
+    by format and order, before multiplier, offset and fragment) and write_multiple where nothing
+    is written."""
+    out: list[tuple[str, str]] = []
+    if fn.marker is not None:
+        if lay.kind == "string":
+            out.append(("a marker is a number; format STRING cannot carry one", "error"))
+        elif lay.kind in ("int", "bool"):
+            low, high = (0, 1) if lay.kind == "bool" else int_range(lay)
+            out += [(f"marker {m} can never be read: the raw value is {low}..{high}", "error")
+                    for m in fn.marker if not low <= m <= high]
+    if fn.write_multiple and not fn.writable:
+        out.append(("write_multiple on a function that cannot be written does nothing", "warning"))
+    return out
+
+
 def _check_expression_function(fn: Function, err: Report) -> None:
     if fn.compiled is None:
         return
@@ -147,7 +167,7 @@ def _check_expression_function(fn: Function, err: Report) -> None:
         err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
     if fn.access in ("write", "read_write"):
         err(fn, "a function computed by an expression can only be read")
-    for attr in ("read_function_code", "write_function_code", "not_implemented"):
+    for attr in ("read_function_code", "write_function_code", "not_implemented", "marker"):
         if getattr(fn, attr) is not None:
             err(fn, f"{attr} cannot be combined with an expression")
     if fn.addresses and sorted(fn.addresses) != lay.addresses:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
-from mdl.model import Device, Function, Scenario, ScenarioInput
+from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
 from mdl.sources.mdlxml.parse import NS, StartTag, decoded, parse_source, schema_errors, start_tags
 
 if TYPE_CHECKING:
@@ -22,7 +22,7 @@ _STRINGS = ("length", "format", "units", "read_function_code", "write_function_c
 
 # elements the XSDs give a default: empty, they take it, as the model does for an absent one
 _DEFAULTED = ("length", "count", "format", "multiplier", "register_type", "byte_order", "word_order", "offset",
-              "immutable", "system")
+              "immutable", "system", "write_multiple")
 _CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
 _SPANNED = _CODE + _FLOATS  # the texts mdl.resolve may point at
 _MAX_DIGITS = 18  # more than any address, count or key of MDL needs; int() refuses over 4300
@@ -124,8 +124,12 @@ class _Reader:
             elif tag == "expression":
                 kw["expression"] = text
                 kw["expression_line"] = self.where(child)[0]
-            elif tag in ("immutable", "system"):
+            elif tag in ("immutable", "system", "write_multiple"):
                 kw[tag] = text.strip() in ("true", "1")
+            elif tag == "marker":
+                kw["marker"] = [self.integer(m, child, "marker") for m in text.split()]
+            elif tag == "precision":
+                kw["precision"] = self.integer(text, child, "precision")
             elif tag == "fetch_group":
                 kw["fetch_group"] = text
         fn = Function(**kw)
@@ -174,7 +178,9 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
     max_registers = read.integer(limit, root, "max_registers", False) if limit else None
     if read.problems:
         raise MdlError(read.problems)
-    return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
+    identity = {tag: _text(el) for tag in IDENTITY_FIELDS if (el := root.find(_q(tag))) is not None}
+    return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source,
+                  **identity)
 
 
 def read_device(path: StrPath, version: str = "1.0") -> Device:

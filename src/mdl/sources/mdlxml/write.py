@@ -8,13 +8,14 @@ import re
 from lxml import etree
 
 from mdl.diagnostics import error
-from mdl.model import Device
+from mdl.model import IDENTITY_FIELDS, Device
 from mdl.sources.mdlxml.parse import NS
 
 _ORDER = ("name", "description", "addresses", "length", "count", "format", "block_labels",
           "multiplier", "units", "read_function_code", "write_function_code", "register_type",
           "byte_order", "word_order", "offset", "access", "minimum", "maximum",
-          "not_implemented", "values", "expression", "immutable", "system", "fetch_group")
+          "not_implemented", "values", "expression", "immutable", "system", "fetch_group",
+          "marker", "precision", "write_multiple")
 
 
 # what XML 1.0 cannot carry, not even as a character reference (its production Char)
@@ -59,6 +60,10 @@ def device_to_xml(device: Device) -> str:
         root.set("max_registers", str(device.max_registers))
     _sub(root, "name", device.name)
     _sub(root, "description", device.description)
+    for tag in IDENTITY_FIELDS:
+        value = getattr(device, tag)
+        if value is not None:
+            _sub(root, tag, value)
     for fn in device.functions:
         el = etree.SubElement(root, f"{{{NS}}}function")
         for attr in _ORDER:
@@ -70,8 +75,8 @@ def device_to_xml(device: Device) -> str:
             elif attr == "block_labels":
                 for label in value:
                     _sub(el, "block_label", label)
-            elif attr == "not_implemented":
-                _sub(el, attr, " ".join(value))
+            elif attr in ("not_implemented", "marker"):
+                _sub(el, attr, " ".join(str(v) for v in value))
             elif attr == "values":
                 values = _sub(el, "values", None)
                 for key, label in value.items():
