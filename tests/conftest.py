@@ -128,7 +128,8 @@ def fn_xml(name: str, addresses, **fields) -> str:
     """A <function> with the given fields in schema order."""
     order = ["length", "count", "format", "block_label", "multiplier", "units", "read_function_code",
              "write_function_code", "register_type", "byte_order", "word_order", "offset", "access",
-             "minimum", "maximum", "not_implemented", "values"]
+             "minimum", "maximum", "not_implemented", "values", "expression", "immutable", "system",
+             "fetch_group", "marker", "precision", "write_multiple"]
     body = f"    <name>{name}</name>\n    <description>{name}</description>\n    <addresses>{addresses}</addresses>\n"
     for key in order:
         if key in fields:

@@ -370,9 +370,10 @@ def _emit_text(text: str, output: Path | None) -> None:
 @unit_option
 @click.option("--interval", type=click.FloatRange(0.1, 7 * 86400), metavar="S",
               help="Seconds between polls the engine should use (default 60).")
+@click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
 @fail_on_warning_option
 def export_(file: Path, fmt: str, output: Path | None, connection: Connection | None, unit: int,
-            interval: float | None) -> None:
+            interval: float | None, force: bool) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
     What the format cannot express is reported as a warning naming the function (exit 1 with
@@ -400,6 +401,8 @@ def export_(file: Path, fmt: str, output: Path | None, connection: Connection | 
     assert output is not None
     if output.exists() and not output.is_dir():
         raise error("not a directory", output)
+    if output.is_dir() and any(output.iterdir()) and not force:
+        raise error("the folder is not empty; give --force to write into it", output)
     output.mkdir(parents=True, exist_ok=True)
     with all_or_none():
         for name, text in result.files.items():
@@ -426,7 +429,8 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
       mdl discover library/*.xml --host 127.0.0.1 --port 5020 --units 1-10
       mdl discover meter.xml --serial /dev/ttyUSB0 --baud 9600 --units 1-32,100 --format json
     """
-    from mdl.device.discover import discover as find, parse_units, render
+    from mdl.device.discover import discover as find
+    from mdl.device.discover import parse_units, render
 
     _stdin_once(files)
     try:
