@@ -8,7 +8,7 @@ from __future__ import annotations
 import re
 import unicodedata
 import weakref
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Literal
@@ -146,8 +146,30 @@ def _forget(key: int, _ref: object) -> None:
     _SPANS.pop(key, None)
 
 
+# Owners whose spans a source records only when one is asked for (finding every position in a large
+# file costs more than reading it, and only a message needs one): id -> (the owner, what records them).
+_DEFERRED: dict[int, tuple[weakref.ref[object], Callable[[], None]]] = {}
+
+
+def defer_spans(owner: object, record: Callable[[], None]) -> None:
+    """`record()` records `owner`'s spans (with record_span; it may record other owners' too): it is
+    called the first time span_of asks for one of them."""
+    key_of = id(owner)
+    _DEFERRED[key_of] = (weakref.ref(owner, partial(_forget_deferred, key_of)), record)
+
+
+def _forget_deferred(key: int, _ref: object) -> None:
+    _DEFERRED.pop(key, None)
+
+
 def span_of(owner: object, key: str) -> TextSpan | None:
     entry = _SPANS.get(id(owner))
     if entry is None or entry[0]() is not owner:
-        return None
+        pending = _DEFERRED.pop(id(owner), None)
+        if pending is None or pending[0]() is not owner:
+            return None
+        pending[1]()
+        entry = _SPANS.get(id(owner))
+        if entry is None or entry[0]() is not owner:
+            return None
     return entry[1].get(key)

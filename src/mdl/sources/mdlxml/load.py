@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from lxml import etree
 
-from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
+from mdl.diagnostics import Diagnostic, MdlError, TextSpan, defer_spans, record_span
 from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
 from mdl.sources.mdlxml.parse import NS, StartTag, decoded, parse_source, schema_errors, start_tags
 
@@ -43,15 +43,32 @@ def _float(text: str) -> float:
 
 
 class _Reader:
-    """Elements -> model objects, recording where each function's texts start (for the messages of
-    mdl.resolve); MdlError at the element for an integer too long to be one MDL can use, and
-    `problems` for a number that is not finite."""
+    """Elements -> model objects; MdlError at the element for an integer too long to be one MDL can
+    use, and `problems` for a number that is not finite. Where each function's texts start in the
+    file (for the messages of mdl.resolve) is found only when a message asks for it (`record_spans`):
+    scanning every start tag of a large file costs more than reading it."""
 
-    def __init__(self, source: str | None, text: str = "", tags: dict[etree._Element, StartTag] | None = None):
+    def __init__(self, source: str | None, root: etree._Element | None = None, data: bytes | None = None):
         self.source = source
-        self.text = text
-        self.tags = tags or {}
+        self.root = root
+        self.data = data
+        self.text = ""
+        self._tags: dict[etree._Element, StartTag] | None = None if data is not None else {}
         self.problems: list[Diagnostic] = []
+        self.pending: list[tuple[etree._Element, object, str]] = []  # (element, owner, key) to record
+
+    @property
+    def tags(self) -> dict[etree._Element, StartTag]:
+        """Each element's start tag in the source text, once scanned (empty if they cannot be matched)."""
+        if self._tags is None:
+            assert self.root is not None and self.data is not None
+            self.text = decoded(self.root.getroottree(), self.data)
+            elements = [el for el in self.root.iter() if isinstance(el.tag, str)]
+            found = start_tags(self.text)
+            matched = len(found) == len(elements) and all(
+                etree.QName(el).localname == tag.localname for el, tag in zip(elements, found, strict=True))
+            self._tags = dict(zip(elements, found, strict=True)) if matched else {}
+        return self._tags
 
     def where(self, el: etree._Element, inside: bool = True) -> tuple[int | None, int | None]:
         """(line, column) of the element's text (inside) or of its start tag."""
@@ -60,16 +77,25 @@ class _Reader:
             return el.sourceline, None
         return (tag.text_line, tag.text_col) if inside else (tag.line, tag.col)
 
-    def span(self, el: etree._Element, owner: object, key: str) -> None:
-        tag = self.tags.get(el)
-        if tag is None:
-            return
-        if key:
-            end = self.text.find("<", tag.text_start)
-            raw = self.text[tag.text_start:end if end >= 0 else len(self.text)] if key in _CODE else ""
-            record_span(owner, key, TextSpan(tag.text_line, tag.text_col, raw))
-        else:
-            record_span(owner, key, TextSpan(tag.line, tag.col))
+    def spans(self, owner: object, elements: list[tuple[etree._Element, str]]) -> None:
+        """Remember that `owner`'s text `key` ("": its own element) is each element; they are recorded
+        when a message asks for one."""
+        self.pending += [(el, owner, key) for el, key in elements]
+        defer_spans(owner, self.record_spans)
+
+    def record_spans(self) -> None:
+        pending, self.pending = self.pending, []
+        tags = self.tags
+        for el, owner, key in pending:
+            tag = tags.get(el)
+            if tag is None:
+                continue
+            if key:
+                end = self.text.find("<", tag.text_start)
+                raw = self.text[tag.text_start:end if end >= 0 else len(self.text)] if key in _CODE else ""
+                record_span(owner, key, TextSpan(tag.text_line, tag.text_col, raw))
+            else:
+                record_span(owner, key, TextSpan(tag.line, tag.col))
 
     def integer(self, text: str | None, el: etree._Element, what: str, inside: bool = True) -> int:
         """An integer of the element's text (inside) or of one of its attributes."""
@@ -93,7 +119,7 @@ class _Reader:
         return value
 
     def function(self, el: etree._Element) -> Function:
-        kw: dict[str, Any] = {"block_labels": [], "line": self.where(el, False)[0]}
+        kw: dict[str, Any] = {"block_labels": [], "line": el.sourceline}
         spans: list[tuple[etree._Element, str]] = [(el, "")]
         for child in el:
             if not isinstance(child.tag, str):
@@ -123,7 +149,7 @@ class _Reader:
                                 for v in child if isinstance(v.tag, str)}
             elif tag == "expression":
                 kw["expression"] = text
-                kw["expression_line"] = self.where(child)[0]
+                kw["expression_line"] = child.sourceline
             elif tag in ("immutable", "system", "write_multiple"):
                 kw[tag] = text.strip() in ("true", "1")
             elif tag == "marker":
@@ -133,13 +159,12 @@ class _Reader:
             elif tag == "fetch_group":
                 kw["fetch_group"] = text
         fn = Function(**kw)
-        for element, key in spans:
-            self.span(element, fn, key)
+        self.spans(fn, spans)
         return fn
 
     def scenario(self, el: etree._Element) -> Scenario:
-        sc = Scenario(el.get("id"), line=self.where(el, False)[0])
-        self.span(el, sc, "")
+        sc = Scenario(el.get("id"), line=el.sourceline)
+        self.spans(sc, [(el, "")])
         for child in el:
             if not isinstance(child.tag, str):
                 continue
@@ -160,15 +185,7 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
     function's texts get their positions); MdlError for an integer too long to be used or a number
     that is not finite."""
     root = tree.getroot()
-    text = decoded(tree, data) if data is not None else ""
-    tags: dict[etree._Element, StartTag] = {}
-    if data is not None:
-        elements = [el for el in root.iter() if isinstance(el.tag, str)]
-        found = start_tags(text)
-        if len(found) == len(elements) and all(etree.QName(el).localname == tag.localname
-                                               for el, tag in zip(elements, found, strict=True)):
-            tags = dict(zip(elements, found, strict=True))
-    read = _Reader(source, text, tags)
+    read = _Reader(source, root, data)
     name = root.find(_q("name"))
     desc = root.find(_q("description"))
     functions = [read.function(el) for el in root.findall(_q("function"))]
