@@ -137,13 +137,9 @@ def record_span(owner: object, key: str, span: TextSpan) -> None:
     key_of = id(owner)
     entry = _SPANS.get(key_of)
     if entry is None or entry[0]() is not owner:
-        entry = (weakref.ref(owner, partial(_forget, key_of)), {})
+        entry = (weakref.ref(owner, partial(_SPANS.pop, key_of)), {})  # pop(key, the dead ref as default)
         _SPANS[key_of] = entry
     entry[1][key] = span
-
-
-def _forget(key: int, _ref: object) -> None:
-    _SPANS.pop(key, None)
 
 
 # Owners whose spans a source records only when one is asked for (finding every position in a large
@@ -155,11 +151,8 @@ def defer_spans(owner: object, record: Callable[[], None]) -> None:
     """`record()` records `owner`'s spans (with record_span; it may record other owners' too): it is
     called the first time span_of asks for one of them."""
     key_of = id(owner)
-    _DEFERRED[key_of] = (weakref.ref(owner, partial(_forget_deferred, key_of)), record)
-
-
-def _forget_deferred(key: int, _ref: object) -> None:
-    _DEFERRED.pop(key, None)
+    # the callback is bound to the dict itself: at interpreter exit the module's names may be gone
+    _DEFERRED[key_of] = (weakref.ref(owner, partial(_DEFERRED.pop, key_of)), record)
 
 
 def span_of(owner: object, key: str) -> TextSpan | None:

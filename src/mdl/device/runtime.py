@@ -338,19 +338,20 @@ class Session:
         return {fn.name: computed[fn.name] for fn in functions}
 
     def write(self, fn: Function, value: Scalar) -> None:
+        """Encode `value` and write it: one request per run of consecutive addresses. One register is
+        written with function 6 and one coil with function 5, unless the function says `write_multiple`
+        (devices that refuse 5 and 6): then always 16 and 15; more registers always take function 16."""
         regs = codec.encode(fn, value)
         lay = layout(fn)
-        runs: list[tuple[int, list[int]]] = []
-        for a, v in zip(lay.addresses, regs, strict=True):
-            if runs and runs[-1][0] + len(runs[-1][1]) == a:
-                runs[-1][1].append(v)
-            else:
-                runs.append((a, [v]))
-        for start, values in runs:
+        at = 0
+        for start, count in lay.runs:
+            values, at = regs[at:at + count], at + count
             what = f"writing {fn.name} at {lay.table} {start}"
-            if lay.table == "coil":
+            if lay.table == "coil" and fn.write_multiple:
+                self._call(what, self.client.write_coils, start, [bool(v) for v in values])
+            elif lay.table == "coil":
                 self._call(what, self.client.write_coil, start, bool(values[0]))
-            elif len(values) == 1:
+            elif count == 1 and not fn.write_multiple:
                 self._call(what, self.client.write_register, start, values[0])
             else:
                 self._call(what, self.client.write_registers, start, values)

@@ -195,9 +195,12 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
     max_registers = read.integer(limit, root, "max_registers", False) if limit else None
     if read.problems:
         raise MdlError(read.problems)
-    identity = {tag: _text(el) for tag in IDENTITY_FIELDS if (el := root.find(_q(tag))) is not None}
-    return Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source,
-                  **identity)
+    device = Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
+    for tag in IDENTITY_FIELDS:
+        el = root.find(_q(tag))
+        if el is not None:
+            setattr(device, tag, _text(el))
+    return device
 
 
 def read_device(path: StrPath, version: str = "1.0") -> Device:

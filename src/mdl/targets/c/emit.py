@@ -233,8 +233,11 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     runtime = [(RUNTIME / "modbus_io.c").read_text(encoding="utf-8")]
     if raw_total or any(f.n for f in readable):
         runtime.append((RUNTIME / "read_table.c").read_text(encoding="utf-8"))
-    if any(f.encode is not None for f in functions):
+    writers = {bool(f.fn.write_multiple) for f in functions if f.encode is not None}  # FC15/FC16 only, or not
+    if False in writers:
         runtime.append((RUNTIME / "write_table.c").read_text(encoding="utf-8"))
+    if True in writers:
+        runtime.append((RUNTIME / "write_multiple.c").read_text(encoding="utf-8"))
     includes = set(BASE_INCLUDES)
     if fragments:
         runtime.append(helpers_source([c for _, c in fragments], "c"))

@@ -189,6 +189,7 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "class_name": resolved.class_name, "guard": f"MDL_{file_stem.upper().rstrip('_')}_H", "functions": functions,
         "readable": readable, "chunks": chunks, "groups": groups, "splits": splits, "raw_total": raw_total,
         "fragments": bool(fragments), "runtime": runtime, "values_own_memory": values_own_memory,
+        "writes_multiple": any(f.writable and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "includes": sorted(set(BASE_INCLUDES) | set(runtime_includes) | ({"utility"} if values_own_memory else set())),
         "header_includes": sorted({"array", "cstddef", "cstdint"}
                                   | ({"optional"} if any("std::optional" in t for t in types) else set())

@@ -291,6 +291,7 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "groups": _read_plan(resolved), "buffer_size": resolved.buffer_size, "imports": import_lines(used),
         "helpers": helpers, "uses": used,
         "exports": sorted(exports), "writes": any(f.encoder for f in functions),
+        "writes_multiple": any(f.encoder and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "module_doc": docstring(f"Driver for {device.name}: {device.description}"),
     }
 
