@@ -4,6 +4,10 @@ The server is Modbus TCP, RTU on a serial line, or RTU frames over TCP (mdl.devi
 The datastore is our own (a ModbusServerContext that answers itself), so that every address the
 device does not define gets exception 2 (ILLEGAL DATA ADDRESS), bits included, and writes to
 functions the description marks read-only are refused with exception 2 as well.
+
+Function 43 / MEI 14 (Read Device Identification) is answered by each unit from its own device's
+identity elements (SPEC 2.2 and 10): pymodbus answers it from one identity per process (a global
+control block), so the server's decoder is given a request class of ours that asks the unit.
 """
 
 from __future__ import annotations
@@ -14,11 +18,15 @@ import os
 import signal
 import sys
 from collections.abc import Awaitable, Callable, Iterable, Sequence
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, TextIO
 
-from pymodbus.constants import ExcCodes
+from pymodbus.constants import DeviceInformation, ExcCodes
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.exceptions import NoSuchIdException
+from pymodbus.pdu import ExceptionResponse, ModbusPDU
+from pymodbus.pdu.device import DeviceInformationFactory, ModbusDeviceIdentification
+from pymodbus.pdu.mei_message import ReadDeviceInformationRequest, ReadDeviceInformationResponse
 
 from mdl.device.connection import Connection
 from mdl.diagnostics import error, one_line
@@ -30,9 +38,34 @@ from mdl.values import codec
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
+    from pymodbus.server import ModbusBaseServer
 
 FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
             3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
+
+# the basic objects of Read Device Identification (object id = position) and the identity element
+# (SPEC 2.2) each is answered from; mdl discover shows them under these names
+IDENTIFICATION = (("VendorName", "manufacturer"), ("ProductCode", "product"), ("MajorMinorRevision", "product_version"))
+# the longest object sent: one object and the reply's header must fit one PDU (pymodbus: 253 - 6 bytes in all)
+MAX_OBJECT_BYTES = 240
+
+
+def identification(device: Device) -> tuple[dict[int, bytes], list[str]]:
+    """The device's basic identification objects (object id -> UTF-8 bytes) from its identity elements,
+    and a warning for each element too long for one reply (it is cut, at a character boundary)."""
+    objects: dict[int, bytes] = {}
+    warnings: list[str] = []
+    for object_id, (name, attr) in enumerate(IDENTIFICATION):
+        text: str | None = getattr(device, attr)
+        if not text:
+            continue
+        data = text.encode("utf-8")
+        if len(data) > MAX_OBJECT_BYTES:
+            data = data[:MAX_OBJECT_BYTES].decode("utf-8", "ignore").encode("utf-8")
+            warnings.append(f"{attr} is {len(text.encode('utf-8'))} bytes long; function 43 answers {name} "
+                            f"with its first {len(data)} bytes")
+        objects[object_id] = data
+    return objects, warnings
 
 
 class Registers:
@@ -41,6 +74,10 @@ class Registers:
     def __init__(self, device: Device, permissive: bool = False):
         self.device = device
         self.permissive = permissive
+        objects, self.identity_warnings = identification(device)
+        # None: the device answers function 43 with exception 1, as one without identification does
+        identity: Callable[..., ModbusDeviceIdentification] = ModbusDeviceIdentification  # pymodbus leaves it untyped
+        self.identity = identity(info=objects) if objects else None
         self.missing: set[tuple[str, int]] = set()  # no value in a scenario: answer exception 2
         self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
         self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
@@ -142,7 +179,7 @@ class SimContext(ModbusServerContext):
     def device_ids(self) -> list[int]:
         return list(self.units)
 
-    def _registers(self, device_id: int) -> Registers | None:
+    def at(self, device_id: int) -> Registers | None:
         """The device at `device_id`; None (exception 11) or, when silent, no answer if there is none."""
         registers = self.units.get(device_id, self.units.get(0))
         if registers is None and self.silent:
@@ -152,7 +189,7 @@ class SimContext(ModbusServerContext):
     async def async_getValues(
         self, device_id: int, func_code: int, address: int, count: int = 1
     ) -> list[int] | list[bool] | ExcCodes:
-        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
+        registers, table = self.at(device_id), FC_TABLE.get(func_code, "")
         if registers is None:  # no device at this unit id
             return ExcCodes.GATEWAY_NO_RESPONSE
         if not table:
@@ -168,7 +205,7 @@ class SimContext(ModbusServerContext):
     async def async_setValues(
         self, device_id: int, func_code: int, address: int, values: Sequence[int] | Sequence[bool]
     ) -> ExcCodes | None:
-        registers, table = self._registers(device_id), FC_TABLE.get(func_code, "")
+        registers, table = self.at(device_id), FC_TABLE.get(func_code, "")
         if registers is None:  # no device at this unit id
             return ExcCodes.GATEWAY_NO_RESPONSE
         if table not in ("coil", "holding"):
@@ -182,13 +219,51 @@ class SimContext(ModbusServerContext):
         return None
 
 
+class ReadIdentification(ReadDeviceInformationRequest):
+    """Function 43 / MEI 14 answered by the unit asked, from its device's identity elements: exception 1
+    (ILLEGAL FUNCTION) from a device without any, exception 11 or silence where no device is served
+    (as for reads). Read codes 1-4 (basic, regular, extended, one object) are served by pymodbus's
+    own object selection."""
+
+    async def datastore_update(self, context: ModbusServerContext, device_id: int) -> ModbusPDU:
+        if not isinstance(context, SimContext):
+            return await super().datastore_update(context, device_id)
+        registers = context.at(device_id)
+        if registers is None:
+            return ExceptionResponse(self.function_code, ExcCodes.GATEWAY_NO_RESPONSE)
+        if registers.identity is None:
+            return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_FUNCTION)
+        if not DeviceInformation.BASIC <= self.read_code <= DeviceInformation.SPECIFIC:
+            return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_VALUE)
+        control = SimpleNamespace(Identity=registers.identity)
+        select: Callable[..., dict[int, bytes]] = DeviceInformationFactory.get  # typed here: pymodbus leaves it untyped
+        information = select(control, self.read_code, self.object_id)
+        if self.read_code == DeviceInformation.SPECIFIC and not information.get(self.object_id):
+            return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_ADDRESS)
+        return ReadDeviceInformationResponse(read_code=self.read_code, information=information, dev_id=device_id,
+                                             transaction_id=self.transaction_id)
+
+
+def answer_identification(server: ModbusBaseServer) -> None:
+    """Make `server` decode function 43 / MEI 14 as ReadIdentification (its own decoder's table only)."""
+    decoder = server.decoder
+    table = {code: dict(subs) for code, subs in decoder.pdu_sub_table.items()}
+    table.setdefault(ReadIdentification.function_code, {})[ReadIdentification.sub_function_code] = (
+        ReadIdentification, ReadDeviceInformationResponse)
+    decoder.pdu_sub_table = table
+
+
 async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
     """Serve every device at its unit on one connection; once listening, one ready line per device."""
     if connection.serial is not None:
         reason = connection.open_error()
         if reason:
             raise error(f"cannot serve on {connection.serial}: {reason}")
+    for registers in units.values():
+        for warning in registers.identity_warnings:
+            print(f"mdl sim: warning: {one_line(registers.device.name)}: {warning}", file=sys.stderr)
     server = connection.server(SimContext(units, silent=connection.rtu))
+    answer_identification(server)
     refused: tuple[type[Exception], ...] = (OSError,)
     if os.name == "posix":
         import termios
