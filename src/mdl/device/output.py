@@ -1,5 +1,10 @@
 """Printing values read from a device: table, json, csv, senml; once (`render`) or as a poll's records
-(`record_header` once, then `record` per poll)."""
+(`record_header` once, then `record` per poll); and the WISE-Agent guide's SenML capability document
+without a device (`mdl export --to senml`). The SenML shape has this one home.
+
+The table shows a number with the function's `precision` (decimal places; negative rounds left of the
+point: 1234 with -1 shows 1230); json, csv and senml print values as read.
+"""
 
 from __future__ import annotations
 
@@ -7,10 +12,16 @@ import csv
 import io
 import json
 import math
+from collections import Counter
+from collections.abc import Callable
 from datetime import datetime, timezone
-from typing import Any, TypedDict
+from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from mdl.model import Function, Value
+
+if TYPE_CHECKING:
+    pass
 
 
 class Block(TypedDict):
@@ -48,6 +59,29 @@ def _cell(value: Value) -> str:
     return "" if value is None else _text(value)
 
 
+def _shown_text(fn: Function, value: Value) -> str:
+    """The table's text of a value: shown (enumeration text), numbers with the function's precision."""
+    value = shown(fn, value)
+    if fn.precision is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return with_precision(value, fn.precision)
+    return _text(value)
+
+
+MAX_PLACES = 30  # more decimal places than a double has digits show nothing more: the display stops here
+
+
+def with_precision(value: int | float, places: int) -> str:
+    """`value` with `places` decimal places (21.456, 2 -> 21.46); negative places round left of the point
+    (1234, -1 -> 1230). The exact value is rounded, ties to the even digit; zero never shows a sign; NaN and
+    infinities as they are."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    places = max(min(places, MAX_PLACES), -400)  # a double is below 1e309: 400 places left round it to 0
+    with localcontext(Context(prec=1000, rounding=ROUND_HALF_EVEN)):
+        rounded = Decimal(value).quantize(Decimal(1).scaleb(-places))
+    return f"{rounded.copy_abs() if rounded.is_zero() else rounded:f}"
+
+
 def _text(value: Value) -> str:
     if value is None:
         return "null"
@@ -58,29 +92,70 @@ def _text(value: Value) -> str:
     return str(value)
 
 
-def senml(functions: list[Function], values: dict[str, Value], device_name: str) -> dict[str, Block]:
-    """The WISE-Agent guide's JSON: one object per block label, {"bn": block, "e": [entries]}."""
+def _bound(value: float) -> int | float:
+    """A minimum or maximum as the guide writes it: 5, not 5.0."""
+    return int(value) if value.is_integer() and abs(value) < 2**53 else value
+
+
+def access_mode(fn: Function) -> str:
+    """The guide's `asm`: r, w or rw."""
+    return ("r" if fn.readable else "") + ("w" if fn.writable else "") or "r"
+
+
+def _entry(fn: Function, n: str) -> dict[str, Value]:
+    """A function's SenML entry without its value: n, u, min, max, asm."""
+    entry: dict[str, Value] = {"n": n}
+    if fn.units and fn.units.strip():
+        entry["u"] = fn.units.strip()
+    for key in ("minimum", "maximum"):
+        bound = getattr(fn, key)
+        if bound is not None:
+            entry[key[:3]] = _bound(bound)
+    entry["asm"] = access_mode(fn)
+    return entry
+
+
+def _with_value(entry: dict[str, Value], value: Value) -> dict[str, Value]:
+    """The entry with its value after `n`: `bv` for a bool, `v` a number, `sv` text (a bitset's labels joined);
+    none for a null."""
+    key: str | None = None
+    if isinstance(value, bool):
+        key = "bv"
+    elif isinstance(value, (int, float)):
+        key, value = "v", _json_value(value)
+    elif isinstance(value, list):
+        key, value = "sv", ", ".join(value)
+    elif value is not None:
+        key = "sv"
+    if key is None:
+        return entry
+    n, *rest = entry.items()
+    return dict([n, (key, value), *rest])
+
+
+def _blocks(functions: list[Function], device_name: str,
+            entry: Callable[[Function, str], dict[str, Value]]) -> dict[str, Block]:
+    """One record pack per block label (the device's name for functions without one), in order of appearance.
+    An entry's `n` is the function's name inside its block (`Status.Mode` -> `Mode` in block Status); where
+    two functions of a block have the same such name, both keep their whole names."""
+    inside = Counter((fn.block, fn.field_id) for fn in functions)
     out: dict[str, Block] = {}
     for fn in functions:
         block = fn.block or device_name
-        entry: dict[str, Value] = {"n": fn.name}
-        value = shown(fn, values[fn.name])
-        if isinstance(value, bool):
-            entry["bv"] = value
-        elif isinstance(value, (int, float)):
-            entry["v"] = _json_value(value)
-        elif isinstance(value, list):
-            entry["sv"] = ", ".join(value)
-        elif value is not None:
-            entry["sv"] = value
-        if fn.units and fn.units.strip():
-            entry["u"] = fn.units.strip()
-        for key in ("minimum", "maximum"):
-            if getattr(fn, key) is not None:
-                entry[key[:3]] = getattr(fn, key)
-        entry["asm"] = "rw" if fn.writable else "r"
-        out.setdefault(block, {"bn": block, "e": []})["e"].append(entry)
+        n = fn.field_id if inside[(fn.block, fn.field_id)] == 1 else fn.name
+        out.setdefault(block, {"bn": block, "e": []})["e"].append(entry(fn, n))
     return out
+
+
+def senml(functions: list[Function], values: dict[str, Value], device_name: str) -> dict[str, Block]:
+    """The WISE-Agent guide's JSON of values read: one object per block label, {"bn": block, "e": [entries]},
+    each entry n, v|bv|sv, u, min, max, asm."""
+    return _blocks(functions, device_name, lambda fn, n: _with_value(_entry(fn, n), shown(fn, values[fn.name])))
+
+
+def capability(functions: list[Function], device_name: str) -> dict[str, Block]:
+    """The guide's capability document: the same objects as `senml`, each entry n, u, min, max, asm, no value."""
+    return _blocks(functions, device_name, _entry)
 
 
 def render(functions: list[Function], values: dict[str, Value], fmt: str, device_name: str = "") -> str:
@@ -91,7 +166,7 @@ def render(functions: list[Function], values: dict[str, Value], fmt: str, device
     if fmt == "csv":
         rows = [[fn.name, _cell(shown(fn, values[fn.name])), (fn.units or "").strip()] for fn in functions]
         return "".join(_csv_line(row) for row in [["name", "value", "units"], *rows])
-    return _table([(fn.name, _text(shown(fn, values[fn.name])), (fn.units or "").strip()) for fn in functions])
+    return _table([(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions])
 
 
 def _table(rows: list[tuple[str, str, str]]) -> str:
@@ -129,5 +204,5 @@ def record(functions: list[Function], values: dict[str, Value], fmt: str, when: 
         return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"
     if fmt == "csv":
         return _csv_line([iso_time(when), *(_cell(shown(fn, values[fn.name])) for fn in functions)])
-    rows = [(fn.name, _text(shown(fn, values[fn.name])), (fn.units or "").strip()) for fn in functions]
+    rows = [(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
     return _table([(TIME_KEY, iso_time(when), ""), *rows]) + "\n"

@@ -47,7 +47,7 @@ Writer = Callable[["ResolvedDevice", Settings], Export]
 _WRITERS: dict[str, tuple[str, str, str]] = {
     "xif": ("mdl.sources.xif.write", "export_xif", "SmartServer Modbus XIF (.mod)"),
     "wise": ("mdl.sources.wise.write", "export_wise", "WISE-Agent Modbus.ini (the shipped agent's form)"),
-    "senml": ("mdl.device.output", "export_capability", "the WISE guide's SenML capability document"),
+    "senml": ("mdl.exports.senml", "export_capability", "the WISE guide's SenML capability document"),
     "volttron": ("mdl.exports.volttron", "export_volttron", "VOLTTRON Modbus-TK driver files (a folder)"),
     "homeassistant": ("mdl.exports.homeassistant", "export_homeassistant", "Home Assistant modbus: YAML"),
     "telegraf": ("mdl.exports.telegraf", "export_telegraf", "Telegraf [[inputs.modbus]] TOML"),

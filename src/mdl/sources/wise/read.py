@@ -1,0 +1,434 @@
+"""WISE-Agent `Modbus.ini` -> the document model (SPEC 7): the guide's form and the shipped agent's.
+
+Read as the agent reads it (its Modbus_Handler.cpp): a section's `numberOfX` says how many entries
+`X0`, `X1`... there are; a register line's precision multiplies the value (0 or absent: 1); min and
+max are in the scaled unit (crossed ones are swapped, as the agent does); the datatype (0-8) says how
+the registers compose; a Lua column that is plain arithmetic on `modbus_val` is applied before the
+precision, and any other Lua is kept in the description as a comment, with a warning. Offsets are wire
+addresses inside the section's table. The section is the function's block label; a name used again
+(in another section, as the agent's samples do) gets SPEC 3's `_2`.
+
+Lines are `[Section]`, `key=value`, blank, or comments starting with `#` or `;` (a whole line: the
+agent has no comments after a value). Every problem is collected: errors (a `numberOfX` that
+disagrees with the keys, a datatype outside 0-8, an address used twice in one table, a number that is
+not one...) are raised together as one MdlError with each line and column; warnings and notes travel
+on `Device.notes`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
+from mdl.fileio import is_stdin, read_bytes
+from mdl.model import Device, Function
+from mdl.model.layout import MAX_ADDRESS
+from mdl.sources.wise.lua import affine
+from mdl.sources.wise.sections import (
+    DATA_TYPES,
+    DEFAULT_DATA_TYPE,
+    PLATFORM,
+    Section,
+    section_named,
+)
+
+if TYPE_CHECKING:
+    from _typeshed import StrPath
+
+_LINE_BREAK = re.compile(r"\r\n|\r|\n")
+_HEADER = re.compile(r"\[(?P<name>[^\]]*)\]\s*")
+_INDEX = re.compile(r"(?P<tag>[A-Za-z]+?)(?P<index>[0-9]{1,6})")
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_DIGITS = re.compile(r"[0-9]{1,9}")
+ENCODINGS = ("utf-8-sig", "cp1252", "latin-1")  # latin-1 decodes any byte: the last resort
+
+
+@dataclass
+class _Key:
+    key: str
+    value: str
+    line: int
+    col: int  # of the value's first character
+    key_col: int = 1
+
+
+@dataclass
+class _Block:
+    """One `[section]` of the file and its keys, in order."""
+
+    header: str
+    line: int
+    section: Section | None
+    keys: list[_Key] = field(default_factory=list)
+
+
+@dataclass
+class _Field:
+    text: str
+    col: int
+
+
+@dataclass
+class _Claim:
+    """An entry's offset in its table (for entries with errors too: a clash is reported either way)."""
+
+    table: str
+    offset: int
+    label: str
+    line: int
+    col: int
+
+
+class _Reader:
+    def __init__(self, path: StrPath):
+        self.path = str(path)
+        self.diagnostics: list[Diagnostic] = []
+
+    def report(self, line: int | None, col: int | None, message: str, severity: str = "error") -> None:
+        self.diagnostics.append(Diagnostic(self.path, line, col, message, severity))
+
+    @property
+    def failed(self) -> bool:
+        return any(d.severity == "error" for d in self.diagnostics)
+
+
+def read_wise(path: StrPath) -> Device:
+    """The device a WISE-Agent Modbus.ini describes; MdlError with every error found."""
+    reader = _Reader(path)
+    text = _decode(read_bytes(path), reader)
+    blocks = _blocks(text, reader)
+    name = _platform(blocks, path, reader)
+    functions: list[Function] = []
+    claims: list[_Claim] = []
+    for block in blocks:
+        if block.section is not None:
+            functions += _section_functions(block, block.section, reader, claims)
+    _check_addresses(claims, reader)
+    _unique_names(functions, reader)
+    if reader.failed:
+        errors: list[Diagnostic] = sorted((d for d in reader.diagnostics if d.severity == "error"), key=_line_order)
+        raise MdlError(errors)
+    source = "<stdin>" if is_stdin(path) else Path(path).name
+    device = Device(name, f"Imported from WISE-Agent {source}", functions, source=str(path))
+    if device.extensions():
+        device.version = "1.0"
+    device.notes = sorted(reader.diagnostics, key=_line_order)
+    return device
+
+
+def _line_order(d: Diagnostic) -> tuple[int, int]:
+    return d.line or 0, d.col or 0
+
+
+def _decode(data: bytes, reader: _Reader) -> str:
+    for encoding in ENCODINGS:
+        try:
+            text = data.decode(encoding)
+        except UnicodeDecodeError:
+            continue
+        if encoding != ENCODINGS[0]:
+            reader.report(None, None, f"not UTF-8: read as {encoding}", "note")
+        return text
+    raise AssertionError("latin-1 decodes every byte")  # pragma: no cover
+
+
+def _blocks(text: str, reader: _Reader) -> list[_Block]:
+    """The file's sections with their keys; unknown sections are kept (section None) to be reported once."""
+    blocks: list[_Block] = []
+    seen: dict[str, int] = {}
+    current: _Block | None = None
+    for number, raw in enumerate(_LINE_BREAK.split(text), start=1):
+        stripped = raw.strip()
+        if not stripped or stripped[0] in "#;":
+            continue
+        indent = len(raw) - len(raw.lstrip())
+        header = _HEADER.fullmatch(stripped)
+        if header is not None:
+            name = " ".join(header.group("name").split())
+            section = section_named(name)
+            canonical = section.name if section else name
+            key = canonical.lower()
+            if key in seen:
+                reader.report(number, indent + 1, f"section [{canonical}] appears twice (first on line {seen[key]})")
+                current = _Block(canonical, number, None)  # its keys are not read a second time
+                continue
+            seen[key] = number
+            if section is None and key != PLATFORM.lower():
+                reader.report(number, indent + 1, f"unknown section [{name}]: its keys are not read", "warning")
+            current = _Block(canonical, number, section)
+            blocks.append(current)
+            continue
+        if "=" not in stripped:
+            reader.report(number, indent + 1, "not a [section], a key=value line or a comment (# or ;)")
+            continue
+        key, _, value = raw.lstrip().partition("=")
+        value_col = indent + len(key) + 2 + (len(value) - len(value.lstrip()))
+        if current is None:
+            reader.report(number, indent + 1, f"'{key.strip()}' is outside any section: not read", "warning")
+            continue
+        current.keys.append(_Key(key.strip(), value.strip(), number, value_col, indent + 1))
+    return blocks
+
+
+def _platform(blocks: list[_Block], path: StrPath, reader: _Reader) -> str:
+    """The device name: [Platform] Name, else the file's name (said in a note)."""
+    platform = next((b for b in blocks if b.header.lower() == PLATFORM.lower()), None)
+    keys = platform.keys if platform else []
+    name = next((k for k in keys if k.key.lower() == "name" and k.value), None)
+    others = [k for k in keys if k is not name]
+    if others:
+        settings = ", ".join(f"{k.key}={k.value}" for k in others)
+        reader.report(others[0].line, None, f"[Platform] {settings}: connection settings are not part of MDL "
+                                            "(give them to mdl read or mdl export as options)", "note")
+    if name is not None:
+        return name.value
+    guess = "WISE device" if is_stdin(path) else Path(path).stem
+    reader.report(platform.line if platform else None, None, f"no [Platform] Name: the device is named '{guess}'",
+                  "note")
+    return guess
+
+
+def _section_functions(block: _Block, section: Section, reader: _Reader, claims: list[_Claim]) -> list[Function]:
+    """The functions of one section's entries, after checking them against its numberOfX."""
+    count_key: _Key | None = None
+    entries: dict[int, _Key] = {}
+    for key in block.keys:
+        if key.key.lower() == section.count_key.lower():
+            if count_key is not None:
+                reader.report(key.line, key.key_col,
+                              f"{section.count_key} appears twice (first on line {count_key.line})")
+                continue
+            count_key = key
+            continue
+        m = _INDEX.fullmatch(key.key)
+        if m is None or m.group("tag").lower() != section.tag.lower():
+            reader.report(key.line, key.key_col, f"[{section.name}] has no key '{key.key}' (entries are "
+                          f"{section.tag}0, {section.tag}1, ... and {section.count_key}): not read", "warning")
+            continue
+        index = int(m.group("index"))
+        if index in entries:
+            reader.report(key.line, key.key_col,
+                          f"{section.tag}{index} appears twice (first on line {entries[index].line})")
+            continue
+        entries[index] = key
+    count = _count(count_key, section, reader)
+    _check_count(block, section, count_key, count, entries, reader)
+    out = []
+    for index in sorted(entries):
+        if count is not None and index >= count:
+            continue
+        fn = _entry(section, f"{section.tag}{index}", entries[index], reader, claims)
+        if fn is not None:
+            out.append(fn)
+    return out
+
+
+def _count(key: _Key | None, section: Section, reader: _Reader) -> int | None:
+    if key is None:
+        return None
+    if _DIGITS.fullmatch(key.value) is None:
+        reader.report(key.line, key.col, f"{section.count_key} must be a whole number, not '{key.value}'")
+        return None
+    return int(key.value)
+
+
+def _check_count(block: _Block, section: Section, count_key: _Key | None, count: int | None,
+                 entries: dict[int, _Key], reader: _Reader) -> None:
+    tag, name = section.tag, section.count_key
+    if count_key is None:
+        if entries:
+            first = entries[min(entries)]
+            reader.report(first.line, first.key_col, f"[{section.name}] has no {name}: the agent reads none of its "
+                                         f"{len(entries)} entries (add {name}={len(entries)})")
+        return
+    if count is None:
+        return
+    for index in sorted(entries):
+        if index >= count:
+            key = entries[index]
+            reader.report(key.line, key.key_col, f"{tag}{index} is beyond {name}={count} (line {count_key.line}): "
+                                       f"the agent reads {_span(tag, 0, count)} only")
+    missing = _runs([i for i in range(count) if i not in entries]) if count <= len(entries) + 1000 else None
+    if missing is None:
+        reader.report(count_key.line, count_key.col,
+                      f"{name}={count} but [{section.name}] has {len(entries)} entries")
+    elif missing:
+        listed = ", ".join(_span(tag, lo, hi) for lo, hi in missing)
+        reader.report(count_key.line, count_key.col, f"{name}={count} but [{section.name}] has no {listed}")
+
+
+def _span(tag: str, lo: int, hi: int) -> str:
+    """`IR0..IR2` for the entries lo..hi-1 (`IR0` for one, `no entry` for none)."""
+    if hi <= lo:
+        return "no entry"
+    return f"{tag}{lo}" if hi - lo == 1 else f"{tag}{lo}..{tag}{hi - 1}"
+
+
+def _runs(indices: list[int]) -> list[tuple[int, int]]:
+    out: list[tuple[int, int]] = []
+    for i in indices:
+        if out and out[-1][1] == i:
+            out[-1] = (out[-1][0], i + 1)
+        else:
+            out.append((i, i + 1))
+    return out
+
+
+def _fields(key: _Key) -> list[_Field]:
+    """The value split at commas outside double quotes, each field stripped, with its column."""
+    out: list[_Field] = []
+    start, quoted = 0, False
+    text = key.value
+    for i, ch in enumerate(text + ","):
+        if ch == '"':
+            quoted = not quoted
+        elif ch == "," and (not quoted or i == len(text)):
+            piece = text[start:i]
+            lead = len(piece) - len(piece.lstrip())
+            out.append(_Field(piece.strip(), key.col + start + lead))
+            start = i + 1
+    return out
+
+
+def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: list[_Claim]) -> Function | None:
+    """One entry line -> a function (None, with the line's errors reported, where it has any)."""
+    fields = _fields(key)
+    errors_before = len([d for d in reader.diagnostics if d.severity == "error"])
+    offset = _offset(fields[0], label, key, reader)
+    if offset is not None:
+        claims.append(_Claim(section.table, offset, label, key.line, fields[0].col))
+    if len(fields) < 2 or not fields[1].text:
+        reader.report(key.line, key.col, f"{label}: no name (the line is offset,name"
+                                         f"{'' if section.bits else ',min,max,precision,unit,datatype'})")
+        return None
+    name = fields[1].text
+    fn = Function(name, name, [offset if offset is not None else 0], block_labels=[section.name],
+                  register_type=section.table)
+    if section.bits:
+        fn.format = "BIT"
+        if len(fields) > 2 and any(f.text for f in fields[2:]):
+            reader.report(key.line, fields[2].col, f"{label}: a bit line is offset,name; the rest is not read",
+                          "warning")
+    else:
+        _register_fields(fn, fields, label, key, reader)
+    if section.table == "holding":
+        fn.register_type = None  # the default table: the model keeps only what differs
+    if len([d for d in reader.diagnostics if d.severity == "error"]) > errors_before:
+        return None
+    fn.line = key.line
+    record_span(fn, "", TextSpan(key.line, key.key_col))
+    return fn
+
+
+def _offset(fld: _Field, label: str, key: _Key, reader: _Reader) -> int | None:
+    if _DIGITS.fullmatch(fld.text) is None or int(fld.text) > MAX_ADDRESS:
+        what = f"'{fld.text}'" if fld.text else "nothing"
+        reader.report(key.line, fld.col, f"{label}: the offset must be a wire address 0..{MAX_ADDRESS}, not {what}")
+        return None
+    return int(fld.text)
+
+
+def _number(fld: _Field | None, what: str, label: str, key: _Key, reader: _Reader) -> float | None:
+    if fld is None or not fld.text:
+        return None
+    if _NUMBER.fullmatch(fld.text) is None:
+        reader.report(key.line, fld.col, f"{label}: {what} must be a number, not '{fld.text}'")
+        return None
+    value = float(fld.text)
+    if value in (float("inf"), float("-inf")):
+        reader.report(key.line, fld.col, f"{label}: {what} {fld.text} is too large")
+        return None
+    return value
+
+
+def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, reader: _Reader) -> None:
+    """min, max, precision, unit, datatype and Lua of a register line, into `fn`."""
+
+    def at(i: int) -> _Field | None:
+        return fields[i] if len(fields) > i else None
+
+    low = _number(at(2), "min", label, key, reader)
+    high = _number(at(3), "max", label, key, reader)
+    precision = _number(at(4), "precision", label, key, reader)
+    unit = at(5)
+    dtype = DEFAULT_DATA_TYPE
+    type_field = at(6)
+    if type_field is not None and type_field.text:
+        if _DIGITS.fullmatch(type_field.text) is None or int(type_field.text) >= len(DATA_TYPES):
+            reader.report(key.line, type_field.col, f"{label}: datatype '{type_field.text}' is outside 0-8")
+        else:
+            dtype = DATA_TYPES[int(type_field.text)]
+    lua = _lua_text(fields[7:], key) if len(fields) > 7 else None
+    scale = 1.0 if not precision else precision  # the agent: precision 0 or absent means 1
+    offset = 0.0
+    if lua:
+        plain = affine(lua)
+        if plain is None:
+            fn.description = f"{fn.name} (WISE Lua conversion, not applied: {lua})"
+            reader.report(key.line, fields[7].col, f"{label} '{fn.name}': the Lua column '{lua}' is not plain "
+                                                   "arithmetic on modbus_val: kept in the description, "
+                                                   "not applied", "warning")
+        else:  # the agent runs the Lua on the raw value, then multiplies by the precision
+            offset = plain[1] * scale + 0.0
+            scale = plain[0] * scale
+    fn.format = dtype.format
+    fn.byte_order = "little" if dtype.byte_order == "little" else None
+    fn.word_order = "little" if dtype.word_order == "little" else None
+    fn.multiplier = None if scale == 1 else scale
+    fn.offset = offset or None
+    fn.units = unit.text if unit is not None and unit.text else None
+    low_col = fields[2].col if len(fields) > 2 else None
+    if low is not None and high is not None:
+        if low == high == 0:
+            reader.report(key.line, low_col,
+                          f"{label} '{fn.name}': min and max are both 0: read as no range", "note")
+            return
+        if low > high:
+            reader.report(key.line, low_col,
+                          f"{label} '{fn.name}': min {low:g} is above max {high:g}: swapped, as the agent does",
+                          "warning")
+            low, high = high, low
+    fn.minimum, fn.maximum = low, high
+
+
+def _lua_text(rest: list[_Field], key: _Key) -> str | None:
+    """The Lua column (everything after the datatype), without its quotes; None if empty. As the agent
+    does, a quoted column is the text between its first two quotes."""
+    text = ",".join(f.text for f in rest).strip()
+    if text.startswith('"'):
+        text = text[1:].split('"', 1)[0]
+    return text.strip() or None
+
+
+def _check_addresses(claims: list[_Claim], reader: _Reader) -> None:
+    """An offset used by two entries of one table (in one section, or in both forms of it) is an error."""
+    first: dict[tuple[str, int], _Claim] = {}
+    for claim in claims:
+        other = first.setdefault((claim.table, claim.offset), claim)
+        if other is not claim:
+            reader.report(claim.line, claim.col, f"{claim.label}: offset {claim.offset} of the {claim.table} table is "
+                                            f"already {other.label}'s (line {other.line})")
+
+
+def _unique_names(functions: list[Function], reader: _Reader) -> None:
+    """SPEC 3's rule for names: a name used again gets `_2`, `_3`...; said in a note (another section, as the
+    agent's samples do) or a warning (the same section: the agent cannot tell the two apart)."""
+    used: dict[str, Function] = {}
+    for fn in functions:
+        original = fn.name
+        if original not in used:
+            used[original] = fn
+            continue
+        other = used[original]
+        n = 2
+        while f"{original}_{n}" in used:
+            n += 1
+        fn.name = f"{original}_{n}"
+        used[fn.name] = fn
+        same = other.block == fn.block
+        reader.report(fn.line, None, f"'{original}' is also the name of line {other.line}"
+                                     f"{' in the same section' if same else f' ([{other.block}])'}: "
+                                     f"this one is named '{fn.name}'", "warning" if same else "note")

@@ -1,0 +1,255 @@
+"""A resolved device -> WISE-Agent `Modbus.ini` in the shipped agent's form (`mdl export --to wise`, SPEC 7).
+
+`[Platform]` takes the connection from the command line (TCP: Protocol=Modbus_TCP, ClientIP, ClientPort,
+UnitID; a serial line: Protocol=Modbus_RTU, SlavePort, Baud, Parity, DataBits, StopBits, SlaveID;
+Interval in whole seconds). Each function becomes a line of its table's section: coils and discrete
+inputs `offset,name`; registers `offset,name,min,max,precision,unit,datatype[,lua]`, where precision is
+the multiplier, and an offset is written as the Lua column `modbus_val*m+o` (precision 1 then). Every
+field is written, never left empty: the agent splits a line with strtok, which skips an empty field
+and shifts the rest (no unit is written as one space; no minimum/maximum as the range of the raw value,
+scaled). What the format cannot express is a warning naming the function: a function it cannot read
+at all is left out (fragments, expressions, text, bytes, 64-bit values, byte orders datatypes 0-8 do not
+have, addresses not next to each other); one it reads with a loss is written and the loss named.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
+
+from mdl import __version__
+from mdl.device.connection import Connection
+from mdl.diagnostics import Diagnostic
+from mdl.exports import Export, Settings
+from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
+from mdl.sources.wise.sections import (
+    AGENT_SECTIONS,
+    DATA_TYPES,
+    LUA_VARIABLE,
+    DataType,
+    agent_section,
+    data_type_of,
+)
+
+if TYPE_CHECKING:
+    from mdl.model.layout import Layout
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+FLOAT32_MAX = 3.4028234663852886e38
+_RAW_RANGE = {"UINT16": (0, 0xFFFF), "UINT32": (0, 0xFFFFFFFF), "INT32": (-(1 << 31), (1 << 31) - 1),
+              "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX)}
+_UNSAFE = re.compile(r'[,"\x00-\x1f\x7f]')  # what would split or end an INI line
+PARITY = {"N": "None", "E": "Even", "O": "Odd"}
+
+
+class _Warn(Protocol):
+    def __call__(self, message: str, severity: str = "warning") -> None: ...
+
+
+class _Skip(Exception):
+    """The function cannot be written to a Modbus.ini; the message says why."""
+
+
+@dataclass
+class _Line:
+    fn: Function
+    table: str
+    offset: int
+    name: str
+    rest: list[str] = field(default_factory=list)  # the fields after the name
+    losses: list[str] = field(default_factory=list)
+
+
+def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
+    """`mdl export --to wise`: the Modbus.ini text and a warning for each thing it cannot express."""
+    text, warnings = wise_ini(resolved, settings.connection, settings.unit, settings.interval)
+    return Export(text, warnings=warnings)
+
+
+def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
+             interval: float) -> tuple[str, list[Diagnostic]]:
+    warnings: list[Diagnostic] = []
+    source = resolved.device.source
+
+    def warn(message: str, severity: str = "warning") -> None:
+        warnings.append(Diagnostic(source, None, None, message, severity))
+
+    lines: dict[str, list[_Line]] = {s.table: [] for s in AGENT_SECTIONS}
+    taken: dict[tuple[str, int], str] = {}
+    for rf in resolved.functions:
+        try:
+            line = _line(rf)
+        except _Skip as why:
+            warn(f"function '{rf.name}': not written: {why}")
+            continue
+        where = (line.table, line.offset)
+        if where in taken:
+            warn(f"function '{rf.name}': not written: offset {line.offset} of the {line.table} table is "
+                 f"'{taken[where]}' already (the agent reads one entry per offset)")
+            continue
+        taken[where] = rf.name
+        _unique_name(line, lines[line.table], warn)
+        if line.losses:
+            warn(f"function '{rf.name}': written, losing " + "; ".join(line.losses))
+        lines[line.table].append(line)
+    _device_losses(resolved, lines, warn)
+    out = [f"; WISE-Agent Modbus handler configuration for {_safe(resolved.name)}",
+           f"; written by mdl {__version__}" + (f" from {_safe(Path(source).name)}" if source else ""), ""]
+    out += _platform(resolved.name, connection, unit, interval, warn)
+    for section in AGENT_SECTIONS:
+        entries = sorted(lines[section.table], key=lambda e: e.offset)
+        if not entries:
+            continue
+        out += ["", f"[{section.name}]", f"{section.count_key}={len(entries)}"]
+        out += [f"{section.tag}{i}=" + ",".join([str(e.offset), e.name, *e.rest]) for i, e in enumerate(entries)]
+    out += ["", ";tag = offset, name, min, max, precision, unit, data type, lua script",
+            ";precision multiplies the raw value; the lua script (on modbus_val) runs before it",
+            ";data type"]
+    out += [f";{d.code}->{d.summary} ({d.letters})" for d in DATA_TYPES]
+    return "\n".join(out) + "\n", warnings
+
+
+def _platform(name: str, connection: Connection | None, unit: int, interval: float,
+              warn: _Warn) -> list[str]:
+    out = ["[Platform]", f"Name={_safe(name)}"]
+    if connection is None:
+        connection = Connection()
+        warn(f"no --host or --serial: the agent is set to ClientIP={connection.host} "
+             f"ClientPort={connection.port}", "note")
+    if connection.serial is not None:
+        out += ["Protocol=Modbus_RTU", f"SlavePort={_safe(connection.serial)}", f"Baud={connection.baud}",
+                f"Parity={PARITY.get(connection.parity, connection.parity)}", f"DataBits={connection.bytesize}",
+                f"StopBits={connection.stopbits}", f"SlaveID={unit}"]
+    else:
+        if connection.rtu:
+            warn("the agent speaks Modbus TCP or RTU on a serial port, not RTU frames over TCP: "
+                 "written as Protocol=Modbus_TCP")
+        out += ["Protocol=Modbus_TCP", f"ClientIP={_safe(connection.host)}", f"ClientPort={connection.port}",
+                f"UnitID={unit}"]
+    seconds = max(1, round(interval))
+    if seconds != interval:
+        warn(f"the agent polls every whole number of seconds: Interval={seconds} for --interval {interval:g}")
+    return [*out, f"Interval={seconds}", "Log=0"]
+
+
+def _line(rf: ResolvedFunction) -> _Line:
+    """The function's Modbus.ini line, or _Skip saying why there is none."""
+    fn, lay = rf.fn, rf.layout
+    if fn.expression is not None:
+        raise _Skip("computed by an expression (WISE has none)")
+    if fn.read_function_code is not None:
+        raise _Skip("read by a C fragment (WISE has none)")
+    losses = _losses(fn)
+    if lay.kind == "bool" and lay.unit == "bit":
+        return _Line(fn, lay.table, lay.addresses[0], fn.name, [], losses)
+    if lay.kind == "string":
+        raise _Skip("text (STRING): WISE reads numbers")
+    if lay.unit != "word":
+        raise _Skip(f"the {'lower' if lay.unit == 'low' else 'upper'} byte of a register: WISE reads whole registers")
+    offset, dtype = _data_type(fn, lay, losses)
+    lo, hi = _RAW_RANGE[dtype.format]
+    multiplier, add = fn.eff_multiplier, fn.eff_offset
+    low = fn.minimum if fn.minimum is not None else min(lo * multiplier + add, hi * multiplier + add)
+    high = fn.maximum if fn.maximum is not None else max(lo * multiplier + add, hi * multiplier + add)
+    unit = (fn.units or "").strip()
+    if _UNSAFE.search(unit):
+        losses.append(f"the commas, quotes and control characters of its unit '{unit}'")
+        unit = _UNSAFE.sub("_", unit)
+    rest = [_number(low), _number(high), _number(multiplier if add == 0 else 1.0), unit or " ", str(dtype.code)]
+    if add != 0:
+        lua = LUA_VARIABLE if multiplier == 1 else f"{LUA_VARIABLE}*{_number(multiplier)}"
+        rest.append(f'"{lua}{"+" if add > 0 else "-"}{_number(abs(add))}"')
+    return _Line(fn, lay.table, offset, fn.name, rest, losses)
+
+
+def _data_type(fn: Function, lay: Layout, losses: list[str]) -> tuple[int, DataType]:
+    """The first address and datatype of a value in registers (losses appended), or _Skip."""
+    fmt = fn.eff_format
+    if lay.kind == "bool":
+        losses.append("true/false (the agent reads the register's number)")
+        return lay.addresses[0], DATA_TYPES[0]
+    if len(lay.addresses) == 1:
+        if lay.byte_order == "little":
+            raise _Skip("its bytes are swapped: WISE reads a 16-bit register as it comes")
+        if lay.bits == 8:
+            losses.append(f"{fmt} (the agent reads the whole 16-bit register, unsigned)")
+        elif lay.signed:
+            losses.append(f"{fmt} (the agent reads the register unsigned: a negative value reads 65536 higher)")
+        return lay.addresses[0], DATA_TYPES[0]
+    if len(lay.addresses) != 2:
+        raise _Skip(f"a {lay.bits}-bit value: WISE reads 16 or 32 bits")
+    first, second = lay.addresses
+    word_order = lay.word_order
+    if second == first - 1:  # listed high address first: the same as word order reversed
+        first, word_order = second, "little" if word_order == "big" else "big"
+    elif second != first + 1:
+        raise _Skip(f"registers {first} and {second} are not next to each other")
+    kind = "FLOAT32" if lay.kind == "float" else "INT32" if lay.signed else "UINT32"
+    dtype = data_type_of(kind, lay.byte_order, word_order)
+    if dtype is None:
+        raise _Skip(f"{kind} with byte order {lay.byte_order} and word order {word_order}: "
+                    "no WISE datatype reads it")
+    return first, dtype
+
+
+def _losses(fn: Function) -> list[str]:
+    """What the line cannot say about the function, apart from its value's layout."""
+    out = []
+    if fn.values:
+        out.append("its enumeration (the agent shows the number)")
+    if fn.not_implemented:
+        out.append("its not_implemented values (the agent shows the number)")
+    if fn.write_function_code is not None:
+        out.append("its write fragment")
+    if fn.table not in READ_ONLY_TABLES and fn.eff_access != "read_write":
+        out.append(f"access {fn.eff_access} (the agent reads and writes the {fn.table} table)")
+    lost = [name for name in ("precision", "marker", "write_multiple", "immutable", "system", "fetch_group")
+            if getattr(fn, name) is not None]
+    if lost:
+        out.append(", ".join(lost) + " (a Modbus.ini line has no such field)")
+    return out
+
+
+def _unique_name(line: _Line, section: list[_Line], warn: _Warn) -> None:
+    """A name the line can hold, unique in its section (the agent finds an entry by section and name)."""
+    name = _UNSAFE.sub("_", line.name).strip() or "unnamed"
+    used = {e.name for e in section}
+    base, n = name, 1
+    while name in used:
+        n += 1
+        name = f"{base}_{n}"
+    if name != line.name:
+        warn(f"function '{line.fn.name}': written as '{name}' (a name in a Modbus.ini has no commas, quotes or "
+             "control characters and is unique in its section)")
+    line.name = name
+
+
+def _device_losses(resolved: ResolvedDevice, lines: dict[str, list[_Line]], warn: _Warn) -> None:
+    device = resolved.device
+    lost = [name for name in IDENTITY_FIELDS if getattr(device, name) is not None]
+    if device.max_registers is not None:
+        lost.append("max_registers")
+    if device.tests:
+        lost.append(f"its {len(device.tests)} test scenario{'s' * (len(device.tests) != 1)}")
+    if lost:
+        warn("written without the device's " + ", ".join(lost) + " (a Modbus.ini has none)")
+    relabelled = sorted({line.fn.block for entries in lines.values() for line in entries
+                         if line.fn.block and line.fn.block != agent_section(line.table).name})
+    if relabelled:
+        warn("block labels " + ", ".join(f"'{b}'" for b in relabelled) + " are not kept: the agent's sections "
+             "are its tables ([Coils], [Holding Registers]...)")
+
+
+def _number(value: float) -> str:
+    """A number as the file writes it: whole numbers without a point, others in Python's shortest form."""
+    if math.isfinite(value) and value.is_integer() and abs(value) < 1e16:
+        return str(int(value))
+    return repr(float(value))
+
+
+def _safe(text: str) -> str:
+    """Text on one line of the file: control characters as spaces."""
+    return re.sub(r"[\x00-\x1f\x7f]", " ", text)
