@@ -1,0 +1,116 @@
+"""What the three engine writers (VOLTTRON, Home Assistant, Telegraf; SPEC 11) share.
+
+Each writer walks the resolved device's functions and decides, from the layout and the value IR
+the resolve step computed (never from the document again), how its engine reads each one. What the
+engine cannot express becomes a warning naming the function and the engine (`Notes.warn`); a
+function no engine can read as mdl does (an expression, a fragment, registers that are not one
+ascending run, a value built from bytes of several registers) is left out with such a warning
+(`unreadable`). An export that would hold nothing at all is an error (`nothing_left`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from decimal import Decimal
+from typing import TYPE_CHECKING
+
+from mdl.device.connection import Connection
+from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, find_step
+
+if TYPE_CHECKING:
+    from mdl.exports import Settings
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+
+@dataclass
+class Notes:
+    """The warnings (and notes) of one export, each naming the engine."""
+
+    resolved: ResolvedDevice
+    engine: str
+    found: list[Diagnostic] = field(default_factory=list)
+
+    def warn(self, f: ResolvedFunction, message: str) -> None:
+        self.found.append(Diagnostic(self.resolved.device.source, f.fn.line, None,
+                                     f"function '{f.name}': {self.engine}: {message}", "warning"))
+
+    def device_warning(self, message: str) -> None:
+        self.found.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "warning"))
+
+    def note(self, message: str) -> None:
+        self.found.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "note"))
+
+
+def unreadable(f: ResolvedFunction) -> str | None:
+    """Why none of the engines can read `f` as mdl does (it is left out), or None."""
+    steps = f.codec.decode
+    if find_step(steps, Expression) is not None or f.layout.kind == "expr":
+        return "a Toolkit expression computes its value"
+    if find_step(steps, Fragment) is not None:
+        return "a read fragment computes its value"
+    addresses = f.layout.addresses
+    if addresses != tuple(range(addresses[0], addresses[0] + len(addresses))):
+        return f"its registers ({' '.join(map(str, addresses))}) are not one ascending run"
+    if f.layout.unit in ("low", "high") and len(addresses) > 1:
+        return "its value is built from bytes of several registers"
+    return None
+
+
+def written_by_fragment(f: ResolvedFunction) -> bool:
+    return find_step(f.codec.encode, Fragment) is not None
+
+
+def scale_of(f: ResolvedFunction) -> Scale | None:
+    return find_step(f.codec.decode, Scale)
+
+
+def patterns_of(f: ResolvedFunction) -> tuple[tuple[int, ...], ...]:
+    """The register values that mean "not implemented", in the document's order."""
+    step = find_step(f.codec.decode, NotImplemented)
+    return step.patterns if step is not None else ()
+
+
+def hex_pattern(pattern: tuple[int, ...]) -> str:
+    return " ".join(f"0x{word:04X}" for word in pattern)
+
+
+def plain_number(x: float) -> str:
+    """`x` as a plain decimal (no exponent) that reads back as the same double: 0.1, 1e-05 -> 0.00001, 2 -> 2."""
+    text = format(Decimal(repr(float(x))), "f")
+    if "." in text:
+        text = text.rstrip("0").rstrip(".")
+    return text if text not in ("-0", "") else "0"
+
+
+def decimals(x: float) -> int:
+    """Digits after the point in `plain_number(x)`: the decimal places a product with an integer needs."""
+    text = plain_number(x)
+    return len(text.split(".", 1)[1]) if "." in text else 0
+
+
+def connection_of(settings: Settings, notes: Notes) -> Connection:
+    """The connection the command line gave, or the default one (said in a note)."""
+    if settings.connection is not None:
+        return settings.connection
+    conn = Connection()
+    notes.note(f"no connection given: the configuration names {conn.host}:{conn.port}; give --host/--port or "
+               "--serial for the device's own")
+    return conn
+
+
+def whole_seconds(settings: Settings, notes: Notes) -> int:
+    """The poll interval in whole seconds, for engines that take nothing finer (said where it changes)."""
+    seconds = max(1, math.ceil(settings.interval - 1e-9))
+    if seconds != settings.interval:
+        notes.device_warning(f"polls in whole seconds: --interval {plain_number(settings.interval)} becomes {seconds}")
+    return seconds
+
+
+def nothing_left(resolved: ResolvedDevice, engine: str, notes: Notes) -> MdlError:
+    """The error for a description of which the engine can hold nothing, with every reason why."""
+    reasons = [d for d in notes.found if d.severity == "warning"]
+    why = "; ".join(d.message for d in reasons[:5]) or "it has no functions"
+    more = f" (and {len(reasons) - 5} more)" if len(reasons) > 5 else ""
+    return error(f"{engine} can hold none of this description's functions: {why}{more}", resolved.device.source)

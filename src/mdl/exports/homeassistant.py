@@ -1,0 +1,223 @@
+"""`mdl export --to homeassistant`: a `modbus:` hub for Home Assistant's configuration.yaml (SPEC 11).
+
+One hub (named by the device's stem, with the connection of the command line) holding:
+- `sensors` for readable numbers and text: `data_type` (int16 ... uint64, float32/64, string with its
+  `count`, or `custom` with a struct `structure` for one byte of a register), `swap` (byte: MDL
+  byte_order little; word: word_order little; word_byte: both), `scale`/`offset` (Home Assistant
+  computes scale * value + offset), `precision` (the function's, else the decimal places its
+  scaling needs, as Home Assistant rounds what it shows to it), `nan_value` (the first
+  not_implemented value, as the number Home Assistant unpacks from those registers), `input_type`,
+  `unit_of_measurement`;
+- `binary_sensors` for bits that cannot be written, `switches` (write_type coil, verified by reading
+  the coil back) for writable coils;
+each with `name` (the function's), `unique_id` (stem, unit, identifier), `device_address` (--unit),
+`address` (the wire address) and `scan_interval` (--interval, whole seconds).
+
+Home Assistant's modbus integration has no writable number entity: a writable register is exported
+as a sensor, with a warning. Checked against Home Assistant 2024.3's own schema
+(homeassistant.components.modbus.CONFIG_SCHEMA) and its value rules (base_platform.py).
+"""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import yaml
+
+from mdl.exports import Export
+from mdl.exports.engines import (
+    Notes,
+    connection_of,
+    decimals,
+    hex_pattern,
+    nothing_left,
+    patterns_of,
+    scale_of,
+    unreadable,
+    whole_seconds,
+    written_by_fragment,
+)
+
+if TYPE_CHECKING:
+    from mdl.exports import Settings
+    from mdl.model.layout import Layout
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+ENGINE = "Home Assistant"
+_TYPES = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, True): "int32",
+          ("int", 32, False): "uint32", ("int", 64, True): "int64", ("int", 64, False): "uint64",
+          ("float", 32, True): "float32", ("float", 64, True): "float64"}
+_STRUCT = {"int16": "h", "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
+           "float32": "f", "float64": "d"}
+FLOAT_PRECISION = 2  # what Home Assistant shows of a float without precision
+
+
+def ha_type(lay: Layout) -> dict[str, Any] | str:
+    """data_type with its swap, count or structure, as Home Assistant reads the layout; or why none does."""
+    n = len(lay.addresses)
+    if lay.unit in ("low", "high") or (n == 1 and lay.bits == 8):
+        code = "b" if lay.signed else "B"
+        low = lay.unit == "low" or (lay.unit == "word" and lay.byte_order == "big")
+        return {"data_type": "custom", "structure": f">x{code}" if low else f">{code}x", "count": 1}
+    swap = {("big", "big"): None, ("little", "big"): "byte", ("big", "little"): "word",
+            ("little", "little"): "word_byte"}[(lay.byte_order, lay.word_order if n > 1 else "big")]
+    if lay.kind == "string":
+        if swap not in (None, "byte"):
+            return "text in more than one register never has its words swapped"
+        return {"data_type": "string", "count": n, **({"swap": swap} if swap else {})}
+    data_type = _TYPES.get((lay.kind, lay.bits, lay.signed))
+    if data_type is None or lay.bits != 16 * n:
+        return f"no data_type holds a {lay.bits}-bit {lay.kind} in {n} registers"
+    return {"data_type": data_type, **({"swap": swap} if swap else {})}
+
+
+def unpacked(kind: dict[str, Any], registers: tuple[int, ...]) -> Any:
+    """What Home Assistant unpacks from `registers` for a sensor of this kind (base_platform.py)."""
+    regs = list(registers)
+    if kind.get("swap") in ("byte", "word_byte"):
+        regs = [((r & 0xFF) << 8) | (r >> 8) for r in regs]
+    if kind.get("swap") in ("word", "word_byte"):
+        regs.reverse()
+    data = b"".join(r.to_bytes(2, "big") for r in regs)
+    structure = kind.get("structure") or ">" + _STRUCT[kind["data_type"]]
+    return struct.unpack(structure, data)[0]
+
+
+def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int | None:
+    patterns = patterns_of(f)
+    if not patterns:
+        return None
+    if len(patterns) > 1:
+        notes.warn(f, f"nan_value holds one 'not implemented' value: {hex_pattern(patterns[0])} is used, "
+                      f"{', '.join(map(hex_pattern, patterns[1:]))} read as numbers")
+    if kind["data_type"] == "string":
+        notes.warn(f, f"text has no nan_value: {hex_pattern(patterns[0])} reads as text")
+        return None
+    value = unpacked(kind, patterns[0])
+    if value != value:  # a float NaN: Home Assistant shows none for it anyway
+        return None
+    if value == 0 or value != int(value):
+        notes.warn(f, f"nan_value cannot be {value!r} (what {hex_pattern(patterns[0])} unpacks to): "
+                      "it reads as a number")
+        return None
+    number = int(value)
+    lay = f.layout
+    if lay.kind == "float" or (lay.signed and -(1 << (lay.bits - 1)) <= -number < (1 << (lay.bits - 1))):
+        notes.warn(f, f"nan_value {number} also makes {-number} read as not implemented (Home Assistant "
+                      "compares both signs)")
+    return number
+
+
+def _precision(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int | None:
+    if kind["data_type"] == "string":
+        return None
+    if f.fn.precision is not None:
+        if f.fn.precision < 0:
+            notes.warn(f, f"precision cannot round left of the point ({f.fn.precision}): whole numbers are shown")
+            return 0
+        return f.fn.precision
+    step = scale_of(f)
+    if f.layout.kind == "float":
+        notes.warn(f, f"shows a float with {FLOAT_PRECISION} decimal places unless the function has a precision")
+        return None
+    if step is None:
+        return None
+    places = max(decimals(step.multiplier), decimals(step.offset))
+    return places or None
+
+
+def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any] | None:
+    kind = ha_type(f.layout)
+    if isinstance(kind, str):
+        notes.warn(f, f"{kind}: left out")
+        return None
+    entry = dict(base)
+    entry["input_type"] = "input" if f.layout.table == "input" else "holding"
+    entry.update(kind)
+    step = scale_of(f)
+    if step is not None:
+        if step.multiplier != 1:
+            entry["scale"] = step.multiplier
+        if step.offset != 0:
+            entry["offset"] = step.offset
+    precision = _precision(f, kind, notes)
+    if precision is not None:
+        entry["precision"] = precision
+    if f.fn.units:
+        entry["unit_of_measurement"] = f.fn.units
+    nan_value = _nan_value(f, kind, notes)
+    if nan_value is not None:
+        entry["nan_value"] = nan_value
+    if f.fn.values:
+        notes.warn(f, "a sensor has no enumeration: it shows the number, not the label")
+    if kind["data_type"] == "string":
+        notes.warn(f, "the text keeps the NUL padding that mdl strips")
+    if f.fn.writable:
+        notes.warn(f, "the modbus integration has no entity that writes a register value: exported as a sensor (write "
+                      "it with the modbus.write_register action)")
+    return entry
+
+
+def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, list[dict[str, Any]]]:
+    out: dict[str, list[dict[str, Any]]] = {"sensors": [], "binary_sensors": [], "switches": []}
+    scan = whole_seconds(settings, notes)
+    for f in resolved.functions:
+        reason = unreadable(f) if f.fn.readable else None
+        if reason is not None:
+            notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+            continue
+        base = {"name": f.name, "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
+                "device_address": settings.unit, "address": f.layout.addresses[0]}
+        writable = f.fn.writable and not written_by_fragment(f)
+        if f.fn.writable and not writable:
+            notes.warn(f, "a write fragment encodes it, which Home Assistant cannot: exported read-only")
+        if f.layout.kind == "bool":
+            if writable and f.layout.table == "coil":
+                switch = {**base, "write_type": "coil"}
+                if f.fn.readable:
+                    switch["verify"] = {}
+                else:
+                    notes.warn(f, "write-only: the switch shows the state it last wrote")
+                out["switches"].append({**switch, "scan_interval": scan})
+            elif f.fn.readable:
+                input_type = "discrete_input" if f.layout.table == "discrete" else "coil"
+                out["binary_sensors"].append({**base, "input_type": input_type, "scan_interval": scan})
+            else:
+                notes.warn(f, "neither readable nor writable here: left out")
+            continue
+        if not f.fn.readable:
+            notes.warn(f, "write-only register: the modbus integration only writes registers through its "
+                          "modbus.write_register action: left out")
+            continue
+        sensor = _sensor(f, base, notes)
+        if sensor is not None:
+            out["sensors"].append({**sensor, "scan_interval": scan})
+    return {key: value for key, value in out.items() if value}
+
+
+def _hub(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, Any]:
+    conn = connection_of(settings, notes)
+    hub: dict[str, Any] = {"name": resolved.stem}
+    if conn.serial is not None:
+        hub.update(type="serial", port=conn.serial, baudrate=conn.baud, bytesize=conn.bytesize, method="rtu",
+                   parity=conn.parity, stopbits=conn.stopbits)
+    else:
+        hub.update(type="rtuovertcp" if conn.rtu else "tcp", host=conn.host, port=conn.port)
+    hub["timeout"] = int(conn.timeout) if conn.timeout == int(conn.timeout) else conn.timeout
+    return hub
+
+
+def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export:
+    notes = Notes(resolved, ENGINE)
+    entities = _entities(resolved, settings, notes)
+    if not entities:
+        raise nothing_left(resolved, ENGINE, notes)
+    hub = {**_hub(resolved, settings, notes), **entities}
+    source = Path(resolved.device.source).name if resolved.device.source else "a description"
+    head = (f"# Home Assistant modbus integration: {resolved.name}, from {source} by mdl export.\n"
+            "# Put it in configuration.yaml (merge the hub into an existing modbus: list).\n")
+    body = yaml.safe_dump({"modbus": [hub]}, sort_keys=False, allow_unicode=True, default_flow_style=False, width=100)
+    return Export(text=head + body, warnings=notes.found)
+

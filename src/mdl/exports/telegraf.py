@@ -1,0 +1,224 @@
+"""`mdl export --to telegraf`: Telegraf's `[[inputs.modbus]]` in the `request` configuration style (SPEC 11).
+
+One `[[inputs.modbus.request]]` section per request of mdl's read plan (`ResolvedDevice.plan`), so that
+Telegraf polls with mdl's coalescing: its fields are the functions the request carries, and an
+`omit = true` field fills each register of the request no exported field reads (Telegraf splits a
+section at any gap). Field names are the functions' identifiers (safe in Telegraf's glob filters); the
+measurement is the device's stem, the plugin's `name` tag the device's name.
+
+Per field: `type` (INT16 ... UINT64, FLOAT32/64, INT8L/H and UINT8L/H for one byte of a register,
+STRING with `length` in registers; bits take `output = "BOOL"`), `scale` (Telegraf multiplies:
+value * scale). A section has one `byte_order` (ABCD, DCBA, BADC, CDAB: MDL's byte and word order);
+where the functions of one request need different ones, the request becomes several sections.
+Offsets go to `[[processors.scale]]` (factor 1 and the offset: Telegraf 1.27+), enumerations to
+`[[processors.enum]]`, both limited to the measurement by `namepass`. Telegraf only reads.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from mdl.exports import Export
+from mdl.exports.engines import (
+    Notes,
+    connection_of,
+    hex_pattern,
+    nothing_left,
+    patterns_of,
+    plain_number,
+    scale_of,
+    unreadable,
+)
+
+if TYPE_CHECKING:
+    from mdl.exports import Settings
+    from mdl.model.layout import Layout
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+ENGINE = "Telegraf"
+ORDERS = ("ABCD", "CDAB", "DCBA", "BADC")  # tried in this order for a section
+_WORD_TYPES = {("int", 16, True): "INT16", ("int", 16, False): "UINT16", ("int", 32, True): "INT32",
+               ("int", 32, False): "UINT32", ("int", 64, True): "INT64", ("int", 64, False): "UINT64",
+               ("float", 32, True): "FLOAT32", ("float", 64, True): "FLOAT64"}
+_BYTE_SWAPPED = ("DCBA", "BADC")  # the orders that read each register's bytes swapped
+_ORDER_OF = {("big", "big"): "ABCD", ("little", "little"): "DCBA", ("little", "big"): "BADC",
+             ("big", "little"): "CDAB"}
+
+
+def field_type(lay: Layout, order: str) -> str | None:
+    """The Telegraf type that reads the layout as mdl does in a section of `order`, or None."""
+    n = len(lay.addresses)
+    swapped = order in _BYTE_SWAPPED
+    if lay.kind == "bool":
+        return "BIT"
+    if lay.unit in ("low", "high") or (n == 1 and lay.bits == 8):
+        if order not in ("ABCD", "DCBA"):  # Telegraf's 8-bit types know these two only
+            return None
+        # which byte on the wire: low/high unit, or the lower byte after the byte order
+        second = lay.unit == "low" or (lay.unit == "word" and lay.byte_order == "big")
+        low = second != swapped  # DCBA reads the wire's first byte as the low one
+        return f"{'' if lay.signed else 'U'}INT8{'L' if low else 'H'}"
+    byte_swapped = lay.byte_order == "little"
+    if lay.kind == "string":
+        return "STRING" if swapped == byte_swapped else None
+    if n == 1:
+        name = _WORD_TYPES.get((lay.kind, lay.bits, lay.signed))
+        return name if name and swapped == byte_swapped else None
+    name = _WORD_TYPES.get((lay.kind, lay.bits, lay.signed))
+    if name is None or lay.bits != 16 * n:
+        return None
+    return name if order == _ORDER_OF[(lay.byte_order, lay.word_order)] else None
+
+
+def _fits_somehow(lay: Layout) -> bool:
+    return any(field_type(lay, order) is not None for order in ORDERS)
+
+
+def _toml(value: object) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)
+    return json.dumps(str(value), ensure_ascii=False)
+
+
+def _inline(entries: dict[str, object]) -> str:
+    return "{ " + ", ".join(f"{key} = {_toml(value)}" for key, value in entries.items()) + " }"
+
+
+def _exported(resolved: ResolvedDevice, notes: Notes) -> dict[str, ResolvedFunction]:
+    """name -> function, for each function Telegraf reads as mdl does (the others warned)."""
+    out = {}
+    for f in resolved.functions:
+        if not f.fn.readable:
+            notes.warn(f, "write-only: Telegraf only reads: left out")
+            continue
+        reason = unreadable(f)
+        if reason is not None:
+            notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+            continue
+        if not _fits_somehow(f.layout):
+            notes.warn(f, f"no field type reads a {f.layout.bits}-bit {f.layout.kind} in "
+                          f"{len(f.layout.addresses)} registers: left out")
+            continue
+        patterns = patterns_of(f)
+        if patterns:
+            notes.warn(f, f"no 'not implemented' value: {', '.join(map(hex_pattern, patterns))} reads as a number")
+        if f.layout.kind == "string":
+            notes.warn(f, "a STRING field ends at its first NUL and keeps trailing spaces, which mdl strips")
+        out[f.name] = f
+    return out
+
+
+def _runs(functions: list[ResolvedFunction]) -> list[tuple[str, list[ResolvedFunction]]]:
+    """The functions of one request (by address) in runs that one byte_order reads, each with its order."""
+    runs: list[tuple[str, list[ResolvedFunction]]] = []
+    for f in sorted(functions, key=lambda g: (g.layout.addresses[0], g.ident)):
+        if runs:
+            order, members = runs[-1]
+            common = [o for o in ORDERS if all(field_type(g.layout, o) for g in (*members, f))]
+            if common:
+                runs[-1] = (common[0], [*members, f])
+                continue
+        runs.append((next(o for o in ORDERS if field_type(f.layout, o)), [f]))
+    return runs
+
+
+def _fields(order: str, members: list[ResolvedFunction], bits: bool) -> list[str]:
+    lines = []
+    covered: set[int] = set()
+    for f in members:
+        covered.update(f.layout.addresses)
+    start = min(covered)
+    end = max(covered) + 1
+    by_address: dict[int, list[ResolvedFunction]] = {}
+    for f in members:
+        by_address.setdefault(f.layout.addresses[0], []).append(f)
+    for address in range(start, end):
+        for f in by_address.get(address, []):
+            entry: dict[str, object] = {"address": address, "name": f.ident}
+            if bits:
+                entry["output"] = "BOOL"
+            else:
+                entry["type"] = field_type(f.layout, order)
+                if f.layout.kind == "string":
+                    entry["length"] = len(f.layout.addresses)
+                step = scale_of(f)
+                if step is not None and step.multiplier != 1:
+                    entry["scale"] = step.multiplier
+            lines.append(_inline(entry))
+        if address not in covered:
+            lines.append(_inline({"address": address, "omit": True} if bits else
+                                 {"address": address, "type": "UINT16", "omit": True}))
+    return lines
+
+
+def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported: dict[str, ResolvedFunction]) -> str:
+    conn = connection_of(settings, notes)
+    out = ["[[inputs.modbus]]", f"  name = {_toml(resolved.name)}"]
+    if conn.serial is not None:
+        out += [f"  controller = {_toml('file://' + conn.serial)}", f"  baud_rate = {conn.baud}",
+                f"  data_bits = {conn.bytesize}", f"  parity = {_toml(conn.parity)}", f"  stop_bits = {conn.stopbits}",
+                '  transmission_mode = "RTU"']
+    else:
+        host = f"[{conn.host}]" if ":" in conn.host else conn.host
+        out.append(f"  controller = {_toml(f'tcp://{host}:{conn.port}')}")
+        if conn.rtu:
+            out.append('  transmission_mode = "RTUoverTCP"')
+    out += [f"  slave_id = {settings.unit}", f"  timeout = {_toml(plain_number(conn.timeout) + 's')}",
+            f"  interval = {_toml(plain_number(settings.interval) + 's')}", '  configuration_type = "request"']
+    for group in resolved.plan:
+        request = group.request
+        members = [exported[name] for name in request.functions if name in exported]
+        if not members:
+            continue
+        bits = request.table in ("coil", "discrete")
+        for order, run in _runs(members):
+            out += ["", "  [[inputs.modbus.request]]", f"    slave_id = {settings.unit}",
+                    f"    register = {_toml(request.table)}", f"    byte_order = {_toml(order)}",
+                    f"    measurement = {_toml(resolved.stem)}", "    fields = ["]
+            out += [f"      {line}," for line in _fields(order, run, bits)]
+            out.append("    ]")
+    return "\n".join(out) + "\n"
+
+
+def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction]) -> str:
+    out = []
+    offsets: dict[float, list[str]] = {}
+    for f in exported.values():
+        step = scale_of(f)
+        if step is not None and step.offset != 0:
+            offsets.setdefault(step.offset, []).append(f.ident)
+    measurement = _toml(resolved.stem)
+    if offsets:
+        out += ["", "# the offsets: value * factor + offset, after the fields' scale",
+                "[[processors.scale]]", f"  namepass = [{measurement}]"]
+        for offset, idents in offsets.items():
+            out += ["  [[processors.scale.scaling]]", "    factor = 1.0", f"    offset = {_toml(float(offset))}",
+                    f"    fields = [{', '.join(map(_toml, idents))}]"]
+    enums = [f for f in exported.values() if f.fn.values]
+    if enums:
+        out += ["", "# the enumerations: the label for each value", "[[processors.enum]]",
+                f"  namepass = [{measurement}]"]
+        for f in enums:
+            assert f.fn.values is not None
+            out += ["  [[processors.enum.mapping]]", f"    field = {_toml(f.ident)}",
+                    "    [processors.enum.mapping.value_mappings]"]
+            out += [f"      {_toml(str(key))} = {_toml(label)}" for key, label in f.fn.values.items()]
+    return "\n".join(out) + ("\n" if out else "")
+
+
+def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
+    notes = Notes(resolved, ENGINE)
+    exported = _exported(resolved, notes)
+    if not exported:
+        raise nothing_left(resolved, ENGINE, notes)
+    source = Path(resolved.device.source).name if resolved.device.source else "a description"
+    head = (f"# Telegraf modbus input: {resolved.name}, from {source} by mdl export.\n"
+            "# One request section per request of mdl's read plan. Needs Telegraf 1.30 or newer.\n")
+    text = head + _input(resolved, settings, notes, exported) + _processors(resolved, exported)
+    return Export(text=text, warnings=notes.found)

@@ -1,0 +1,194 @@
+"""`mdl export --to volttron`: VOLTTRON's Modbus-TK driver files (SPEC 11).
+
+Three files for the platform driver's configuration store, named by the device's stem:
+- `<stem>_map.csv`, the register map the driver's `Map` reads: Register Name, Address (wire address:
+  the config's `addressing` is `offset`), Type, Units, Writable, Default Value, Transform, Table,
+  Mixed Endian, Description;
+- `<stem>.csv`, the registry: Volttron Point Name (the function's name) -> Register Name (its identifier);
+- `<stem>.config`, the device configuration (JSON): `driver_config` (connection, `slave_id`,
+  `addressing`, `endian`, `register_map`), `driver_type: "modbus_tk"`, `registry_config`, `interval`.
+
+Types follow the driver's own rules (volttron.driver.interfaces.modbus_tk.utils.maps and helpers):
+the named types (`int16` ... `uint64`, `float`, `bool`, `string[N]`) are read with the device's
+`endian` (big here) and `Mixed Endian` reverses the registers of one value; any other Type is a
+Python struct format with its own byte order, which is how a little-endian word (`<h`), a float64
+(`>d`) or one byte of a register (`>xB`: the lower byte) is said. `scale(m)` multiplies and rounds
+to the decimal places of m, so it is exact for integers scaled by a decimal multiplier; a float
+scaled, a negative or exponent-form multiplier, an offset (no transform adds one) leave the
+function out with a warning, as do expressions and fragments.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from typing import TYPE_CHECKING
+
+from mdl.diagnostics import error
+from mdl.exports import Export
+from mdl.exports.engines import (
+    Notes,
+    connection_of,
+    decimals,
+    hex_pattern,
+    nothing_left,
+    patterns_of,
+    plain_number,
+    scale_of,
+    unreadable,
+    written_by_fragment,
+)
+
+if TYPE_CHECKING:
+    from mdl.exports import Settings
+    from mdl.model.layout import Layout
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+ENGINE = "VOLTTRON"
+MAP_COLUMNS = ("Register Name", "Address", "Type", "Units", "Writable", "Default Value", "Transform", "Table",
+               "Mixed Endian", "Description")
+REGISTRY_COLUMNS = ("Volttron Point Name", "Register Name")
+TABLES = {"coil": "discrete_output_coils", "discrete": "discrete_input_contacts",
+          "input": "analog_input_registers", "holding": "analog_output_holding_registers"}
+_NAMED = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, True): "int32",
+          ("int", 32, False): "uint32", ("int", 64, True): "int64", ("int", 64, False): "uint64",
+          ("float", 32, True): "float"}
+_STRUCT = {("int", 16, True): "h", ("int", 16, False): "H", ("int", 32, True): "i", ("int", 32, False): "I",
+           ("int", 64, True): "q", ("int", 64, False): "Q", ("float", 32, True): "f", ("float", 64, True): "d"}
+_PARITY = {"N": "none", "E": "even", "O": "odd"}
+
+
+def volttron_type(lay: Layout) -> tuple[str, bool] | str:
+    """(Type, Mixed Endian) that reads the layout as mdl does, or why there is none."""
+    n = len(lay.addresses)
+    if lay.kind == "bool":
+        return "bool", False
+    pad = "x"  # a struct pad byte: the other byte of the register
+    if lay.unit in ("low", "high"):
+        code = "b" if lay.signed else "B"
+        return (f">{pad}{code}" if lay.unit == "low" else f">{code}{pad}"), False
+    if lay.kind == "string":
+        if lay.byte_order != "big":
+            return "its text has its bytes swapped in each register (byte_order little), which string[N] cannot read"
+        return f"string[{2 * n}]", False
+    if n == 1 and lay.bits == 8:  # an 8-bit format in a full word: its lower byte, after the byte order
+        code = "b" if lay.signed else "B"
+        return (f">{pad}{code}" if lay.byte_order == "big" else f">{code}{pad}"), False
+    key = (lay.kind, lay.bits, lay.signed)
+    if key not in _STRUCT or lay.bits != 16 * n:
+        return f"no VOLTTRON type holds a {lay.bits}-bit {lay.kind} in {n} registers"
+    if lay.byte_order == "big":  # >: ABCD; mixed: CDAB
+        return _NAMED.get(key, ">" + _STRUCT[key]), n > 1 and lay.word_order == "little"
+    return "<" + _STRUCT[key], n > 1 and lay.word_order == "big"  # <: DCBA; mixed: BADC
+
+
+def _transform(f: ResolvedFunction, notes: Notes) -> str | None:
+    """The Transform cell ("" for none), or None when the scaling cannot be said (warned)."""
+    step = scale_of(f)
+    if step is None:
+        return ""
+    if step.offset != 0:
+        notes.warn(f, f"no transform adds an offset ({plain_number(step.offset)}): left out")
+        return None
+    m = step.multiplier
+    if f.layout.kind == "float":
+        notes.warn(f, f"scale() rounds to the {decimals(m)} decimal places of {plain_number(m)}, which would "
+                      "cut a float: left out")
+        return None
+    if m < 0 or "e" in str(m):
+        notes.warn(f, f"scale() cannot take the multiplier {plain_number(m)} (its CSV syntax has no sign and "
+                      "it rounds by the digits of str(m)): left out")
+        return None
+    return f"scale({plain_number(m)})"
+
+
+def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
+    reason = unreadable(f) if f.fn.readable else None
+    if reason is not None:
+        notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+        return None
+    found = volttron_type(f.layout)
+    if isinstance(found, str):
+        notes.warn(f, f"{found}: left out")
+        return None
+    vtype, mixed = found
+    transform = _transform(f, notes)
+    if transform is None:
+        return None
+    writable = f.fn.writable
+    if writable and written_by_fragment(f):
+        notes.warn(f, "a write fragment encodes it, which VOLTTRON cannot: exported read-only")
+        writable = False
+    if not f.fn.readable:
+        if not writable:
+            notes.warn(f, "neither readable nor writable here: left out")
+            return None
+        notes.warn(f, "write-only, but VOLTTRON polls every point it knows: it will read this one too")
+    if writable and transform:
+        notes.warn(f, "writes through scale() take integers only (the driver packs value / m, a float, into the "
+                      "integer register and fails) and cut the raw value where mdl rounds it")
+    if writable and (f.fn.minimum is not None or f.fn.maximum is not None):
+        notes.warn(f, "writes outside minimum/maximum are not refused")
+    patterns = patterns_of(f)
+    if patterns:
+        notes.warn(f, f"no 'not implemented' value: {', '.join(map(hex_pattern, patterns))} "
+                      "reads as a number")
+    if f.fn.values:
+        notes.warn(f, "no enumeration: the number is reported, not its label")
+    if f.layout.kind == "string":
+        notes.warn(f, "the text keeps the NUL padding that mdl strips")
+    return {
+        "Register Name": f.ident,
+        "Address": str(f.layout.addresses[0]),
+        "Type": vtype,
+        "Units": f.fn.units or "",
+        "Writable": "TRUE" if writable else "FALSE",
+        "Default Value": "",
+        "Transform": transform,
+        "Table": TABLES[f.layout.table],
+        "Mixed Endian": "TRUE" if mixed else "FALSE",
+        "Description": " ".join(f.fn.description.split()),
+    }
+
+
+def _csv(columns: tuple[str, ...], rows: list[dict[str, str]]) -> str:
+    out = io.StringIO()
+    writer = csv.DictWriter(out, fieldnames=columns, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    return out.getvalue()
+
+
+def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> str:
+    conn = connection_of(settings, notes)
+    stem = resolved.stem
+    driver: dict[str, object] = {"name": resolved.name}
+    if conn.serial is not None:
+        driver.update(device_address=conn.serial, baudrate=conn.baud, bytesize=conn.bytesize,
+                      parity=_PARITY[conn.parity], stopbits=conn.stopbits, xonxoff=0)
+    else:
+        if conn.rtu:
+            raise error("VOLTTRON's Modbus-TK driver speaks Modbus TCP or RTU on a serial line, not RTU framing "
+                        "over TCP (--framer rtu)", resolved.device.source)
+        driver.update(device_address=conn.host, port=conn.port)
+    driver.update(slave_id=settings.unit, addressing="offset", endian="big", write_multiple_registers=True,
+                  register_map=f"config://{stem}_map.csv")
+    interval: float | int = int(settings.interval) if settings.interval == int(settings.interval) else settings.interval
+    config = {"driver_config": driver, "driver_type": "modbus_tk", "registry_config": f"config://{stem}.csv",
+              "interval": interval}
+    return json.dumps(config, indent=4, ensure_ascii=False) + "\n"
+
+
+def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
+    notes = Notes(resolved, ENGINE)
+    rows = [row for f in resolved.functions if (row := _row(f, notes)) is not None]
+    if not rows:
+        raise nothing_left(resolved, ENGINE, notes)
+    exported = {row["Register Name"] for row in rows}
+    registry = [{"Volttron Point Name": f.name, "Register Name": f.ident}
+                for f in resolved.functions if f.ident in exported]
+    stem = resolved.stem
+    files = {f"{stem}_map.csv": _csv(MAP_COLUMNS, rows), f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),
+             f"{stem}.config": _config(resolved, settings, notes)}
+    return Export(files=files, warnings=notes.found)

@@ -1,0 +1,358 @@
+"""`mdl export --to telegraf`, proven by reading `mdl sim` the way the exported TOML says Telegraf reads it.
+
+Telegraf itself cannot be installed here (no Go toolchain, no binary downloads), so the test parses the TOML
+with tomllib and follows each `[[inputs.modbus.request]]` section's documented meaning (the plugin's README
+and its type_conversions*.go): one Modbus request per section (the fields, omit fillers included, leave no
+gap, so Telegraf does not split it), each field decoded by its type and the section's byte_order, `scale`
+multiplied, then `[[processors.scale]]` (factor * value + offset) and `[[processors.enum]]`. Every value must
+be `mdl read`'s: a scaled value within one unit in the last place (Telegraf multiplies by 0.1 where mdl divides
+by 10), a text without the trailing spaces Telegraf keeps (warned)."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+
+import pytest
+import tomllib
+from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from pymodbus.client import ModbusTcpClient
+
+from mdl.sources.loading import load_resolved
+
+ALL_TABLES = DATA / "all_tables.xml"
+TEMCO = EXAMPLE / "temco_tstat.xml"
+
+ALL_TABLES_RAW = {
+    "coil": {"0": 1, "1": 0, "5": 1},
+    "discrete": {"0": 0, "1": 1},
+    "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
+    "holding": {"50": 65535, "52": 7, "100": 0xFF38, "101": 2, "102": 0x4142, "103": 0x4320, "104": 0, "105": 0,
+                "200": 0xFFFF, "201": 0xFFFE, "202": 0x1234, "203": 0x5678, "300": 101, "400": 0x1122,
+                "401": 0x3344, "402": 0x7F85, "403": 0xC812},
+}
+TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "137": 0x0103, "128": 2,
+                         "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
+
+TYPES = {"INT8L", "INT8H", "UINT8L", "UINT8H", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64",
+         "FLOAT32", "FLOAT64", "STRING"}
+LENGTH = {"INT8L": 1, "INT8H": 1, "UINT8L": 1, "UINT8H": 1, "INT16": 1, "UINT16": 1, "INT32": 2, "UINT32": 2,
+          "FLOAT32": 2, "INT64": 4, "UINT64": 4, "FLOAT64": 4}
+
+
+def export(path, *extra):
+    proc = run_mdl("export", path, "--to", "telegraf", *extra)
+    assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+# --- the sections' documented meaning -------------------------------------------------------------------
+
+def to_host16(register: int, order: str) -> int:
+    """A register as Telegraf's 16-bit converters see it: ABCD/CDAB as sent, DCBA/BADC bytes swapped."""
+    return register if order in ("ABCD", "CDAB") else ((register & 0xFF) << 8) | (register >> 8)
+
+
+def raw_bytes(registers: list[int], order: str) -> bytes:
+    """The value's bytes, most significant first, for a 32/64-bit type in `order` (type_conversions32/64.go)."""
+    wire = b"".join(r.to_bytes(2, "big") for r in registers)
+    if order == "ABCD":
+        return wire
+    if order == "DCBA":
+        return wire[::-1]
+    if order == "BADC":  # most significant word first, each word's bytes swapped
+        return b"".join(wire[i:i + 2][::-1] for i in range(0, len(wire), 2))
+    return b"".join(wire[i:i + 2] for i in reversed(range(0, len(wire), 2)))  # CDAB: least significant word first
+
+
+def decode(field: dict, registers: list[int], order: str):
+    kind = field["type"]
+    if kind.startswith(("INT8", "UINT8")):
+        data = registers[0].to_bytes(2, "big")
+        index = {("ABCD", True): 1, ("ABCD", False): 0, ("DCBA", True): 0, ("DCBA", False): 1}[
+            (order, kind.endswith("L"))]
+        value = data[index]
+        return value - 256 if kind.startswith("INT") and value > 127 else value
+    if kind == "STRING":
+        text = b"".join(to_host16(r, order).to_bytes(2, "big") for r in registers)
+        return text.split(b"\x00", 1)[0].decode()
+    if LENGTH[kind] == 1:
+        word = to_host16(registers[0], order)
+        return word - 65536 if kind == "INT16" and word > 32767 else word
+    data = raw_bytes(registers, order)
+    code = {"INT32": ">i", "UINT32": ">I", "FLOAT32": ">f", "INT64": ">q", "UINT64": ">Q", "FLOAT64": ">d"}[kind]
+    return struct.unpack(code, data)[0]
+
+
+def check_config(config: dict) -> None:
+    """What Telegraf's ConfigurationPerRequest.Check refuses, checked here too."""
+    plugin = config["inputs"]["modbus"][0]
+    assert plugin["configuration_type"] == "request"
+    seen = set()
+    for request in plugin["request"]:
+        assert request["byte_order"] in ("ABCD", "DCBA", "BADC", "CDAB")
+        assert request["register"] in ("coil", "discrete", "holding", "input")
+        for field in request["fields"]:
+            if request["register"] in ("holding", "input"):
+                assert field["type"] in TYPES, field
+            if field.get("omit"):
+                continue
+            key = (request["slave_id"], request["register"], request["measurement"], field["name"])
+            assert key not in seen, key
+            seen.add(key)
+
+
+def telegraf_gather(config: dict, host: str, port: int) -> tuple[dict, list[tuple[str, int, int]]]:
+    """One gather: field name -> value, and the requests sent (table, start, count)."""
+    plugin = config["inputs"]["modbus"][0]
+    client = ModbusTcpClient(host, port=port)
+    assert client.connect()
+    values: dict = {}
+    sent = []
+    try:
+        for request in plugin["request"]:
+            fields = sorted(request["fields"], key=lambda f: f["address"])
+            table = request["register"]
+            bits = table in ("coil", "discrete")
+            length = [1 if bits else f.get("length", LENGTH.get(f["type"], 1)) for f in fields]
+            start = fields[0]["address"]
+            reach = start
+            for field, n in zip(fields, length, strict=True):  # no gap: Telegraf keeps the section one request
+                assert field["address"] <= reach, (field, reach)
+                reach = max(reach, field["address"] + n)
+            count = reach - start
+            method = {"coil": client.read_coils, "discrete": client.read_discrete_inputs,
+                      "holding": client.read_holding_registers, "input": client.read_input_registers}[table]
+            reply = method(start, count=count, device_id=request["slave_id"])
+            assert not reply.isError(), (table, start, count, reply)
+            sent.append((table, start, count))
+            data = reply.bits[:count] if bits else list(reply.registers)
+            for field, n in zip(fields, length, strict=True):
+                if field.get("omit"):
+                    continue
+                at = field["address"] - start
+                if bits:
+                    values[field["name"]] = bool(data[at])
+                    continue
+                value = decode(field, data[at:at + n], request["byte_order"])
+                if field.get("scale"):
+                    value = float(value) * field["scale"]
+                values[field["name"]] = value
+    finally:
+        client.close()
+    for processor in config.get("processors", {}).get("scale", []):
+        for scaling in processor["scaling"]:
+            for name in scaling["fields"]:
+                values[name] = scaling["factor"] * values[name] + scaling["offset"]
+    for processor in config.get("processors", {}).get("enum", []):
+        for mapping in processor["mapping"]:
+            value = values[mapping["field"]]
+            values[mapping["field"]] = mapping["value_mappings"].get(str(value), value)
+    return values, sent
+
+
+def same(got, expected) -> bool:
+    if isinstance(expected, float) and isinstance(got, float):
+        return got == expected or abs(got - expected) <= math.ulp(expected)
+    if isinstance(expected, str) and isinstance(got, str):
+        return got.rstrip(" ") == expected
+    return got == expected and type(got) is type(expected)
+
+
+def assert_reads_like_mdl(path, sim, config, expect_fields: int):
+    proc = run_mdl("read", path, *sim.connection, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    expected = json.loads(proc.stdout)
+    names = {f.ident: f.name for f in load_resolved(path).functions}
+    values, sent = telegraf_gather(config, sim.host, sim.port)
+    assert len(values) == expect_fields, sorted(values)
+    for ident, value in values.items():
+        assert same(value, expected[names[ident]]), (ident, value, expected[names[ident]])
+    return sent
+
+
+@pytest.mark.parametrize(("path", "raw", "fields"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 14)])
+def test_telegraf_sections_read_what_mdl_reads(sim_factory, tmp_path, path, raw, fields):
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(raw))
+    sim = sim_factory(path, "--registers", registers)
+    config = tomllib.loads(export(path, *sim.connection).stdout)
+    check_config(config)
+    sent = assert_reads_like_mdl(path, sim, config, fields)
+    plan = [(g.request.table, g.request.start, g.request.end) for g in load_resolved(path).plan]
+    for table, start, count in sent:  # each request inside one request of mdl's plan
+        assert any(t == table and s <= start and start + count <= e for t, s, e in plan), (table, start, count)
+
+
+def test_one_section_per_plan_request(tmp_path):
+    """Where one byte order reads a request's functions, each plan request is one section, with omit
+    fillers for the registers no exported function reads (here: a fragment's)."""
+    config = tomllib.loads(export(TEMCO, "--host", "h").stdout)
+    sections = config["inputs"]["modbus"][0]["request"]
+    resolved = load_resolved(TEMCO)
+    readable = [g for g in resolved.plan if any(n not in ("serial_number", "firmware_version", "occupancy")
+                                                for n in g.request.functions)]
+    assert len(sections) == len(readable)
+
+
+def test_omit_fillers_keep_a_request_whole(sim_factory, tmp_path, write_device):
+    path = write_device(fn_xml("a", "0", format="UINT16") + fn_xml("frag", "1", format="UINT16",
+                                                                   read_function_code="arg = r1 * 2;", access="read")
+                        + fn_xml("b", "2", format="INT32", word_order="little"))
+    config = tomllib.loads(export(path, "--host", "h").stdout)
+    (section,) = config["inputs"]["modbus"][0]["request"]
+    assert section["byte_order"] == "CDAB"
+    assert {"address": 1, "type": "UINT16", "omit": True} in section["fields"]
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"0": 7, "1": 9, "2": 0xFFFF, "3": 0xFFFE}}))
+    sim = sim_factory(path, "--registers", registers)
+    sent = assert_reads_like_mdl(path, sim, config, 2)
+    assert sent == [("holding", 0, 4)]
+
+
+def test_a_request_of_mixed_byte_orders_becomes_sections(write_device):
+    path = write_device(fn_xml("a", "0", format="INT32") + fn_xml("b", "2", format="INT32", byte_order="little")
+                        + fn_xml("c", "4", format="UINT16"))
+    sections = tomllib.loads(export(path, "--host", "h").stdout)["inputs"]["modbus"][0]["request"]
+    assert [(s["byte_order"], [f["name"] for f in s["fields"]]) for s in sections] == [
+        ("ABCD", ["a"]), ("BADC", ["b"]), ("ABCD", ["c"])]
+
+
+_FORMATS = [("INT16", 1), ("UINT16", 1), ("INT32", 2), ("UINT32", 2), ("FLOAT32", 2), ("INT64", 4), ("UINT64", 4),
+            ("FLOAT64", 4)]
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.sampled_from(_FORMATS), st.sampled_from(["big", "little"]),
+                          st.sampled_from(["big", "little"]), st.sampled_from([None, 0.1, 0.5, 3.0]),
+                          st.sampled_from(["Full word", "Lower byte", "Upper byte"])), min_size=1, max_size=6),
+       st.randoms(use_true_random=False))
+def test_random_layouts_read_alike(sim_factory, tmp_path_factory, functions, rng):
+    """Random formats, orders and scalings in one device: Telegraf's reading is mdl's."""
+    tmp = tmp_path_factory.mktemp("t")
+    xml, raw, address = "", {}, 0
+    for i, ((fmt, words), byte_order, word_order, multiplier, length) in enumerate(functions):
+        fields = {"format": fmt, "byte_order": byte_order, "word_order": word_order}
+        if length != "Full word" and words == 1:
+            fields = {"format": "INT8" if fmt == "INT16" else "UINT8", "length": length}
+        if multiplier is not None and not fmt.startswith("FLOAT"):
+            fields["multiplier"] = multiplier
+        xml += fn_xml(f"f{i}", address, **fields)
+        for k in range(words):
+            raw[str(address + k)] = rng.randrange(0x10000) if not fmt.startswith("FLOAT") else 0x3F80 + k
+        address += words
+    path = tmp / "d.xml"
+    from conftest import device_xml
+
+    path.write_text(device_xml(xml), encoding="ascii")
+    (tmp / "raw.json").write_text(json.dumps({"holding": raw}))
+    sim = sim_factory(path, "--registers", tmp / "raw.json")
+    try:
+        config = tomllib.loads(export(path, *sim.connection).stdout)
+        check_config(config)
+        assert_reads_like_mdl(path, sim, config, len(functions))
+    finally:
+        sim.stop()
+
+
+def test_telegraf_connection_forms():
+    serial = tomllib.loads(export(ALL_TABLES, "--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E",
+                                  "--unit", "5", "--interval", "2.5").stdout)["inputs"]["modbus"][0]
+    assert serial["controller"] == "file:///dev/ttyUSB0" and serial["transmission_mode"] == "RTU"
+    assert (serial["baud_rate"], serial["parity"], serial["data_bits"], serial["stop_bits"]) == (9600, "E", 8, 1)
+    assert serial["slave_id"] == 5 and serial["interval"] == "2.5s"
+    assert all(r["slave_id"] == 5 for r in serial["request"])
+    rtu = tomllib.loads(export(ALL_TABLES, "--host", "::1", "--port", "1502", "--framer", "rtu").stdout)
+    plugin = rtu["inputs"]["modbus"][0]
+    assert plugin["controller"] == "tcp://[::1]:1502" and plugin["transmission_mode"] == "RTUoverTCP"
+
+
+def test_telegraf_warnings_and_refusal(write_device):
+    proc = export(ALL_TABLES)
+    for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("alarm_reset", "only reads"),
+                           ("voltage", "not implemented"), ("label", "trailing spaces")]:
+        assert any(f"function '{name}': Telegraf:" in line and fragment in line
+                   for line in proc.stderr.splitlines()), (name, proc.stderr)
+    assert "note: Telegraf: no connection given" in proc.stderr
+    only_expressions = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
+                                           access="read") + fn_xml("g", "1", format="UINT16", access="write"))
+    proc = run_mdl("export", only_expressions, "--to", "telegraf")
+    assert_clean_error(proc, 1, "Telegraf can hold none of this description's functions", "read fragment",
+                       "only reads")
+    assert proc.stdout == ""
+
+
+@pytest.mark.parametrize("engine", ["telegraf", "homeassistant", "volttron"])
+def test_a_description_of_expressions_only_is_refused(tmp_path, engine):
+    """The Toolkit heat pump computes every field with an expression: no engine can hold any of it."""
+    proc = run_mdl("export", EXAMPLE.parent / "toolkit_heat_pump" / "heat_pump.yaml", "--to", engine,
+                   "-o", tmp_path / "out")
+    assert_clean_error(proc, 1, "can hold none of this description's functions", "expression")
+    assert not (tmp_path / "out").exists()
+
+
+def test_telegraf_export_is_deterministic():
+    assert export(TEMCO, "--host", "h").stdout == export(TEMCO, "--host", "h").stdout
+
+
+_FUNCTION = st.fixed_dictionaries({
+    "format": st.sampled_from(["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64", "FLOAT32",
+                               "FLOAT64", "STRING", "BIT"]),
+    "register_type": st.sampled_from(["holding", "input", "coil", "discrete"]),
+}, optional={
+    "length": st.sampled_from(["Lower byte", "Upper byte", "Full word"]),
+    "count": st.integers(1, 5),
+    "multiplier": st.sampled_from([0.1, 0.001, 2.0, -1.0, 1e-07, 0.3]),
+    "offset": st.sampled_from([-40.0, 0.5, 0.0]),
+    "byte_order": st.sampled_from(["big", "little"]),
+    "word_order": st.sampled_from(["big", "little"]),
+    "access": st.sampled_from(["read", "write", "read_write"]),
+    "not_implemented": st.sampled_from(["0x8000", "0xFFFF 0x0000", "0x0000"]),
+    "values": st.just({0: "Off", 1: "On"}),
+    "read_function_code": st.just("arg = r1 * 2;"),
+})
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(_FUNCTION, st.integers(0, 20)), min_size=1, max_size=5))
+def test_random_descriptions_export_or_refuse_cleanly(functions):
+    """Every engine writer, on random descriptions: an export that its format's parser reads, or MdlError."""
+    import csv
+    import io
+    import tempfile
+    from pathlib import Path
+
+    import yaml
+    from conftest import device_xml
+
+    from mdl.diagnostics import MdlError
+    from mdl.exports import Settings, export
+
+    xml = "".join(fn_xml(f"f{i}", address, **fields) for i, (fields, address) in enumerate(functions))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "d.xml"
+        path.write_text(device_xml(xml), encoding="ascii")
+        try:
+            resolved = load_resolved(path)
+        except MdlError:
+            return
+    for engine in ("volttron", "homeassistant", "telegraf"):
+        try:
+            result = export(resolved, engine, Settings())
+        except MdlError as exc:
+            assert "can hold none" in str(exc)
+            continue
+        assert all(d.severity in ("warning", "note") for d in result.warnings)
+        if engine == "telegraf":
+            check_config(tomllib.loads(result.text or ""))
+        elif engine == "homeassistant":
+            assert yaml.safe_load(result.text or "")["modbus"]
+        else:
+            for name, text in result.files.items():
+                if name.endswith(".csv"):
+                    assert list(csv.DictReader(io.StringIO(text)))
+                else:
+                    assert json.loads(text)["driver_type"] == "modbus_tk"

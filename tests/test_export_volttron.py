@@ -1,0 +1,231 @@
+"""`mdl export --to volttron`, proven by VOLTTRON's own driver: the published volttron-lib-modbustk-driver,
+in a venv of its own (tests/engines.py), builds its register map from the exported files exactly as the
+platform driver hands them over (the config store turns each CSV into a list of rows and resolves the
+config:// references), reads `mdl sim` through its own modbus_tk client, and writes through it."""
+
+from __future__ import annotations
+
+import csv
+import json
+import subprocess
+
+import pytest
+from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
+from engines import VOLTTRON, installed_version, require
+
+ALL_TABLES = DATA / "all_tables.xml"
+TEMCO = EXAMPLE / "temco_tstat.xml"
+
+# What the platform driver does with a device's config: the interface's configure() takes the
+# driver_config (its register_map reference resolved to the map's rows) and the registry's rows;
+# scrape_all() is one poll; set_point() one write.
+DRIVER = r"""
+import csv, json, sys
+from volttron.driver.interfaces.modbus_tk.modbus_tk import ModbusTK
+
+folder, stem, writes = sys.argv[1], sys.argv[2], json.loads(sys.argv[3])
+
+def rows(reference):
+    assert reference.startswith("config://"), reference
+    with open(f"{folder}/{reference[len('config://'):]}", newline="", encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+with open(f"{folder}/{stem}.config", encoding="utf-8") as handle:
+    config = json.load(handle)
+assert config["driver_type"] == "modbus_tk"
+driver = dict(config["driver_config"], register_map=rows(config["driver_config"]["register_map"]))
+interface = ModbusTK()
+interface.configure(driver, rows(config["registry_config"]))
+before = interface.scrape_all()
+for point, value in writes.items():
+    interface.set_point(point, value)
+print(json.dumps({"before": before, "after": interface.scrape_all()}))
+"""
+
+# raw registers with every byte in use: a value read from the wrong byte or word cannot pass
+ALL_TABLES_RAW = {
+    "coil": {"0": 1, "1": 0, "5": 0},
+    "discrete": {"0": 0, "1": 1},
+    "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
+    "holding": {"50": 65535, "52": 7, "100": 0xFF38, "101": 2, "102": 0x4142, "103": 0x4320, "104": 0, "105": 0,
+                "200": 0xFFFF, "201": 0xFFFE, "202": 0x1234, "203": 0x5678, "300": 100, "400": 0x1122,
+                "401": 0x3344, "402": 0x7F85, "403": 0xC812, "110": 0x0008, "111": 123},
+}
+TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "137": 0x0103, "128": 2,
+                         "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
+
+
+def export(path, out, *extra):
+    proc = run_mdl("export", path, "--to", "volttron", "-o", out, *extra)
+    assert proc.returncode == 0, proc.stderr
+    return proc
+
+
+def mdl_read(path, sim) -> dict:
+    proc = run_mdl("read", path, *sim.connection, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
+
+
+def through_volttron(folder, stem, writes=None) -> dict:
+    python = require(VOLTTRON)
+    proc = subprocess.run([str(python), "-c", DRIVER, str(folder), stem, json.dumps(writes or {})],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def map_rows(folder, stem) -> dict[str, dict[str, str]]:
+    with open(folder / f"{stem}_map.csv", newline="", encoding="utf-8") as handle:
+        return {row["Register Name"]: row for row in csv.DictReader(handle)}
+
+
+def as_mdl_reads(name: str, value, expected, values: dict[int, str] | None):
+    """VOLTTRON's value in mdl's terms, where the export warned that VOLTTRON says it otherwise."""
+    if values and isinstance(expected, str):  # no enumeration in VOLTTRON: the key of the label
+        return values.get(value, value)
+    if isinstance(expected, str) and isinstance(value, str):  # NUL padding kept (warned)
+        return value.rstrip("\x00 ")
+    return value
+
+
+def assert_same_values(got: dict, expected: dict, resolved_values: dict[str, dict[int, str] | None]):
+    assert got, "VOLTTRON read nothing"
+    for point, value in got.items():
+        assert point in expected, (point, sorted(expected))
+        mine = as_mdl_reads(point, value, expected[point], resolved_values.get(point))
+        assert mine == expected[point] and type(mine) in (type(expected[point]), int), (point, value, expected[point])
+
+
+def enum_values(path) -> dict[str, dict[int, str] | None]:
+    from mdl.sources.loading import load_resolved
+
+    return {f.name: f.fn.values for f in load_resolved(path).functions}
+
+
+@pytest.mark.parametrize(("path", "raw", "exported"), [
+    (ALL_TABLES, ALL_TABLES_RAW, 17),
+    (TEMCO, TEMCO_RAW, 14),
+])
+def test_volttron_reads_what_mdl_reads(sim_factory, tmp_path, path, raw, exported):
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(raw))
+    sim = sim_factory(path, "--registers", registers)
+    out = tmp_path / "volttron"
+    export(path, out, *sim.connection)
+    stem = path.stem
+    got = through_volttron(out, stem)["before"]
+    expected = mdl_read(path, sim)
+    assert len(got) == exported, sorted(got)
+    readable = {name: value for name, value in got.items() if name in expected}
+    assert len(readable) >= exported - 1  # a write-only coil is polled by VOLTTRON but not by mdl read
+    assert_same_values(readable, expected, enum_values(path))
+
+
+def test_writes_through_volttron_land_in_the_simulator(sim_factory, tmp_path):
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(ALL_TABLES_RAW))
+    sim = sim_factory(ALL_TABLES, "--registers", registers)
+    out = tmp_path / "volttron"
+    export(ALL_TABLES, out, *sim.connection)
+    writes = {"pump": False, "fan": True, "setpoint": 22, "serial": 0x0A0B0C0D, "low_byte": -5, "high_byte": 200,
+              "big": -2, "gap_low": 4321, "label": "XYZ"}
+    result = through_volttron(out, "all_tables", writes)
+    expected = mdl_read(ALL_TABLES, sim)
+    for point, value in writes.items():
+        assert expected[point] == value, (point, expected[point], value)
+    with pytest.raises(AssertionError, match="required argument is not an integer"):
+        through_volttron(out, "all_tables", {"setpoint": 21.5})  # as the export warns: integers only
+    assert_same_values({k: v for k, v in result["after"].items() if k in expected}, expected,
+                       enum_values(ALL_TABLES))
+
+
+def test_volttron_files_and_warnings(tmp_path):
+    out = tmp_path / "v"
+    proc = export(ALL_TABLES, out, "--host", "192.0.2.10", "--unit", "7", "--interval", "30")
+    assert sorted(p.name for p in out.iterdir()) == ["all_tables.config", "all_tables.csv", "all_tables_map.csv"]
+    config = json.loads((out / "all_tables.config").read_text())
+    assert config["driver_type"] == "modbus_tk" and config["interval"] == 30
+    assert config["driver_config"]["device_address"] == "192.0.2.10" and config["driver_config"]["slave_id"] == 7
+    assert config["driver_config"]["addressing"] == "offset"
+    rows = map_rows(out, "all_tables")
+    assert rows["energy"]["Mixed Endian"] == "TRUE" and rows["energy"]["Transform"] == "scale(0.001)"
+    assert rows["serial"]["Type"] == "<I" and rows["serial"]["Mixed Endian"] == "TRUE"  # BADC
+    assert rows["low_byte"]["Type"] == ">xb" and rows["high_byte"]["Type"] == ">Bx"
+    assert rows["door_open"]["Writable"] == "FALSE" and rows["door_open"]["Table"] == "discrete_input_contacts"
+    for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("temp_offset", "offset"),
+                           ("voltage", "not implemented"), ("mode", "enumeration"), ("setpoint", "minimum/maximum"),
+                           ("alarm_reset", "write-only"), ("label", "NUL"), ("setpoint", "integers only")]:
+        assert any(f"function '{name}': VOLTTRON:" in line and fragment in line
+                   for line in proc.stderr.splitlines()), (name, proc.stderr)
+    assert "status_bit" not in rows and "temp_offset" not in rows
+
+
+def test_volttron_serial_connection_and_default_note(tmp_path):
+    out = tmp_path / "serial"
+    export(ALL_TABLES, out, "--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E")
+    driver = json.loads((out / "all_tables.config").read_text())["driver_config"]
+    assert driver["device_address"] == "/dev/ttyUSB0" and "port" not in driver
+    assert (driver["baudrate"], driver["parity"], driver["bytesize"], driver["stopbits"]) == (9600, "even", 8, 1)
+    proc = export(ALL_TABLES, tmp_path / "none")
+    assert "note: VOLTTRON: no connection given" in proc.stderr
+
+
+def test_volttron_refuses_what_it_cannot_hold(tmp_path, write_device):
+    only_expressions = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
+                                           access="read"))
+    proc = run_mdl("export", only_expressions, "--to", "volttron", "-o", tmp_path / "x")
+    assert_clean_error(proc, 1, "VOLTTRON can hold none of this description's functions", "read fragment")
+    assert not (tmp_path / "x").exists()
+    proc = run_mdl("export", ALL_TABLES, "--to", "volttron", "-o", tmp_path / "y", "--host", "h", "--port", "1",
+                   "--framer", "rtu")
+    assert_clean_error(proc, 1, "not RTU framing over TCP")
+
+
+def test_volttron_needs_a_folder_and_an_empty_one(tmp_path):
+    assert_clean_error(cli("export", ALL_TABLES, "--to", "volttron"), 2, "-o DIR")
+    out = tmp_path / "full"
+    out.mkdir()
+    (out / "other.txt").write_text("x")
+    assert_clean_error(cli("export", ALL_TABLES, "--to", "volttron", "-o", out), 1, "not empty")
+    assert cli("export", ALL_TABLES, "--to", "volttron", "-o", out, "--force").returncode == 0
+    assert (out / "all_tables_map.csv").is_file() and (out / "other.txt").is_file()
+
+
+def test_volttron_version_is_the_pinned_one():
+    python = require(VOLTTRON)
+    assert installed_version(python, "volttron-lib-modbustk-driver") == "0.1.2rc0"
+    assert installed_version(python, "modbus-tk") == "1.1.5"
+
+
+def test_volttron_export_is_deterministic(tmp_path):
+    for name in ("a", "b"):
+        export(TEMCO, tmp_path / name, "--host", "192.0.2.10")
+    for file in (tmp_path / "a").iterdir():
+        assert file.read_bytes() == (tmp_path / "b" / file.name).read_bytes()
+
+
+def test_byte_orders_all_four(sim_factory, tmp_path, write_device):
+    """Every byte/word order of 32- and 64-bit integers and floats reads right through VOLTTRON."""
+    functions = ""
+    raw: dict[str, int] = {}
+    address = 0
+    for fmt, words in (("INT32", 2), ("UINT32", 2), ("FLOAT32", 2), ("INT64", 4), ("FLOAT64", 4), ("INT16", 1)):
+        for byte_order in ("big", "little"):
+            for word_order in ("big", "little"):
+                functions += fn_xml(f"{fmt}_{byte_order}_{word_order}".lower(), address, format=fmt,
+                                    byte_order=byte_order, word_order=word_order)
+                for i in range(words):
+                    raw[str(address + i)] = (0x4111 + 0x1357 * (address + i)) & 0xFFFF
+                address += words
+    path = write_device(functions)
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": raw}))
+    sim = sim_factory(path, "--registers", registers)
+    out = tmp_path / "v"
+    export(path, out, *sim.connection)
+    got = through_volttron(out, "test_device")["before"]
+    expected = mdl_read(path, sim)
+    assert len(got) == len(expected) == 24
+    assert_same_values(got, expected, {})
+
