@@ -1,0 +1,222 @@
+"""A resolved description -> a SmartServer Modbus XIF (`.mod`) file, with the current column names
+(SPEC 7; docs/xif.md has the mapping).
+
+A function XIF can express becomes one datapoint row; what a row cannot carry (an enumeration,
+"not implemented" values, units, a second marker value...) is a warning naming the function, and a
+function XIF cannot express at all (a fragment, an expression, registers that are not consecutive,
+bytes of several registers) is left out with a warning that says why. Reading the file back
+(`mdl import`) gives every exported function the same value.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mdl.diagnostics import Diagnostic
+from mdl.exports import Export, Settings
+from mdl.model import Function
+from mdl.model.layout import Layout
+from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.sources.xif import columns as C
+from mdl.sources.xif.scaling import decimal_text, points
+
+
+class _Inexpressible(ValueError):
+    """The function cannot be a datapoint; the message says why."""
+
+
+@dataclass
+class _Datapoint:
+    cells: dict[str, str]
+    slot: tuple[str, int, str]  # as the reader keys it: (table, first address, part of the register)
+    lost: list[str] = field(default_factory=list)  # what the row cannot carry
+
+
+def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
+    """The `.mod` text of the description; `settings` (connection, unit, interval) are not part of a `.mod`
+    (a warning says so when the command line gives them)."""
+    device = resolved.device
+    source = device.source
+    warnings: list[Diagnostic] = []
+
+    def warn(fn: Function | None, message: str, severity: str = "warning") -> None:
+        subject = f"function '{fn.name}': " if fn is not None else ""
+        warnings.append(Diagnostic(source, fn.line if fn else None, None, subject + message, severity))
+
+    rows: list[list[str]] = []
+    taken: dict[tuple[str, int, str], str] = {}
+    for rf in resolved.functions:
+        fn = rf.fn
+        try:
+            point = _datapoint(rf)
+        except _Inexpressible as exc:
+            warn(fn, f"not exported: {exc}")
+            continue
+        other = taken.get(point.slot)
+        if other is not None:
+            warn(fn, f"not exported: it starts on the same register as '{other}', and a .mod file lists each "
+                     "address once")
+            continue
+        taken[point.slot] = fn.name
+        if point.lost:
+            warn(fn, "; ".join(point.lost))
+        rows.append([point.cells.get(key, "") for key in C.EXPORT_COLUMNS])
+
+    program_id = device.program_id
+    if program_id is None:
+        program_id = _placeholder_id(device.name)
+        warn(None, f"the description has no program_id: wrote the placeholder {program_id}; a SmartServer needs "
+                   "your device type's program ID there")
+    if device.tests:
+        warn(None, f"{len(device.tests)} test scenario(s) not written: a .mod file has none")
+    if device.max_registers is not None:
+        warn(None, f"max_registers {device.max_registers} not written: a .mod file has no such setting")
+    if settings.connection is not None or settings.unit != 1 or settings.interval_given:
+        warn(None, "the connection, --unit and --interval are not written: a .mod file describes the device type, "
+                   "and the SmartServer sets those when a device is provisioned")
+    if source is None or Path(source).stem != device.name:
+        warn(None, f"the device name '{device.name}' is not in the file: a .mod file's name (without .mod) is the "
+                   "XIF's name", "note")
+
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\r\n")
+    writer.writerow(["#filetype", C.FILETYPE])
+    identity = {"program_id": program_id, "description": _one_line(device.description)}
+    for line, attr in C.PRODUCT_LINE_NAMES:
+        value = identity.get(attr, getattr(device, attr, None))
+        if value:
+            writer.writerow([f"#{line}", value])
+    writer.writerow([C.CURRENT[key] for key in C.EXPORT_COLUMNS])
+    writer.writerows(rows)
+    return Export(text=out.getvalue(), warnings=warnings)
+
+
+def _datapoint(rf: ResolvedFunction) -> _Datapoint:
+    fn, lay = rf.fn, rf.layout
+    if fn.expression is not None:
+        raise _Inexpressible("it is computed by an expression, which XIF cannot express")
+    if fn.read_function_code is not None:
+        raise _Inexpressible("its value comes from a read fragment, which XIF cannot express")
+    first = lay.addresses[0]
+    if lay.addresses != tuple(range(first, first + len(lay.addresses))):
+        raise _Inexpressible(f"its registers ({' '.join(map(str, lay.addresses))}) do not follow each other, and "
+                             "a datapoint reads consecutive registers")
+    native, length, byte_order = _native(lay)
+    cells = {
+        "name": fn.name,
+        "modicon": "N",
+        "address": str(first),
+        "function_code": C.TABLE_CODES[lay.table],
+        "native": native.name,
+        "description": "" if fn.description == fn.name else _one_line(fn.description),
+    }
+    point = _Datapoint(cells, (lay.table, first, C.register_part(native, byte_order)))
+    if length is not None:
+        cells["ascii_length"] = str(length)
+    if native.name != "BIT":
+        cells["byte_order"] = byte_order
+        cells["word_order"] = lay.word_order if native.chars != 1 else ""
+    cells["iap_type"] = _iap_type(fn, lay)
+    _blocks(fn, cells, point.lost)
+    _access(fn, cells, point.lost)
+    if fn.scales and lay.kind in ("int", "float"):
+        cells.update(zip(C.SCALING_POINTS, points(fn.eff_multiplier, fn.eff_offset), strict=True))
+    for key, value in (("range_min", fn.minimum), ("range_max", fn.maximum)):
+        if value is not None:
+            cells[key] = decimal_text(value)
+    if fn.precision is not None:
+        cells["precision"] = str(fn.precision)
+    if fn.marker:
+        cells["marker"] = str(fn.marker[0])
+        if len(fn.marker) > 1:
+            point.lost.append(f"marker values {' '.join(map(str, fn.marker[1:]))} not written: a datapoint holds "
+                              "one marker value")
+    if fn.values:
+        point.lost.append("its enumeration (values) is not written: the datapoint reads the number")
+    if fn.not_implemented:
+        point.lost.append(f"not_implemented {' '.join(fn.not_implemented)} not written: the datapoint reads those "
+                          "as numbers")
+    if fn.units:
+        point.lost.append(f"units '{fn.units}' not written: a .mod file has no units column (a SmartServer takes "
+                          "them from the IAP type)")
+    kept = [attr for attr in ("immutable", "system", "fetch_group") if getattr(fn, attr) is not None]
+    if kept:
+        point.lost.append(f"{', '.join(kept)} not written: a .mod file has no such column")
+    return point
+
+
+def _native(lay: Layout) -> tuple[C.Native, int | None, str]:
+    """The native type of a layout, its ASCII Length (strings) and Byte Order."""
+    n = len(lay.addresses)
+    types = C.NATIVE_TYPES
+    if lay.kind == "bool":
+        return types["BIT"], None, ""
+    if lay.unit in ("low", "high"):
+        byte_order = "little" if lay.unit == "high" else "big"
+        if lay.kind == "string":
+            return types["CHAR8"], n, byte_order
+        if lay.kind == "int" and n == 1:
+            return types["SINT8" if lay.signed else "UINT8"], None, byte_order
+        raise _Inexpressible(f"its value is made of the {'upper' if lay.unit == 'high' else 'lower'} bytes of "
+                             f"{n} registers, which no native type reads")
+    if lay.kind == "string":
+        return types["CHAR8_2"], 2 * n, lay.byte_order
+    if lay.kind == "float" and lay.bits == 16 * n:
+        return types[f"FLOAT{lay.bits}"], None, lay.byte_order
+    if lay.kind == "int" and (lay.bits == 16 * n and n in (1, 2, 4) or (n == 1 and lay.bits == 8)):
+        return types[f"{'S' if lay.signed else 'U'}INT{lay.bits}"], None, lay.byte_order
+    raise _Inexpressible(f"no native type is a {lay.bits}-bit {lay.kind} over {n} registers")
+
+
+def _iap_type(fn: Function, lay: Layout) -> str:
+    if lay.kind == "string":
+        return C.IAP_TEXT
+    if lay.kind == "float" or (lay.kind == "int" and (fn.scales or lay.bits > 16)):
+        return C.IAP_FLOAT
+    return C.IAP_SIGNED if lay.kind == "int" and lay.signed else C.IAP_COUNT
+
+
+def _blocks(fn: Function, cells: dict[str, str], lost: list[str]) -> None:
+    """Block Name from the first block label; Block Index from a second one written `Name[N]`, as import
+    writes it."""
+    labels = list(fn.block_labels)
+    if not labels:
+        return
+    cells["block"] = labels[0]
+    rest = labels[1:]
+    if rest and rest[0].startswith(labels[0] + "[") and rest[0].endswith("]"):
+        index = rest[0][len(labels[0]) + 1:-1]
+        if index.isascii() and index.isdigit():
+            cells["block_index"] = str(int(index))
+            rest = rest[1:]
+    if rest:
+        lost.append(f"block label{'s' * (len(rest) > 1)} {', '.join(repr(r) for r in rest)} not written: a datapoint "
+                    "is in one block")
+
+
+def _access(fn: Function, cells: dict[str, str], lost: list[str]) -> None:
+    if fn.write_function_code is not None:
+        cells["write"] = "-"
+        lost.append("its write fragment is not expressible: exported read-only (-)")
+        return
+    if fn.writable:
+        cells["write"] = "++" if fn.write_multiple else "+"
+        if not fn.readable:
+            lost.append("it is write-only, and XIF has no write-only datapoint: exported read-write (+)")
+        return
+    cells["write"] = "-"
+
+
+def _one_line(text: str) -> str:
+    """A description on one line (a SmartServer reads one line per datapoint)."""
+    return " ".join(text.splitlines()).strip()
+
+
+def _placeholder_id(name: str) -> str:
+    """A program ID made from the device name: 9FFFFF (a Modbus device of no registered manufacturer)
+    and 10 hex digits of the name's SHA-256, the same every run."""
+    return "9FFFFF" + hashlib.sha256(name.encode("utf-8")).hexdigest()[:10].upper()
