@@ -135,3 +135,49 @@ def test_precision_in_polled_table_blocks(sim_factory, write_device):
     proc = run_mdl("read", path, *sim.connection, "temperature", "--interval", "0.2", "--count", "1", timeout=30)
     assert proc.returncode == 0, proc.stderr
     assert re.search(r"^temperature +0\.0 °C$", proc.stdout, re.M), proc.stdout  # rounded to zero, no sign
+
+
+# --- NaN and infinities (SenML's v is a JSON number; JSON has none for them) --------------------------------
+
+def _strict_json(text: str):
+    """JSON as the standard has it: NaN, Infinity and -Infinity are not JSON."""
+    def refuse(token: str):
+        raise AssertionError(f"not JSON: {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_non_finite_floats(sim_factory, tmp_path, write_device):
+    """A FLOAT32 NaN (0x7FC0 0x0000) from mdl sim: senml leaves `v` out, once and polled; json prints the
+    string "nan" (valid JSON), csv and the table `nan`; the infinities likewise."""
+    raw = tmp_path / "nan.json"
+    raw.write_text(json.dumps({"input": {"2": 0x7FC0, "3": 0}}))
+    sim = sim_factory(ALL, "--registers", raw)
+    proc = cli("read", ALL, *sim.connection, "power", "energy", "--format", "senml")
+    assert proc.returncode == 0, proc.stderr
+    assert _strict_json(proc.stdout)["All Tables"]["e"] == [{"n": "power", "u": "W", "asm": "r"},
+                                                            {"n": "energy", "v": 0.0, "u": "kWh", "asm": "r"}]
+    polled = run_mdl("read", ALL, *sim.connection, "power", "--interval", "0.2", "--count", "1", "--format", "senml",
+                     timeout=30)
+    assert polled.returncode == 0, polled.stderr
+    assert _strict_json(polled.stdout)["All Tables"]["e"] == [{"n": "power", "u": "W", "asm": "r"}]
+    assert _strict_json(cli("read", ALL, *sim.connection, "power", "--format", "json").stdout) == {"power": "nan"}
+    assert cli("read", ALL, *sim.connection, "power", "--format", "csv").stdout == "name,value,units\npower,nan,W\n"
+    assert cli("read", ALL, *sim.connection, "power").stdout.split() == ["power", "nan", "W"]
+
+    path = write_device(fn_xml("up", "0", format="FLOAT32", register_type="input")
+                        + fn_xml("down", "2", format="FLOAT32", register_type="input")
+                        + fn_xml("fine", "4", format="FLOAT32", register_type="input"))
+    raw.write_text(json.dumps({"input": {"0": 0x7F80, "1": 0, "2": 0xFF80, "3": 0, "4": 0x3FC0, "5": 0}}))
+    sim = sim_factory(path, "--registers", raw)
+    doc = _strict_json(cli("read", path, *sim.connection, "--format", "senml").stdout)
+    assert doc["Test Device"]["e"] == [{"n": "up", "asm": "r"}, {"n": "down", "asm": "r"},
+                                       {"n": "fine", "v": 1.5, "asm": "r"}]
+    assert _strict_json(cli("read", path, *sim.connection, "--format", "json").stdout) == {
+        "up": "inf", "down": "-inf", "fine": 1.5}
+    polled = run_mdl("read", path, *sim.connection, "--interval", "0.2", "--count", "1", "--format", "json",
+                     timeout=30)
+    record = _strict_json(polled.stdout)
+    assert (record["up"], record["down"], record["fine"]) == ("inf", "-inf", 1.5)
+    assert cli("read", path, *sim.connection, "--format", "csv").stdout == "name,value,units\nup,inf,\ndown,-inf,\n" \
+                                                                          "fine,1.5,\n"

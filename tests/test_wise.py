@@ -171,6 +171,18 @@ def test_bad_input_reports_every_line():
     ("[Input Registers]\nnumberOfIR=4\nIR1=0,a\n", ":4:12: error: numberOfIR=4 but [Input Registers] has no IR0, "
                                                    "IR2..IR3"),
     ("garbage\n", ":3:1: error: not a [section], a key=value line or a comment"),
+    # every register of a 32-bit datatype counts, not only its offset
+    ("[Holding Registers]\nnumberOfR=3\nR0=0,A,0,0,1,V,1\nR1=1,B,0,0,1,V,0\nR2=3,C,,,,,5\n",
+     ":6:4: error: R1: reads register 1 of the holding table; register 1 is already read by R0 (line 5: "
+     "registers 0-1)"),
+    ("[Holding Registers]\nnumberOfR=2\nR0=1,A,0,0,1,V,0\nR1=0,B,0,0,1,V,7\n",
+     ":6:4: error: R1: reads registers 0-1 of the holding table; register 1 is already read by R0 (line 5: "
+     "register 1)"),
+    ("[Analog Output]\nnumberOfAO=1\nAO0=10,A,0,0,1,V,8\n[Holding Registers]\nnumberOfR=1\nR0=11,B,0,0,1,V,2\n",
+     ":8:4: error: R0: reads registers 11-12 of the holding table; register 11 is already read by AO0 (line 5: "
+     "registers 10-11)"),
+    ("[Input Registers]\nnumberOfIR=1\nIR0=65535,a,0,1,1,V,5\n",
+     ":5:5: error: IR0: datatype 5 reads two registers, and offset 65535 is the table's last (65535)"),
 ])
 def test_bad_lines(tmp_path, body, message):
     ini = tmp_path / "Modbus.ini"
@@ -225,6 +237,10 @@ def test_export_writes_the_agent_form(tmp_path):
                       ("voltage", "written, losing its not_implemented"), ("setpoint", "written, losing INT16"),
                       ("alarm_reset", "written, losing access write")):
         assert f"warning: function '{name}': {why}" in proc.stderr, name
+    # each function's warning names its line in the description, as the engine exports do
+    assert f"{ALL}:98: warning: function 'label': not written: text" in proc.stderr
+    assert f"{ALL}:91: warning: function 'mode': written, losing its enumeration" in proc.stderr
+    assert f"{ALL}: note: " not in proc.stderr and "written without the device's" not in proc.stderr
     assert cli("export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3",
                "--interval", "5").stdout == text  # deterministic
     out = tmp_path / "Modbus.ini"
@@ -258,6 +274,7 @@ def test_export_names_and_clashes(write_device):
     assert proc.returncode == 0, proc.stderr
     assert "R0=0,a_ _b_,0,65535,1, ,0\nR1=1,a_ _b__2,0,65535,1, ,0\nR2=10,pair," in proc.stdout
     assert "R3=20,reversed,0,4294967295,1, ,6\nR4=40,shown,0,65535,1,a_b,0\n" in proc.stdout
+    assert f"{path}:5: warning: function 'a, \"b\"': written as 'a_ _b_'" in proc.stderr  # the function's line
     for fragment in ("function 'a, \"b\"': written as 'a_ _b_'", "function 'a_ _b_': written as 'a_ _b__2'",
                      "function 'again': not written: offset 0 of the holding table is 'a, \"b\"' already",
                      "function 'apart': not written: registers 30 and 32 are not next to each other",
@@ -310,6 +327,133 @@ def test_round_trips_read_the_same_values(sim_factory, tmp_path):
         assert readable - set(again) <= warned, path  # left out: a warning says so
         checked += len(set(again) & readable - differ)
     assert checked >= 15
+
+
+def test_32_bit_entries_side_by_side_and_every_clash_reported(tmp_path):
+    """32-bit entries next to each other import; every entry reading another's register is an error, all
+    reported at once (a bit table's entries read one bit each)."""
+    ini = tmp_path / "Modbus.ini"
+    ini.write_text("[Platform]\nName=x\n[Coils]\nnumberOfB=2\nB0=0,c0,0,0,1,V,1\nB1=1,c1\n"
+                   "[Input Registers]\nnumberOfIR=3\nIR0=0,a,0,1,1,V,1\nIR1=2,b,0,1,1,V,8\nIR2=4,c,0,1,1,V,0\n")
+    assert cli("import", ini).returncode == 0  # c0's text after its name is ignored: no datatype on a bit line
+    text = ini.read_text().replace("IR2=4", "IR2=3") + "[Holding Registers]\nnumberOfR=2\nR0=0,d\nR1=0,e\n"
+    ini.write_text(text)
+    proc = cli("import", ini)
+    assert_clean_error(proc, 1, f"{ini}:11:5: error: IR2: reads register 3 of the input table; register 3 is "
+                                "already read by IR1 (line 10: registers 2-3)",
+                       f"{ini}:15:4: error: R1: offset 0 of the holding table is already R0's (line 14)")
+
+
+LUA = WISE / "lua.ini"
+LUA_NOTE = "(WISE Lua conversion, not applied: "
+
+
+def _kept_description(xml: str) -> list[str]:
+    return re.findall(r"<description>(.*?)</description>", xml)[1:]
+
+
+def test_lua_kept_in_the_description_goes_back_into_the_lua_column(tmp_path):
+    """WISE -> MDL -> WISE: a Lua column MDL cannot apply is kept at the end of the description and written
+    back into the Lua column as it was; a warning says so each way, with the line."""
+    xml = tmp_path / "lua.xml"
+    proc = cli("import", LUA, "-o", xml)
+    assert proc.returncode == 0, proc.stderr
+    assert (f"{LUA}:5:23: warning: R0 'Temp': the Lua column 'math.floor(modbus_val/10)' is not plain arithmetic on "
+            "modbus_val: kept in the description (export writes it back), not applied") in proc.stderr
+    assert _kept_description(xml.read_text()) == [f"Temp {LUA_NOTE}math.floor(modbus_val/10))"]
+    back = tmp_path / "back.ini"
+    proc = cli("export", xml, "--to", "wise", "-o", back)
+    assert proc.returncode == 0, proc.stderr
+    assert 'R0=0,Temp,0,100,1,C,0,"math.floor(modbus_val/10)"\n' in back.read_text()
+    assert (f"{xml}:5: warning: function 'Temp': written with the Lua conversion its description keeps, "
+            "'math.floor(modbus_val/10)': the agent applies it, mdl does not") in proc.stderr
+    again = cli("import", back)
+    assert again.returncode == 0, again.stderr
+    assert _kept_description(again.stdout) == _kept_description(xml.read_text())
+
+
+@pytest.mark.parametrize("name, column, lua", [
+    ("Rooted", '"math.pow(modbus_val,1/2)+10-2.5"', "math.pow(modbus_val,1/2)+10-2.5"),  # a comma inside quotes
+    ("T (x)", '"modbus_val > 100 and (1) or (0)"', "modbus_val > 100 and (1) or (0)"),  # parentheses everywhere
+    ("On", "modbus_val..'V'", "modbus_val..'V'"),  # unquoted
+    ("Commented", '"math.floor(modbus_val) -- rounds down"', "math.floor(modbus_val) -- rounds down"),
+])
+def test_lua_round_trips_exactly(tmp_path, name, column, lua):
+    ini = tmp_path / "Modbus.ini"
+    ini.write_text(f"[Platform]\nName=L\n[Input Registers]\nnumberOfIR=1\nIR0=7,{name},0,10,0.1,V,1,{column}\n")
+    xml = tmp_path / "l.xml"
+    assert cli("import", ini, "-o", xml).returncode == 0
+    proc = cli("export", xml, "--to", "wise")
+    assert proc.returncode == 0, proc.stderr
+    assert re.findall(r"^IR0=(.*)$", proc.stdout, re.M) == [f'7,{name},0,10,0.1,V,1,"{lua}"']
+    assert f"function '{name}': written with the Lua conversion its description keeps, '{lua}'" in proc.stderr
+
+
+def test_lua_in_a_description_with_an_offset_a_bit_or_a_quote(write_device):
+    """The Lua column holds both the kept conversion and the offset (the agent runs the Lua on the raw
+    value, then multiplies by the precision); what cannot be written is a warning naming the function."""
+    def kept(xml: str, name: str, lua: str) -> str:
+        return xml.replace(f"<description>{name}</description>", f"<description>{name} {LUA_NOTE}{lua})</description>")
+
+    functions = (kept(fn_xml("scaled", "0", format="UINT16", multiplier="0.5", offset="3"), "scaled",
+                      "math.floor(modbus_val/10)")
+                 + kept(fn_xml("neg", "1", format="UINT16", offset="-2"), "neg", "math.abs(modbus_val)")
+                 + kept(fn_xml("switch", "0", format="BIT", register_type="coil"), "switch", "modbus_val")
+                 + kept(fn_xml("quoted", "2", format="UINT16"), "quoted", 'modbus_val..&quot;V&quot;')
+                 + kept(fn_xml("comment", "3", format="UINT16", offset="1"), "comment", "f(modbus_val) -- x")
+                 + fn_xml("plain", "4", format="UINT16").replace("<description>plain", "<description>plain (note)"))
+    path = write_device(functions)
+    proc = cli("export", path, "--to", "wise")
+    assert proc.returncode == 0, proc.stderr
+    assert 'R0=0,scaled,3,32770.5,1, ,0,"(math.floor(modbus_val/10))*0.5+3"\n' in proc.stdout
+    assert 'R1=1,neg,-2,65533,1, ,0,"(math.abs(modbus_val))-2"\n' in proc.stdout
+    assert "B0=0,switch\n" in proc.stdout
+    assert "R2=2,quoted,0,65535,1, ,0\n" in proc.stdout
+    assert 'R3=3,comment,1,65536,1, ,0,"modbus_val+1"\n' in proc.stdout
+    assert "R4=4,plain,0,65535,1, ,0\n" in proc.stdout
+    for fragment in ("function 'scaled': written with the Lua conversion its description keeps",
+                     "function 'switch': written, losing the Lua conversion its description keeps, 'modbus_val' "
+                     "(a bit line has no Lua column)",
+                     "function 'quoted': written, losing the Lua conversion its description keeps, 'modbus_val..\"V\"' "
+                     "(quotes and control characters",
+                     "function 'comment': written, losing the Lua conversion its description keeps, "
+                     "'f(modbus_val) -- x' (its `--` comment"):
+        assert fragment in proc.stderr, fragment
+    assert "'plain'" not in proc.stderr
+
+
+def test_lua_holding_the_note_itself_is_not_guessed(tmp_path):
+    """A name or Lua text holding the note's own opening: where the Lua starts is not clear, so it is not
+    written back, and a warning says so (rather than writing a piece of it)."""
+    ini = tmp_path / "Modbus.ini"
+    ini.write_text("[Platform]\nName=L\n[Holding Registers]\nnumberOfR=2\n"
+                   f'R0=0,a,0,1,1,V,0,"f(modbus_val) {LUA_NOTE}x)"\n'
+                   f'R1=1,"b {LUA_NOTE}y)",0,1,1,V,0,"g(modbus_val)"\n')  # quoted: the note has a comma
+    xml = tmp_path / "l.xml"
+    assert cli("import", ini, "-o", xml).returncode == 0
+    proc = cli("export", xml, "--to", "wise")
+    assert proc.returncode == 0, proc.stderr
+    assert "R0=0,a,0,1,1,V,0\n" in proc.stdout
+    assert f"{xml}:5: warning: function 'a': written, losing the Lua conversion its description keeps (it holds " \
+           f"'{LUA_NOTE}' twice" in proc.stderr
+    assert f"function '\"b {LUA_NOTE}y)\"': written, losing the Lua conversion" in proc.stderr
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(max_size=40), st.text(min_size=1, max_size=60), st.sampled_from(["", LUA_NOTE, ")"]))
+def test_fuzz_kept_lua(name, lua, extra):
+    """The Lua text kept in a description comes back exactly unless the note's opening is there twice (then
+    none is taken); any description gives a text, None or 'twice', never another exception."""
+    from mdl.sources.wise.lua import kept_in_description, kept_lua, kept_twice
+
+    description = kept_in_description(name + extra, lua)
+    if kept_twice(description):
+        assert LUA_NOTE in name + extra + lua
+    else:
+        assert kept_lua(description) == lua
+    for text in (name, name + extra + lua):
+        got = kept_lua(text)
+        assert got is None or (isinstance(got, str) and got)
 
 
 def test_wise_round_trip_keeps_the_file(tmp_path):

@@ -3,7 +3,8 @@
 without a device (`mdl export --to senml`). The SenML shape has this one home.
 
 The table shows a number with the function's `precision` (decimal places; negative rounds left of the
-point: 1234 with -1 shows 1230); json, csv and senml print values as read.
+point: 1234 with -1 shows 1230); json, csv and senml print values as read. A NaN or an infinity is `nan`,
+`inf`, `-inf` in the table and csv, those strings in json (which has no number for them), and no `v` in senml.
 """
 
 from __future__ import annotations
@@ -16,12 +17,9 @@ from collections import Counter
 from collections.abc import Callable
 from datetime import datetime, timezone
 from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import Any, TypedDict
 
 from mdl.model import Function, Value
-
-if TYPE_CHECKING:
-    pass
 
 
 class Block(TypedDict):
@@ -40,6 +38,8 @@ def shown(fn: Function, value: Value) -> Value:
 
 
 def _json_value(value: Value) -> Value:
+    """A value JSON can hold: NaN and the infinities, which JSON has no number for, as the strings "nan", "inf",
+    "-inf" (null is taken: it is a value the device does not have)."""
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
     return value
@@ -117,12 +117,12 @@ def _entry(fn: Function, n: str) -> dict[str, Value]:
 
 def _with_value(entry: dict[str, Value], value: Value) -> dict[str, Value]:
     """The entry with its value after `n`: `bv` for a bool, `v` a number, `sv` text (a bitset's labels joined);
-    none for a null."""
+    none for a null, nor for a NaN or an infinity (SenML's `v` is a JSON number, and JSON has none for them)."""
     key: str | None = None
     if isinstance(value, bool):
         key = "bv"
     elif isinstance(value, (int, float)):
-        key, value = "v", _json_value(value)
+        key = None if isinstance(value, float) and not math.isfinite(value) else "v"
     elif isinstance(value, list):
         key, value = "sv", ", ".join(value)
     elif value is not None:

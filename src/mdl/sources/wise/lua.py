@@ -4,8 +4,9 @@ The agent runs `function Convert(modbus_val) return <column> end` on the decoded
 then multiplies by the line's precision. Where the column is numbers, `modbus_val`, `+ - * /`, unary
 minus and parentheses, and the result is `a * modbus_val + b` with `a` not 0, it is a scaling MDL
 holds as multiplier and offset (`affine`). Anything else (calls, `^`, `%`, comparisons, a `--` comment,
-a product of `modbus_val` with itself) is not, and the reader keeps the text as a comment. The writer
-writes scaling back in the same form.
+a product of `modbus_val` with itself) is not: MDL cannot apply it, so the reader keeps its text at the end
+of the function's description (`kept_in_description`), where the writer finds it again (`kept_lua`) and
+writes it back into the Lua column. The writer writes scaling back in the same form.
 """
 
 from __future__ import annotations
@@ -22,6 +23,31 @@ _TOKEN = re.compile(r"\s*(?:(?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9
                     r"|(?P<op>[-+*/()]))")
 
 Affine = tuple[float, float]  # (a, b): a * modbus_val + b
+
+KEPT = "(WISE Lua conversion, not applied: "  # opens the description's note of a Lua column MDL cannot apply
+
+
+def kept_in_description(description: str, lua: str) -> str:
+    """The description with the Lua column's text kept at its end: `Temp (WISE Lua conversion, not applied:
+    math.floor(modbus_val/10))`."""
+    return f"{description} {KEPT}{lua})"
+
+
+def kept_lua(description: str | None) -> str | None:
+    """The Lua text `kept_in_description` put at the end of a description, exactly; None where there is none.
+    It is what follows the note's opening, up to the description's final `)`. Where the opening is there more
+    than once (in the name or the Lua text itself), which one the note starts at is not known: see `kept_twice`."""
+    if not description or not description.endswith(")"):
+        return None
+    at = description.rfind(KEPT)
+    if at < 0:
+        return None
+    return description[at + len(KEPT):-1] or None
+
+
+def kept_twice(description: str | None) -> bool:
+    """Whether the description holds the note's opening more than once: then no Lua text is taken from it."""
+    return description is not None and description.count(KEPT) > 1
 
 
 class _NotPlain(Exception):

@@ -26,7 +26,7 @@ from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
 from mdl.fileio import is_stdin, read_bytes
 from mdl.model import Device, Function
 from mdl.model.layout import MAX_ADDRESS
-from mdl.sources.wise.lua import affine
+from mdl.sources.wise.lua import affine, kept_in_description
 from mdl.sources.wise.sections import (
     DATA_TYPES,
     DEFAULT_DATA_TYPE,
@@ -80,6 +80,11 @@ class _Claim:
     label: str
     line: int
     col: int
+    width: int = 1  # registers read: 2 for a 32-bit datatype
+
+    @property
+    def span(self) -> str:
+        return f"registers {self.offset}-{self.offset + 1}" if self.width == 2 else f"register {self.offset}"
 
 
 class _Reader:
@@ -299,7 +304,7 @@ def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: lis
     errors_before = len([d for d in reader.diagnostics if d.severity == "error"])
     offset = _offset(fields[0], label, key, reader)
     if offset is not None:
-        claims.append(_Claim(section.table, offset, label, key.line, fields[0].col))
+        claims.append(_claim(section, offset, label, key, fields, reader))
     if len(fields) < 2 or not fields[1].text:
         reader.report(key.line, key.col, f"{label}: no name (the line is offset,name"
                                          f"{'' if section.bits else ',min,max,precision,unit,datatype'})")
@@ -321,6 +326,19 @@ def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: lis
     fn.line = key.line
     record_span(fn, "", TextSpan(key.line, key.key_col))
     return fn
+
+
+def _claim(section: Section, offset: int, label: str, key: _Key, fields: list[_Field], reader: _Reader) -> _Claim:
+    """The registers (or bits) an entry reads: two for a 32-bit datatype (a datatype outside 0-8 is reported
+    where the line's fields are read, and claims one)."""
+    claim = _Claim(section.table, offset, label, key.line, fields[0].col)
+    dtype = fields[6].text if not section.bits and len(fields) > 6 else ""
+    if _DIGITS.fullmatch(dtype) is not None and 0 < int(dtype) < len(DATA_TYPES):
+        claim.width = 2
+        if offset + 1 > MAX_ADDRESS:
+            reader.report(key.line, fields[0].col, f"{label}: datatype {dtype} reads two registers, and offset "
+                                                   f"{offset} is the table's last ({MAX_ADDRESS})")
+    return claim
 
 
 def _offset(fld: _Field, label: str, key: _Key, reader: _Reader) -> int | None:
@@ -367,10 +385,10 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
     if lua:
         plain = affine(lua)
         if plain is None:
-            fn.description = f"{fn.name} (WISE Lua conversion, not applied: {lua})"
+            fn.description = kept_in_description(fn.name, lua)
             reader.report(key.line, fields[7].col, f"{label} '{fn.name}': the Lua column '{lua}' is not plain "
-                                                   "arithmetic on modbus_val: kept in the description, "
-                                                   "not applied", "warning")
+                                                   "arithmetic on modbus_val: kept in the description (export "
+                                                   "writes it back), not applied", "warning")
         else:  # the agent runs the Lua on the raw value, then multiplies by the precision
             offset = plain[1] * scale + 0.0
             scale = plain[0] * scale
@@ -404,13 +422,24 @@ def _lua_text(rest: list[_Field], key: _Key) -> str | None:
 
 
 def _check_addresses(claims: list[_Claim], reader: _Reader) -> None:
-    """An offset used by two entries of one table (in one section, or in both forms of it) is an error."""
+    """A register (or bit) read by two entries of one table (in one section, or in both forms of it) is an
+    error: every register of a 32-bit datatype counts, not only its offset."""
     first: dict[tuple[str, int], _Claim] = {}
     for claim in claims:
-        other = first.setdefault((claim.table, claim.offset), claim)
-        if other is not claim:
-            reader.report(claim.line, claim.col, f"{claim.label}: offset {claim.offset} of the {claim.table} table is "
-                                            f"already {other.label}'s (line {other.line})")
+        clash: tuple[int, _Claim] | None = None
+        for register in range(claim.offset, claim.offset + claim.width):
+            other = first.setdefault((claim.table, register), claim)
+            if other is not claim and clash is None:
+                clash = register, other
+        if clash is None:
+            continue
+        register, other = clash
+        if claim.offset == other.offset and claim.width == other.width == 1:
+            message = f"offset {claim.offset} of the {claim.table} table is already {other.label}'s (line {other.line})"
+        else:
+            message = (f"reads {claim.span} of the {claim.table} table; register {register} is already read by "
+                       f"{other.label} (line {other.line}: {other.span})")
+        reader.report(claim.line, claim.col, f"{claim.label}: {message}")
 
 
 def _unique_names(functions: list[Function], reader: _Reader) -> None:

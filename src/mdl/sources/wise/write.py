@@ -25,6 +25,7 @@ from mdl.device.connection import Connection
 from mdl.diagnostics import Diagnostic
 from mdl.exports import Export, Settings
 from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
+from mdl.sources.wise.lua import KEPT, kept_lua, kept_twice
 from mdl.sources.wise.sections import (
     AGENT_SECTIONS,
     DATA_TYPES,
@@ -42,11 +43,12 @@ FLOAT32_MAX = 3.4028234663852886e38
 _RAW_RANGE = {"UINT16": (0, 0xFFFF), "UINT32": (0, 0xFFFFFFFF), "INT32": (-(1 << 31), (1 << 31) - 1),
               "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX)}
 _UNSAFE = re.compile(r'[,"\x00-\x1f\x7f]')  # what would split or end an INI line
+_UNSAFE_LUA = re.compile(r'["\x00-\x1f\x7f]')  # what would end the quoted Lua column or its line
 PARITY = {"N": "None", "E": "Even", "O": "Odd"}
 
 
 class _Warn(Protocol):
-    def __call__(self, message: str, severity: str = "warning") -> None: ...
+    def __call__(self, message: str, severity: str = "warning", line: int | None = None) -> None: ...
 
 
 class _Skip(Exception):
@@ -61,6 +63,7 @@ class _Line:
     name: str
     rest: list[str] = field(default_factory=list)  # the fields after the name
     losses: list[str] = field(default_factory=list)
+    lua: str | None = None  # a Lua conversion kept in the description and written back
 
 
 def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
@@ -74,8 +77,8 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
     warnings: list[Diagnostic] = []
     source = resolved.device.source
 
-    def warn(message: str, severity: str = "warning") -> None:
-        warnings.append(Diagnostic(source, None, None, message, severity))
+    def warn(message: str, severity: str = "warning", line: int | None = None) -> None:
+        warnings.append(Diagnostic(source, line, None, message, severity))
 
     lines: dict[str, list[_Line]] = {s.table: [] for s in AGENT_SECTIONS}
     taken: dict[tuple[str, int], str] = {}
@@ -83,17 +86,20 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
         try:
             line = _line(rf)
         except _Skip as why:
-            warn(f"function '{rf.name}': not written: {why}")
+            warn(f"function '{rf.name}': not written: {why}", line=rf.fn.line)
             continue
         where = (line.table, line.offset)
         if where in taken:
             warn(f"function '{rf.name}': not written: offset {line.offset} of the {line.table} table is "
-                 f"'{taken[where]}' already (the agent reads one entry per offset)")
+                 f"'{taken[where]}' already (the agent reads one entry per offset)", line=rf.fn.line)
             continue
         taken[where] = rf.name
         _unique_name(line, lines[line.table], warn)
         if line.losses:
-            warn(f"function '{rf.name}': written, losing " + "; ".join(line.losses))
+            warn(f"function '{rf.name}': written, losing " + "; ".join(line.losses), line=rf.fn.line)
+        if line.lua is not None:
+            warn(f"function '{rf.name}': written with the Lua conversion its description keeps, "
+                 f"'{line.lua}': the agent applies it, mdl does not", line=rf.fn.line)
         lines[line.table].append(line)
     _device_losses(resolved, lines, warn)
     out = [f"; WISE-Agent Modbus handler configuration for {_safe(resolved.name)}",
@@ -143,7 +149,10 @@ def _line(rf: ResolvedFunction) -> _Line:
     if fn.read_function_code is not None:
         raise _Skip("read by a C fragment (WISE has none)")
     losses = _losses(fn)
+    lua = kept_lua(fn.description)
     if lay.kind == "bool" and lay.unit == "bit":
+        if lua is not None:
+            losses.append(f"the Lua conversion its description keeps, '{lua}' (a bit line has no Lua column)")
         return _Line(fn, lay.table, lay.addresses[0], fn.name, [], losses)
     if lay.kind == "string":
         raise _Skip("text (STRING): WISE reads numbers")
@@ -158,11 +167,33 @@ def _line(rf: ResolvedFunction) -> _Line:
     if _UNSAFE.search(unit):
         losses.append(f"the commas, quotes and control characters of its unit '{unit}'")
         unit = _UNSAFE.sub("_", unit)
+    if lua is not None and kept_twice(fn.description):
+        losses.append(f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
+                      "starts is not clear)")
+        lua = None
+    elif lua is not None and _UNSAFE_LUA.search(lua):
+        losses.append(f"the Lua conversion its description keeps, {lua!r} (quotes and control characters "
+                      "cannot be written in the Lua column)")
+        lua = None
+    elif lua is not None and add != 0 and "--" in lua:
+        losses.append(f"the Lua conversion its description keeps, '{lua}' (its `--` comment would hide the "
+                      "offset the Lua column adds)")
+        lua = None
     rest = [_number(low), _number(high), _number(multiplier if add == 0 else 1.0), unit or " ", str(dtype.code)]
-    if add != 0:
-        lua = LUA_VARIABLE if multiplier == 1 else f"{LUA_VARIABLE}*{_number(multiplier)}"
-        rest.append(f'"{lua}{"+" if add > 0 else "-"}{_number(abs(add))}"')
-    return _Line(fn, lay.table, offset, fn.name, rest, losses)
+    column = _lua_column(lua, multiplier, add)
+    if column is not None:
+        rest.append(f'"{column}"')
+    return _Line(fn, lay.table, offset, fn.name, rest, losses, lua)
+
+
+def _lua_column(lua: str | None, multiplier: float, add: float) -> str | None:
+    """The Lua column: the kept conversion (the agent multiplies its result by the precision, the multiplier);
+    with an offset, the conversion or modbus_val times the multiplier plus the offset, and precision 1."""
+    if add == 0:
+        return lua
+    value = LUA_VARIABLE if lua is None else f"({lua})"
+    scaled = value if multiplier == 1 else f"{value}*{_number(multiplier)}"
+    return f"{scaled}{'+' if add > 0 else '-'}{_number(abs(add))}"
 
 
 def _data_type(fn: Function, lay: Layout, losses: list[str]) -> tuple[int, DataType]:
@@ -223,7 +254,7 @@ def _unique_name(line: _Line, section: list[_Line], warn: _Warn) -> None:
         name = f"{base}_{n}"
     if name != line.name:
         warn(f"function '{line.fn.name}': written as '{name}' (a name in a Modbus.ini has no commas, quotes or "
-             "control characters and is unique in its section)")
+             "control characters and is unique in its section)", line=line.fn.line)
     line.name = name
 
 
