@@ -1,6 +1,10 @@
-"""`mdl export --to homeassistant`, proven two ways:
+"""`mdl export --to homeassistant`, proven three ways:
 - Home Assistant's own modbus configuration schema (homeassistant 2024.3.3, the newest release that installs
-  on Python 3.11, in a venv of its own: tests/engines.py) accepts the exported YAML and keeps every entity;
+  on Python 3.11, in a venv of its own: tests/engines.py) accepts the exported YAML and keeps every entity
+  (its validator drops a second entity on one register: the export leaves it out and says so);
+- Home Assistant's own entity classes (ModbusHub, ModbusRegisterSensor, ModbusBinarySensor, ModbusSwitch,
+  in that venv) read `mdl sim` and show what `mdl read` gives, and their writes land in it with the
+  function code mdl writes with (a proxy records each request);
 - a reader that follows the YAML's own meaning, as Home Assistant's docs and base_platform.py give it
   (swap byte/word/word_byte, struct unpack, scale * value + offset, nan_value, precision), reads `mdl sim`
   with pymodbus and shows what `mdl read` gives."""
@@ -13,9 +17,10 @@ import subprocess
 
 import pytest
 import yaml
-from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
+from conftest import DATA, EXAMPLE, assert_clean_error, device_xml, fn_xml, run_mdl
 from engines import HOMEASSISTANT, installed_version, require
 from pymodbus.client import ModbusTcpClient
+from refusing_proxy import refusing_proxy
 
 ALL_TABLES = DATA / "all_tables.xml"
 TEMCO = EXAMPLE / "temco_tstat.xml"
@@ -40,6 +45,43 @@ kept = [[len(hub.get(kind, [])) for kind in KINDS] for hub in valid["modbus"]]
 print(json.dumps({"given": given, "kept": kept, "logged": logged, "valid": valid}, default=str))
 """
 
+# Home Assistant's own entities on the exported hub: the schema fills the defaults, a ModbusHub connects,
+# each switch is turned as asked (then updated: verify reads it back), each sensor and binary sensor
+# updated once. States as Home Assistant holds them: a sensor's native_value, the others' is_on.
+ENTITIES = r"""
+import asyncio, json, sys
+from homeassistant.core import HomeAssistant
+from homeassistant.util.yaml import load_yaml
+from homeassistant.components.modbus import CONFIG_SCHEMA
+from homeassistant.components.modbus.modbus import ModbusHub
+from homeassistant.components.modbus.sensor import ModbusRegisterSensor
+from homeassistant.components.modbus.binary_sensor import ModbusBinarySensor
+from homeassistant.components.modbus.switch import ModbusSwitch
+
+async def main():
+    hub_config = CONFIG_SCHEMA(load_yaml(sys.argv[1]))["modbus"][0]
+    turns = json.loads(sys.argv[2])
+    hass = HomeAssistant(sys.argv[3])
+    kinds = ("sensors", "binary_sensors", "switches")
+    hub = ModbusHub(hass, {k: v for k, v in hub_config.items() if k not in kinds})
+    assert await hub.async_setup()
+    await hass.async_block_till_done()
+    out = {kind: {} for kind in kinds}
+    entities = [("switches", ModbusSwitch(hass, hub, e)) for e in hub_config.get("switches", [])]
+    entities += [("sensors", ModbusRegisterSensor(hass, hub, e, 0)) for e in hub_config.get("sensors", [])]
+    entities += [("binary_sensors", ModbusBinarySensor(hass, hub, e, 0)) for e in hub_config.get("binary_sensors", [])]
+    for kind, entity in entities:
+        entity.async_write_ha_state = lambda: None  # not added to a running Home Assistant: no state machine
+        if kind == "switches" and entity.name in turns:
+            await (entity.async_turn_on() if turns[entity.name] else entity.async_turn_off())
+        await entity.async_update()
+        out[kind][entity.name] = entity.native_value if kind == "sensors" else entity.is_on
+    await hass.async_stop(force=True)
+    print(json.dumps(out))
+
+asyncio.run(main())
+"""
+
 ALL_TABLES_RAW = {
     "coil": {"0": 1, "1": 0, "5": 1},
     "discrete": {"0": 0, "1": 1},
@@ -56,6 +98,19 @@ def export(path, *extra) -> subprocess.CompletedProcess:
     proc = run_mdl("export", path, "--to", "homeassistant", *extra)
     assert proc.returncode == 0, proc.stderr
     return proc
+
+
+def through_home_assistant(tmp_path, text: str, turns: dict | None = None) -> dict:
+    """The states Home Assistant's own entities show for the exported YAML (ENTITIES)."""
+    python = require(HOMEASSISTANT)
+    path = tmp_path / "entities.yaml"
+    path.write_text(text, encoding="utf-8")
+    config_dir = tmp_path / "ha_config"
+    config_dir.mkdir(exist_ok=True)
+    proc = subprocess.run([str(python), "-c", ENTITIES, str(path), json.dumps(turns or {}), str(config_dir)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def validate(tmp_path, text: str) -> subprocess.CompletedProcess:
@@ -89,6 +144,71 @@ def test_home_assistant_schema_refuses_a_broken_export(tmp_path):
     sensor["swap"] = "word"
     proc = validate(tmp_path, yaml.safe_dump(config))
     assert proc.returncode != 0 and "illegal" in proc.stderr, proc.stderr[-2000:]
+
+
+SCHEMA_MANY = r"""
+import json, logging, sys
+from homeassistant.util.yaml import load_yaml
+from homeassistant.components.modbus import CONFIG_SCHEMA
+
+logged = []
+class Keep(logging.Handler):
+    def emit(self, record):
+        logged.append(record.getMessage())
+logging.getLogger("homeassistant.components.modbus").addHandler(Keep())
+logging.getLogger("homeassistant.components.modbus").setLevel(logging.WARNING)
+KINDS = ("sensors", "binary_sensors", "switches")
+for path in sys.argv[1:]:
+    logged.clear()
+    config = load_yaml(path)
+    given = [len(config["modbus"][0].get(kind, [])) for kind in KINDS]
+    kept = [len(CONFIG_SCHEMA(config)["modbus"][0].get(kind, [])) for kind in KINDS]
+    print(json.dumps({"path": path, "given": given, "kept": kept, "logged": list(logged)}))
+"""
+
+
+def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
+    """Random descriptions, many functions sharing registers and tables: Home Assistant's own check keeps
+    every entity the export writes (the export left out what it would drop), and logs nothing."""
+    import random
+
+    from mdl.diagnostics import MdlError
+    from mdl.exports import Settings
+    from mdl.exports import export as export_to
+    from mdl.sources.loading import load_resolved
+
+    rng = random.Random(13)
+    kinds = [{"format": "UINT16"}, {"format": "INT32"}, {"format": "BIT"}, {"format": "BIT", "register_type": "coil"},
+             {"format": "BIT", "register_type": "discrete"}, {"format": "BIT", "register_type": "input"},
+             {"format": "UINT8", "length": "Lower byte"}, {"format": "UINT8", "length": "Upper byte"},
+             {"format": "INT16", "register_type": "input"}]
+    paths = []
+    for case in range(30):
+        functions = ""
+        for i in range(rng.randint(2, 8)):
+            fields = dict(rng.choice(kinds))
+            read_only = fields.get("register_type") in ("input", "discrete")
+            fields["access"] = "read" if read_only else rng.choice(["read", "write", "read_write"])
+            if rng.random() < 0.3 and fields["access"] != "read":
+                fields["write_multiple"] = "true"
+            functions += fn_xml(f"f{i}", rng.randint(0, 4), **fields)
+        path = tmp_path / f"d{case}.xml"
+        path.write_text(device_xml(functions), encoding="ascii")
+        try:
+            result = export_to(load_resolved(path), "homeassistant", Settings())
+        except MdlError:
+            continue
+        out = tmp_path / f"d{case}.yaml"
+        out.write_text(result.text or "", encoding="utf-8")
+        paths.append(str(out))
+    assert len(paths) >= 25
+    python = require(HOMEASSISTANT)
+    proc = subprocess.run([str(python), "-c", SCHEMA_MANY, *paths], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    results = [json.loads(line) for line in proc.stdout.strip().splitlines()]
+    assert len(results) == len(paths)
+    for result in results:
+        assert result["given"] == result["kept"] and result["logged"] == [], result
 
 
 def test_home_assistant_version_is_the_pinned_one():
@@ -125,6 +245,8 @@ def ha_sensor_state(client: ModbusTcpClient, sensor: dict) -> str | None:
     if entry != entry:
         return None
     value = sensor.get("scale", 1) * entry + sensor.get("offset", 0)
+    if "max_value" in sensor and value > sensor["max_value"]:  # min_value: never exported
+        value = sensor["max_value"]
     is_int = sensor["data_type"] in ("int16", "int32", "int64", "uint16", "uint32", "uint64")
     precision = sensor.get("precision", 0 if is_int else 2)
     return str(round(value)) if precision == 0 else f"{float(value):.{precision}f}"
@@ -186,6 +308,142 @@ def test_reading_as_the_yaml_says_gives_mdl_read_values(sim_factory, tmp_path, p
     assert checked == entities
 
 
+@pytest.mark.parametrize(("path", "raw", "entities"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 14)])
+def test_home_assistant_own_entities_show_mdl_read_values(sim_factory, tmp_path, path, raw, entities):
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(raw))
+    sim = sim_factory(path, "--registers", registers, "--unit", "4")
+    text = export(path, *sim.connection, "--unit", "4").stdout
+    hub = yaml.safe_load(text)["modbus"][0]
+    states = through_home_assistant(tmp_path, text)
+    proc = run_mdl("read", path, *sim.connection, "--unit", "4", "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    expected = json.loads(proc.stdout)
+    labels = labels_of(path)
+    checked = 0
+    for sensor in hub.get("sensors", []):
+        state = states["sensors"][sensor["name"]]
+        if sensor["data_type"] == "string" and state is not None:
+            state = state.rstrip("\x00 ")  # the NUL padding Home Assistant keeps (warned)
+        assert state == mdl_as_ha_shows(expected[sensor["name"]], sensor, labels[sensor["name"]]), sensor
+        checked += 1
+    for kind in ("binary_sensors", "switches"):
+        for entity in hub.get(kind, []):
+            if kind == "switches" and "verify" not in entity:
+                continue  # write-only: Home Assistant shows what it wrote
+            assert states[kind][entity["name"]] == expected[entity["name"]], entity
+            checked += 1
+    assert checked == entities
+
+
+BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+
+
+def test_a_bit_in_a_register_shows_mdl_read_value(sim_factory, tmp_path, write_device):
+    """mdl reads a BIT in a holding/input register as true when the register is not 0. Home Assistant's
+    binary_sensor on a register reads bit 0 only (2 -> off): the export makes it a sensor clamped to 1."""
+    path = write_device(BITREG)
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"10": 2, "12": 0x1234}, "input": {"11": 0x8000}}))
+    sim = sim_factory(path, "--registers", registers)
+    proc = export(path, *sim.connection)
+    for name in ("flag", "ro_flag"):
+        assert f"function '{name}': Home Assistant: a bit in a register" in proc.stderr, proc.stderr
+    hub = yaml.safe_load(proc.stdout)["modbus"][0]
+    sensors = {s["name"]: s for s in hub["sensors"]}
+    assert sensors["flag"]["input_type"] == "holding" and sensors["ro_flag"]["input_type"] == "input"
+    assert sensors["flag"]["max_value"] == 1 and "binary_sensors" not in hub
+    assert [(s["name"], s["write_type"]) for s in hub["switches"]] == [("flag", "holding")]
+    states = through_home_assistant(tmp_path, proc.stdout)
+    mdl = json.loads(run_mdl("read", path, *sim.connection, "--format", "json").stdout)
+    assert mdl["flag"] is True and mdl["ro_flag"] is True and mdl["lo"] == 0x34
+    assert states["sensors"]["flag"] == states["sensors"]["ro_flag"] == "1"
+    assert float(states["sensors"]["lo"]) == 0x34
+    client = ModbusTcpClient(sim.host, port=sim.port)
+    assert client.connect()
+    try:  # the YAML's documented meaning gives the same
+        for name in ("flag", "ro_flag"):
+            assert ha_sensor_state(client, sensors[name]) == mdl_as_ha_shows(mdl[name], sensors[name], None) == "1"
+    finally:
+        client.close()
+    # the control: Home Assistant's own binary_sensor on the same registers says off
+    bit0 = [{"name": "flag", "address": 10, "input_type": "holding", "device_address": 1},
+            {"name": "ro_flag", "address": 11, "input_type": "input", "device_address": 1}]
+    control = {"modbus": [{**{k: v for k, v in hub.items() if k not in ("sensors", "switches")},
+                           "binary_sensors": bit0}]}
+    shown = through_home_assistant(tmp_path, yaml.safe_dump(control))["binary_sensors"]
+    assert shown == {"flag": False, "ro_flag": False}
+    zero = tmp_path / "zero.json"
+    zero.write_text(json.dumps({"holding": {"10": 0}, "input": {"11": 0}}))
+    sim0 = sim_factory(path, "--registers", zero)
+    states0 = through_home_assistant(tmp_path, export(path, *sim0.connection).stdout)
+    assert states0["sensors"]["flag"] == states0["sensors"]["ro_flag"] == "0"
+
+
+@pytest.mark.parametrize(("multiple", "codes"), [(False, {"relay": 5, "flag": 6}), (True, {"relay": 15, "flag": 16})])
+def test_switches_write_with_mdl_function_codes(sim_factory, tmp_path, write_device, multiple, codes):
+    """A switch writes with the function code mdl writes with: write_type coil (5) or coils (15) for a
+    coil, holding (6) or holdings (16) for a bit in a register, as the function's write_multiple says;
+    behind a proxy that refuses the other pair, through Home Assistant's own switch."""
+    extra = {"write_multiple": "true"} if multiple else {}
+    path = write_device(fn_xml("relay", "3", format="BIT", register_type="coil", **extra)
+                        + fn_xml("flag", "10", format="BIT", **extra))
+    sim = sim_factory(path)
+    refused = {5, 6} if multiple else {15, 16}
+    with refusing_proxy(sim.host, sim.port, refused=refused) as proxy:
+        text = export(path, "--host", proxy.host, "--port", str(proxy.port)).stdout
+        switches = {s["name"]: s for s in yaml.safe_load(text)["modbus"][0]["switches"]}
+        assert switches["relay"]["write_type"] == ("coils" if multiple else "coil")
+        assert switches["flag"]["write_type"] == ("holdings" if multiple else "holding")
+        states = through_home_assistant(tmp_path, text, {"relay": True, "flag": True})
+        written = [code for code in proxy.codes if code in (5, 6, 15, 16)]
+    assert sorted(written) == sorted(codes.values()), proxy.codes
+    assert states["switches"] == {"relay": True, "flag": True}
+    mdl = json.loads(run_mdl("read", path, *sim.connection, "--format", "json").stdout)
+    assert mdl == {"relay": True, "flag": True}
+
+
+def test_one_entity_per_register_as_home_assistant_loads_them(tmp_path):
+    """Home Assistant loads one entity per register key (hub, address, input_type/write_type, command_on/off,
+    device_address) and drops the others with a log line. The export leaves those out with a warning naming
+    each; put back, Home Assistant drops exactly them."""
+    functions = {
+        "lo": fn_xml("lo", "5", length="Lower byte", format="UINT8", access="read"),
+        "hi": fn_xml("hi", "5", length="Upper byte", format="UINT8", access="read"),
+        "whole": fn_xml("whole", "5", format="UINT16", access="read"),
+        "in5": fn_xml("in5", "5", format="UINT16", register_type="input"),
+        "coil5": fn_xml("coil5", "5", format="BIT", register_type="coil"),
+        "coil5_ro": fn_xml("coil5_ro", "5", format="BIT", register_type="coil", access="read"),
+        "di5": fn_xml("di5", "5", format="BIT", register_type="discrete"),
+        "bit10": fn_xml("bit10", "10", format="BIT"),
+        "word10": fn_xml("word10", "10", format="INT16", access="read"),
+        "in10": fn_xml("in10", "10", format="INT16", register_type="input"),
+    }
+    dropped = {"hi", "whole", "word10"}
+    path = tmp_path / "dup.xml"
+    path.write_text(device_xml("".join(functions.values()), name="Dup"), encoding="ascii")
+    proc = export(path, "--host", "192.0.2.10")
+    for name in functions:
+        left_out = f"function '{name}': Home Assistant: shares its register" in proc.stderr
+        assert left_out == (name in dropped), (name, proc.stderr)
+    proc_schema = validate(tmp_path, proc.stdout)
+    assert proc_schema.returncode == 0, proc_schema.stderr[-3000:]
+    result = json.loads(proc_schema.stdout.strip().splitlines()[-1])
+    # sensors lo, in5, bit10, in10; binary_sensors coil5_ro, di5; switches coil5, bit10
+    assert result["given"] == result["kept"] == [[4, 2, 2]] and result["logged"] == []
+    # put back what the export left out: Home Assistant drops exactly those
+    config = yaml.safe_load(proc.stdout)
+    for name in sorted(dropped):
+        alone = tmp_path / f"{name}.xml"
+        alone.write_text(device_xml(functions[name], name="Dup"), encoding="ascii")
+        config["modbus"][0]["sensors"] += yaml.safe_load(export(alone, "--host", "192.0.2.10").stdout)["modbus"][0][
+            "sensors"]
+    result = json.loads(validate(tmp_path, yaml.safe_dump(config)).stdout.strip().splitlines()[-1])
+    assert result["given"][0][0] == result["kept"][0][0] + len(dropped)  # [sensors, binary_sensors, switches]
+    assert sorted(line.split("/sensor.", 1)[1].split()[0] for line in result["logged"]) == sorted(dropped)
+
+
 def test_not_implemented_reads_as_none(sim_factory, tmp_path):
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps({"input": {"10": 0xFFFF}}))
@@ -225,6 +483,7 @@ def test_home_assistant_warnings_and_refusal(tmp_path, write_device):
         assert any(f"function '{name}': Home Assistant:" in line and fragment in line
                    for line in proc.stderr.splitlines()), (name, proc.stderr)
     assert "--interval 2.5 becomes 3" in proc.stderr
+    assert "scan_interval 3 is under 5 seconds" in proc.stderr
     assert "note: Home Assistant: no connection given" in proc.stderr
     only_fragments = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
                                          access="read"))

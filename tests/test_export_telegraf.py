@@ -4,14 +4,13 @@ Telegraf itself cannot be installed here (no Go toolchain, no binary downloads),
 with tomllib and follows each `[[inputs.modbus.request]]` section's documented meaning (the plugin's README
 and its type_conversions*.go): one Modbus request per section (the fields, omit fillers included, leave no
 gap, so Telegraf does not split it), each field decoded by its type and the section's byte_order, `scale`
-multiplied, then `[[processors.scale]]` (factor * value + offset) and `[[processors.enum]]`. Every value must
-be `mdl read`'s: a scaled value within one unit in the last place (Telegraf multiplies by 0.1 where mdl divides
-by 10), a text without the trailing spaces Telegraf keeps (warned)."""
+multiplied, then the processors in their `order`: `[[processors.starlark]]` (the divisions), `[[processors.scale]]`
+(factor * value + offset) and `[[processors.enum]]` (labels; 0/other for a bit in a register). Every value must
+be `mdl read`'s exactly (a float bit for bit), a text without the trailing spaces Telegraf keeps (warned)."""
 
 from __future__ import annotations
 
 import json
-import math
 import struct
 
 import pytest
@@ -143,20 +142,49 @@ def telegraf_gather(config: dict, host: str, port: int) -> tuple[dict, list[tupl
                 values[field["name"]] = value
     finally:
         client.close()
-    for processor in config.get("processors", {}).get("scale", []):
-        for scaling in processor["scaling"]:
-            for name in scaling["fields"]:
-                values[name] = scaling["factor"] * values[name] + scaling["offset"]
-    for processor in config.get("processors", {}).get("enum", []):
-        for mapping in processor["mapping"]:
-            value = values[mapping["field"]]
-            values[mapping["field"]] = mapping["value_mappings"].get(str(value), value)
-    return values, sent
+    return run_processors(config, values), sent
+
+
+class StarlarkMetric:
+    """The part of Telegraf's Starlark metric the exported script uses: `fields`, a dict."""
+
+    def __init__(self, fields: dict):
+        self.fields = fields
+
+
+def run_processors(config: dict, values: dict) -> dict:
+    """The exported processors, in their `order`, as their READMEs define them:
+    - starlark: the script's `apply(metric)` (Starlark is a Python dialect; the script uses nothing whose
+      meaning differs: a dict, a for loop, `float(x) / d`, `!= None`);
+    - scale: factor * value + offset for the listed fields;
+    - enum: the string of the value looked up in value_mappings, else `default` where given."""
+    processors = [(kind, p) for kind, ps in config.get("processors", {}).items() for p in ps]
+    assert sorted(p["order"] for _, p in processors) == list(range(1, len(processors) + 1))
+    for kind, processor in sorted(processors, key=lambda kp: kp[1]["order"]):
+        if kind == "starlark":
+            namespace: dict = {}
+            exec(processor["source"], namespace)  # noqa: S102 - the exported script, run as Starlark would
+            values = namespace["apply"](StarlarkMetric(values)).fields
+        elif kind == "scale":
+            for scaling in processor["scaling"]:
+                for name in scaling["fields"]:
+                    values[name] = scaling["factor"] * values[name] + scaling["offset"]
+        elif kind == "enum":
+            for mapping in processor["mapping"]:
+                value = values[mapping["field"]]
+                key = str(value).lower() if isinstance(value, bool) else str(value)  # Go's FormatBool/Uint
+                if key in mapping["value_mappings"]:
+                    values[mapping["field"]] = mapping["value_mappings"][key]
+                elif "default" in mapping:
+                    values[mapping["field"]] = mapping["default"]
+        else:
+            raise AssertionError(f"unexpected processor {kind}")
+    return values
 
 
 def same(got, expected) -> bool:
     if isinstance(expected, float) and isinstance(got, float):
-        return got == expected or abs(got - expected) <= math.ulp(expected)
+        return got == expected  # exactly: divisions are divisions (processors.starlark), not products by 0.1
     if isinstance(expected, str) and isinstance(got, str):
         return got.rstrip(" ") == expected
     return got == expected and type(got) is type(expected)
@@ -258,6 +286,56 @@ def test_random_layouts_read_alike(sim_factory, tmp_path_factory, functions, rng
         sim.stop()
 
 
+BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+
+
+def test_a_bit_in_a_register_reads_true_for_any_nonzero_value(sim_factory, tmp_path, write_device):
+    """mdl reads a BIT in a holding/input register as true when the register is not 0; Telegraf's BIT type
+    reads bit 0 (2 -> 0), so the export reads the register as UINT16 and processors.enum maps 0 to false
+    and every other value to true."""
+    path = write_device(BITREG)
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"10": 2, "12": 0x1234}, "input": {"11": 0x8000}}))
+    sim = sim_factory(path, "--registers", registers)
+    proc = export(path, *sim.connection)
+    config = tomllib.loads(proc.stdout)
+    check_config(config)
+    fields = {f["name"]: f for r in config["inputs"]["modbus"][0]["request"] for f in r["fields"]}
+    assert fields["flag"]["type"] == fields["ro_flag"]["type"] == "UINT16"
+    values, _ = telegraf_gather({**config, "processors": {}}, sim.host, sim.port)
+    assert (values["flag"], values["ro_flag"]) == (2, 0x8000)  # bit 0 of both is 0: a BIT field would say false
+    assert_reads_like_mdl(path, sim, config, 3)
+    got, _ = telegraf_gather(config, sim.host, sim.port)
+    assert got["flag"] is True and got["ro_flag"] is True
+    zero = tmp_path / "zero.json"
+    zero.write_text(json.dumps({"holding": {"10": 0}, "input": {"11": 0}}))
+    sim0 = sim_factory(path, "--registers", zero)
+    got0, _ = telegraf_gather(tomllib.loads(export(path, *sim0.connection).stdout), sim0.host, sim0.port)
+    assert got0["flag"] is False and got0["ro_flag"] is False
+
+
+def test_divisions_are_divisions(sim_factory, tmp_path, write_device):
+    """A multiplier 1/d is a division in mdl (87 at 0.1 reads 8.7); Telegraf's field scale would multiply
+    (87 * 0.1 = 8.700000000000001): the export divides in processors.starlark, bit for bit as mdl."""
+    assert 87 * 0.1 != 8.7 == 87 / 10
+    path = write_device(fn_xml("t", "0", format="INT16", multiplier="0.1")
+                        + fn_xml("u", "1", format="UINT16", multiplier="0.001", offset="-40")
+                        + fn_xml("v", "2", format="UINT16", multiplier="0.3"))
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"0": 87, "1": 12345, "2": 7}}))
+    sim = sim_factory(path, "--registers", registers)
+    config = tomllib.loads(export(path, *sim.connection).stdout)
+    fields = {f["name"]: f for r in config["inputs"]["modbus"][0]["request"] for f in r["fields"]}
+    assert "scale" not in fields["t"] and "scale" not in fields["u"] and fields["v"]["scale"] == 0.3
+    (starlark,) = config["processors"]["starlark"]
+    assert starlark["namepass"] == ["test_device"] and starlark["order"] == 1
+    assert config["processors"]["scale"][0]["order"] == 2  # the offset after the division, as mdl
+    assert_reads_like_mdl(path, sim, config, 3)
+    values, _ = telegraf_gather(config, sim.host, sim.port)
+    assert values["t"] == 8.7 and values["u"] == 12345 / 1000 - 40.0 and values["v"] == 7 * 0.3
+
+
 def test_telegraf_connection_forms():
     serial = tomllib.loads(export(ALL_TABLES, "--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E",
                                   "--unit", "5", "--interval", "2.5").stdout)["inputs"]["modbus"][0]
@@ -313,6 +391,7 @@ _FUNCTION = st.fixed_dictionaries({
     "not_implemented": st.sampled_from(["0x8000", "0xFFFF 0x0000", "0x0000"]),
     "values": st.just({0: "Off", 1: "On"}),
     "read_function_code": st.just("arg = r1 * 2;"),
+    "write_multiple": st.just("true"),
 })
 
 

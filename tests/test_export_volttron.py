@@ -12,6 +12,7 @@ import subprocess
 import pytest
 from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
 from engines import VOLTTRON, installed_version, require
+from refusing_proxy import refusing_proxy
 
 ALL_TABLES = DATA / "all_tables.xml"
 TEMCO = EXAMPLE / "temco_tstat.xml"
@@ -67,10 +68,14 @@ def mdl_read(path, sim) -> dict:
     return json.loads(proc.stdout)
 
 
-def through_volttron(folder, stem, writes=None) -> dict:
+def run_volttron(folder, stem, writes=None) -> subprocess.CompletedProcess:
     python = require(VOLTTRON)
-    proc = subprocess.run([str(python), "-c", DRIVER, str(folder), stem, json.dumps(writes or {})],
+    return subprocess.run([str(python), "-c", DRIVER, str(folder), stem, json.dumps(writes or {})],
                           capture_output=True, text=True, timeout=120)
+
+
+def through_volttron(folder, stem, writes=None) -> dict:
+    proc = run_volttron(folder, stem, writes)
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -203,6 +208,68 @@ def test_volttron_export_is_deterministic(tmp_path):
         export(TEMCO, tmp_path / name, "--host", "192.0.2.10")
     for file in (tmp_path / "a").iterdir():
         assert file.read_bytes() == (tmp_path / "b" / file.name).read_bytes()
+
+
+BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+
+
+def test_a_bit_in_a_register_is_left_out(sim_factory, tmp_path, write_device):
+    """mdl reads a BIT in a holding/input register as true when the register is not 0. The driver's bool
+    type there unpacks one byte of the two and fails the whole poll (the control below), and nothing else
+    tests a register for 0: the export leaves it out, says so, and the rest reads as mdl reads it."""
+    path = write_device(BITREG)
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"10": 2, "12": 0x1234}, "input": {"11": 1}}))
+    sim = sim_factory(path, "--registers", registers)
+    out = tmp_path / "v"
+    proc = export(path, out, *sim.connection)
+    for name, table in (("flag", "holding"), ("ro_flag", "input")):
+        assert f"function '{name}': VOLTTRON: a BIT in the {table} registers" in proc.stderr, proc.stderr
+    rows = map_rows(out, "test_device")
+    assert sorted(rows) == ["lo"]
+    got = through_volttron(out, "test_device")["before"]
+    assert got == {"lo": 0x34} and mdl_read(path, sim)["lo"] == 0x34
+    # the control: the driver's own bool in a holding register
+    with open(out / "test_device_map.csv", "a", encoding="utf-8") as handle:
+        handle.write("flag,10,bool,,FALSE,,,analog_output_holding_registers,FALSE,flag\n")
+    with open(out / "test_device.csv", "a", encoding="utf-8") as handle:
+        handle.write("flag,flag\n")
+    failed = run_volttron(out, "test_device")
+    assert failed.returncode != 0 and "unpack requires a buffer of 1 bytes" in failed.stderr, failed.stderr[-2000:]
+
+
+def test_writes_use_the_function_codes_the_driver_has(sim_factory, tmp_path, write_device):
+    """The driver writes one coil with function 5 (write_multiple cannot change it: warned), and every register
+    with 16 when write_multiple_registers is true, else with 6. The export sets it false where every writable
+    register is one int16/uint16 that mdl writes with 6; a proxy records what the driver sends."""
+    single = write_device(fn_xml("sp", "7", format="UINT16") + fn_xml("neg", "8", format="INT16")
+                          + fn_xml("relay", "3", format="BIT", register_type="coil"), filename="single.xml")
+    multiple = write_device(fn_xml("sp", "7", format="UINT16", write_multiple="true")
+                            + fn_xml("neg", "8", format="INT16")
+                            + fn_xml("relay", "3", format="BIT", register_type="coil", write_multiple="true"),
+                            filename="multiple.xml")
+    writes = {"sp": 1234, "neg": -5, "relay": True}
+    for path, flag, codes in ((single, False, {"sp": 6, "neg": 6, "relay": 5}),
+                              (multiple, True, {"sp": 16, "neg": 16, "relay": 5})):
+        sim = sim_factory(path)
+        with refusing_proxy(sim.host, sim.port) as proxy:
+            out = tmp_path / path.stem
+            proc = export(path, out, "--host", proxy.host, "--port", str(proxy.port))
+            config = json.loads((out / "test_device.config").read_text())
+            assert config["driver_config"]["write_multiple_registers"] is flag
+            for point, value in writes.items():
+                before = len(proxy.codes)
+                through_volttron(out, "test_device", {point: value})
+                assert codes[point] in proxy.codes[before:], (point, proxy.codes[before:])
+                assert not {5, 6, 15, 16} - {codes[point]} & set(proxy.codes[before:]), (point, proxy.codes[before:])
+        assert mdl_read(path, sim) == writes
+        if flag:
+            assert "'relay': VOLTTRON: write_multiple: the driver writes one coil with function 5" in proc.stderr
+            assert "write_multiple_registers is one setting for the device: true, as 'sp' needs" in proc.stderr
+            assert "with function 6: neg" in proc.stderr
+        else:
+            assert "function 5" not in proc.stderr and "write_multiple_registers" not in proc.stderr, proc.stderr
 
 
 def test_byte_orders_all_four(sim_factory, tmp_path, write_device):

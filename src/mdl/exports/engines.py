@@ -62,6 +62,20 @@ def written_by_fragment(f: ResolvedFunction) -> bool:
     return find_step(f.codec.encode, Fragment) is not None
 
 
+def bit_in_register(f: ResolvedFunction) -> bool:
+    """A BIT in a holding or input register: mdl reads it as true when the register is not 0 (any bit
+    set) and writes true as 1. Every engine's own bit type reads something else there."""
+    return f.layout.kind == "bool" and f.layout.table in ("holding", "input")
+
+
+def write_code(f: ResolvedFunction) -> int:
+    """The function code mdl writes `f` with (mdl.device.runtime): one coil 5, one register 6, unless the
+    function says write_multiple; then 15 for coils, 16 for registers, as for several registers."""
+    if f.layout.table == "coil":
+        return 15 if f.fn.write_multiple else 5
+    return 6 if len(f.layout.addresses) == 1 and not f.fn.write_multiple else 16
+
+
 def scale_of(f: ResolvedFunction) -> Scale | None:
     return find_step(f.codec.decode, Scale)
 

@@ -8,13 +8,21 @@ One hub (named by the device's stem, with the connection of the command line) ho
   scaling needs, as Home Assistant rounds what it shows to it), `nan_value` (the first
   not_implemented value, as the number Home Assistant unpacks from those registers), `input_type`,
   `unit_of_measurement`;
-- `binary_sensors` for bits that cannot be written, `switches` (write_type coil, verified by reading
-  the coil back) for writable coils;
+- `binary_sensors` for coils and discrete inputs that cannot be written, `switches` for writable coils
+  (write_type `coil`, function 5, or `coils`, function 15, for a function that says write_multiple;
+  `verify` reads the coil back);
+- a BIT in a holding or input register (true when the register is not 0): Home Assistant's
+  binary_sensor reads bit 0 of a register only, so it is a uint16 sensor with `max_value: 1` (it
+  shows 1 or 0); a writable one is also a switch (write_type `holding`, function 6, or `holdings`,
+  function 16, command_on 1, command_off 0) without `verify` (which knows the values 1 and 0 only);
 each with `name` (the function's), `unique_id` (stem, unit, identifier), `device_address` (--unit),
 `address` (the wire address) and `scan_interval` (--interval, whole seconds).
 
 Home Assistant's modbus integration has no writable number entity: a writable register is exported
-as a sensor, with a warning. Checked against Home Assistant 2024.3's own schema
+as a sensor, with a warning. Home Assistant loads one entity per register and table (its validator's
+key: hub, address, input_type or write_type, command_on/off, device_address; validators.py
+check_config): where two functions share one, the second is left out with a warning, as Home
+Assistant would drop it. Checked against Home Assistant 2024.3's own schema
 (homeassistant.components.modbus.CONFIG_SCHEMA) and its value rules (base_platform.py).
 """
 
@@ -29,6 +37,7 @@ import yaml
 from mdl.exports import Export
 from mdl.exports.engines import (
     Notes,
+    bit_in_register,
     connection_of,
     decimals,
     hex_pattern,
@@ -37,6 +46,7 @@ from mdl.exports.engines import (
     scale_of,
     unreadable,
     whole_seconds,
+    write_code,
     written_by_fragment,
 )
 
@@ -52,6 +62,14 @@ _TYPES = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, 
 _STRUCT = {"int16": "h", "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
            "float32": "f", "float64": "d"}
 FLOAT_PRECISION = 2  # what Home Assistant shows of a float without precision
+MIN_SCAN = 5  # Home Assistant warns of a scan_interval under this many seconds
+# the hub's entity lists, by Home Assistant's platform names, in the order its validator reads them (const.PLATFORMS)
+_PLATFORM = {"binary_sensors": "binary_sensor", "sensors": "sensor", "switches": "switch"}
+_PLATFORM_ORDER = ("binary_sensors", "sensors", "switches")
+_DEFAULTS: dict[str, dict[str, Any]] = {  # the schema's defaults that the validator's key reads (__init__.py)
+    "binary_sensors": {"input_type": "coil"}, "sensors": {"input_type": "holding"},
+    "switches": {"write_type": "holding", "command_on": 1, "command_off": 0}}
+Entity = tuple["ResolvedFunction", dict[str, Any]]
 
 
 def ha_type(lay: Layout) -> dict[str, Any] | str:
@@ -155,14 +173,42 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
     if kind["data_type"] == "string":
         notes.warn(f, "the text keeps the NUL padding that mdl strips")
     if f.fn.writable:
-        notes.warn(f, "the modbus integration has no entity that writes a register value: exported as a sensor (write "
-                      "it with the modbus.write_register action)")
+        notes.warn(f, "the modbus integration has no entity that writes a register value: exported as a sensor: "
+                      f"write it with {_write_action(f)}")
     return entry
 
 
-def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, list[dict[str, Any]]]:
-    out: dict[str, list[dict[str, Any]]] = {"sensors": [], "binary_sensors": [], "switches": []}
+def _bit_sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any]:
+    """A BIT in a register as Home Assistant can read it as mdl does: the register clamped to 1."""
+    kind: dict[str, Any] = {"data_type": "uint16"}
+    entry = {**base, "input_type": "input" if f.layout.table == "input" else "holding", **kind, "max_value": 1}
+    nan_value = _nan_value(f, kind, notes)
+    if nan_value is not None:
+        entry["nan_value"] = nan_value
+    notes.warn(f, "a bit in a register (true when the register is not 0) is a sensor showing 1 or 0 (max_value: 1): "
+                  "a binary_sensor would read bit 0 only")
+    return entry
+
+
+def _write_type(f: ResolvedFunction) -> str:
+    """The switch's write_type: the function code mdl writes with (5/15 for a coil, 6/16 for a register)."""
+    return {5: "coil", 15: "coils", 6: "holding", 16: "holdings"}[write_code(f)]
+
+
+def _write_action(f: ResolvedFunction) -> str:
+    """How Home Assistant writes a register function as mdl does: its modbus.write_register action, whose
+    value is written with function 6, or as a list with function 16 (modbus.py async_write_register)."""
+    if write_code(f) == 16:
+        return "the modbus.write_register action, its value a list of registers (function 16, as mdl writes it)"
+    return "the modbus.write_register action"
+
+
+def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, list[Entity]]:
+    out: dict[str, list[Entity]] = {"sensors": [], "binary_sensors": [], "switches": []}
     scan = whole_seconds(settings, notes)
+    if scan < MIN_SCAN:
+        notes.device_warning(f"scan_interval {scan} is under {MIN_SCAN} seconds, which Home Assistant warns "
+                             "may make it unstable")
     for f in resolved.functions:
         reason = unreadable(f) if f.fn.readable else None
         if reason is not None:
@@ -173,28 +219,75 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
         writable = f.fn.writable and not written_by_fragment(f)
         if f.fn.writable and not writable:
             notes.warn(f, "a write fragment encodes it, which Home Assistant cannot: exported read-only")
-        if f.layout.kind == "bool":
+        if f.layout.kind == "bool" and f.layout.table in ("coil", "discrete"):
             if writable and f.layout.table == "coil":
-                switch = {**base, "write_type": "coil"}
+                switch = {**base, "write_type": _write_type(f)}
                 if f.fn.readable:
                     switch["verify"] = {}
                 else:
                     notes.warn(f, "write-only: the switch shows the state it last wrote")
-                out["switches"].append({**switch, "scan_interval": scan})
+                out["switches"].append((f, {**switch, "scan_interval": scan}))
             elif f.fn.readable:
                 input_type = "discrete_input" if f.layout.table == "discrete" else "coil"
-                out["binary_sensors"].append({**base, "input_type": input_type, "scan_interval": scan})
+                out["binary_sensors"].append((f, {**base, "input_type": input_type, "scan_interval": scan}))
             else:
                 notes.warn(f, "neither readable nor writable here: left out")
             continue
+        if bit_in_register(f):
+            if f.fn.readable:
+                out["sensors"].append((f, {**_bit_sensor(f, base, notes), "scan_interval": scan}))
+            if writable and f.layout.table == "holding":
+                out["switches"].append((f, {**base, "write_type": _write_type(f), "scan_interval": scan}))
+                notes.warn(f, "the switch writes 1 or 0 and shows the state it last wrote (its verify knows the "
+                              "register values 1 and 0 only)" + ("; the sensor reads the register" if f.fn.readable
+                                                                   else ""))
+            elif not f.fn.readable:
+                notes.warn(f, "neither readable nor writable here: left out")
+            continue
         if not f.fn.readable:
-            notes.warn(f, "write-only register: the modbus integration only writes registers through its "
-                          "modbus.write_register action: left out")
+            notes.warn(f, f"write-only register: the modbus integration writes it only with {_write_action(f)}: "
+                          "left out")
             continue
         sensor = _sensor(f, base, notes)
         if sensor is not None:
-            out["sensors"].append({**sensor, "scan_interval": scan})
+            out["sensors"].append((f, {**sensor, "scan_interval": scan}))
     return {key: value for key, value in out.items() if value}
+
+
+def _key(hub: str, component: str, entity: dict[str, Any]) -> tuple[str, str]:
+    """Home Assistant's keys for an entity (validators.py check_config.validate_entity, its schema's
+    defaults filled in): its register key and its name key."""
+    filled = {**_DEFAULTS[component], **entity}
+    register = f"{hub}{filled['address']}"
+    for conf in ("input_type", "write_type", "command_on", "command_off"):
+        if conf in filled:
+            register += f"_{filled[conf]}"
+    register += f"_{filled.get('device_address', 0)}"
+    return register, f"{_PLATFORM[component]}.{filled['name']}"
+
+
+def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) -> dict[str, list[dict[str, Any]]]:
+    """The entities Home Assistant loads: the first for each register key and name, in its platforms' order;
+    each one it would drop is left out with a warning naming the function."""
+    registers: dict[str, ResolvedFunction] = {}
+    names: set[str] = set()
+    kept: dict[str, list[dict[str, Any]]] = {}
+    for component in sorted(entities, key=_PLATFORM_ORDER.index):
+        for f, entity in entities[component]:
+            register, name = _key(hub, component, entity)
+            first = registers.get(register)
+            if first is not None or name in names:
+                table = entity.get("input_type") or entity.get("write_type", "holding")
+                what = (f"shares its register ({table} {entity['address']}, device_address "
+                        f"{entity['device_address']}) with '{first.name}'" if first is not None
+                        else f"its name is taken by another of the {component}")
+                notes.warn(f, f"{what}, and Home Assistant loads only the first entity (\"is duplicate, second "
+                              "entry not loaded!\"): left out")
+                continue
+            registers[register] = f
+            names.add(name)
+            kept.setdefault(component, []).append(entity)
+    return {component: kept[component] for component in entities if component in kept}
 
 
 def _hub(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, Any]:
@@ -211,10 +304,11 @@ def _hub(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str
 
 def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export:
     notes = Notes(resolved, ENGINE)
-    entities = _entities(resolved, settings, notes)
+    hub = _hub(resolved, settings, notes)
+    entities = _drop_duplicates(hub["name"], _entities(resolved, settings, notes), notes)
     if not entities:
         raise nothing_left(resolved, ENGINE, notes)
-    hub = {**_hub(resolved, settings, notes), **entities}
+    hub.update(entities)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
     head = (f"# Home Assistant modbus integration: {resolved.name}, from {source} by mdl export.\n"
             "# Put it in configuration.yaml (merge the hub into an existing modbus: list).\n")

@@ -7,11 +7,19 @@ section at any gap). Field names are the functions' identifiers (safe in Telegra
 measurement is the device's stem, the plugin's `name` tag the device's name.
 
 Per field: `type` (INT16 ... UINT64, FLOAT32/64, INT8L/H and UINT8L/H for one byte of a register,
-STRING with `length` in registers; bits take `output = "BOOL"`), `scale` (Telegraf multiplies:
-value * scale). A section has one `byte_order` (ABCD, DCBA, BADC, CDAB: MDL's byte and word order);
-where the functions of one request need different ones, the request becomes several sections.
-Offsets go to `[[processors.scale]]` (factor 1 and the offset: Telegraf 1.27+), enumerations to
-`[[processors.enum]]`, both limited to the measurement by `namepass`. Telegraf only reads.
+STRING with `length` in registers; coils and discrete inputs take `output = "BOOL"`), `scale` for a
+multiplier (Telegraf computes value * scale, as mdl does). A section has one `byte_order` (ABCD, DCBA,
+BADC, CDAB: MDL's byte and word order); where the functions of one request need different ones, the
+request becomes several sections.
+
+mdl divides by d where a multiplier is exactly 1/d (0.1: / 10), and value * 0.1 can differ from value / 10
+in the last digit: such a field has no `scale`, and a `[[processors.starlark]]` divides it (Telegraf
+1.15+; Starlark's `/` on float(value) is the same IEEE division). Offsets go to `[[processors.scale]]`
+(factor 1 and the offset: value + offset; Telegraf 1.27+), enumerations to `[[processors.enum]]`. A BIT
+in a holding or input register (true when the register is not 0, where Telegraf's BIT type reads one
+bit) is read as UINT16 and `[[processors.enum]]` maps 0 to false and every other value to true
+(`default`). The processors run in that order (`order`), each limited to the measurement by
+`namepass`. Telegraf only reads.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ from typing import TYPE_CHECKING
 from mdl.exports import Export
 from mdl.exports.engines import (
     Notes,
+    bit_in_register,
     connection_of,
     hex_pattern,
     nothing_left,
@@ -51,8 +60,8 @@ def field_type(lay: Layout, order: str) -> str | None:
     """The Telegraf type that reads the layout as mdl does in a section of `order`, or None."""
     n = len(lay.addresses)
     swapped = order in _BYTE_SWAPPED
-    if lay.kind == "bool":
-        return "BIT"
+    if lay.kind == "bool":  # a BIT in a register: the whole register, which processors.enum maps to a bool
+        return "UINT16"
     if lay.unit in ("low", "high") or (n == 1 and lay.bits == 8):
         if order not in ("ABCD", "DCBA"):  # Telegraf's 8-bit types know these two only
             return None
@@ -148,7 +157,7 @@ def _fields(order: str, members: list[ResolvedFunction], bits: bool) -> list[str
                 if f.layout.kind == "string":
                     entry["length"] = len(f.layout.addresses)
                 step = scale_of(f)
-                if step is not None and step.multiplier != 1:
+                if step is not None and step.divisor is None and step.multiplier != 1:
                     entry["scale"] = step.multiplier
             lines.append(_inline(entry))
         if address not in covered:
@@ -186,24 +195,55 @@ def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported:
     return "\n".join(out) + "\n"
 
 
+_STARLARK = """
+DIVISORS = {{
+{divisors}
+}}
+
+def apply(metric):
+    for name, divisor in DIVISORS.items():
+        value = metric.fields.get(name)
+        if value != None:
+            metric.fields[name] = float(value) / divisor
+    return metric
+"""
+
+
 def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction]) -> str:
     out = []
+    order = 0
+    measurement = _toml(resolved.stem)
+    divisors = {f.ident: step.divisor for f in exported.values()
+                if (step := scale_of(f)) is not None and step.divisor is not None}
+    if divisors:
+        order += 1
+        listed = "\n".join(f"    {_toml(ident)}: {divisor}," for ident, divisor in divisors.items())
+        out += ["", "# the divisions: value / d where the multiplier is 1/d, as mdl computes them (value * 0.1 can",
+                "# differ from value / 10 in the last digit)", "[[processors.starlark]]", f"  order = {order}",
+                f"  namepass = [{measurement}]", "  source = '''" + _STARLARK.format(divisors=listed) + "'''"]
     offsets: dict[float, list[str]] = {}
     for f in exported.values():
         step = scale_of(f)
         if step is not None and step.offset != 0:
             offsets.setdefault(step.offset, []).append(f.ident)
-    measurement = _toml(resolved.stem)
     if offsets:
-        out += ["", "# the offsets: value * factor + offset, after the fields' scale",
-                "[[processors.scale]]", f"  namepass = [{measurement}]"]
+        order += 1
+        out += ["", "# the offsets: value * factor + offset, after the fields' scale and the divisions",
+                "[[processors.scale]]", f"  order = {order}", f"  namepass = [{measurement}]"]
         for offset, idents in offsets.items():
             out += ["  [[processors.scale.scaling]]", "    factor = 1.0", f"    offset = {_toml(float(offset))}",
                     f"    fields = [{', '.join(map(_toml, idents))}]"]
-    enums = [f for f in exported.values() if f.fn.values]
-    if enums:
-        out += ["", "# the enumerations: the label for each value", "[[processors.enum]]",
+    bits = [f for f in exported.values() if bit_in_register(f)]
+    enums = [f for f in exported.values() if f.fn.values and not bit_in_register(f)]
+    if bits or enums:
+        order += 1
+        what = ["the label for each value"] if enums else []
+        what += ["a bit in a register: 0 is false, any other value true"] if bits else []
+        out += ["", f"# the enumerations: {'; '.join(what)}", "[[processors.enum]]", f"  order = {order}",
                 f"  namepass = [{measurement}]"]
+        for f in bits:
+            out += ["  [[processors.enum.mapping]]", f"    field = {_toml(f.ident)}", "    default = true",
+                    "    [processors.enum.mapping.value_mappings]", '      "0" = false']
         for f in enums:
             assert f.fn.values is not None
             out += ["  [[processors.enum.mapping]]", f"    field = {_toml(f.ident)}",

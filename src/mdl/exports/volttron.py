@@ -15,7 +15,15 @@ Python struct format with its own byte order, which is how a little-endian word 
 (`>d`) or one byte of a register (`>xB`: the lower byte) is said. `scale(m)` multiplies and rounds
 to the decimal places of m, so it is exact for integers scaled by a decimal multiplier; a float
 scaled, a negative or exponent-form multiplier, an offset (no transform adds one) leave the
-function out with a warning, as do expressions and fragments.
+function out with a warning, as do expressions and fragments. So does a BIT in a holding or input
+register (mdl: true when the register is not 0): the driver's `bool` there unpacks one byte from two
+and fails the whole poll, and no type or transform tests a register for 0.
+
+Writes (utils/client.py `write_all`): one coil is written with function 5 even where the function says
+write_multiple (warned); registers with function 16 when the config's `write_multiple_registers` is
+true, else one register with function 6 (which writes a struct-format or multi-register value wrong).
+It is false where every writable register function is one int16/uint16 register that mdl writes with
+function 6; true otherwise, with one warning naming the functions then written with 16 where mdl uses 6.
 """
 
 from __future__ import annotations
@@ -29,6 +37,7 @@ from mdl.diagnostics import error
 from mdl.exports import Export
 from mdl.exports.engines import (
     Notes,
+    bit_in_register,
     connection_of,
     decimals,
     hex_pattern,
@@ -37,6 +46,7 @@ from mdl.exports.engines import (
     plain_number,
     scale_of,
     unreadable,
+    write_code,
     written_by_fragment,
 )
 
@@ -57,6 +67,7 @@ _NAMED = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, 
 _STRUCT = {("int", 16, True): "h", ("int", 16, False): "H", ("int", 32, True): "i", ("int", 32, False): "I",
            ("int", 64, True): "q", ("int", 64, False): "Q", ("float", 32, True): "f", ("float", 64, True): "d"}
 _PARITY = {"N": "none", "E": "even", "O": "odd"}
+_SINGLE_TYPES = ("int16", "uint16")  # what the driver writes right with function 6 (no struct format, one register)
 
 
 def volttron_type(lay: Layout) -> tuple[str, bool] | str:
@@ -108,6 +119,11 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
     if reason is not None:
         notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
         return None
+    if bit_in_register(f):
+        notes.warn(f, f"a BIT in the {f.layout.table} registers (true when the register is not 0): the driver's bool "
+                      "type there unpacks one byte and fails the whole poll, and no type or transform tests a "
+                      "register for 0: left out")
+        return None
     found = volttron_type(f.layout)
     if isinstance(found, str):
         notes.warn(f, f"{found}: left out")
@@ -128,6 +144,8 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
     if writable and transform:
         notes.warn(f, "writes through scale() take integers only (the driver packs value / m, a float, into the "
                       "integer register and fails) and cut the raw value where mdl rounds it")
+    if writable and f.layout.table == "coil" and write_code(f) == 15:
+        notes.warn(f, "write_multiple: the driver writes one coil with function 5, never 15")
     if writable and (f.fn.minimum is not None or f.fn.maximum is not None):
         notes.warn(f, "writes outside minimum/maximum are not refused")
     patterns = patterns_of(f)
@@ -160,7 +178,28 @@ def _csv(columns: tuple[str, ...], rows: list[dict[str, str]]) -> str:
     return out.getvalue()
 
 
-def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> str:
+def _write_multiple_registers(resolved: ResolvedDevice, rows: list[dict[str, str]], notes: Notes) -> bool:
+    """The config's write_multiple_registers: false (function 6 for each register, as mdl writes one register)
+    where every writable register is a named 16-bit type mdl writes with 6; else true (function 16 for
+    every register write), with a warning naming the functions mdl would write with 6."""
+    by_ident = {f.ident: f for f in resolved.functions}
+    written = [(row["Type"], by_ident[row["Register Name"]]) for row in rows
+               if row["Writable"] == "TRUE" and row["Table"] == TABLES["holding"]]
+    needs = [(vtype, f) for vtype, f in written if write_code(f) == 16 or vtype not in _SINGLE_TYPES]
+    if not needs:
+        return not written  # nothing to write: the driver's default
+    single = [f.name for _, f in written if write_code(f) == 6]
+    if single:
+        vtype, f = needs[0]
+        why = "mdl writes it with function 16" if write_code(f) == 16 else \
+            f"the driver writes its type {vtype} right with function 16 only"
+        notes.device_warning(f"write_multiple_registers is one setting for the device: true, as '{f.name}' needs "
+                             f"({why}), so function 16 writes what mdl writes with function 6: "
+                             f"{', '.join(single)}")
+    return True
+
+
+def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes, multiple: bool) -> str:
     conn = connection_of(settings, notes)
     stem = resolved.stem
     driver: dict[str, object] = {"name": resolved.name}
@@ -172,7 +211,7 @@ def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> str:
             raise error("VOLTTRON's Modbus-TK driver speaks Modbus TCP or RTU on a serial line, not RTU framing "
                         "over TCP (--framer rtu)", resolved.device.source)
         driver.update(device_address=conn.host, port=conn.port)
-    driver.update(slave_id=settings.unit, addressing="offset", endian="big", write_multiple_registers=True,
+    driver.update(slave_id=settings.unit, addressing="offset", endian="big", write_multiple_registers=multiple,
                   register_map=f"config://{stem}_map.csv")
     interval: float | int = int(settings.interval) if settings.interval == int(settings.interval) else settings.interval
     config = {"driver_config": driver, "driver_type": "modbus_tk", "registry_config": f"config://{stem}.csv",
@@ -190,5 +229,5 @@ def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
                 for f in resolved.functions if f.ident in exported]
     stem = resolved.stem
     files = {f"{stem}_map.csv": _csv(MAP_COLUMNS, rows), f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),
-             f"{stem}.config": _config(resolved, settings, notes)}
+             f"{stem}.config": _config(resolved, settings, notes, _write_multiple_registers(resolved, rows, notes))}
     return Export(files=files, warnings=notes.found)
