@@ -131,26 +131,36 @@ def main() -> None:
 @click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
+@click.option("--strict", is_flag=True, help="Exit 1 and write nothing if any row is skipped, any function "
+              "is left unmatched or anything else gives a warning.")
+@click.option("--explain", "explain", multiple=True, metavar="FUNCTION",
+              help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).")
 @fail_on_warning_option
 def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, interactive: bool,
-            threshold: float | None, emit_all: bool) -> None:
+            threshold: float | None, emit_all: bool, strict: bool, explain: tuple[str, ...]) -> None:
     """Convert a vendor register table (CSV) to MDL XML.
 
     SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
     name the output (output_xml_file, relative to the INI's folder and inside it).
+
+    Every guess (a column found by its header, the address base, the count unit, the delimiter, a
+    decimal comma) is a note on stderr naming the INI key that overrides it; every row that cannot
+    be read is a warning with its line; a summary line ends the run.
 
     \b
     Examples:
       mdl csv2xml examples/temco_tstat/temco_tstat.ini
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -o tstat.xml
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
+      mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
     from mdl.sources.csvmap.convert import run_csv2xml
 
     _stdin_once([source] + ([ini] if ini else []))
     target = _csv2xml_target(source, ini, output, allow_outside)
     fail_on_warning = bool(click.get_current_context().meta.get(_FAIL_ON_WARNING))
-    run_csv2xml(source, ini, target, interactive, threshold, emit_all, fail_on_warning=fail_on_warning)
+    run_csv2xml(source, ini, target, interactive, threshold, emit_all, fail_on_warning=fail_on_warning,
+                strict=strict, explain=explain)
 
 
 def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_outside: bool) -> Path:
@@ -270,6 +280,8 @@ def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...],
       mdl sim examples/toolkit_heat_pump/heat_pump.yaml --port 5021 --scenario Heating
       mdl sim examples/temco_tstat/temco_tstat.xml examples/toolkit_heat_pump/heat_pump.yaml --port 5022
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5023 --framer rtu
+      mdl sim examples/discovery/em100.xml --port 5024 --unit 3 --registers examples/discovery/em100.json
+      mdl sim examples/discovery/rs4.xml --port 5025 --unit 7 --registers examples/discovery/rs4.json
 
     \b
     On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
@@ -341,8 +353,8 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     \b
     Examples:
       mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
-      mdl import meter.mod -o meter.xml
-      mdl import Modbus.ini --from wise
+      mdl import examples/xif_meter/meter.mod -o meter.xml
+      mdl import examples/wise_4012e/Modbus.ini --from wise -o wise_4012e.xml
     """
     from mdl.diagnostics import error
     from mdl.sources.loading import guess_format
@@ -432,13 +444,20 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     (function 43 / MEI 14), its vendor, product code and revision are shown too. A unit that does
     not answer costs one --timeout. Progress goes to stderr. Exit 0 when some unit matched, else 1.
 
+    Units that answer are listed (matched or not); units that do not are left out. Unit ids are
+    0-255. See docs/discovery.md.
+
     \b
-    Examples:
-      mdl discover library/*.xml --host 127.0.0.1 --port 5020 --units 1-10
-      mdl discover meter.xml --serial /dev/ttyUSB0 --baud 9600 --units 1-32,100 --format json
+    Examples (the sims of examples/discovery in mdl sim --help: an EM100 at unit 3, an RS4 at unit 7):
+      mdl discover examples/discovery/em100.xml examples/discovery/em200.xml --host 127.0.0.1 --port 5024
+      mdl discover examples/discovery/rs4.xml --host 127.0.0.1 --port 5025 --units 1-10 --format json
+
+    \b
+    On a serial line (RTU: a unit that does not answer costs one --timeout):
+      $ mdl discover library/*.xml --serial /dev/ttyUSB0 --baud 9600 --units 1-32,100 --format json
     """
     from mdl.device.discover import discover as find
-    from mdl.device.discover import parse_units, render
+    from mdl.device.discover import library_warnings, parse_units, render
 
     _stdin_once(files)
     try:
@@ -446,6 +465,8 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--units") from None
     library = [(path, _resolved(path)) for path in files]
+    for path, resolved in library:
+        _report_warnings(library_warnings(path, resolved), path)
     results = find(library, connection, wanted)
     click.echo(render(results, fmt), nl=False)
     sys.exit(0 if any(r.matches for r in results) else 1)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Callable
 
@@ -76,6 +75,11 @@ def _one(text: str, base: str) -> tuple[int, str | None]:
             raise CellError(f"'{t}' is not a 1-based address")
         return value - 1, None
     return value, None
+
+
+def hexify(text: str) -> str:
+    """An address cell of a column whose header says hex: every plain number is hexadecimal."""
+    return re.sub(r"(?i)(?<![\w:])(?:0x)?([0-9a-f]+)(?!\w)", lambda m: "0x" + m.group(1), text)
 
 
 def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
@@ -164,68 +168,74 @@ def parse_length(text: str) -> str:
     raise CellError(f"unknown length '{text.strip()}' (expected Lower byte, Upper byte or Full word)")
 
 
-_NUM = re.compile(r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?")
-
-
-def parse_number(text: str, decimal_comma: bool = False, what: str = "") -> float:
-    """A number cell (`0.1`, `0,1` with decimal commas, `0.1(?)`, `x10`, `1/10`) -> float."""
-    t = text.strip().replace("\u2212", "-")
-    if decimal_comma or re.fullmatch(r"[-+]?\d+,\d+", t):
-        if re.fullmatch(r"[-+]?\d{1,3}(\.\d{3})+,\d+", t):  # 1.234,5: the dots group thousands
-            t = t.replace(".", "")
-        t = t.replace(",", ".")
-    frac = re.fullmatch(r"\s*([-+]?\d+(?:\.\d+)?)\s*/\s*(\d+(?:\.\d+)?)\s*", t)
-    if frac and float(frac.group(2)) != 0:
-        value = float(frac.group(1)) / float(frac.group(2))
-    else:
-        m = _NUM.search(t)
-        if not m:
-            raise CellError(f"'{text.strip()}' is not a number")
-        value = float(m.group(0))
-    if not math.isfinite(value):  # 1e999: no target computes with it
-        raise CellError(f"{what} '{text.strip()}' is not a finite number".lstrip())
-    return value
-
-
-def parse_int(text: str) -> int:
-    t = text.strip()
-    try:
-        return int(t, 0)
-    except ValueError:
-        value = parse_number(t)
-        if not value.is_integer():
-            raise CellError(f"'{t}' is not a whole number") from None
-        return int(value)
-
-
 ACCESS_WORDS = {"r": "read", "ro": "read", "read": "read", "read only": "read", "read-only": "read",
-                "w": "write", "wo": "write", "write": "write", "write only": "write",
+                "readonly": "read", "w": "write", "wo": "write", "write": "write", "write only": "write",
+                "write-only": "write", "writeonly": "write",
                 "rw": "read_write", "r/w": "read_write", "w/r": "read_write", "r/w/": "read_write",
                 "read/write": "read_write", "read write": "read_write", "read-write": "read_write",
-                "wr": "read_write", "r+w": "read_write"}
+                "wr": "read_write", "r+w": "read_write", "r & w": "read_write", "r&w": "read_write",
+                # a "Writable" column (VOLTTRON, Victron): yes or no
+                "true": "read_write", "yes": "read_write", "y": "read_write",
+                "false": "read", "no": "read", "n": "read"}
+BOTH_LETTERS = frozenset(k for k, v in ACCESS_WORDS.items() if v == "read_write" and "r" in k and "w" in k)
 
 
-def parse_access(text: str) -> str:
+def access_words(cells: list[str]) -> str:
+    """What `W` alone means in a column of these cells (SPEC 4): "read_write" where the column holds
+    only the letters R and W (W: writable), "write" where it also holds R/W, RW ... (W: write-only)."""
+    seen = {" ".join(c.strip().lower().split()) for c in cells}
+    return "write" if seen & BOTH_LETTERS else "read_write"
+
+
+def parse_access(text: str, w_alone: str = "write") -> str:
     t = " ".join(text.strip().lower().split())
+    t = re.sub(r"\s*\(.*\)$", "", t) or t  # W/R(Reboot after write): the remark says nothing of access
+    if t == "w":
+        return w_alone
     if t in ACCESS_WORDS:
         return ACCESS_WORDS[t]
     raise CellError(f"unknown access '{text.strip()}' (expected R, W or R/W)")
 
 
-TABLE_WORDS = {"holding": "holding", "holding register": "holding", "hr": "holding", "4x": "holding",
-               "input": "input", "input register": "input", "ir": "input", "3x": "input",
-               "coil": "coil", "coils": "coil", "0x": "coil", "c": "coil",
-               "discrete": "discrete", "discrete input": "discrete", "di": "discrete", "1x": "discrete",
-               "holding registers": "holding", "input registers": "input", "discrete inputs": "discrete"}
+TABLE_WORDS = {"holding": "holding", "holding register": "holding", "holding registers": "holding", "hr": "holding",
+               "4x": "holding", "input": "input", "input register": "input", "input registers": "input",
+               "ir": "input", "3x": "input", "coil": "coil", "coils": "coil", "0x": "coil", "c": "coil",
+               "coil status": "coil", "discrete": "discrete", "discrete input": "discrete",
+               "discrete inputs": "discrete",
+               "di": "discrete", "1x": "discrete", "input status": "discrete",
+               "read coils": "coil", "read discrete inputs": "discrete", "read holding registers": "holding",
+               "read input registers": "input", "analog input": "input", "analog output": "holding",
+               # VOLTTRON's table names (modbus_tk register maps)
+               "discrete output coils": "coil", "discrete input contacts": "discrete",
+               "analog input registers": "input", "analog output holding registers": "holding"}
+# Modbus function codes -> the table they read or write
+FUNCTION_CODES = {1: "coil", 2: "discrete", 3: "holding", 4: "input", 5: "coil", 6: "holding", 15: "coil",
+                  16: "holding", 22: "holding", 23: "holding"}
+_CODE = re.compile(r"(?i)^(?:fc|func(?:tion)?(?:\s*code)?)?\s*(?:0x)?0*(\d{1,2})h?$")
+_CODE_IN_TEXT = re.compile(r"(?i)\bfc\s*0*(\d{1,2})\b|\(\s*0x0*(\d{1,2})\s*\)")
 
 
 def parse_table(text: str) -> str:
+    """A register-type cell -> holding | input | coil | discrete: table names (`Holding Register`,
+    `4x`), VOLTTRON's (`analog_output_holding_registers`), function codes (`3`, `FC03`, `0x04`,
+    `03/06/16`) and texts naming one (`Read Input Registers (FC04)`)."""
     t = " ".join(text.strip().lower().replace("_", " ").replace("-", " ").split())
     if t in TABLE_WORDS:
         return TABLE_WORDS[t]
-    if t in ("1", "2", "3", "4"):
-        return {"1": "coil", "2": "discrete", "3": "holding", "4": "input"}[t]
-    for code, table in (("fc01", "coil"), ("fc02", "discrete"), ("fc03", "holding"), ("fc04", "input")):
-        if code in t.replace(" ", ""):
-            return table
+    parts = [p for p in re.split(r"\s*[,/&+;]\s*|\s+and\s+|\s+", t) if p]
+    codes = [_CODE.match(p) for p in parts]
+    if parts and all(codes):
+        tables = set()
+        for m in codes:
+            assert m is not None
+            code = int(m.group(1))
+            if code not in FUNCTION_CODES:
+                raise CellError(f"function code {code} in '{text.strip()}' reads or writes no register table")
+            tables.add(FUNCTION_CODES[code])
+        if len(tables) > 1:
+            raise CellError(f"'{text.strip()}' names function codes of different tables ({', '.join(sorted(tables))})")
+        return tables.pop()
+    found = {FUNCTION_CODES.get(int(a or b)) for a, b in _CODE_IN_TEXT.findall(t)}
+    if len(found) == 1 and None not in found:
+        return found.pop()  # type: ignore[return-value]
     raise CellError(f"unknown register type '{text.strip()}'")

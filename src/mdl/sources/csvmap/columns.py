@@ -1,45 +1,129 @@
-"""Which column holds what: the INI's indices or header texts, else header synonyms."""
+"""Which column holds what: the INI's indices or header texts, else header synonyms checked against
+the column's cells (a `Function` column of function codes is a register type, never a description)."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.sources.csvmap.cells import CellError, parse_format, parse_int, parse_table
+from mdl.sources.csvmap.cells import CellError, parse_access, parse_format, parse_length, parse_table
 from mdl.sources.csvmap.ini import DeviceIni
+from mdl.sources.csvmap.numbers import parse_int, parse_number
 from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
-GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "units",
+GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "divisor", "units",
                "access", "block_label", "register_type", "minimum", "maximum", "offset")
 PREFIX_KEYS = ("addresses", "description", "format", "units", "multiplier", "count")
 ADDRESS_FALLBACKS = ("offset", "index", "nr", "no", "number")  # headers taken for addresses if none says so
+# a column whose header names one field but whose cells hold another: the fields it may hold instead
+ALTERNATIVES = {"addresses": ("format", "register_type"), "description": ("register_type", "format"),
+                "name": ("register_type", "format"), "format": ("register_type",), "length": ("count",),
+                "access": ("register_type",)}
+SAMPLE = 200  # cells looked at to check a guess
+# the share of them that must fit: half, so that a few bad cells (mod10k(True) in a column of scales,
+# int99 among formats) are reported on their rows rather than every row read without the column
+HALF = 0.5
+MOSTLY = 0.8  # a text column whose cells are this much register types is a register-type column
+
+
+_NAMED_PREFIX = re.compile(r"(?i)\b(?:coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:")
+_ADDRESS_SHAPE = re.compile(r"(?i)^(?=.*\d)[\s0-9a-fx:#,;/&.\-\u2013\u2014]+$")
+
+
+def _fits_address(cell: str) -> None:
+    """An address in one of the forms parse_addresses reads (whether in range or not is the row's business)."""
+    text = re.sub(r"(?i)\b(?:to|and)\b|(?<=\d)to(?=\d)", " ", _NAMED_PREFIX.sub(" ", cell))
+    if not _ADDRESS_SHAPE.match(text):
+        raise CellError("not an address")
+
+
+def _fits_text(cell: str) -> None:
+    if not any(ch.isalpha() for ch in cell):
+        raise CellError("no letters")
+
+
+def _fits_count(cell: str) -> None:
+    if parse_int(cell) < 1:
+        raise CellError("not a count")
+
+
+def _fits_scale(cell: str) -> None:
+    parse_number(cell, "auto", scale=True)
+
+
+def _fits_number(cell: str) -> None:
+    parse_number(cell, "auto")
+
+
+def _anything(cell: str) -> None:
+    pass
+
+
+CHECKS: dict[str, Callable[[str], None]] = {
+    "addresses": _fits_address,
+    "description": _fits_text, "name": _fits_text, "format": lambda c: None if parse_format(c) else None,
+    "count": _fits_count, "length": lambda c: None if parse_length(c) else None,
+    "multiplier": _fits_scale, "divisor": _fits_scale, "units": _anything, "access": lambda c: None if parse_access(c)
+    else None, "block_label": _anything, "register_type": lambda c: None if parse_table(c) else None,
+    "minimum": _fits_number, "maximum": _fits_number, "offset": _fits_number,
+}
 
 
 @dataclass
 class Columns:
     index: dict[str, int] = field(default_factory=dict)
-    names: list[int] = field(default_factory=list)  # extra text columns to match on (tags, keywords)
+    names: list[int] = field(default_factory=list)  # text columns matched along with the description (tags, names)
     headers: dict[int, str] = field(default_factory=dict)
+    guessed: dict[str, int] = field(default_factory=dict)  # keys found by their header, not named in the INI
+    notes: list[str] = field(default_factory=list)  # what was decided, for the user
+    scale_has_units: bool = False  # the units column is the scale column: its cells give number and unit
 
     def header_of(self, key: str) -> str:
         i = self.index.get(key)
         return self.headers.get(i, "") if i is not None else ""
 
+    def describe(self, i: int) -> str:
+        header = self.headers.get(i, "").strip()
+        return f"column {i} '{header}'" if header else f"column {i}"
 
-def _mostly(rows: list[Row], index: int, parse: Callable[[str], object]) -> bool:
-    cells = [r.cell(index) for r in rows[:200] if r.cell(index)]
+
+def _share(rows: list[Row], index: int, check: Callable[[str], None]) -> tuple[float, str | None]:
+    """(share of the column's first non-empty cells that pass `check`, the first that does not)."""
+    cells = []
+    for r in rows:
+        c = r.cell(index)
+        if c:
+            cells.append(c)
+            if len(cells) == SAMPLE:
+                break
     if not cells:
-        return False
-    ok = 0
+        return 1.0, None
+    ok, bad = 0, None
     for c in cells:
         try:
-            parse(c)
+            check(c)
             ok += 1
         except (CellError, ValueError):
-            pass
-    return ok >= 0.8 * len(cells)
+            bad = bad or c
+    return ok / len(cells), bad
+
+
+def _fits(key: str, rows: list[Row], index: int) -> tuple[bool, str | None]:
+    """Whether the column's cells read as `key`, and the first that does not."""
+    share, bad = _share(rows, index, CHECKS[key])
+    if share < HALF or key not in ("description", "name"):
+        return share >= HALF, bad
+    tables, _ = _share(rows, index, CHECKS["register_type"])  # text, but not a column of register types
+    first = next((r.cell(index) for r in rows if r.cell(index)), None)
+    return first is None or tables < MOSTLY, first
+
+
+def _short(text: str) -> str:
+    text = " ".join(text.split())
+    return text if len(text) <= 30 else text[:30] + "..."
 
 
 def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | None) -> Columns:
@@ -64,6 +148,11 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
                                          f"no such column in the header row{line} of {table.path}"))
     if errors:
         raise MdlError(errors)
+    if "multiplier" in cols.index and "divisor" in cols.index and cols.index["multiplier"] == cols.index["divisor"]:
+        raise MdlError(Diagnostic(where, None, None, "[Column/Field Indices] multiplier and divisor name the same "
+                                  "column: a scale either multiplies or divides"))
+    if "name" in cols.index:
+        cols.names = [cols.index["name"]]
     taken.update(cols.index.values())
     if ini:
         for c in ini.claimed:
@@ -72,29 +161,102 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
             elif normalize_header(c) in headers:
                 taken.add(headers.index(normalize_header(c)))
     skip = set(given) | (ini.blank_columns if ini else set())
-    for key in GUESS_ORDER:
-        if key in skip and key != "name":
-            continue
-        found = [i for i, h in enumerate(headers) if h in HEADER_SYNONYMS[key] and i not in taken]
-        if not found and key in PREFIX_KEYS:
-            found = [i for i, h in enumerate(headers) if i not in taken and any(
-                h.startswith(s + " ") for s in HEADER_SYNONYMS[key] if len(s) >= 4)]
-        if not found and key == "addresses":  # some vendors call the address "Offset" or "No."
-            found = [i for i, h in enumerate(headers) if h in ADDRESS_FALLBACKS and i not in taken]
-        if not found:
-            continue
-        if key == "name":
-            cols.names = [i for i in found if i not in cols.index.values()]
-            taken.update(cols.names)
-            continue
-        i = found[0]
-        if key == "length" and "count" not in cols.index and _mostly(data, i, parse_int):
-            key = "count"
-        if key == "format" and "register_type" not in cols.index and _mostly(data, i, parse_table) \
-                and not _mostly(data, i, parse_format):
-            key = "register_type"
-        if key in cols.index:
-            continue
-        cols.index[key] = i
-        taken.add(i)
+    _guess(cols, headers, data, taken, skip)
+    _scale_in_units(cols, data, skip)
+    for key in ("multiplier", "divisor"):
+        if key in cols.index and cols.index[key] == cols.index.get("units"):
+            cols.scale_has_units = True
+    _say_guesses(cols, ini, data)
     return cols
+
+
+def _candidates(key: str, headers: list[str], taken: set[int]) -> list[int]:
+    words = HEADER_SYNONYMS[key]
+    found = sorted((words.index(h), i) for i, h in enumerate(headers) if h in words and i not in taken)
+    out = [i for _, i in found]
+    if key in PREFIX_KEYS:
+        out += [i for i, h in enumerate(headers) if i not in taken and i not in out and any(
+            h.startswith(s + " ") for s in words if len(s) >= 4)]
+    if key == "addresses":  # some vendors call the address "Offset" or "No."
+        out += [i for i, h in enumerate(headers) if h in ADDRESS_FALLBACKS and i not in taken and i not in out]
+    return out
+
+
+def _guess(cols: Columns, headers: list[str], data: list[Row], taken: set[int], skip: set[str]) -> None:
+    for key in GUESS_ORDER:
+        if key in skip or (key in cols.index and key != "name"):
+            continue
+        for i in _candidates(key, headers, taken):
+            if i in taken:
+                continue
+            ok, bad = _fits(key, data, i)
+            chosen = key if ok else None
+            if not ok:
+                for other in ALTERNATIVES.get(key, ()):
+                    if other not in cols.index and other not in skip and _fits(other, data, i)[0]:
+                        chosen = other
+                        break
+                line = next((r.line for r in data if r.cell(i) == bad), None)
+                where = f" ('{_short(bad)}' on line {line})" if bad is not None and line else ""
+                what = f"read as {chosen}" if chosen else "ignored"
+                cols.notes.append(f"{cols.describe(i)} has a header like {key} but its cells are not{where}: {what}")
+            if chosen is None:
+                continue
+            taken.add(i)
+            cols.guessed[chosen] = i
+            if chosen == "name":
+                cols.names.append(i)
+                continue
+            cols.index[chosen] = i
+            if chosen == key:
+                break
+
+
+def _scale_in_units(cols: Columns, data: list[Row], skip: set[str]) -> None:
+    """A units column of `0.01V` cells (a scale written before its unit) with no scale column: it is the
+    multiplier too."""
+    i = cols.index.get("units")
+    if i is None or {"multiplier", "divisor"} & (set(cols.index) | skip):
+        return
+    numbers = []
+    for r in data:
+        c = r.cell(i)
+        if c:
+            try:
+                numbers.append(parse_number(c, "auto", scale=True))
+            except CellError:
+                return  # a unit alone (V, kWh): the column is units only
+    if any(n is not None and n.value != 1 for n in numbers) and any(n is not None and n.unit for n in numbers):
+        cols.index["multiplier"] = i
+        cols.guessed["multiplier"] = i
+        cols.notes.append(f"{cols.describe(i)} holds scales written before their units (e.g. 0.1V): read as "
+                          "multiplier and units; set multiplier = (blank) in [Column/Field Indices] to read "
+                          "it as units only, or divisor = to divide by it")
+
+
+def _whole_scales(data: list[Row], index: int) -> bool:
+    """Whether a scale column holds only whole numbers, some above 1 (10, 100): multiplied or divided?"""
+    values = []
+    for r in data:
+        try:
+            n = parse_number(r.cell(index), "auto", scale=True)
+        except CellError:
+            continue
+        if n is not None:
+            values.append(abs(n.value))
+    return bool(values) and all(v.is_integer() for v in values) and any(v > 1 for v in values)
+
+
+def _say_guesses(cols: Columns, ini: DeviceIni | None, data: list[Row]) -> None:
+    found = sorted((i, key) for key, i in cols.guessed.items())
+    if not found:
+        return
+    parts = [f"{key} = {cols.describe(i)}" for i, key in found]
+    how = "name them in [Column/Field Indices] of the INI" if ini else "give a device INI (--ini) naming them"
+    cols.notes.insert(0, f"columns found by their headers: {', '.join(parts)}; to choose others, {how} "
+                         "(a 0-based number or a header text; blank for none)")
+    scale = cols.guessed.get("multiplier")
+    if scale is not None and scale != cols.index.get("units") and _whole_scales(data, scale):
+        cols.notes.append(f"{cols.describe(scale)} is read as a multiplier (the raw value times the cell); if the "
+                          f"table divides by it (a scale factor of 10 meaning tenths), set divisor = "
+                          f"{cols.headers.get(scale) or scale} and multiplier = (blank) in [Column/Field Indices]")

@@ -12,11 +12,13 @@ from mdl.fileio import read_text
 from mdl.sources.mdlxml.write import unwritable
 
 COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
-               "multiplier", "units", "read_function_code", "write_function_code", "register_type",
+               "multiplier", "divisor", "units", "read_function_code", "write_function_code", "register_type",
                "access", "minimum", "maximum", "offset")
 DEVICE_KEYS = ("device_name", "device_description", "register_type", "address_base", "byte_order",
                "word_order", "count_unit", "threshold", "default_synonyms")
-IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file")
+IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator")
+DELIMITER_WORDS = {"comma": ",", ",": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "pipe": "|", "|": "|"}
+DECIMAL_WORDS = {"point": "point", ".": "point", "dot": "point", "comma": "comma", ",": "comma"}
 SECTIONS = {
     "modbus device": "device",
     "input/output": "io",
@@ -26,7 +28,7 @@ SECTIONS = {
 }
 CHOICES = {
     "register_type": ("holding", "input", "coil", "discrete"),
-    "address_base": ("0", "1", "modicon"),
+    "address_base": ("0", "1", "modicon", "hex"),
     "byte_order": ("big", "little"),
     "word_order": ("big", "little"),
     "count_unit": ("words", "bytes"),
@@ -41,6 +43,8 @@ class DeviceIni:
     csv_file: Path | None = None
     lines_to_skip: int | None = None
     output_file: Path | None = None
+    delimiter: str | None = None  # , ; \t |
+    decimal: str | None = None  # point | comma
     columns: dict[str, int | str] = field(default_factory=dict)  # key -> index or header text
     blank_columns: set[str] = field(default_factory=set)  # keys the INI lists as absent
     claimed: list[int | str] = field(default_factory=list)  # columns of [Additional ...]
@@ -170,6 +174,14 @@ def read_ini(path: Path) -> DeviceIni:
                     ini.csv_file = base / value
                 elif lkey == "output_xml_file" and value:
                     ini.output_file = base / value
+                elif lkey == "delimiter" and value:
+                    ini.delimiter = DELIMITER_WORDS.get(value.lower())
+                    if ini.delimiter is None:
+                        err(section, key, f"delimiter must be one of comma, semicolon, tab, pipe, not '{value}'")
+                elif lkey == "decimal_separator" and value:
+                    ini.decimal = DECIMAL_WORDS.get(value.lower())
+                    if ini.decimal is None:
+                        err(section, key, f"decimal_separator must be point or comma, not '{value}'")
     ini.default_synonyms = ini.device.pop("default_synonyms", "no") in ("yes", "true", "1", "on")
     if errors:
         raise MdlError(errors)

@@ -1,52 +1,26 @@
-"""Scoring table rows against function synonyms, and assigning each function its row.
+"""Each function's best rows, and each function its row, without scoring every (row, synonym) pair.
 
-A synonym equal to a row's text scores 1.0; found as a whole phrase inside it, 0.9 plus up to 0.1
-for how much of the text it covers, and only a fifth of that bonus when another word follows the
-phrase in the same clause, since that word changes what is named ("Total system power factor" is
-a factor, "Total system power (sum of phases)" a power); otherwise difflib's SequenceMatcher ratio. Whole-phrase matches
-always rank above fuzzy ones: "occupied heating setpoint" never takes "Unoccupied heating
-setpoint", whose ratio is high but which does not contain the phrase.
+The scores are scoring.py's. A function's candidates come out best first (tier, value, then the
+earlier row), exactly as if every pair had been scored and sorted:
+
+- EXACT rows from an index of normalized texts, PHRASE rows from an index of words (only rows
+  holding every word of a synonym are looked at);
+- FUZZY rows by a best-first search over upper bounds: difflib's `real_quick_ratio` (lengths only,
+  one bound per text length), then `quick_ratio` (shared characters), and `ratio()` only for a pair
+  whose bound is still the best left. Below the threshold nothing is looked at.
+
+`assign` settles the strongest (function, row) pairs first, each row serving one function, pulling
+each function's candidates only as far as it needs them.
 """
 
 from __future__ import annotations
 
-import difflib
-import re
+import heapq
+from collections import Counter
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-EXACT, PHRASE, FUZZY = 2, 1, 0
-
-
-def normalize(text: str) -> str:
-    return " ".join(re.sub(r"[^\w]+", " ", text.lower()).split())
-
-
-@dataclass(frozen=True, order=True)
-class Score:
-    tier: int
-    value: float
-
-    def __str__(self) -> str:
-        return f"{self.value:.2f}"
-
-
-def score_text(synonym: str, text: str) -> Score:
-    syn, txt = normalize(synonym), normalize(text)
-    if not syn or not txt:
-        return Score(FUZZY, 0.0)
-    if syn == txt:
-        return Score(EXACT, 1.0)
-    pattern = r"[\W_]+".join(re.escape(word) for word in syn.split())
-    found = re.search(rf"(?<![^\W_]){pattern}(?![^\W_])", text.lower())
-    if found:
-        rest = text[found.end():]
-        clause_ends = not rest.strip() or re.match(r"\s*[(\[,.;:/\-\u2013\u2014]", rest)
-        return Score(PHRASE, 0.9 + (0.1 if clause_ends else 0.02) * len(syn) / len(txt))
-    return Score(FUZZY, difflib.SequenceMatcher(None, syn, txt).ratio())
-
-
-def score_row(synonyms: list[str], texts: list[str]) -> Score:
-    return max((score_text(s, t) for s in synonyms for t in texts if t), default=Score(FUZZY, 0.0))
+from mdl.sources.csvmap.scoring import EXACT, FUZZY, PHRASE, Score, Text, find_phrase, fuzzy, normalize, words
 
 
 @dataclass
@@ -56,27 +30,204 @@ class Candidate:
     score: Score
 
 
-def rank(functions: dict[str, list[str]], row_texts: list[list[str]]) -> dict[str, list[Candidate]]:
-    """For each function, every row with its score, best first (earlier rows win ties)."""
-    out = {}
-    for name, synonyms in functions.items():
-        cands = [Candidate(name, i, score_row(synonyms, texts)) for i, texts in enumerate(row_texts)]
-        cands.sort(key=lambda c: (-c.score.tier, -c.score.value, c.row_index))
-        out[name] = cands
+class Index:
+    """The texts of a table's rows, indexed for matching (built once per table)."""
+
+    def __init__(self, row_texts: list[list[str]]) -> None:
+        self.rows = len(row_texts)
+        self.texts: list[list[Text]] = [[Text(t) for t in texts if t] for texts in row_texts]
+        self.exact: dict[str, list[int]] = {}
+        self.postings: dict[str, set[int]] = {}
+        by_length: dict[int, list[tuple[int, int]]] = {}
+        for r, texts in enumerate(self.texts):
+            for k, t in enumerate(texts):
+                if not t.norm:
+                    continue
+                rows = self.exact.setdefault(t.norm, [])
+                if not rows or rows[-1] != r:
+                    rows.append(r)
+                for word, _, _ in t.tokens:
+                    self.postings.setdefault(word, set()).add(r)
+                by_length.setdefault(len(t.norm), []).append((r, k))
+        self.lengths = sorted(by_length)
+        self.by_length = [by_length[n] for n in self.lengths]  # (row, text) pairs, rows ascending
+        self._counts: dict[str, Counter[str]] = {}
+
+    def counts(self, norm: str) -> Counter[str]:
+        found = self._counts.get(norm)
+        if found is None:
+            found = self._counts[norm] = Counter(norm)
+        return found
+
+
+@dataclass(frozen=True)
+class Synonym:
+    norm: str
+    words: list[str]
+    chars: tuple[tuple[str, int], ...]  # each character and how often it occurs (quick_ratio)
+
+
+def synonyms_of(phrases: list[str]) -> list[Synonym]:
+    out, seen = [], set()
+    for phrase in phrases:
+        norm = normalize(phrase)
+        if norm and norm not in seen:
+            seen.add(norm)
+            out.append(Synonym(norm, words(phrase), tuple(Counter(norm).items())))
     return out
 
 
-def assign(ranked: dict[str, list[Candidate]], threshold: float) -> dict[str, Candidate]:
+class Work:
+    """How many SequenceMatcher ratios were computed (for the bench and the tests)."""
+
+    ratios = 0
+
+
+def candidates(name: str, phrases: list[str], index: Index, threshold: float,
+               budget: int | None = None) -> Iterator[Candidate]:
+    """Every row scoring at least `threshold` for the function, best first (earlier rows first on ties).
+    With a budget, the fuzzy search stops after that many ratios (what it yielded is still right)."""
+    syns = synonyms_of(phrases)
+    exact: set[int] = set()
+    for s in syns:
+        exact.update(index.exact.get(s.norm, ()))
+    phrase: dict[int, float] = {}
+    for s in syns:
+        posting = [index.postings.get(w) for w in dict.fromkeys(s.words)]
+        if not posting or any(p is None for p in posting):
+            continue
+        rows = set.intersection(*sorted((p for p in posting if p is not None), key=len))
+        for r in rows:
+            if r in exact:
+                continue
+            for t in index.texts[r]:
+                found = find_phrase(s.words, s.norm, t)
+                if found is not None and found.value > phrase.get(r, -1.0):
+                    phrase[r] = found.value
+    if threshold <= 1.0:
+        for r in sorted(exact):
+            yield Candidate(name, r, Score(EXACT, 1.0))
+    for r, v in sorted(phrase.items(), key=lambda kv: (-kv[1], kv[0])):
+        if v >= threshold:
+            yield Candidate(name, r, Score(PHRASE, v))
+    yield from _fuzzy(name, syns, index, threshold, exact | set(phrase), budget)
+
+
+def _fuzzy(name: str, syns: list[Synonym], index: Index, threshold: float, excluded: set[int],
+           budget: int | None) -> Iterator[Candidate]:
+    # heap entries: (-bound, row, kind, tiebreak, payload); kind 0: an exact ratio, 1: a quick_ratio
+    # bound of one pair, 2: a real_quick_ratio bound of every pair of one text length (row: its first row)
+    heap: list[tuple[float, int, int, int, tuple[int, int, int]]] = []
+    serial = 0
+    for si, s in enumerate(syns):
+        ls = len(s.norm)
+        for li, lt in enumerate(index.lengths):
+            bound = 2.0 * min(ls, lt) / (ls + lt)
+            if bound >= threshold and bound > 0:
+                heap.append((-bound, index.by_length[li][0][0], 2, serial, (si, li, 0)))
+                serial += 1
+    if threshold <= 0:  # every row scores at least 0: each is listed, at 0 if nothing better is found
+        heap += [(-0.0, r, 0, 0, (0, 0, 0)) for r in range(index.rows) if r not in excluded]
+    heapq.heapify(heap)
+    done: set[int] = set()
+    best: dict[int, float] = {}  # row -> the best exact ratio pushed so far
+    while heap:
+        neg, row, kind, _, (si, a, b) = heapq.heappop(heap)
+        if kind == 0:
+            if row not in done:
+                done.add(row)
+                yield Candidate(name, row, Score(FUZZY, -neg))
+            continue
+        s = syns[si]
+        if kind == 2:
+            for r, k in index.by_length[a]:
+                if r in excluded or r in done:
+                    continue
+                norm = index.texts[r][k].norm
+                bound = _quick(s, norm, index)
+                if bound >= threshold and bound > best.get(r, -1.0):
+                    heapq.heappush(heap, (-bound, r, 1, serial, (si, r, k)))
+                    serial += 1
+            continue
+        if row in done or -neg <= best.get(row, -1.0):
+            continue  # the row already has a ratio at least this bound
+        if budget is not None:
+            if budget <= 0:
+                return
+            budget -= 1
+        Work.ratios += 1
+        value = fuzzy(s.norm, index.texts[a][b].norm)
+        if value >= threshold and value > best.get(row, -1.0):
+            best[row] = value
+            heapq.heappush(heap, (-value, row, 0, serial, (si, a, b)))
+            serial += 1
+
+
+def _quick(syn: Synonym, text: str, index: Index) -> float:
+    """difflib's quick_ratio of (synonym, text): the characters they share, an upper bound of ratio()."""
+    have = index.counts(text).get
+    shared = len(syn.norm)
+    for ch, n in syn.chars:
+        m = have(ch, 0)
+        if m < n:
+            shared -= n - m
+    return 2.0 * shared / (len(syn.norm) + len(text))
+
+
+def assign(functions: dict[str, list[str]], index: Index, threshold: float,
+           progress: Callable[[int], None] | None = None) -> dict[str, Candidate]:
     """Each function its best row at or above the threshold, each row serving one function at most.
-    The strongest pairs are settled first, so a weaker function never takes a stronger one's row."""
-    pairs = [c for cands in ranked.values() for c in cands if c.score.value >= threshold]
-    order = {name: i for i, name in enumerate(ranked)}
-    pairs.sort(key=lambda c: (-c.score.tier, -c.score.value, order[c.function], c.row_index))
+    The strongest pairs are settled first (ties: the function listed first, then the earlier row), so
+    a weaker function never takes a stronger one's row.
+
+    A function's search is dropped once it has given its best row (most functions keep it), and
+    started again, past the rows it gave, only if a stronger function takes that row: memory stays
+    in proportion to the functions that compete for rows, not to functions x rows."""
+    order = {name: i for i, name in enumerate(functions)}
+    given = dict.fromkeys(functions, 0)  # candidates each function has given so far
+    live: dict[str, Iterator[Candidate]] = {}  # the searches of functions that lost a row: kept
+    heap: list[tuple[int, float, int, int, str]] = []
+
+    def push(name: str) -> None:
+        stream = live.get(name)
+        if stream is None:
+            stream = candidates(name, functions[name], index, threshold)
+            for _ in range(given[name]):
+                next(stream)
+            if given[name]:
+                live[name] = stream
+        c = next(stream, None)
+        given[name] += 1
+        if c is not None:
+            heapq.heappush(heap, (-c.score.tier, -c.score.value, order[name], c.row_index, name))
+            return
+        live.pop(name, None)
+        if progress:
+            progress(1)
+
+    for name in functions:
+        push(name)
     chosen: dict[str, Candidate] = {}
     used: set[int] = set()
-    for c in pairs:
-        if c.function in chosen or c.row_index in used:
+    while heap:
+        tier, value, _, row, name = heapq.heappop(heap)
+        if row in used:
+            push(name)
             continue
-        chosen[c.function] = c
-        used.add(c.row_index)
-    return {name: chosen[name] for name in ranked if name in chosen}
+        chosen[name] = Candidate(name, row, Score(-tier, -value))
+        used.add(row)
+        live.pop(name, None)  # its search, and the bounds it holds, are done with
+        if progress:
+            progress(1)
+    return {name: chosen[name] for name in functions if name in chosen}
+
+
+def best(name: str, phrases: list[str], index: Index, skip: set[int] | None = None, limit: int = 10) -> list[Candidate]:
+    """The function's `limit` best rows of any score, rows in `skip` left out."""
+    out = []
+    for c in candidates(name, phrases, index, 0.0):
+        if not skip or c.row_index not in skip:
+            out.append(c)
+            if len(out) == limit:
+                break
+    return out

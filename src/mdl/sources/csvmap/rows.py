@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import re
+import math
 from dataclasses import dataclass
 
 from mdl.lang.cfrag import FragmentError, check
@@ -11,20 +11,18 @@ from mdl.model.layout import LayoutError, layout
 from mdl.resolve.checks import bound_problems
 from mdl.sources.csvmap.cells import (
     CellError,
-    is_modicon_number,
+    hexify,
+    is_digits,
     parse_access,
     parse_addresses,
     parse_format,
-    parse_int,
     parse_length,
-    parse_number,
     parse_table,
 )
 from mdl.sources.csvmap.columns import Columns
+from mdl.sources.csvmap.numbers import Number, parse_int, parse_number
 from mdl.sources.csvmap.table import Row
 from mdl.sources.mdlxml.write import unwritable
-
-_TOKENS = re.compile(r"[0-9A-Za-z:x]+")
 
 
 @dataclass
@@ -34,21 +32,9 @@ class RowSettings:
     register_type: str | None
     byte_order: str | None
     word_order: str | None
-    decimal_comma: bool
-
-
-def guess_address_base(rows: list[Row], index: int, hex_header: bool) -> str:
-    """'modicon' when every plain number of the address column is a Modicon 5/6-digit number."""
-    if hex_header:
-        return "hex"
-    tokens = [t for r in rows for t in re.findall(r"\d+", r.cell(index)) if not re.search(r"[A-Za-z:]", r.cell(index))]
-    if tokens and all(is_modicon_number(t) for t in tokens):
-        return "modicon"
-    return "0"
-
-
-def _hexify(text: str) -> str:
-    return re.sub(r"(?i)(?<![\w:])(?:0x)?([0-9a-f]+)(?!\w)", lambda m: "0x" + m.group(1), text)
+    decimal: str = "auto"  # auto | point | comma (numbers.parse_number)
+    w_alone: str = "write"  # what an access cell `W` means in this table (cells.access_words)
+    base_guessed: bool = False  # the address base was guessed (a refused cell says how to set it)
 
 
 @dataclass
@@ -57,6 +43,7 @@ class ParsedRow:
     function: Function
     texts: list[str]  # description and name cells, for matching
     label: str  # what --all names it by
+    comma: str | None = None  # a number cell read with a decimal comma nobody asked for
 
 
 def _check_writable(fn: Function) -> None:
@@ -77,10 +64,19 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         return None
     base = st.address_base
     if base == "hex":
-        address_text, base = _hexify(address_text), "0"
-    addresses, table = parse_addresses(address_text, base)
-    if "register_type" in ix and cell(ix["register_type"]):
-        column_table = parse_table(cell(ix["register_type"]))
+        address_text, base = hexify(address_text), "0"
+    column_table = parse_table(cell(ix["register_type"])) if "register_type" in ix and cell(ix["register_type"]) \
+        else None
+    if base == "modicon" and column_table == "coil" and is_digits(address_text) and len(address_text) <= 4:
+        address_text = address_text.zfill(5)  # coil number 1 is 00001 without its zeros (VOLTTRON's maps)
+    try:
+        addresses, table = parse_addresses(address_text, base)
+    except CellError as exc:
+        if base == "modicon" and st.base_guessed:
+            raise CellError(f"{exc}, though the column's other addresses are (read as Modicon numbers: "
+                            "set address_base = 0 or 1 in [Modbus Device] if they are not)") from None
+        raise
+    if column_table is not None:
         if table and column_table != table:
             raise CellError(f"address '{address_text}' is a {table} but the register type column says {column_table}")
         table = column_table
@@ -118,17 +114,9 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     )
     if "block_label" in ix and cell(ix["block_label"]):
         fn.block_labels = [cell(ix["block_label"])]
-    for key in ("multiplier", "offset", "minimum", "maximum"):
-        if key in ix and cell(ix[key]):
-            value = parse_number(cell(ix[key]), st.decimal_comma, key)
-            if key == "multiplier" and value == 0:
-                raise CellError("multiplier 0 would lose every value")
-            neutral = (key == "multiplier" and value == 1) or (key == "offset" and value == 0)
-            setattr(fn, key, None if neutral else value)
-    if "units" in ix and cell(ix["units"]):
-        fn.units = cell(ix["units"])
+    comma = _numbers(row, cols, st, fn)
     if "access" in ix and cell(ix["access"]):
-        access = parse_access(cell(ix["access"]))
+        access = parse_access(cell(ix["access"]), st.w_alone)
         default = "read" if table in ("input", "discrete") else "read_write"
         if access != default:
             if table in ("input", "discrete"):
@@ -148,4 +136,44 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
                 raise CellError(f"{key}: {exc}") from None
             setattr(fn, key, cell(ix[key]))
     _check_writable(fn)
-    return ParsedRow(row, fn, [description] + names, names[0] if names else description or address_text)
+    return ParsedRow(row, fn, [description] + names, names[0] if names else description or address_text, comma)
+
+
+def _numbers(row: Row, cols: Columns, st: RowSettings, fn: Function) -> str | None:
+    """Offset, limits, scale and units onto `fn`; the first cell read with a guessed decimal comma."""
+    ix, commas = cols.index, []
+    for key in ("offset", "minimum", "maximum"):
+        number = parse_number(row.cell(ix[key]), st.decimal, key) if key in ix else None
+        if number is not None:
+            commas += [row.cell(ix[key])] if number.comma else []
+            setattr(fn, key, None if key == "offset" and number.value == 0 else number.value)
+    scale, scale_cell = _scale(row, ix, st)
+    if scale is not None:
+        commas += [scale_cell] if scale.comma else []
+        fn.multiplier = None if scale.value == 1 else scale.value
+    if cols.scale_has_units:
+        fn.units = scale.unit if scale is not None else None
+    elif "units" in ix and row.cell(ix["units"]):
+        fn.units = row.cell(ix["units"])
+    return commas[0] if commas else None
+
+
+def _scale(row: Row, ix: dict[str, int], st: RowSettings) -> tuple[Number | None, str]:
+    """The row's scale as a multiplier (a divisor d gives 1/d), with the unit written after it, and its cell."""
+    cells = {key: row.cell(ix[key]) for key in ("multiplier", "divisor") if key in ix}
+    given = {key: n for key, text in cells.items() if (n := parse_number(text, st.decimal, key, scale=True))}
+    if len(given) == 2:
+        raise CellError(f"both a multiplier ('{cells['multiplier']}') and a divisor ('{cells['divisor']}'): "
+                        "a row is scaled one way, not both")
+    if "divisor" in given:
+        d = given["divisor"]
+        if d.value == 0:
+            raise CellError(f"divisor '{cells['divisor']}' is 0: no value can be divided by it")
+        multiplier = 1.0 / d.value
+        if not math.isfinite(multiplier) or multiplier == 0:
+            raise CellError(f"divisor '{cells['divisor']}' is out of range")
+        return Number(multiplier, d.unit, d.comma), cells["divisor"]
+    m = given.get("multiplier")
+    if m is not None and m.value == 0:
+        raise CellError("multiplier 0 would lose every value")
+    return m, cells.get("multiplier", "")

@@ -18,13 +18,15 @@ HEADER_SYNONYMS = {
     "addresses": ["address", "addr", "register", "reg", "reg no", "register no", "register number",
                   "modbus address", "modbus register", "start address", "starting address", "offset address",
                   "register address", "reg addr", "reg address", "adr", "adresse", "registro", "data address",
-                  "modbus addr", "pdu address", "address dec", "address decimal", "registre", "indirizzo"],
+                  "modbus addr", "pdu address", "address dec", "address decimal", "registre", "indirizzo",
+                  "point address", "modbus register address"],
     "description": ["description", "register and description", "desc", "name and description",
                     "parameter", "parameter name", "function", "meaning", "beschreibung", "bezeichnung",
                     "descripcion", "description of register", "signal", "variable", "data point", "point",
                     "quantity", "measurement", "item", "object"],
     "name": ["name", "xml tag", "tag", "keyword", "keywords", "keyword list", "keyword list case insensitive",
-             "symbol", "identifier", "id", "short name", "variable name", "point name", "field"],
+             "symbol", "identifier", "id", "short name", "variable name", "point name", "field",
+             "register name", "volttron point name", "reference name"],
     "format": ["format", "data type", "datatype", "type", "data format", "value type", "ints", "typ",
                "datentyp", "format type", "variable type"],
     "count": ["count", "bytes", "words", "length words", "no of registers", "number of registers",
@@ -32,12 +34,14 @@ HEADER_SYNONYMS = {
               "anzahl", "qty", "number of words", "length bytes", "byte count"],
     "length": ["length", "length info", "length info column", "byte", "bytes used", "part"],
     "multiplier": ["multiplier", "multipler", "scale", "scaling", "factor", "scale factor", "gain",
-                   "resolution", "faktor", "skalierung", "multiply"],
+                   "resolution", "faktor", "skalierung", "multiply", "scaling factor", "transform"],
+    "divisor": ["divisor", "divide by", "divided by", "div"],
     "units": ["units", "unit", "uom", "engineering units", "einheit", "unidad", "unite"],
     "access": ["access", "r w", "rw", "read write", "operation info", "operation", "mode", "permission",
-               "zugriff", "attribute", "property", "access type"],
+               "zugriff", "attribute", "property", "access type", "writable", "writeable"],
     "block_label": ["block", "group", "category", "section", "block label", "gruppe", "module"],
-    "register_type": ["register type", "table", "function code", "fc", "object type", "reg type", "area"],
+    "register_type": ["register type", "table", "function code", "fc", "object type", "reg type", "area",
+                      "modbus table", "register table", "function", "func", "function codes"],
     "minimum": ["min", "minimum", "min value", "range min", "low limit"],
     "maximum": ["max", "maximum", "max value", "range max", "high limit"],
     "offset": ["offset", "value offset", "add"],
@@ -67,13 +71,14 @@ class Table:
     rows: list[Row]  # every non-blank, non-comment row, with its first line number
     header: Row | None = None
     data: list[Row] = field(default_factory=list)
-
-    @property
-    def decimal_comma(self) -> bool:
-        return self.delimiter == ";"
+    delimiter_guessed: bool = True
+    markdown: bool = False  # a Markdown table: | at both ends of each row, a |---| rule under the header
 
 
-def _records(text: str, delimiter: str) -> list[Row]:
+_RULE = re.compile(r"^\s*:?-{2,}:?\s*$")
+
+
+def _records(text: str, delimiter: str, markdown: bool = False) -> list[Row]:
     reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter, quotechar='"', skipinitialspace=False)
     rows = []
     last = 0
@@ -85,6 +90,13 @@ def _records(text: str, delimiter: str) -> list[Row]:
                 continue
             if cells[0].lstrip().startswith("#"):
                 continue
+            if markdown:
+                if cells and not cells[0].strip():
+                    cells = cells[1:]
+                if cells and not cells[-1].strip():
+                    cells = cells[:-1]
+                if all(_RULE.match(c) or not c.strip() for c in cells):
+                    continue  # the |---|---| rule under a Markdown header
             rows.append(Row(first, cells))
     except csv.Error as exc:
         raise error(f"malformed CSV: {exc}", None, reader.line_num) from None
@@ -112,16 +124,28 @@ def _pick_delimiter(text: str) -> str:
     return best
 
 
-def read_table(path: Path) -> Table:
+def _is_markdown(text: str) -> bool:
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    piped = [line for line in lines if line.startswith("|") and line.endswith("|") and len(line) > 1]
+    return len(piped) >= 2 and len(piped) >= 0.5 * len(lines) and any(
+        all(_RULE.match(c) or not c.strip() for c in line.strip("|").split("|")) for line in piped)
+
+
+def read_table(path: Path, delimiter: str | None = None) -> Table:
     data = read_bytes(path)
     if b"\x00" in data:
         line = data[: data.index(b"\x00")].count(b"\n") + 1
         raise error("a NUL byte: this is not a text CSV file", path, line)
     text = decode_text(data, path, ("utf-8-sig", "cp1252"))
     text = text.lstrip("\ufeff")
-    delimiter = _pick_delimiter(text)
+    guessed = delimiter is None
+    markdown = guessed and _is_markdown(text)
+    if markdown:
+        delimiter = "|"
+    elif delimiter is None:
+        delimiter = _pick_delimiter(text)
     try:
-        rows = _records(text, delimiter)
+        rows = _records(text, delimiter, markdown)
     except Exception as exc:  # csv.Error re-raised as MdlError without the path
         if hasattr(exc, "diagnostics"):
             d = exc.diagnostics[0]
@@ -129,7 +153,7 @@ def read_table(path: Path) -> Table:
         raise
     if not rows:
         raise error("the table has no rows", path)
-    return Table(path, delimiter, rows)
+    return Table(path, delimiter, rows, delimiter_guessed=guessed, markdown=markdown)
 
 
 def header_score(row: Row) -> tuple[int, bool]:

@@ -1,0 +1,73 @@
+"""`mdl csv2xml --explain FUNCTION`: a function's nearest rows, their scores and why, so that an INI
+can be fixed without reading the code; and the short form the unmatched-functions warning uses."""
+
+from __future__ import annotations
+
+import click
+
+from mdl.sources.csvmap.match import Candidate, Index, best, candidates
+from mdl.sources.csvmap.scoring import TIER_NAMES, normalize, score_pair, why
+
+TOP = 10
+BUDGET = 2000  # ratios computed at most to find an unmatched function's best row
+
+
+def _one_line(text: str, width: int = 60) -> str:
+    text = " ".join(text.split())
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _reason(phrases: list[str], index: Index, row: int) -> str:
+    pairs = [(score_pair(p, t), p, t.raw) for p in phrases for t in index.texts[row]]
+    if not pairs:
+        return "the row has no text to compare"
+    _, phrase, text = max(pairs, key=lambda item: item[0])
+    return why(phrase, text)
+
+
+def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Index, lines: list[int],
+            chosen: dict[str, Candidate], threshold: float) -> None:
+    """Print, for each name, its synonyms and its best rows with score, tier, line, text, whether it was
+    chosen (or which function took it) and why it scores so."""
+    taken = {c.row_index: name for name, c in chosen.items()}
+    for n, name in enumerate(names):
+        if n:
+            click.echo()
+        phrases = functions.get(name)
+        if phrases is None:
+            click.echo(f"'{name}' is not a function of the INI or the bundled list: scoring it as a synonym")
+            phrases = [name]
+        distinct: dict[str, str] = {}
+        for p in phrases:
+            distinct.setdefault(normalize(p), p)
+        shown = ", ".join(f"'{p}'" for key, p in distinct.items() if key)
+        click.echo(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
+        mine = chosen.get(name)
+        if mine is not None:
+            click.echo(f"  chosen: line {lines[mine.row_index]} (score {mine.score})")
+        elif name in functions:
+            click.echo("  chosen: no row (none reached the threshold, or a stronger function took it)")
+        for rank, c in enumerate(best(name, phrases, index, None, TOP), 1):
+            text = index.texts[c.row_index][0].raw if index.texts[c.row_index] else ""
+            if taken.get(c.row_index) == name:
+                status = "  <- chosen"
+            elif c.row_index in taken:
+                status = f"  (taken by {taken[c.row_index]})"
+            elif c.score.value < threshold:
+                status = "  (below the threshold)"
+            else:
+                status = ""
+            click.echo(f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} line {lines[c.row_index]}: "
+                       f"{_one_line(text)}{status}")
+            click.echo(f"        {_reason(phrases, index, c.row_index)}")
+
+
+def nearest(name: str, phrases: list[str], index: Index, lines: list[int], chosen: dict[str, Candidate]) -> str:
+    """`name (best 0.45, line 12)`, `name (best 0.97, line 3, taken by other)`, or the name alone when
+    finding its best row would take long."""
+    first = next(candidates(name, phrases, index, 0.0, BUDGET), None)
+    if first is None:
+        return name
+    taken = next((other for other, c in chosen.items() if c.row_index == first.row_index), None)
+    by = f", taken by {taken}" if taken else ""
+    return f"{name} (best {first.score}, line {lines[first.row_index]}{by})"

@@ -1,0 +1,77 @@
+"""What `mdl csv2xml` tells the user on stderr: warnings as they happen (a row it cannot read, with
+its line), notes on every guess it made (with the INI key that overrides it) and a summary line at
+the end, and a progress bar on a terminal while a long table is matched."""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import TextIO
+
+import click
+
+from mdl.diagnostics import Diagnostic
+
+
+class Report:
+    def __init__(self) -> None:
+        self.warnings: list[Diagnostic] = []
+        self.notes: list[Diagnostic] = []
+        self._noted: set[str] = set()
+        self.progress: Progress | None = None  # a bar on the screen, cleared before a warning prints
+
+    def warn(self, diag: Diagnostic) -> None:
+        self.warnings.append(diag)
+        if self.progress:
+            self.progress.close()
+        click.echo(str(diag), err=True)
+
+    def note(self, file: str | None, message: str, line: int | None = None) -> None:
+        """A note, said once (printed by flush_notes, when the run gets that far)."""
+        if message not in self._noted:
+            self._noted.add(message)
+            self.notes.append(Diagnostic(file, line, None, message, "note"))
+
+    def flush_notes(self) -> None:
+        for diag in self.notes:
+            click.echo(str(diag), err=True)
+        self.notes.clear()
+
+
+class Progress:
+    """`label [#####.....] n/total` on a terminal, redrawn at most ten times a second and only once the
+    work has taken half a second; nothing at all when stderr is not a terminal."""
+
+    def __init__(self, label: str, total: int, stream: TextIO | None = None) -> None:
+        self.label, self.total, self.done = label, max(total, 1), 0
+        self.stream = stream or sys.stderr
+        self.shown = False
+        self.enabled = _is_terminal(self.stream)
+        self.start = self.last = time.monotonic()
+
+    def __call__(self, n: int = 1) -> None:
+        self.done += n
+        if not self.enabled:
+            return
+        now = time.monotonic()
+        if now - self.start < 0.5 or (now - self.last < 0.1 and self.done < self.total):
+            return
+        self.last = now
+        width = 30
+        filled = min(width, width * self.done // self.total)
+        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total}")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\r\x1b[K")
+            self.stream.flush()
+            self.shown = False
+
+
+def _is_terminal(stream: TextIO) -> bool:
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False

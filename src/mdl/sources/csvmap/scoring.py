@@ -1,0 +1,139 @@
+"""How well a synonym names a row's text (SPEC 4). One pair, one score; `match.py` finds the best
+pairs of a whole table without scoring every one.
+
+Three tiers, each above the next whatever the values:
+
+- EXACT 1.0: the text is the synonym (case, spacing and punctuation aside).
+- PHRASE 0.9 to 1.0: the synonym's words are whole words of the text, in order, in one clause; up
+  to one word fewer than the synonym has may stand between them ("total real power" is found in
+  "TOTAL INSTANTANEOUS REAL POWER"). The value is 0.9 plus 0.1 times the share of the text the
+  synonym covers, so the text that says the least beyond the synonym ranks first; that bonus is
+  a fifth when another word follows the phrase in its clause, since that word names another
+  quantity ("TOTAL REAL POWER MAX. DEMAND IMPORT" is a demand; "Total system power factor" a
+  factor; "Total system power (sum of phases)" a power).
+- FUZZY: difflib's SequenceMatcher ratio of the two normalized texts (synonym first).
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from dataclasses import dataclass
+
+EXACT, PHRASE, FUZZY = 2, 1, 0
+TIER_NAMES = {EXACT: "exact", PHRASE: "phrase", FUZZY: "fuzzy"}
+_WORD = re.compile(r"[^\W_]+")
+_CLAUSE_BREAK = re.compile(r"[(\[,.;:/\-\u2013\u2014]")
+_CLAUSE_ENDS = re.compile(r"\s*[(\[,.;:/\-\u2013\u2014]")
+
+
+def normalize(text: str) -> str:
+    return " ".join(re.sub(r"[^\w]+", " ", text.lower()).split())
+
+
+def words(text: str) -> list[str]:
+    return _WORD.findall(text.lower())
+
+
+@dataclass(frozen=True, order=True)
+class Score:
+    tier: int
+    value: float
+
+    def __str__(self) -> str:
+        return f"{self.value:.2f}"
+
+
+ZERO = Score(FUZZY, 0.0)
+
+
+@dataclass(frozen=True)
+class Phrase:
+    """Where a synonym was found as a phrase: how many words stand between its words, and whether its
+    clause ends after it."""
+
+    value: float
+    between: int
+    clause_ends: bool
+
+
+class Text:
+    """A row's text, prepared once for every synonym scored against it."""
+
+    __slots__ = ("raw", "lower", "norm", "tokens")
+
+    def __init__(self, raw: str) -> None:
+        self.raw = raw
+        self.lower = raw.lower()
+        self.norm = normalize(raw)
+        self.tokens = [(m.group(0), m.start(), m.end()) for m in _WORD.finditer(self.lower)]
+
+
+def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | None:
+    """The best place the synonym's words stand in `text` as a phrase (see the module docstring)."""
+    tokens, k = text.tokens, len(syn_words)
+    if not k or not text.norm:
+        return None
+    best: Phrase | None = None
+    for start, (word, _, _) in enumerate(tokens):
+        if word != syn_words[0]:
+            continue
+        at, between, ok = start, 0, True
+        for want in syn_words[1:]:
+            nxt = at + 1
+            while nxt < len(tokens) and tokens[nxt][0] != want:
+                nxt += 1
+            if nxt == len(tokens):
+                ok = False
+                break
+            if nxt > at + 1 and _CLAUSE_BREAK.search(text.lower, tokens[at][2], tokens[nxt][1]):
+                ok = False  # words between, across a clause break: another clause
+                break
+            between += nxt - at - 1
+            at = nxt
+        if not ok or between > k - 1:
+            continue
+        rest = text.lower[tokens[at][2]:]
+        clause_ends = not rest.strip() or bool(_CLAUSE_ENDS.match(rest))
+        value = 0.9 + (0.1 if clause_ends else 0.02) * len(syn_norm) / len(text.norm)
+        if best is None or value > best.value or (value == best.value and between < best.between):
+            best = Phrase(value, between, clause_ends)
+    return best
+
+
+def fuzzy(syn_norm: str, text_norm: str) -> float:
+    return difflib.SequenceMatcher(None, syn_norm, text_norm).ratio()
+
+
+def score_pair(synonym: str, text: str | Text) -> Score:
+    """The score of one synonym against one text (the reference the fast search in match.py agrees with)."""
+    t = text if isinstance(text, Text) else Text(text)
+    syn = normalize(synonym)
+    if not syn or not t.norm:
+        return ZERO
+    if syn == t.norm:
+        return Score(EXACT, 1.0)
+    found = find_phrase(words(synonym), syn, t)
+    if found is not None:
+        return Score(PHRASE, found.value)
+    return Score(FUZZY, fuzzy(syn, t.norm))
+
+
+def score_row(synonyms: list[str], texts: list[str]) -> Score:
+    return max((score_pair(s, t) for s in synonyms for t in texts if t), default=ZERO)
+
+
+def why(synonym: str, text: str) -> str:
+    """In words, how `synonym` scores against `text` (for --explain)."""
+    t = Text(text)
+    syn = normalize(synonym)
+    if not syn or not t.norm:
+        return "nothing to compare"
+    if syn == t.norm:
+        return f"the text is the synonym '{synonym}'"
+    found = find_phrase(words(synonym), syn, t)
+    if found is not None:
+        gap = f", {found.between} word{'s' * (found.between != 1)} between its words" if found.between else ""
+        end = "its clause ends there" if found.clause_ends else "another word follows in its clause (bonus / 5)"
+        return (f"'{synonym}' found as a phrase{gap}; it covers {len(syn)} of {len(t.norm)} characters; {end}")
+    return f"'{synonym}' is not a phrase of the text; SequenceMatcher ratio {fuzzy(syn, t.norm):.3f}"
