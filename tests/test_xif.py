@@ -4,6 +4,7 @@ coils), values read from `mdl sim` of an imported file, bad input, export, and a
 
 from __future__ import annotations
 
+import csv
 import json
 import re
 import struct
@@ -124,6 +125,22 @@ def test_a_name_used_in_two_blocks_becomes_two_functions():
     assert [fns[n].addresses for n in ("Voltage", "Voltage_2", "Voltage_3")] == [[3020], [3022], [3024]]
     assert fns["Voltage_3"].block_labels == ["Phase", "Phase[2]"]
     assert "named 'Voltage_2'" in proc.stderr and "note:" in proc.stderr
+
+
+def test_export_gives_back_the_names_import_changed(tmp_path):
+    """A .mod needs names unique only within a block: what import named `Voltage_2` is `Voltage` again."""
+    xml = tmp_path / "excel.xml"
+    assert cli("import", EXCEL, "-o", xml).returncode == 0
+    proc = cli("export", xml, "--to", "xif")
+    assert proc.returncode == 0, proc.stderr
+    rows = list(csv.DictReader(line for line in proc.stdout.splitlines() if not line.startswith("#")))
+    voltages = [(r["Block Name"], r["Block Index"], r["Datapoint Name"], r["Description"]) for r in rows
+                if r["Datapoint Name"].startswith("Voltage")]
+    assert [v[2] for v in voltages] == ["Voltage", "Voltage", "Voltage"]
+    assert len({v[:2] for v in voltages}) == 3
+    again = tmp_path / "again.mod"
+    again.write_text(proc.stdout, encoding="utf-8", newline="")
+    assert [fn.name for fn in imported(again).functions] == [fn.name for fn in imported(EXCEL).functions]
 
 
 def test_strings_bytes_and_columns_in_any_order():

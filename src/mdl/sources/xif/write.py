@@ -13,6 +13,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,7 +48,7 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
         subject = f"function '{fn.name}': " if fn is not None else ""
         warnings.append(Diagnostic(source, fn.line if fn else None, None, subject + message, severity))
 
-    rows: list[list[str]] = []
+    kept: list[_Datapoint] = []
     taken: dict[tuple[str, int, str], str] = {}
     for rf in resolved.functions:
         fn = rf.fn
@@ -64,7 +65,11 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
         taken[point.slot] = fn.name
         if point.lost:
             warn(fn, "; ".join(point.lost))
-        rows.append([point.cells.get(key, "") for key in C.EXPORT_COLUMNS])
+        kept.append(point)
+    for name, base in _restore_names(kept):
+        warn(None, f"function '{name}' written as datapoint '{base}', its name in its block (a .mod needs names "
+                   "unique only within a block)", "note")
+    rows = [[point.cells.get(key, "") for key in C.EXPORT_COLUMNS] for point in kept]
 
     program_id = device.program_id
     if program_id is None:
@@ -93,6 +98,37 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
     writer.writerow([C.CURRENT[key] for key in C.EXPORT_COLUMNS])
     writer.writerows(rows)
     return Export(text=out.getvalue(), warnings=warnings)
+
+
+_RENAMED = re.compile(r"(.+)_([2-9]|[1-9][0-9]+)")
+
+
+def _restore_names(points: list[_Datapoint]) -> list[tuple[str, str]]:
+    """Give back the names import changed: a datapoint name used in two blocks became `NAME_2`, `NAME_3`
+    in MDL (names are unique in a device, SPEC 3), while a .mod needs them unique only within a block.
+    A name `NAME_N` is written `NAME` where another block has a datapoint `NAME` and this block has
+    none. Returns (MDL name, datapoint name) of each one renamed, to be said."""
+    def block(p: _Datapoint) -> tuple[str, str]:
+        return p.cells.get("block", ""), p.cells.get("block_index", "")
+
+    used = {(*block(p), p.cells["name"]) for p in points}
+    blocks_of: dict[str, set[tuple[str, str]]] = {}
+    for p in points:
+        blocks_of.setdefault(p.cells["name"], set()).add(block(p))
+    renamed = []
+    for p in points:
+        m = _RENAMED.fullmatch(p.cells["name"])
+        if m is None:
+            continue
+        base = m.group(1)
+        elsewhere = bool(blocks_of.get(base, set()) - {block(p)})
+        if elsewhere and (*block(p), base) not in used:
+            used.add((*block(p), base))
+            renamed.append((p.cells["name"], base))
+            p.cells["name"] = base
+            if p.cells.get("description") == base:
+                p.cells["description"] = ""
+    return renamed
 
 
 def _datapoint(rf: ResolvedFunction) -> _Datapoint:
