@@ -14,11 +14,12 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from mdl.diagnostics import EXIT_INVALID, MdlError
+from mdl.model import FORMATS
 from mdl.sources.csvmap.address_base import guess_address_base
-from mdl.sources.csvmap.cells import CellError, access_words, parse_access, parse_table
+from mdl.sources.csvmap.cells import CellError, access_words, parse_access, parse_table, parse_word_order, read_type
 from mdl.sources.csvmap.convert import run_csv2xml
-from mdl.sources.csvmap.numbers import parse_int, parse_number
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, PHRASE, score_pair
+from mdl.sources.csvmap.numbers import parse_int, parse_number, unit_alone
+from mdl.sources.csvmap.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_pair
 from mdl.sources.csvmap.table import Row
 from mdl.sources.mdlxml import validate_file
 
@@ -27,7 +28,10 @@ SCALES = ["0.1", "0,1V", "0.01 Hz", "-1W", "scale(0.1)", "mod10k(True)", "x10", 
           "9" * 400, "1," + "0" * 50, ".5", "5.", "\u22125", "scale()", "x", "%", "°C", "1 2", "1/-0", "+-1"]
 TABLES = ["holding", "3", "FC03", "0x04", "03/06/16", "1/3", "fc99", "analog_output_holding_registers",
           "discrete_input_contacts", "Read Input Registers (FC04)", "(0x01)", "FC 5", "17", "", "4x", "c"]
-ACCESS = ["R", "W", "R/W", "RW", "WO", "TRUE", "false", "yes", "W/R(Reboot)", "r & w", "x", ""]
+ACCESS = ["R", "W", "R/W", "RW", "WO", "TRUE", "false", "yes", "W/R(Reboot)", "r & w", "x", "", "RD", "RD/WR", "R/O"]
+TYPES = [">I", "<h", ">f", ">d", "<H", ">q", "!Q", "=i", ">xB", ">Bx", "<xb", ">B", ">Ix", ">e", "<", ">xBx", "INT",
+         "uint", "unsigned int", "int16", "float", "string[8]", "char(4)", "?"]
+WORD_ORDERS = ["TRUE", "False", "1", "0", "swapped", "big", "little", "CDAB", "badc", "3412", "lsw first", "-", "x"]
 
 
 def cells(pool: list[str]) -> st.SearchStrategy[str]:
@@ -67,14 +71,35 @@ def test_register_type_and_access_cells(table, access, column):
 
 
 @settings(max_examples=400, deadline=None)
-@given(st.text(max_size=20), st.text(max_size=40))
-@example("total real power", "TOTAL INSTANTANEOUS REAL POWER")
-@example("a a", "a - a a")
-def test_scores_stay_in_their_tier(synonym, text):
-    score = score_pair(synonym, text)
-    assert score.tier in (EXACT, PHRASE, FUZZY)
-    assert (0.0 <= score.value <= 1.0) and (score.tier != PHRASE or 0.9 <= score.value <= 1.0)
-    assert score.tier != EXACT or score.value == 1.0
+@given(cells(TYPES), cells(WORD_ORDERS), cells(SCALES))
+def test_type_word_order_and_unit_cells(type_cell, order_cell, unit_cell):
+    try:
+        found = read_type(type_cell)
+    except CellError as exc:
+        assert str(exc)
+    else:
+        assert found.format in FORMATS and found.order in (None, "big", "little")
+        assert found.length in (None, "Lower byte", "Upper byte")
+    try:
+        said = parse_word_order(order_cell)
+    except CellError as exc:
+        assert str(exc)
+    else:
+        assert (said.swapped is None) != (said.word_order is None)
+    unit = unit_alone(unit_cell)
+    assert unit is None or (unit and not unit[0].isdecimal())
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.text(max_size=20), st.text(max_size=40), st.booleans())
+@example("total real power", "TOTAL INSTANTANEOUS REAL POWER", False)
+@example("a a", "a - a a", False)
+@example("battery state of charge (system)", "x-Battery State of Charge (System)) estimate", True)
+def test_scores_stay_in_their_tier(synonym, text, named):
+    score = score_pair(FunctionName(synonym) if named else synonym, text)
+    assert score.tier in ((NAME_EXACT, NAME_PHRASE, FUZZY) if named else (EXACT, PHRASE, FUZZY))
+    assert (0.0 <= score.value <= 1.0) and (score.tier in (EXACT, NAME_EXACT, FUZZY) or 0.9 <= score.value <= 1.0)
+    assert score.tier not in (EXACT, NAME_EXACT) or score.value == 1.0
 
 
 ADDRESS_CELLS = ["30001", "40001", "400001", "1", "0", "3000", "33000", "30000", "20001", "65535", "99999",
@@ -90,12 +115,15 @@ def test_address_base_guess(rows, header, with_types):
 
 
 HEADERS = ["Address", "Register", "Description", "Name", "Register Name", "Type", "Function", "Table", "Units",
-           "unit", "Scale", "Scalefactor", "Divisor", "Transform", "Writable", "R/W", "Count", "Length", "Bytes"]
-POOL = SCALES + TABLES + ACCESS + ADDRESS_CELLS + ["Room temperature", "TOTAL REAL POWER", "uint16", "float",
-                                                   "U32", "int16", "string[8]", "bool", "V", "kWh"]
+           "unit", "Scale", "Scalefactor", "Divisor", "Transform", "Writable", "R/W", "Count", "Length", "Bytes",
+           "Mixed Endian", "Word Order"]
+POOL = SCALES + TABLES + ACCESS + ADDRESS_CELLS + TYPES + WORD_ORDERS + [
+    "Room temperature", "TOTAL REAL POWER", "uint16", "float", "U32", "int16", "string[8]", "bool", "V", "kWh",
+    "W", "10V DC", "None", "Battery State of Charge (System)"]
 INI_LINES = ["divisor = Divisor", "divisor = Scalefactor", "multiplier = Scale", "multiplier = Divisor",
              "units = unit", "multiplier = unit", "name = Name", "name = Register Name", "access = R/W",
-             "register_type = Table", "addresses = Register", "divisor = 9", "name = 1"]
+             "register_type = Table", "addresses = Register", "divisor = 9", "name = 1", "divisor = unit",
+             "word_order = Mixed Endian", "word_order =", "format = Type"]
 IO_LINES = ["delimiter = semicolon", "delimiter = pipe", "delimiter = tab", "delimiter = comma", "delimiter = ;",
             "decimal_separator = comma", "decimal_separator = point", "decimal_separator = x"]
 
@@ -116,7 +144,7 @@ def published_tables(draw: st.DrawFn) -> tuple[str, str]:
            + "\n[Input/Output]\n" + "\n".join(draw(st.lists(st.sampled_from(IO_LINES), max_size=2,
                                                                unique_by=lambda x: x.split("=")[0])))
            + "\n[Function Name Search Synonyms]\nroom_temperature = room temperature\n"
-             "total_power = total real power\n")
+             "total_power = total real power\nsoc = Battery State of Charge (System)\n")
     return text + "\n", ini
 
 

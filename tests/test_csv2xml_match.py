@@ -17,7 +17,7 @@ from test_csv2xml import functions
 
 from mdl.sources.csvmap.match import Index, Work, assign, candidates
 from mdl.sources.csvmap.report import Progress
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, PHRASE, score_row
+from mdl.sources.csvmap.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_row
 
 _spec = importlib.util.spec_from_file_location("csv2xml_bench", ROOT / "bench" / "csv2xml_bench.py")
 assert _spec and _spec.loader
@@ -52,9 +52,12 @@ def brute_force(functions_: dict[str, list[str]], rows: list[list[str]], thresho
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(st.lists(texts, min_size=1, max_size=2), min_size=1, max_size=25),
        st.lists(st.lists(texts, min_size=1, max_size=3), min_size=1, max_size=6),
-       st.sampled_from([0.0, 0.3, 0.6, 0.9, 0.95, 1.0]))
-def test_the_search_equals_scoring_every_pair(rows, synonym_lists, threshold):
-    functions_ = {f"f{i}": synonyms for i, synonyms in enumerate(synonym_lists)}
+       st.sampled_from([0.0, 0.3, 0.6, 0.9, 0.95, 1.0]), st.lists(st.none() | texts, min_size=6, max_size=6))
+def test_the_search_equals_scoring_every_pair(rows, synonym_lists, threshold, names):
+    """With the functions' own names among their synonyms (ranked below the synonyms' exact and phrase
+    matches) as convert.py adds them."""
+    functions_ = {f"f{i}": synonyms + ([FunctionName(names[i])] if names[i] is not None else [])
+                  for i, synonyms in enumerate(synonym_lists)}
     ranked, chosen = brute_force(functions_, rows, threshold)
     index = Index(rows)
     got = assign(functions_, index, threshold)
@@ -68,6 +71,13 @@ def test_the_tiers():
                    ["Real power total"]])
     got = [(c.row_index, c.score.tier) for c in candidates("p", ["total real power"], index, 0.0)]
     assert got == [(2, EXACT), (1, PHRASE), (0, PHRASE), (3, FUZZY)]
+    # the function's own name: below every exact and phrase match of its synonyms, above fuzzy ones
+    index = Index([["SOC"], ["Battery State of Charge (System)"], ["Battery SOC"], ["state of chrge"],
+                   ["Battery State of Charge (System) estimate"]])
+    got = [(c.row_index, c.score.tier) for c in candidates("soc", ["battery state of charge (system)",
+                                                                   FunctionName("soc")], index, 0.0)]
+    assert got[:4] == [(1, EXACT), (4, PHRASE), (0, NAME_EXACT), (2, NAME_PHRASE)]
+    assert {tier for _, tier in got[4:]} == {FUZZY}
 
 
 def test_exact_synonyms_need_no_ratio_at_all():

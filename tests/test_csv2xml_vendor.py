@@ -43,7 +43,8 @@ def test_a_divisor_column_divides(tmp_path, sim_factory):
     assert fns["ac_input_voltage"]["access"] == "read" and "access" not in fns["current_limit"]  # writable: yes
     # a divisor that is not a number: the row is reported with its line, and its function with it
     assert f"{TABLES / 'victron_gx.csv'}:8: warning: row skipped: divisor 'x' is not a scale" in proc.stderr
-    assert "no row reached the threshold 0.6 for: state_of_charge" in proc.stderr
+    assert (f"{TABLES / 'victron_gx.csv'}:8: warning: state_of_charge: line 8 names it (exact 1.00: 'State of charge') "
+            "but was skipped (divisor 'x' is not a scale") in proc.stderr
     xml = tmp_path / "out.xml"
     values = read_values(sim_factory, xml, {"holding": {"3": 2305, "9": 5000, "22": 160, "26": 2654}},
                          "ac_input_voltage", "ac_frequency", "current_limit", "battery_voltage")
@@ -228,7 +229,7 @@ def test_explain_shows_the_tie_break(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert not (tmp_path / "out.xml").exists()  # --explain writes no MDL
     lines = proc.stdout.splitlines()
-    assert lines[0] == "function 'total_power': synonyms 'total real power', 'total power'; threshold 0.6"
+    assert lines[0] == "function 'total_power': synonyms 'total real power', 'total power' (its name); threshold 0.6"
     assert lines[1] == "  chosen: line 4 (score 0.95)"
     assert lines[2] == "   1. 0.95 phrase line 4: TOTAL INSTANTANEOUS REAL POWER  <- chosen"
     assert "1 word between its words" in lines[3] and "its clause ends there" in lines[3]
@@ -241,8 +242,9 @@ def test_explain_an_unmatched_function_and_a_free_phrase(tmp_path):
                "--explain", "energy", "--explain", "relay status")
     assert proc.returncode == 0, proc.stderr
     out = proc.stdout
-    assert "function 'energy': synonyms 'energy delivered', 'energy'; threshold 0.6" in out
-    assert "chosen: no row" in out
+    assert "function 'energy': synonyms 'energy delivered', 'energy' (its name); threshold 0.6" in out
+    assert "chosen: no row (its best row, line 5, was skipped)" in out
+    assert "   1. 1.00 exact  line 5: ENERGY DELIVERED  (skipped: multiplier 'mod10k(True)' is not a scale" in out
     assert "'relay status' is not a function of the INI or the bundled list: scoring it as a synonym" in out
     assert "   1. 0.63 fuzzy  line 8: RELAY 1  (taken by relay)\n" in out
 

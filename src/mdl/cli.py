@@ -132,7 +132,7 @@ def main() -> None:
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
 @click.option("--strict", is_flag=True, help="Exit 1 and write nothing if any row is skipped, any function "
-              "is left unmatched or anything else gives a warning.")
+              "is left unmatched or matched by similarity only, or anything else gives a warning.")
 @click.option("--explain", "explain", multiple=True, metavar="FUNCTION",
               help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).")
 @fail_on_warning_option

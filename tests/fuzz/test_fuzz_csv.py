@@ -29,7 +29,9 @@ DESCRIPTIONS = (["Room temperature", "Setpoint", "Fan speed", "Phase 1 voltage",
                  "Firmware version", "temperature", "Operating mode", "CO2"], ["", "\u00b2", "x" * 300])
 FORMATS = (["UINT16", "int16", "float", "FLOAT64", "IEEE754 float", "string[8]", "STR", "bool", "uint64", "bit",
             "text", "int8", "dword", "char[4]", "uint32", ""],
-           ["char(0)", "string99999999999", "string" + "9" * 5000, "ascii\u00b2", "string\u0663", "?"])
+           ["char(0)", "string99999999999", "string" + "9" * 5000, "ascii\u00b2", "string\u0663", "?", ">I", "<h",
+            ">xB", ">B", "=q", ">Ix", "<d", "INT"])
+WORD_ORDERS = (["TRUE", "FALSE", ""], ["CDAB", "little", "sideways", "\u00b2"])
 NUMBERS = (["0", "1", "0.1", "0,1", "10", "-40", "1/10", "x10", ""],
            ["1.234,5", "1/0", "0/0", "1e999", "-1e999", "nan", "inf", "\u22125", "\u0661", "99999999999",
             "9" * 5000, "abc", "1e-400", "-0"])
@@ -47,7 +49,7 @@ COLUMNS = {  # a header text -> the cells its column holds
     "Type": (FORMATS[0] + TABLES[0], FORMATS[1] + TABLES[1]), "Count": COUNTS, "Words": COUNTS, "Bytes": COUNTS,
     "Length": (LENGTHS[0], LENGTHS[1] + COUNTS[1]), "Multiplier": NUMBERS, "Scale": NUMBERS, "Units": UNITS,
     "Access": ACCESS, "R/W": ACCESS, "Block": DESCRIPTIONS, "Register Type": TABLES, "Function Code": TABLES,
-    "Min": NUMBERS, "Max": NUMBERS, "Value Offset": NUMBERS, "Notes": NOTES,
+    "Min": NUMBERS, "Max": NUMBERS, "Value Offset": NUMBERS, "Notes": NOTES, "Mixed Endian": WORD_ORDERS,
 }
 ANY_CELL = st.sampled_from(sorted({cell for pair in COLUMNS.values() for cells in pair for cell in cells})) \
     | st.text(max_size=10)
@@ -91,6 +93,7 @@ def tables(draw: st.DrawFn) -> bytes:
 SECTIONS = ["Modbus Device", "Input/Output", "Column/Field Indices", "Additional Column/Field Indices",
             "Function Name Search Synonyms", "modbus device", "Other"]
 KEYS = ["name", "description", "addresses", "length", "count", "format", "block_label", "multiplier", "units",
+        "divisor",
         "read_function_code", "write_function_code", "register_type", "access", "minimum", "maximum", "offset",
         "device_name", "device_description", "address_base", "byte_order", "word_order", "count_unit",
         "threshold", "default_synonyms", "address_map_csv_file", "lines_to_skip", "output_xml_file",

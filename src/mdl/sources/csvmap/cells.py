@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import re
+import struct
 from collections.abc import Callable
+from dataclasses import dataclass
 
 from mdl.model.addressing import (
     MODICON_TABLE,
@@ -142,17 +144,64 @@ _STRING = re.compile(r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*([0-9]+)\s*
                      r"|^(?:string|str|ascii|text)([0-9]*)$")
 
 
-def parse_format(text: str) -> tuple[str, int | None]:
-    """A format cell -> (MDL format, string length in characters or None)."""
+# format words that give no width (some projects mean 32 bits by INT): read as one register, and said
+_WIDTHLESS = re.compile(r"(?i)^(?:u?int|integer|signed(?:\s*int)?|unsigned(?:\s*int)?)$")
+# a Python struct type as VOLTTRON's register maps write them: byte order, then one code, with a pad
+# byte (x) beside a one-byte code (>xB: the lower byte of a register, >Bx: the upper)
+_STRUCT_TYPE = re.compile(r"^([<>=!])(x?)([bBhHiIlLqQfd])(x?)$")
+STRUCT_ORDERS = {"<": "little", ">": "big", "!": "big", "=": "little"}  # '=': the host's order (x86, ARM: little)
+
+
+@dataclass(frozen=True)
+class TypeCell:
+    """What a format cell says: the MDL format, and what else it fixes."""
+
+    format: str
+    strlen: int | None = None  # characters of a string
+    length: str | None = None  # a struct type with a pad byte: "Lower byte" or "Upper byte"
+    order: str | None = None  # a struct type's byte order, which is its word order too (< reverses all bytes)
+    native: bool = False  # '=': the order of the host, read as little-endian
+    widthless: bool = False  # INT, UINT ...: no width said, read as one register
+
+
+def _struct_type(t: str) -> TypeCell | None:
+    m = _STRUCT_TYPE.match(t)
+    if m is None:
+        return None
+    prefix, pad_before, code, pad_after = m.groups()
+    size = struct.calcsize(prefix + code)  # with a prefix, the standard sizes: i 4, l 4, q 8
+    fmt = f"FLOAT{8 * size}" if code in "fd" else f"{'INT' if code.islower() else 'UINT'}{8 * size}"
+    if size == 1:
+        if bool(pad_before) == bool(pad_after):
+            raise CellError(f"struct type '{t}' is one byte: it needs one pad byte to fill a register "
+                            f"('{prefix}x{code}' the lower byte, '{prefix}{code}x' the upper)")
+        return TypeCell(fmt, length="Lower byte" if pad_before else "Upper byte")
+    if pad_before or pad_after:
+        raise CellError(f"struct type '{t}': a pad byte (x) beside a value of {size} bytes fills no register")
+    return TypeCell(fmt, order=STRUCT_ORDERS[prefix], native=prefix == "=")
+
+
+def read_type(text: str) -> TypeCell:
+    """A format cell -> TypeCell: the vendors' words (`int16`, `S16`, `float`, `char[8]` ...) and Python
+    struct types (`>I`, `<h`, `>f`, `>xB`, as VOLTTRON's maps write them)."""
     t = " ".join(text.strip().split())
+    found = _struct_type(t)
+    if found is not None:
+        return found
     m = _STRING.match(t)
     if m:
         n = m.group(1) or m.group(2)
-        return "STRING", _number(n, "string length") if n else None
+        return TypeCell("STRING", _number(n, "string length") if n else None)
     for rx, fmt in _FORMATS:
         if rx.match(t):
-            return fmt, None
+            return TypeCell(fmt, widthless=bool(_WIDTHLESS.match(t)))
     raise CellError(f"unknown format '{text.strip()}'")
+
+
+def parse_format(text: str) -> tuple[str, int | None]:
+    """A format cell -> (MDL format, string length in characters or None)."""
+    found = read_type(text)
+    return found.format, found.strlen
 
 
 def parse_length(text: str) -> str:
@@ -169,11 +218,13 @@ def parse_length(text: str) -> str:
 
 
 ACCESS_WORDS = {"r": "read", "ro": "read", "read": "read", "read only": "read", "read-only": "read",
-                "readonly": "read", "w": "write", "wo": "write", "write": "write", "write only": "write",
-                "write-only": "write", "writeonly": "write",
+                "readonly": "read", "read_only": "read", "r/o": "read", "rd": "read", "w": "write",
+                "wo": "write", "write": "write", "write only": "write", "write-only": "write", "writeonly": "write",
+                "write_only": "write", "w/o": "write",
                 "rw": "read_write", "r/w": "read_write", "w/r": "read_write", "r/w/": "read_write",
                 "read/write": "read_write", "read write": "read_write", "read-write": "read_write",
                 "wr": "read_write", "r+w": "read_write", "r & w": "read_write", "r&w": "read_write",
+                "read_write": "read_write", "rd/wr": "read_write", "rdwr": "read_write",
                 # a "Writable" column (VOLTTRON, Victron): yes or no
                 "true": "read_write", "yes": "read_write", "y": "read_write",
                 "false": "read", "no": "read", "n": "read"}
@@ -195,6 +246,40 @@ def parse_access(text: str, w_alone: str = "write") -> str:
     if t in ACCESS_WORDS:
         return ACCESS_WORDS[t]
     raise CellError(f"unknown access '{text.strip()}' (expected R, W or R/W)")
+
+
+# a word-order column (VOLTTRON's `Mixed Endian`, `Word Swap`): swapped or not, relative to the type's own order
+_SWAPPED = {"true": True, "t": True, "yes": True, "y": True, "1": True, "swap": True, "swapped": True,
+            "reversed": True, "mixed": True, "on": True,
+            "false": False, "f": False, "no": False, "n": False, "0": False, "off": False, "normal": False,
+            "not swapped": False, "none": False}
+# ... or the order itself: of the words, or of the bytes A (most significant) to D
+_WORD_ORDERS = {"big": "big", "be": "big", "big endian": "big", "msw first": "big", "high word first": "big",
+                "hi lo": "big", "little": "little", "le": "little", "little endian": "little",
+                "lsw first": "little", "low word first": "little", "lo hi": "little"}
+_BYTE_ORDERS = {"abcd": ("big", "big"), "cdab": ("big", "little"), "badc": ("little", "big"),
+                "dcba": ("little", "little"), "1234": ("big", "big"), "3412": ("big", "little"),
+                "2143": ("little", "big"), "4321": ("little", "little")}
+
+
+@dataclass(frozen=True)
+class WordOrderCell:
+    swapped: bool | None = None  # the registers reversed from the type's own order (None: the order is given)
+    word_order: str | None = None
+    byte_order: str | None = None  # ABCD-style cells give the byte order too
+
+
+def parse_word_order(text: str) -> WordOrderCell:
+    t = " ".join(text.strip().lower().replace("-", " ").replace("_", " ").split())
+    if t in _SWAPPED:
+        return WordOrderCell(swapped=_SWAPPED[t])
+    if t in _WORD_ORDERS:
+        return WordOrderCell(word_order=_WORD_ORDERS[t])
+    if t.replace(" ", "") in _BYTE_ORDERS:
+        byte, word = _BYTE_ORDERS[t.replace(" ", "")]
+        return WordOrderCell(word_order=word, byte_order=byte)
+    raise CellError(f"unknown word order '{text.strip()}' (expected TRUE/FALSE for swapped, big/little, "
+                    "or ABCD/CDAB/BADC/DCBA)")
 
 
 TABLE_WORDS = {"holding": "holding", "holding register": "holding", "holding registers": "holding", "hr": "holding",

@@ -8,14 +8,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.sources.csvmap.cells import CellError, parse_access, parse_format, parse_length, parse_table
+from mdl.sources.csvmap.cells import (
+    CellError,
+    parse_access,
+    parse_format,
+    parse_length,
+    parse_table,
+    parse_word_order,
+)
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.numbers import parse_int, parse_number
 from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
 GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "divisor", "units",
-               "access", "block_label", "register_type", "minimum", "maximum", "offset")
+               "access", "block_label", "register_type", "minimum", "maximum", "offset", "word_order")
 PREFIX_KEYS = ("addresses", "description", "format", "units", "multiplier", "count")
 ADDRESS_FALLBACKS = ("offset", "index", "nr", "no", "number")  # headers taken for addresses if none says so
 # a column whose header names one field but whose cells hold another: the fields it may hold instead
@@ -69,6 +76,7 @@ CHECKS: dict[str, Callable[[str], None]] = {
     "multiplier": _fits_scale, "divisor": _fits_scale, "units": _anything, "access": lambda c: None if parse_access(c)
     else None, "block_label": _anything, "register_type": lambda c: None if parse_table(c) else None,
     "minimum": _fits_number, "maximum": _fits_number, "offset": _fits_number,
+    "word_order": lambda c: None if parse_word_order(c) else None,
 }
 
 
@@ -135,8 +143,13 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
     errors: list[Diagnostic] = []
     taken: set[int] = set()
     given = dict(ini.columns) if ini else {}
+    width = max((len(r.cells) for r in ([header] if header else []) + data), default=0)
     for key, spec in given.items():
         if isinstance(spec, int):
+            if spec >= width:  # no row has the column: every cell of it would read as empty
+                errors.append(Diagnostic(where, ini.line("columns", key) if ini else None, None,
+                                         f"[Column/Field Indices] {key} = {spec}: no row of {table.path} has a "
+                                         f"column {spec} (columns count from 0; the widest row has {width})"))
             cols.index[key] = spec
         else:
             norm = normalize_header(spec)
@@ -144,12 +157,14 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
                 cols.index[key] = headers.index(norm)
             else:
                 line = f" (line {header.line})" if header else ""
-                errors.append(Diagnostic(where, None, None, f"[Column/Field Indices] {key} = {spec}: "
+                errors.append(Diagnostic(where, ini.line("columns", key) if ini else None, None,
+                                         f"[Column/Field Indices] {key} = {spec}: "
                                          f"no such column in the header row{line} of {table.path}"))
     if errors:
         raise MdlError(errors)
     if "multiplier" in cols.index and "divisor" in cols.index and cols.index["multiplier"] == cols.index["divisor"]:
-        raise MdlError(Diagnostic(where, None, None, "[Column/Field Indices] multiplier and divisor name the same "
+        raise MdlError(Diagnostic(where, ini.line("columns", "divisor") if ini else None, None,
+                                  "[Column/Field Indices] multiplier and divisor name the same "
                                   "column: a scale either multiplies or divides"))
     if "name" in cols.index:
         cols.names = [cols.index["name"]]

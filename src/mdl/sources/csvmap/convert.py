@@ -20,11 +20,12 @@ from mdl.sources.csvmap.address_base import guess_address_base
 from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
 from mdl.sources.csvmap.count_unit import count_unit
-from mdl.sources.csvmap.explain import explain, nearest
+from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni, read_ini
-from mdl.sources.csvmap.match import Candidate, Index, assign, best
+from mdl.sources.csvmap.match import Candidate, Index, assign, best, candidates
 from mdl.sources.csvmap.report import Progress, Report
-from mdl.sources.csvmap.rows import ParsedRow, RowSettings, parse_row
+from mdl.sources.csvmap.rows import COMMA, NATIVE, UNIT_ALONE, WIDTHLESS, ParsedRow, RowSettings, parse_row, row_texts
+from mdl.sources.csvmap.scoring import FUZZY, TIER_NAMES, FunctionName
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
 from mdl.sources.csvmap.table import Row, Table, find_header, read_table
 from mdl.sources.mdlxml.parse import schema_errors, secure_parser
@@ -64,12 +65,22 @@ def _split_rows(table: Table, ini: DeviceIni | None) -> tuple[Row | None, list[R
 
 
 @dataclass
+class Skipped:
+    """A row with an address that could not be read: still matched, so that a function whose row it is
+    is told so rather than given another."""
+
+    row: Row
+    texts: list[str]
+    reason: str
+
+
+@dataclass
 class Parsed:
     """The table as rows csv2xml can use, and what reading it took."""
 
     rows: list[ParsedRow]
     read: int  # rows with an address
-    skipped: int  # of them, rows that could not be read
+    skipped: list[Skipped]  # of them, rows that could not be read
 
 
 def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | None, report: Report) -> RowSettings:
@@ -94,16 +105,41 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
         if w_alone == "read_write" and any(c.strip().lower() == "w" for c in cells):
             report.note(where, f"{cols.describe(cols.index['access'])} holds only the letters R and W: W is read as "
                                "writable (read and write); a table that also writes R/W would make W write-only")
+    if "word_order" in cols.index:
+        report.note(where, f"{cols.describe(cols.index['word_order'])} gives each row's word order: TRUE reverses the "
+                           "registers of a value from its type's order (big; little for a '<' struct type), FALSE "
+                           "keeps it, big/little or ABCD/CDAB/BADC/DCBA name it; it wins over [Modbus Device] "
+                           "word_order; set word_order = (blank) in [Column/Field Indices] to ignore it")
     decimal = (ini.decimal if ini else None) or "auto"
     return RowSettings(base, unit, dev.get("register_type"), dev.get("byte_order"), dev.get("word_order"),
                        decimal, w_alone, guessed_base)
 
 
+def _guess_notes(cols: Columns) -> dict[str, str]:
+    """What each guess a row can make says, for the first cell read so ({cell}, {line})."""
+    scale = cols.index.get("divisor", cols.index.get("multiplier"))
+    scale_key = "divisor" if "divisor" in cols.index else "multiplier"
+    return {
+        COMMA: "decimal comma: '{cell}' on line {line} (and any like it) is read with ',' as the decimal mark; "
+               "set decimal_separator = point in [Input/Output] if ',' groups thousands",
+        UNIT_ALONE: (f"{cols.describe(scale) if scale is not None else 'the scale column'} is both {scale_key} and "
+                     "units: '{cell}' on line {line} (a unit with no number before it, and any like it) is read as "
+                     "scale 1 in that unit; write the scale before the unit (1W) if it is another"),
+        WIDTHLESS: "format '{cell}' on line {line} (and any like it) gives no width: read as one register (16 bits); "
+                   "if the table means 32 bits, write INT32/UINT32 there or give the row a count of 2 "
+                   "(count = N in [Column/Field Indices])",
+        NATIVE: "struct type '{cell}' on line {line} (and any like it) has the byte order of the host that reads "
+                "it: read as little-endian (x86 and ARM hosts); write '<' or '>' to say which",
+    }
+
+
 def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, report: Report) -> Parsed:
     where = str(table.path)
     rows: list[ParsedRow] = []
-    read = skipped = 0
-    comma_said = False
+    skipped: list[Skipped] = []
+    read = 0
+    said: set[str] = set()
+    notes = _guess_notes(cols)
     progress = Progress("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
     report.progress = progress
     for row in data:
@@ -113,17 +149,16 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
             parsed = parse_row(row, cols, st)
         except CellError as exc:
             read += 1
-            skipped += 1
+            skipped.append(Skipped(row, row_texts(row, cols), str(exc)))
             report.warn(Diagnostic(where, row.line, None, f"row skipped: {exc}", "warning"))
             continue
         if parsed:
             read += 1
             rows.append(parsed)
-            if parsed.comma and not comma_said:
-                comma_said = True
-                report.note(where, f"decimal comma: '{parsed.comma}' on line {row.line} (and any like it) is read "
-                                   "with ',' as the decimal mark; set decimal_separator = point in [Input/Output] "
-                                   "if ',' groups thousands")
+            for kind, cell in parsed.guesses.items():
+                if kind not in said:
+                    said.add(kind)
+                    report.note(where, notes[kind].format(cell=cell, line=row.line))
     if progress:
         progress.close()
     report.progress = None
@@ -137,12 +172,12 @@ def _functions(ini: DeviceIni | None) -> dict[str, list[str]]:
             functions[name] = words + [w for w in functions.get(name, []) if w not in words]
     else:
         functions = dict(DEFAULT_SYNONYMS)
-    return {name: words + [name.replace("_", " ")] for name, words in functions.items()}
+    return {name: words + [FunctionName(name.replace("_", " "))] for name, words in functions.items()}
 
 
 def _choose_interactive(functions: dict[str, list[str]], index: Index, rows: list[ParsedRow]) -> dict[str, Candidate]:
     chosen: dict[str, Candidate] = {}
-    used: set[int] = set()
+    used: set[int] = set(range(len(rows), index.rows))  # the skipped rows: not to be chosen
     for name, phrases in functions.items():
         options = best(name, phrases, index, used, 9)
         click.echo(f"\nfunction '{name}': which row?", err=True)
@@ -179,6 +214,72 @@ class Options:
     threshold: float | None = None
     emit_all: bool = False
     explain: tuple[str, ...] = ()
+    strict: bool = False  # a function matched by similarity only is a warning, not a note
+
+
+@dataclass
+class Matched:
+    """Each function its row, and the functions whose best row could not be read (its Candidate)."""
+
+    chosen: dict[str, Candidate]
+    lost: dict[str, Candidate]
+
+
+def _match(functions: dict[str, list[str]], index: Index, readable: int, limit: float,
+           progress: Progress | None = None) -> Matched:
+    """Rows at and after `readable` are skipped rows: matched like the others, so that a function
+    whose best row was skipped is left unmatched (and told) rather than given a lesser row."""
+    chosen = assign(functions, index, limit, progress)
+    lost = {name: c for name, c in chosen.items() if c.row_index >= readable}
+    return Matched({name: c for name, c in chosen.items() if name not in lost}, lost)
+
+
+def _shown(text: str, width: int = 50) -> str:
+    text = " ".join(text.split())
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _row_text(index: Index, row: int) -> str:
+    return _shown(index.texts[row][0].raw) if index.texts[row] else ""
+
+
+def _instead(name: str, phrases: list[str], index: Index, readable: int, used: set[int], limit: float,
+             lines: list[int]) -> str:
+    """`; left unmatched rather than given line 2 'PV2 voltage' (fuzzy 0.72)`, or the bare first part."""
+    for c in candidates(name, phrases, index, limit, BUDGET):
+        if c.row_index < readable and c.row_index not in used:
+            return (f"; left unmatched rather than given line {lines[c.row_index]} '{_row_text(index, c.row_index)}' "
+                    f"({TIER_NAMES[c.score.tier]} {c.score})")
+    return "; left unmatched"
+
+
+def _say_matches(where: str, functions: dict[str, list[str]], index: Index, parsed: Parsed, matched: Matched,
+                 limit: float, lines: list[int], opts: Options, own: bool, report: Report) -> None:
+    """A warning for each function whose best row was skipped (a note for the bundled list's functions,
+    which the user did not ask for: the row's own warning has been said); a note (a warning with
+    --strict) for each function matched by similarity only."""
+    readable = len(parsed.rows)
+    used = {c.row_index for c in matched.chosen.values()}
+    for name, c in matched.lost.items():
+        skipped = parsed.skipped[c.row_index - readable]
+        instead = _instead(name, functions[name], index, readable, used, limit, lines)
+        message = (f"{name}: line {skipped.row.line} names it ({TIER_NAMES[c.score.tier]} {c.score}: "
+                   f"'{_row_text(index, c.row_index)}') but was skipped ({skipped.reason}){instead}")
+        if own:
+            report.warn(Diagnostic(where, skipped.row.line, None, message, "warning"))
+        else:
+            report.note(where, message, skipped.row.line)
+    for name, c in matched.chosen.items():
+        if c.score.tier != FUZZY:
+            continue
+        line = lines[c.row_index]
+        message = (f"{name} matched by similarity only: line {line} '{_row_text(index, c.row_index)}' "
+                   f"(score {c.score}; none of its synonyms stands there as a phrase); if that is not its row, "
+                   f"add the right row's words as a synonym (--explain {name} lists its nearest rows)")
+        if opts.strict:
+            report.warn(Diagnostic(where, line, None, message + "; --strict refuses it", "warning"))
+        else:
+            report.note(where, message, line)
 
 
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
@@ -198,36 +299,45 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         raise error(f"no row of the table has a usable address (addresses read from {col})", csv_path)
 
     functions = _functions(ini)
-    index = Index([r.texts for r in parsed.rows])
+    index = Index([r.texts for r in parsed.rows] + [s.texts for s in parsed.skipped])
     if opts.threshold is not None:
         limit = opts.threshold
     else:
         limit = ini.threshold if ini and ini.threshold is not None else DEFAULT_THRESHOLD
-    lines = [r.row.line for r in parsed.rows]
+    lines = [r.row.line for r in parsed.rows] + [s.row.line for s in parsed.skipped]
+    readable = len(parsed.rows)
+    own = bool(ini and ini.synonyms)
     if opts.explain:
         report.flush_notes()
-        explain(opts.explain, functions, index, lines, assign(functions, index, limit), limit)
+        matched = _match(functions, index, readable, limit)
+        skipped = {readable + i: s.reason for i, s in enumerate(parsed.skipped)}
+        explain(opts.explain, functions, index, lines, matched.chosen, limit, skipped, matched.lost)
         return None
     if opts.interactive:
         report.flush_notes()
-        chosen = _choose_interactive(functions, index, parsed.rows)
+        matched = Matched(_choose_interactive(functions, index, parsed.rows), {})
     else:
         progress = Progress("mdl csv2xml: matching", len(functions)) if len(lines) >= LONG_TABLE else None
-        chosen = assign(functions, index, limit, progress)
+        matched = _match(functions, index, readable, limit, progress)
         if progress:
             progress.close()
-    own = bool(ini and ini.synonyms)
+        _say_matches(str(csv_path), functions, index, parsed, matched, limit, lines, opts, own, report)
+    chosen = matched.chosen
     missing = [n for n in functions if n not in chosen]
-    if missing and own and not opts.interactive:
-        details = ", ".join(nearest(n, functions[n], index, lines, chosen) for n in missing)
+    unreached = [n for n in missing if n not in matched.lost]
+    if unreached and own and not opts.interactive:
+        details = ", ".join(nearest(n, functions[n], index, lines, chosen) for n in unreached)
         report.warn(Diagnostic(str(ini.path if ini else csv_path), None, None,
                                f"no row reached the threshold {limit:g} for: {details}; "
                                "--explain NAME lists a function's nearest rows", "warning"))
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
-    summary = (f"summary: {_count(parsed.read, 'row')} read, {parsed.skipped} skipped; {len(chosen)} {listed} "
+    summary = (f"summary: {_count(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
                f"matched, {len(missing)} {'unmatched' if own else 'not found'}")
     report.note(str(csv_path), summary + (f"; {_count(extra, 'more row')} emitted (--all)" if extra else ""))
+    if not out and matched.lost:
+        raise error(f"no function matched a row that could be read: the best row of {', '.join(matched.lost)} was "
+                    "skipped (see the warnings above); fix that row, or add synonyms to the INI", csv_path)
     if not out:
         raise error("no function matched a row; add synonyms to the INI, lower --threshold, or use --all "
                     "(--explain NAME lists a function's nearest rows)", csv_path)
@@ -289,7 +399,10 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
     if csv_path is None:
         raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",
                     ini_path)
-    device = convert(csv_path, ini, Options(interactive, threshold, emit_all, explain), report)
+    if ini is not None and csv_given is None and not csv_path.exists():
+        raise error(f"address_map_csv_file names {csv_path}: no such file", ini.path,
+                    ini.line("io", "address_map_csv_file"))
+    device = convert(csv_path, ini, Options(interactive, threshold, emit_all, explain, strict), report)
     if device is None:
         return
     for diag in resolve_device(device, str(csv_path)).warnings:  # the checks every description passes
@@ -307,4 +420,5 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
         sys.stdout.flush()
     else:
         write_atomic(target, xml)
-        click.echo(f"wrote {target}: {len(device.functions)} functions, MDL {device.schema_version}", err=True)
+        click.echo(f"wrote {target}: {_count(len(device.functions), 'function')}, MDL {device.schema_version}",
+                   err=True)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from mdl.model.layout import FORMAT_BITS
-from mdl.sources.csvmap.cells import CellError, parse_format
+from mdl.sources.csvmap.cells import CellError, read_type
 from mdl.sources.csvmap.columns import Columns
 from mdl.sources.csvmap.numbers import parse_int
 from mdl.sources.csvmap.table import Row
@@ -14,7 +14,8 @@ def count_unit(cols: Columns, data: list[Row], given: str | None) -> tuple[str, 
 
     The header decides when it says "byte" (ORNL's "Bytes") or "word"/"register"; otherwise the rows
     with a fixed-width format do: a FLOAT32 counted 4 counts bytes, counted 2 words (bytes only on
-    clear evidence: two rows or more, and more than twice the rows that fit words)."""
+    clear evidence: two rows or more, and more than twice the rows that fit words). A format without a
+    width (INT) is no evidence."""
     if given or "count" not in cols.index:
         return given or "words", None
     col = cols.describe(cols.index["count"])
@@ -30,12 +31,12 @@ def count_unit(cols: Columns, data: list[Row], given: str | None) -> tuple[str, 
         if not n_text or not f_text:
             continue
         try:
-            n, (fmt, strlen) = parse_int(n_text), parse_format(f_text)
+            n, typed = parse_int(n_text), read_type(f_text)
         except (CellError, ValueError):
             continue
-        size = FORMAT_BITS[fmt] // 16
-        if strlen is not None or fmt in ("STRING", "BIT") or size == 0:
-            continue
+        size = FORMAT_BITS[typed.format] // 16
+        if typed.widthless or typed.format in ("STRING", "BIT") or size == 0:
+            continue  # INT counted 2: two registers of 32 bits, or two bytes of 16?
         words += n == size
         octets += n == 2 * size
     if octets >= 2 and octets > 2 * words:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import click
 
 from mdl.sources.csvmap.match import Candidate, Index, best, candidates
-from mdl.sources.csvmap.scoring import TIER_NAMES, normalize, score_pair, why
+from mdl.sources.csvmap.scoring import TIER_NAMES, FunctionName, normalize, score_pair, why
 
 TOP = 10
 BUDGET = 2000  # ratios computed at most to find an unmatched function's best row
@@ -26,9 +26,11 @@ def _reason(phrases: list[str], index: Index, row: int) -> str:
 
 
 def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Index, lines: list[int],
-            chosen: dict[str, Candidate], threshold: float) -> None:
+            chosen: dict[str, Candidate], threshold: float, skipped: dict[int, str] | None = None,
+            lost: dict[str, Candidate] | None = None) -> None:
     """Print, for each name, its synonyms and its best rows with score, tier, line, text, whether it was
-    chosen (or which function took it) and why it scores so."""
+    chosen (or which function took it, or why the row was skipped) and why it scores so."""
+    skipped, lost = skipped or {}, lost or {}
     taken = {c.row_index: name for name, c in chosen.items()}
     for n, name in enumerate(names):
         if n:
@@ -40,16 +42,21 @@ def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Inde
         distinct: dict[str, str] = {}
         for p in phrases:
             distinct.setdefault(normalize(p), p)
-        shown = ", ".join(f"'{p}'" for key, p in distinct.items() if key)
+        shown = ", ".join(f"'{p}'" + (" (its name)" if isinstance(p, FunctionName) else "")
+                          for key, p in distinct.items() if key)
         click.echo(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
         mine = chosen.get(name)
         if mine is not None:
             click.echo(f"  chosen: line {lines[mine.row_index]} (score {mine.score})")
+        elif name in lost:
+            click.echo(f"  chosen: no row (its best row, line {lines[lost[name].row_index]}, was skipped)")
         elif name in functions:
             click.echo("  chosen: no row (none reached the threshold, or a stronger function took it)")
         for rank, c in enumerate(best(name, phrases, index, None, TOP), 1):
             text = index.texts[c.row_index][0].raw if index.texts[c.row_index] else ""
-            if taken.get(c.row_index) == name:
+            if c.row_index in skipped:
+                status = f"  (skipped: {_one_line(skipped[c.row_index], 70)})"
+            elif taken.get(c.row_index) == name:
                 status = "  <- chosen"
             elif c.row_index in taken:
                 status = f"  (taken by {taken[c.row_index]})"

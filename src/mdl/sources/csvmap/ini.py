@@ -13,7 +13,7 @@ from mdl.sources.mdlxml.write import unwritable
 
 COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
                "multiplier", "divisor", "units", "read_function_code", "write_function_code", "register_type",
-               "access", "minimum", "maximum", "offset")
+               "access", "minimum", "maximum", "offset", "word_order")
 DEVICE_KEYS = ("device_name", "device_description", "register_type", "address_base", "byte_order",
                "word_order", "count_unit", "threshold", "default_synonyms")
 IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator")
@@ -52,6 +52,11 @@ class DeviceIni:
     synonyms: dict[str, list[str]] = field(default_factory=dict)
     threshold: float | None = None
     warnings: list[Diagnostic] = field(default_factory=list)
+    lines: dict[tuple[str, str], int] = field(default_factory=dict)  # (section kind, key) -> its line
+
+    def line(self, kind: str, key: str) -> int | None:
+        """The line a key is written on (kind: device, io, columns ...; key in lowercase)."""
+        return self.lines.get((kind, key))
 
 
 def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
@@ -127,6 +132,9 @@ def read_ini(path: Path) -> DeviceIni:
         for key, raw in parser.items(section):
             value = (raw or "").strip()
             lkey = key.strip().lower()
+            line = where(section, key)
+            if line is not None:
+                ini.lines[(kind, lkey)] = line
             if "\n" in value and kind != "synonyms":  # only synonym lists may go on over indented lines
                 err(section, key, f"the value of '{key}' goes on over the next line: an indented line continues "
                                   "the one before it")

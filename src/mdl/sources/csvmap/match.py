@@ -3,8 +3,8 @@
 The scores are scoring.py's. A function's candidates come out best first (tier, value, then the
 earlier row), exactly as if every pair had been scored and sorted:
 
-- EXACT rows from an index of normalized texts, PHRASE rows from an index of words (only rows
-  holding every word of a synonym are looked at);
+- EXACT (and NAME_EXACT) rows from an index of normalized texts, PHRASE (and NAME_PHRASE) rows
+  from an index of words (only rows holding every word of a synonym are looked at);
 - FUZZY rows by a best-first search over upper bounds: difflib's `real_quick_ratio` (lengths only,
   one bound per text length), then `quick_ratio` (shared characters), and `ratio()` only for a pair
   whose bound is still the best left. Below the threshold nothing is looked at.
@@ -20,7 +20,7 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, PHRASE, Score, Text, find_phrase, fuzzy, normalize, words
+from mdl.sources.csvmap.scoring import FUZZY, Score, Text, find_phrase, fuzzy, normalize, tiers, words
 
 
 @dataclass
@@ -65,16 +65,18 @@ class Synonym:
     norm: str
     words: list[str]
     chars: tuple[tuple[str, int], ...]  # each character and how often it occurs (quick_ratio)
+    exact_tier: int
+    phrase_tier: int
 
 
 def synonyms_of(phrases: list[str]) -> list[Synonym]:
-    out, seen = [], set()
+    """The distinct synonyms (by normalized text); a real synonym wins over the function's name."""
+    out: dict[str, Synonym] = {}
     for phrase in phrases:
         norm = normalize(phrase)
-        if norm and norm not in seen:
-            seen.add(norm)
-            out.append(Synonym(norm, words(phrase), tuple(Counter(norm).items())))
-    return out
+        if norm and (norm not in out or out[norm].exact_tier < tiers(phrase)[0]):
+            out[norm] = Synonym(norm, words(phrase), tuple(Counter(norm).items()), *tiers(phrase))
+    return list(out.values())
 
 
 class Work:
@@ -88,29 +90,29 @@ def candidates(name: str, phrases: list[str], index: Index, threshold: float,
     """Every row scoring at least `threshold` for the function, best first (earlier rows first on ties).
     With a budget, the fuzzy search stops after that many ratios (what it yielded is still right)."""
     syns = synonyms_of(phrases)
-    exact: set[int] = set()
+    strong: dict[int, Score] = {}  # rows found exactly or as a phrase, with their best score
     for s in syns:
-        exact.update(index.exact.get(s.norm, ()))
-    phrase: dict[int, float] = {}
+        score = Score(s.exact_tier, 1.0)
+        for r in index.exact.get(s.norm, ()):
+            if r not in strong or score > strong[r]:
+                strong[r] = score
     for s in syns:
         posting = [index.postings.get(w) for w in dict.fromkeys(s.words)]
         if not posting or any(p is None for p in posting):
             continue
         rows = set.intersection(*sorted((p for p in posting if p is not None), key=len))
         for r in rows:
-            if r in exact:
+            known = strong.get(r)
+            if known is not None and known.tier > s.phrase_tier:
                 continue
             for t in index.texts[r]:
                 found = find_phrase(s.words, s.norm, t)
-                if found is not None and found.value > phrase.get(r, -1.0):
-                    phrase[r] = found.value
-    if threshold <= 1.0:
-        for r in sorted(exact):
-            yield Candidate(name, r, Score(EXACT, 1.0))
-    for r, v in sorted(phrase.items(), key=lambda kv: (-kv[1], kv[0])):
-        if v >= threshold:
-            yield Candidate(name, r, Score(PHRASE, v))
-    yield from _fuzzy(name, syns, index, threshold, exact | set(phrase), budget)
+                if found is not None and (known is None or Score(s.phrase_tier, found.value) > known):
+                    known = strong[r] = Score(s.phrase_tier, found.value)
+    for r, score in sorted(strong.items(), key=lambda kv: (-kv[1].tier, -kv[1].value, kv[0])):
+        if score.value >= threshold:
+            yield Candidate(name, r, score)
+    yield from _fuzzy(name, syns, index, threshold, set(strong), budget)
 
 
 def _fuzzy(name: str, syns: list[Synonym], index: Index, threshold: float, excluded: set[int],

@@ -39,6 +39,21 @@ class Number:
     value: float
     unit: str | None = None  # the unit written after the number (`0.1V` -> "V")
     comma: bool = False  # read with a decimal comma the caller did not ask for
+    alone: bool = False  # a unit with no number (`W`), read as scale 1 (rows.py, a scale and units column)
+
+
+_UNIT_ALONE = re.compile(rf"^{_UNIT}$")
+
+
+def unit_alone(text: str) -> str | None:
+    """The unit of a cell that is a unit and nothing else (`W`, `V DC`, `°C`), else None."""
+    cell = " ".join(text.split())
+    if not cell or cell.lower() in NO_VALUE or not _UNIT_ALONE.match(cell):
+        return None
+    try:
+        return _unit(cell)
+    except CellError:
+        return None
 
 
 def _digits_to_float(text: str, decimal: str) -> tuple[float, bool]:

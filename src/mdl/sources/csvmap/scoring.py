@@ -1,7 +1,7 @@
 """How well a synonym names a row's text (SPEC 4). One pair, one score; `match.py` finds the best
 pairs of a whole table without scoring every one.
 
-Three tiers, each above the next whatever the values:
+Tiers, each above the next whatever the values:
 
 - EXACT 1.0: the text is the synonym (case, spacing and punctuation aside).
 - PHRASE 0.9 to 1.0: the synonym's words are whole words of the text, in order, in one clause; up
@@ -10,7 +10,13 @@ Three tiers, each above the next whatever the values:
   synonym covers, so the text that says the least beyond the synonym ranks first; that bonus is
   a fifth when another word follows the phrase in its clause, since that word names another
   quantity ("TOTAL REAL POWER MAX. DEMAND IMPORT" is a demand; "Total system power factor" a
-  factor; "Total system power (sum of phases)" a power).
+  factor; "Total system power (sum of phases)" a power). Closing brackets after the phrase are
+  passed over (its own bracket closes, the clause goes on: "(System) estimate"), and the clause
+  ends where nothing but punctuation follows ("Battery State of Charge (System)").
+- NAME_EXACT, NAME_PHRASE: the same, found by the function's own name (a `FunctionName`, the
+  fallback every function searches with besides its synonyms): below every exact or phrase match of
+  the INI's (or the bundled list's) synonyms, so that a synonym copied word for word from the table
+  is never beaten by the name `soc` standing in a short cell ("vebus/Soc").
 - FUZZY: difflib's SequenceMatcher ratio of the two normalized texts (synonym first).
 """
 
@@ -20,11 +26,22 @@ import difflib
 import re
 from dataclasses import dataclass
 
-EXACT, PHRASE, FUZZY = 2, 1, 0
-TIER_NAMES = {EXACT: "exact", PHRASE: "phrase", FUZZY: "fuzzy"}
+EXACT, PHRASE, NAME_EXACT, NAME_PHRASE, FUZZY = 4, 3, 2, 1, 0
+TIER_NAMES = {EXACT: "exact", PHRASE: "phrase", NAME_EXACT: "name", NAME_PHRASE: "name-phrase", FUZZY: "fuzzy"}
 _WORD = re.compile(r"[^\W_]+")
-_CLAUSE_BREAK = re.compile(r"[(\[,.;:/\-\u2013\u2014]")
+_CLAUSE_BREAK = re.compile(r"[()\[\],.;:/\-\u2013\u2014]")
 _CLAUSE_ENDS = re.compile(r"\s*[(\[,.;:/\-\u2013\u2014]")
+_CLOSING = re.compile(r"^[\s)\]]+")  # closing brackets after a phrase: its own bracket ends, the clause goes on
+
+
+class FunctionName(str):
+    """A function's own name (`state of charge` for `state_of_charge`) searched for as a synonym: its
+    exact and phrase matches rank below those of the function's real synonyms."""
+
+
+def tiers(synonym: str) -> tuple[int, int]:
+    """(exact tier, phrase tier) of a synonym."""
+    return (NAME_EXACT, NAME_PHRASE) if isinstance(synonym, FunctionName) else (EXACT, PHRASE)
 
 
 def normalize(text: str) -> str:
@@ -94,7 +111,8 @@ def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | Non
         if not ok or between > k - 1:
             continue
         rest = text.lower[tokens[at][2]:]
-        clause_ends = not rest.strip() or bool(_CLAUSE_ENDS.match(rest))
+        rest = _CLOSING.sub("", rest)
+        clause_ends = not _WORD.search(rest) or bool(_CLAUSE_ENDS.match(rest))
         value = 0.9 + (0.1 if clause_ends else 0.02) * len(syn_norm) / len(text.norm)
         if best is None or value > best.value or (value == best.value and between < best.between):
             best = Phrase(value, between, clause_ends)
@@ -111,11 +129,12 @@ def score_pair(synonym: str, text: str | Text) -> Score:
     syn = normalize(synonym)
     if not syn or not t.norm:
         return ZERO
+    exact, phrase = tiers(synonym)
     if syn == t.norm:
-        return Score(EXACT, 1.0)
+        return Score(exact, 1.0)
     found = find_phrase(words(synonym), syn, t)
     if found is not None:
-        return Score(PHRASE, found.value)
+        return Score(phrase, found.value)
     return Score(FUZZY, fuzzy(syn, t.norm))
 
 
@@ -129,11 +148,14 @@ def why(synonym: str, text: str) -> str:
     syn = normalize(synonym)
     if not syn or not t.norm:
         return "nothing to compare"
+    named = isinstance(synonym, FunctionName)
+    what = f"the function's own name '{synonym}'" if named else f"the synonym '{synonym}'"
     if syn == t.norm:
-        return f"the text is the synonym '{synonym}'"
+        return f"the text is {what}" + (" (ranked below the synonyms' exact and phrase matches)" if named else "")
     found = find_phrase(words(synonym), syn, t)
     if found is not None:
         gap = f", {found.between} word{'s' * (found.between != 1)} between its words" if found.between else ""
         end = "its clause ends there" if found.clause_ends else "another word follows in its clause (bonus / 5)"
-        return (f"'{synonym}' found as a phrase{gap}; it covers {len(syn)} of {len(t.norm)} characters; {end}")
-    return f"'{synonym}' is not a phrase of the text; SequenceMatcher ratio {fuzzy(syn, t.norm):.3f}"
+        below = "; ranked below the synonyms' exact and phrase matches" if named else ""
+        return f"{what} found as a phrase{gap}; it covers {len(syn)} of {len(t.norm)} characters; {end}{below}"
+    return f"{what} is not a phrase of the text; SequenceMatcher ratio {fuzzy(syn, t.norm):.3f}"

@@ -45,6 +45,8 @@ HEADER_SYNONYMS = {
     "minimum": ["min", "minimum", "min value", "range min", "low limit"],
     "maximum": ["max", "maximum", "max value", "range max", "high limit"],
     "offset": ["offset", "value offset", "add"],
+    "word_order": ["mixed endian", "word swap", "swap words", "word order", "word swapped", "swap", "mixed",
+                   "wordswap", "word swap enabled"],
 }
 
 
