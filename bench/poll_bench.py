@@ -4,7 +4,7 @@ asserts nothing.
 
     python3 bench/poll_bench.py                    # instructions per poll under callgrind, if present
     python3 bench/poll_bench.py --wall             # wall time per poll instead
-    python3 bench/poll_bench.py --compare f854024  # the Python clients of that revision too
+    python3 bench/poll_bench.py --compare 64420ac  # the Python clients of that revision too
 
 The device: 500 holding registers 0..499, as 300 functions (UINT16 x 0.1, INT16, INT32, FLOAT32,
 UINT32 x 0.01 + 5, UINT8 in a full word), read by every client as the same 4 requests of 125
@@ -301,8 +301,8 @@ def main() -> int:
     parser.add_argument("--wall", action="store_true", help="wall time per poll even where valgrind is present")
     parser.add_argument("--clients", default=",".join(CLIENTS), help="which clients (comma separated)")
     parser.add_argument("--compare", metavar="REV", help="also the Python clients of git revision REV")
-    parser.add_argument("--worktree", type=Path, default=Path("/tmp/bench_before"),
-                        help="where REV is checked out (default /tmp/bench_before)")
+    parser.add_argument("--worktree", type=Path,
+                        help="where REV is exported (default /tmp/bench_REV)")
     # the client side (internal)
     parser.add_argument("--client", choices=CLIENTS, help=argparse.SUPPRESS)
     parser.add_argument("--host", default="127.0.0.1", help=argparse.SUPPRESS)
@@ -324,7 +324,7 @@ def main() -> int:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from scale_bench import worktree
 
-        trees.insert(0, ("before", worktree(args.compare, args.worktree) / "src"))
+        trees.insert(0, ("before", worktree(args.compare, args.worktree or Path(f"/tmp/bench_{args.compare}")) / "src"))
     with tempfile.TemporaryDirectory(prefix="mdl-poll-") as tmp:
         d = Path(tmp)
         xml = d / "poll_bench_device.xml"

@@ -2,7 +2,7 @@
 """How `mdl gen` and `mdl validate` scale with the number of functions. Prints figures; asserts nothing.
 
     python3 bench/scale_bench.py                       # 1,000 / 10,000 / 30,000 functions
-    python3 bench/scale_bench.py --sizes 1000,10000 --compare f854024
+    python3 bench/scale_bench.py --sizes 1000,10000 --repeat 3 --compare 64420ac
     python3 bench/scale_bench.py --no-cpp-compile --langs python,cpp
 
 For each size it builds two synthetic devices:
@@ -13,13 +13,13 @@ For each size it builds two synthetic devices:
   `mdl import` to MDL 1.0 (so that the figures are mdl's, not the pure-Python YAML parser's);
 
 and runs, each as a child process, `mdl gen FILE --lang L` for each L (all registered ones and
-`all`) and `mdl validate FILE`, printing the wall time and the
-child's peak resident memory (ru_maxrss from wait4). With --cpp-compile (the default for sizes up to
+`all`) and `mdl validate FILE`, printing the wall time, the CPU time (user + system: what other jobs
+on a shared machine disturb least; --repeat N keeps the best of N runs) and the child's peak
+resident memory (ru_maxrss from wait4). With --cpp-compile (the default for sizes up to
 3,000) it also times `g++ -std=c++17 -O2 -c` on the generated .cc at 1,000 and 3,000 plain functions.
 
---compare REV runs the same figures with the mdl of git revision REV (checked out once with
-`git worktree add --detach`, in /tmp/bench_before unless --worktree says otherwise; never committed)
-and prints before and after side by side.
+--compare REV runs the same figures with the mdl of git revision REV (exported once with `git archive`
+into /tmp/bench_<REV> unless --worktree says otherwise) and prints before and after side by side.
 """
 
 from __future__ import annotations
@@ -132,14 +132,15 @@ def expr_yaml(n: int) -> str:
 
 @dataclass
 class Run:
-    seconds: float
+    seconds: float  # wall time
     peak_mb: float
     ok: bool
     note: str = ""
+    cpu: float = 0.0  # user + system time of the child: what a shared machine disturbs least
 
 
 def measure(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None = None) -> Run:
-    """Wall time and peak RSS of one child process (wait4 gives that child's own rusage)."""
+    """Wall time, CPU time and peak RSS of one child process (wait4 gives that child's own rusage)."""
     start = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env, cwd=cwd)
     assert proc.stderr is not None
@@ -150,7 +151,18 @@ def measure(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None 
     proc.stderr.close()
     note = "" if proc.returncode == 0 else err.decode(errors="replace").strip().splitlines()[-1:][0][:80] \
         if err.strip() else f"exit {proc.returncode}"
-    return Run(seconds, usage.ru_maxrss / 1024, proc.returncode == 0, note)
+    return Run(seconds, usage.ru_maxrss / 1024, proc.returncode == 0, note, usage.ru_utime + usage.ru_stime)
+
+
+def best(cmd: list[str], env: dict[str, str] | None, repeat: int) -> Run:
+    """The run of least CPU time of `repeat` runs (the first failure, if one fails)."""
+    runs = []
+    for _ in range(repeat):
+        run = measure(cmd, env)
+        if not run.ok:
+            return run
+        runs.append(run)
+    return min(runs, key=lambda r: r.cpu)
 
 
 def mdl_env(src: Path) -> dict[str, str]:
@@ -169,16 +181,20 @@ def langs_of(src: Path) -> list[str]:
 
 
 def worktree(rev: str, where: Path) -> Path:
-    """A checkout of `rev` at `where` (made once, detached, never committed to)."""
+    """The tree of `rev` at `where`, exported once with `git archive` (read-only for the repository:
+    no worktree, no checkout); `where/.rev` records the commit it holds."""
+    want = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], capture_output=True, text=True,
+                          check=True).stdout.strip()
+    marker = where / ".rev"
     if where.exists():
-        head = subprocess.run(["git", "-C", str(where), "rev-parse", "HEAD"], capture_output=True, text=True)
-        want = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], capture_output=True, text=True,
-                              check=True).stdout.strip()
-        if head.returncode == 0 and head.stdout.strip() == want:
+        if marker.is_file() and marker.read_text().strip() == want:
             return where
-        raise SystemExit(f"{where} exists and is not a checkout of {rev}; remove it or pass --worktree")
-    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(where), rev], check=True,
-                   capture_output=True)
+        raise SystemExit(f"{where} exists and is not an export of {rev}; remove it or pass --worktree")
+    where.mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", want], capture_output=True,
+                             check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(where)], input=archive, check=True)
+    marker.write_text(want + "\n")
     return where
 
 
@@ -194,7 +210,7 @@ def to_mdl(yaml_path: Path, xml_path: Path, sources: list[Path]) -> None:
 
 
 def bench_one(label: str, src: Path, files: dict[tuple[str, int], Path], sizes: list[int], langs: list[str],
-              out_dir: Path) -> dict[tuple[str, int, str], Run]:
+              out_dir: Path, repeat: int = 1) -> dict[tuple[str, int, str], Run]:
     """(kind, size, command) -> Run for one mdl source tree."""
     env = mdl_env(src)
     results: dict[tuple[str, int, str], Run] = {}
@@ -203,13 +219,14 @@ def bench_one(label: str, src: Path, files: dict[tuple[str, int], Path], sizes: 
             path = files[(kind, size)]
             for lang in langs:
                 dest = out_dir / f"{label}-{kind}-{size}-{lang}"
-                run = measure([sys.executable, "-m", "mdl", "gen", str(path), "--lang", lang, "-o", str(dest)], env)
+                run = best([sys.executable, "-m", "mdl", "gen", str(path), "--lang", lang, "-o", str(dest)], env,
+                           repeat)
                 results[(kind, size, f"gen {lang}")] = run
-                print(f"  [{label}] {kind:5} {size:>6} gen --lang {lang:6} {run.seconds:8.2f} s {run.peak_mb:7.0f} MB"
+                print(f"  [{label}] {kind:5} {size:>6} gen --lang {lang:6} {fmt(run)}"
                       + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
-            run = measure([sys.executable, "-m", "mdl", "validate", str(path)], env)
+            run = best([sys.executable, "-m", "mdl", "validate", str(path)], env, repeat)
             results[(kind, size, "validate")] = run
-            print(f"  [{label}] {kind:5} {size:>6} validate        {run.seconds:8.2f} s {run.peak_mb:7.0f} MB"
+            print(f"  [{label}] {kind:5} {size:>6} validate        {fmt(run)}"
                   + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
     return results
 
@@ -238,17 +255,21 @@ def cpp_compile(label: str, src: Path, files: dict[tuple[str, int], Path], sizes
         run = measure([gxx, "-std=c++17", "-O2", "-c", "-I", str(dest), *modbus_cflags(), str(ccs[0]), "-o",
                        str(dest / "out.o")])
         out[size] = run
-        print(f"  [{label}] g++ -O2 -c {size:>6}       {run.seconds:8.2f} s {run.peak_mb:7.0f} MB"
+        print(f"  [{label}] g++ -O2 -c {size:>6}       {fmt(run)}"
               + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
     return out
 
 
+WIDTH = 26
+
+
 def fmt(run: Run | None) -> str:
+    """`wall s (cpu s) peak MB`."""
     if run is None:
-        return f"{'-':>17}"
+        return f"{'-':>{WIDTH}}"
     if not run.ok:
-        return f"{'failed':>17}"
-    return f"{run.seconds:8.2f}s {run.peak_mb:6.0f}MB"
+        return f"{'failed':>{WIDTH}}"
+    return f"{run.seconds:7.2f}s ({run.cpu:6.2f}s) {run.peak_mb:5.0f}MB"
 
 
 def main() -> int:
@@ -256,13 +277,15 @@ def main() -> int:
     parser.add_argument("--sizes", default="1000,10000,30000", help="function counts (comma separated)")
     parser.add_argument("--langs", help="--lang values to time (default: every registered one, and all)")
     parser.add_argument("--compare", metavar="REV", help="also run the mdl of git revision REV, side by side")
-    parser.add_argument("--worktree", type=Path, default=Path("/tmp/bench_before"),
-                        help="where REV is checked out (default /tmp/bench_before)")
+    parser.add_argument("--worktree", type=Path,
+                        help="where REV is exported (default /tmp/bench_REV)")
     parser.add_argument("--src", type=Path, default=ROOT / "src",
                         help="the mdl source tree measured as 'after' (default: this checkout's src/)")
     parser.add_argument("--cpp-compile", dest="cpp", action=argparse.BooleanOptionalAction, default=None,
                         help="time g++ -O2 -c on the generated .cc (default: on, at 1,000 and 3,000 functions)")
     parser.add_argument("--cpp-sizes", default="1000,3000", help="sizes for --cpp-compile")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="run each mdl command N times and keep the run of least CPU time (default 1)")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     cpp_sizes = [int(s) for s in args.cpp_sizes.split(",")] if args.cpp is not False else []
@@ -271,7 +294,7 @@ def main() -> int:
 
     trees = [("after", args.src.resolve())]
     if args.compare:
-        trees.insert(0, ("before", worktree(args.compare, args.worktree) / "src"))
+        trees.insert(0, ("before", worktree(args.compare, args.worktree or Path(f"/tmp/bench_{args.compare}")) / "src"))
     langs = args.langs.split(",") if args.langs else langs_of(args.src.resolve())
 
     with tempfile.TemporaryDirectory(prefix="mdl-scale-") as tmp:
@@ -288,19 +311,20 @@ def main() -> int:
         compiles = {}
         for label, src in trees:
             tree_langs = [lang for lang in langs if label == "after" or lang in langs_of(src)]
-            results[label] = bench_one(label, src, files, sizes, tree_langs, d)
+            results[label] = bench_one(label, src, files, sizes, tree_langs, d, args.repeat)
             compiles[label] = cpp_compile(label, src, files, cpp_sizes, d)
 
     labels = [label for label, _ in trees]
     print()
-    print(f"{'device':6} {'functions':>9} {'command':14} " + " ".join(f"{label:>17}" for label in labels)
+    print("wall time (CPU time: user + system) and peak memory; speed-up in CPU time")
+    print(f"{'device':6} {'functions':>9} {'command':14} " + " ".join(f"{label:>{WIDTH}}" for label in labels)
           + ("   speed-up" if len(labels) == 2 else ""))
     keys = sorted({k for r in results.values() for k in r}, key=lambda k: (k[0] != "plain", k[1], k[2]))
     for kind, size, command in keys:
         runs = [results[label].get((kind, size, command)) for label in labels]
         line = f"{kind:6} {size:>9} {command:14} " + " ".join(fmt(r) for r in runs)
         if len(runs) == 2 and all(r is not None and r.ok for r in runs):
-            line += f"   {runs[0].seconds / runs[1].seconds:7.1f}x"  # type: ignore[union-attr]
+            line += f"   {runs[0].cpu / runs[1].cpu:7.1f}x"  # type: ignore[union-attr]
         print(line)
     for size in cpp_sizes:
         runs = [compiles[label].get(size) for label in labels]

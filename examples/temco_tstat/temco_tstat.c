@@ -139,6 +139,74 @@ static const struct mdl_request mdl_splits[11] = {
     {MDL_HOLDING, 346, 1, 1U},
 };
 
+/* modbus_address and 8 more functions of the same value IR */
+static int decode_0(const uint16_t *r, uint8_t *out, bool *has) {
+    uint64_t v = 0;
+    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
+
+    *out = (uint8_t)v;
+    *has = true;
+    return 0;
+}
+
+/* room_temperature and 3 more functions of the same value IR */
+static int decode_1(const uint16_t *r, double *out, bool *has) {
+    uint64_t v = 0;
+    v |= (uint64_t)r[0];
+
+    const int64_t s = (int64_t)(v ^ UINT64_C(0x8000)) - INT64_C(0x8000);
+
+    double x = (double)s;
+    x = x / 10.0;
+
+    *out = x;
+    *has = true;
+    return 0;
+}
+
+/* fan_relay_on and 4 more functions of the same value IR */
+static int encode_0(uint8_t value, uint16_t *r) {
+    if (value > 1) {
+        errno = EINVAL;
+        return -1;
+    }
+
+
+    uint64_t v = (uint64_t)value;
+    v &= UINT64_C(0xFF);
+
+    r[0] = (uint16_t)(v & 0xFFU);
+    return 0;
+
+}
+
+/* occupied_setpoint and 1 more function of the same value IR */
+static int encode_1(double value, uint16_t *r) {
+    if (!(value >= 10.0 && value <= 30.0)) {
+        errno = EINVAL;
+        return -1;
+    }
+
+    double x = value;
+    x = x * 10.0;
+
+    if (!isfinite(x)) {
+        errno = EINVAL;
+        return -1;
+    }
+    x = floor(x + 0.5);
+    if (!(x >= (-32768.0) && x < 32768.0)) {
+        errno = EINVAL;
+        return -1;
+    }
+    uint64_t v = (uint64_t)(int64_t)x;
+    v &= UINT64_C(0xFFFF);
+
+    r[0] = (uint16_t)(v & 0xFFFFU);
+    return 0;
+
+}
+
 /* serial_number */
 static int decode_serial_number(const uint16_t *r, uint32_t *out, bool *has) {
     uint64_t v = 0;
@@ -166,16 +234,6 @@ static int decode_firmware_version(const uint16_t *r, double *out, bool *has) {
     return 0;
 }
 
-/* modbus_address */
-static int decode_modbus_address(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
 static int encode_modbus_address(uint8_t value, uint16_t *r) {
     if (value < 1 || value > 254) {
         errno = EINVAL;
@@ -189,31 +247,6 @@ static int encode_modbus_address(uint8_t value, uint16_t *r) {
     r[0] = (uint16_t)(v & 0xFFU);
     return 0;
 
-}
-
-/* product_model */
-static int decode_product_model(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-/* room_temperature */
-static int decode_room_temperature(const uint16_t *r, double *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    const int64_t s = (int64_t)(v ^ UINT64_C(0x8000)) - INT64_C(0x8000);
-
-    double x = (double)s;
-    x = x / 10.0;
-
-    *out = x;
-    *has = true;
-    return 0;
 }
 
 /* humidity */
@@ -236,16 +269,6 @@ static int decode_occupancy(const uint16_t *r, double *out, bool *has) {
 
 }
 
-/* fan_speed */
-static int decode_fan_speed(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
 static int encode_fan_speed(uint8_t value, uint16_t *r) {
     if (value > 4) {
         errno = EINVAL;
@@ -259,16 +282,6 @@ static int encode_fan_speed(uint8_t value, uint16_t *r) {
     r[0] = (uint16_t)(v & 0xFFU);
     return 0;
 
-}
-
-/* system_mode */
-static int decode_system_mode(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
 }
 
 static int encode_system_mode(uint8_t value, uint16_t *r) {
@@ -286,230 +299,8 @@ static int encode_system_mode(uint8_t value, uint16_t *r) {
 
 }
 
-/* fan_relay_on */
-static int decode_fan_relay_on(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_fan_relay_on(uint8_t value, uint16_t *r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFF);
-
-    r[0] = (uint16_t)(v & 0xFFU);
-    return 0;
-
-}
-
-/* cooling_stage1_relay_on */
-static int decode_cooling_stage1_relay_on(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_cooling_stage1_relay_on(uint8_t value, uint16_t *r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFF);
-
-    r[0] = (uint16_t)(v & 0xFFU);
-    return 0;
-
-}
-
-/* cooling_stage2_relay_on */
-static int decode_cooling_stage2_relay_on(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_cooling_stage2_relay_on(uint8_t value, uint16_t *r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFF);
-
-    r[0] = (uint16_t)(v & 0xFFU);
-    return 0;
-
-}
-
-/* heating_stage1_relay_on */
-static int decode_heating_stage1_relay_on(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_heating_stage1_relay_on(uint8_t value, uint16_t *r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFF);
-
-    r[0] = (uint16_t)(v & 0xFFU);
-    return 0;
-
-}
-
-/* heating_stage2_relay_on */
-static int decode_heating_stage2_relay_on(const uint16_t *r, uint8_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)((unsigned)r[0] & 0xFFU);
-
-    *out = (uint8_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_heating_stage2_relay_on(uint8_t value, uint16_t *r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFF);
-
-    r[0] = (uint16_t)(v & 0xFFU);
-    return 0;
-
-}
-
-/* occupied_setpoint */
-static int decode_occupied_setpoint(const uint16_t *r, double *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    const int64_t s = (int64_t)(v ^ UINT64_C(0x8000)) - INT64_C(0x8000);
-
-    double x = (double)s;
-    x = x / 10.0;
-
-    *out = x;
-    *has = true;
-    return 0;
-}
-
-static int encode_occupied_setpoint(double value, uint16_t *r) {
-    if (!(value >= 10.0 && value <= 30.0)) {
-        errno = EINVAL;
-        return -1;
-    }
-
-    double x = value;
-    x = x * 10.0;
-
-    if (!isfinite(x)) {
-        errno = EINVAL;
-        return -1;
-    }
-    x = floor(x + 0.5);
-    if (!(x >= (-32768.0) && x < 32768.0)) {
-        errno = EINVAL;
-        return -1;
-    }
-    uint64_t v = (uint64_t)(int64_t)x;
-    v &= UINT64_C(0xFFFF);
-
-    r[0] = (uint16_t)(v & 0xFFFFU);
-    return 0;
-
-}
-
-/* unoccupied_setpoint */
-static int decode_unoccupied_setpoint(const uint16_t *r, double *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    const int64_t s = (int64_t)(v ^ UINT64_C(0x8000)) - INT64_C(0x8000);
-
-    double x = (double)s;
-    x = x / 10.0;
-
-    *out = x;
-    *has = true;
-    return 0;
-}
-
 static int encode_unoccupied_setpoint(double value, uint16_t *r) {
     if (!(value >= 5.0 && value <= 35.0)) {
-        errno = EINVAL;
-        return -1;
-    }
-
-    double x = value;
-    x = x * 10.0;
-
-    if (!isfinite(x)) {
-        errno = EINVAL;
-        return -1;
-    }
-    x = floor(x + 0.5);
-    if (!(x >= (-32768.0) && x < 32768.0)) {
-        errno = EINVAL;
-        return -1;
-    }
-    uint64_t v = (uint64_t)(int64_t)x;
-    v &= UINT64_C(0xFFFF);
-
-    r[0] = (uint16_t)(v & 0xFFFFU);
-    return 0;
-
-}
-
-/* occupied_heating_setpoint */
-static int decode_occupied_heating_setpoint(const uint16_t *r, double *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    const int64_t s = (int64_t)(v ^ UINT64_C(0x8000)) - INT64_C(0x8000);
-
-    double x = (double)s;
-    x = x / 10.0;
-
-    *out = x;
-    *has = true;
-    return 0;
-}
-
-static int encode_occupied_heating_setpoint(double value, uint16_t *r) {
-    if (!(value >= 10.0 && value <= 30.0)) {
         errno = EINVAL;
         return -1;
     }
@@ -539,6 +330,69 @@ void temco_tstat_init(struct temco_tstat_driver *driver, modbus_t *ctx) {
     driver->ctx = ctx;
 }
 
+/* Reads one run of 1 register and decodes it with decode_0: the read of each function that does. */
+static int read_0(modbus_t *ctx, enum mdl_table table, int start, uint8_t *out) {
+    uint8_t value;
+    bool value_has = true;
+    {
+        uint16_t r[1];
+        if (mdl_read_table(ctx, table, start, 1, &r[0]) == -1) {
+            return -1;
+        }
+        if (decode_0(r, &value, &value_has) == -1) {
+            return -1;
+        }
+    }
+    (void)value_has;
+    *out = value;
+    return 0;
+}
+
+/* Reads one run of 1 register and decodes it with decode_1: the read of each function that does. */
+static int read_1(modbus_t *ctx, enum mdl_table table, int start, double *out) {
+    double value;
+    bool value_has = true;
+    {
+        uint16_t r[1];
+        if (mdl_read_table(ctx, table, start, 1, &r[0]) == -1) {
+            return -1;
+        }
+        if (decode_1(r, &value, &value_has) == -1) {
+            return -1;
+        }
+    }
+    (void)value_has;
+    *out = value;
+    return 0;
+}
+
+/* Encodes a value with encode_0 and writes its run of 1 register: the write of each function that does. */
+static int write_0(modbus_t *ctx, enum mdl_table table, int start, uint8_t value) {
+    uint16_t r[1];
+    memset(r, 0, sizeof r);
+    if (encode_0(value, r) == -1) {
+        return -1;
+    }
+    if (mdl_write_table(ctx, table, start, 1, &r[0]) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+/* Encodes a value with encode_1 and writes its run of 1 register: the write of each function that does. */
+static int write_1(modbus_t *ctx, enum mdl_table table, int start, double value) {
+    uint16_t r[1];
+    memset(r, 0, sizeof r);
+    if (encode_1(value, r) == -1) {
+        return -1;
+    }
+    if (mdl_write_table(ctx, table, start, 1, &r[0]) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+/* serial_number */
 int temco_tstat_read_serial_number(modbus_t *ctx, uint32_t *out) {
     uint32_t value;
     bool value_has = true;
@@ -556,6 +410,7 @@ int temco_tstat_read_serial_number(modbus_t *ctx, uint32_t *out) {
     return 0;
 }
 
+/* firmware_version */
 int temco_tstat_read_firmware_version(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -573,21 +428,9 @@ int temco_tstat_read_firmware_version(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* modbus_address */
 int temco_tstat_read_modbus_address(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 6, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_modbus_address(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 6, out);
 }
 
 int temco_tstat_write_modbus_address(modbus_t *ctx, uint8_t value) {
@@ -602,40 +445,17 @@ int temco_tstat_write_modbus_address(modbus_t *ctx, uint8_t value) {
     return 0;
 }
 
+/* product_model */
 int temco_tstat_read_product_model(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 7, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_product_model(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 7, out);
 }
 
+/* room_temperature */
 int temco_tstat_read_room_temperature(modbus_t *ctx, double *out) {
-    double value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 121, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_room_temperature(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 121, out);
 }
 
+/* humidity */
 int temco_tstat_read_humidity(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -653,6 +473,7 @@ int temco_tstat_read_humidity(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* occupancy */
 int temco_tstat_read_occupancy(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -670,21 +491,9 @@ int temco_tstat_read_occupancy(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* fan_speed */
 int temco_tstat_read_fan_speed(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 137, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_fan_speed(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 137, out);
 }
 
 int temco_tstat_write_fan_speed(modbus_t *ctx, uint8_t value) {
@@ -699,21 +508,9 @@ int temco_tstat_write_fan_speed(modbus_t *ctx, uint8_t value) {
     return 0;
 }
 
+/* system_mode */
 int temco_tstat_read_system_mode(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 128, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_system_mode(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 128, out);
 }
 
 int temco_tstat_write_system_mode(modbus_t *ctx, uint8_t value) {
@@ -728,195 +525,63 @@ int temco_tstat_write_system_mode(modbus_t *ctx, uint8_t value) {
     return 0;
 }
 
+/* fan_relay_on */
 int temco_tstat_read_fan_relay_on(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 255, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_fan_relay_on(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 255, out);
 }
 
 int temco_tstat_write_fan_relay_on(modbus_t *ctx, uint8_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_fan_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 255, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_HOLDING, 255, value);
 }
 
+/* cooling_stage1_relay_on */
 int temco_tstat_read_cooling_stage1_relay_on(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 256, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_cooling_stage1_relay_on(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 256, out);
 }
 
 int temco_tstat_write_cooling_stage1_relay_on(modbus_t *ctx, uint8_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_cooling_stage1_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 256, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_HOLDING, 256, value);
 }
 
+/* cooling_stage2_relay_on */
 int temco_tstat_read_cooling_stage2_relay_on(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 257, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_cooling_stage2_relay_on(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 257, out);
 }
 
 int temco_tstat_write_cooling_stage2_relay_on(modbus_t *ctx, uint8_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_cooling_stage2_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 257, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_HOLDING, 257, value);
 }
 
+/* heating_stage1_relay_on */
 int temco_tstat_read_heating_stage1_relay_on(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 258, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_heating_stage1_relay_on(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 258, out);
 }
 
 int temco_tstat_write_heating_stage1_relay_on(modbus_t *ctx, uint8_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_heating_stage1_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 258, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_HOLDING, 258, value);
 }
 
+/* heating_stage2_relay_on */
 int temco_tstat_read_heating_stage2_relay_on(modbus_t *ctx, uint8_t *out) {
-    uint8_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 259, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_heating_stage2_relay_on(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_HOLDING, 259, out);
 }
 
 int temco_tstat_write_heating_stage2_relay_on(modbus_t *ctx, uint8_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_heating_stage2_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 259, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_HOLDING, 259, value);
 }
 
+/* occupied_setpoint */
 int temco_tstat_read_occupied_setpoint(modbus_t *ctx, double *out) {
-    double value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 345, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_occupied_setpoint(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 345, out);
 }
 
 int temco_tstat_write_occupied_setpoint(modbus_t *ctx, double value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_occupied_setpoint(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 345, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1(ctx, MDL_HOLDING, 345, value);
 }
 
+/* unoccupied_setpoint */
 int temco_tstat_read_unoccupied_setpoint(modbus_t *ctx, double *out) {
-    double value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 346, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_unoccupied_setpoint(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 346, out);
 }
 
 int temco_tstat_write_unoccupied_setpoint(modbus_t *ctx, double value) {
@@ -931,33 +596,13 @@ int temco_tstat_write_unoccupied_setpoint(modbus_t *ctx, double value) {
     return 0;
 }
 
+/* occupied_heating_setpoint */
 int temco_tstat_read_occupied_heating_setpoint(modbus_t *ctx, double *out) {
-    double value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 348, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_occupied_heating_setpoint(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 348, out);
 }
 
 int temco_tstat_write_occupied_heating_setpoint(modbus_t *ctx, double value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_occupied_heating_setpoint(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 348, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1(ctx, MDL_HOLDING, 348, value);
 }
 
 int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_tstat_values *out) {
@@ -1026,7 +671,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_modbus_address(r, &values.modbus_address, &has) == -1) {
+        if (decode_0(r, &values.modbus_address, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1038,7 +683,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_product_model(r, &values.product_model, &has) == -1) {
+        if (decode_0(r, &values.product_model, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1050,7 +695,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_room_temperature(r, &values.room_temperature, &has) == -1) {
+        if (decode_1(r, &values.room_temperature, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1086,7 +731,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_fan_speed(r, &values.fan_speed, &has) == -1) {
+        if (decode_0(r, &values.fan_speed, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1098,7 +743,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_system_mode(r, &values.system_mode, &has) == -1) {
+        if (decode_0(r, &values.system_mode, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1110,7 +755,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_fan_relay_on(r, &values.fan_relay_on, &has) == -1) {
+        if (decode_0(r, &values.fan_relay_on, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1122,7 +767,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_cooling_stage1_relay_on(r, &values.cooling_stage1_relay_on, &has) == -1) {
+        if (decode_0(r, &values.cooling_stage1_relay_on, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1134,7 +779,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_cooling_stage2_relay_on(r, &values.cooling_stage2_relay_on, &has) == -1) {
+        if (decode_0(r, &values.cooling_stage2_relay_on, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1146,7 +791,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_heating_stage1_relay_on(r, &values.heating_stage1_relay_on, &has) == -1) {
+        if (decode_0(r, &values.heating_stage1_relay_on, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1158,7 +803,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_heating_stage2_relay_on(r, &values.heating_stage2_relay_on, &has) == -1) {
+        if (decode_0(r, &values.heating_stage2_relay_on, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1170,7 +815,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_occupied_setpoint(r, &values.occupied_setpoint, &has) == -1) {
+        if (decode_1(r, &values.occupied_setpoint, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1182,7 +827,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_unoccupied_setpoint(r, &values.unoccupied_setpoint, &has) == -1) {
+        if (decode_1(r, &values.unoccupied_setpoint, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1194,7 +839,7 @@ int temco_tstat_driver_read_all(struct temco_tstat_driver *driver, struct temco_
             return -1;
         }
         bool has = true;
-        if (decode_occupied_heating_setpoint(r, &values.occupied_heating_setpoint, &has) == -1) {
+        if (decode_1(r, &values.occupied_heating_setpoint, &has) == -1) {
             return -1;
         }
         (void)has;

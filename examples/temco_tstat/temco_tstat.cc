@@ -56,58 +56,27 @@ constexpr std::array<Request, 11> kSplits{ {
     {kHolding, 346, 1, 1},
 } };
 
+// The slots of read_all's buffer that functions without an expression read: without an answer for
+// one of them, read_all fails (EMBXILADD) before *out changes.
+struct Range {
+    std::size_t first;
+    std::size_t end;
+};
 
-// serial_number
-uint32_t decode_serial_number(const std::array<uint16_t, 4> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU) << 24U;
-    v |= static_cast<uint64_t>(r[1] & 0xFFU) << 16U;
-    v |= static_cast<uint64_t>(r[2] & 0xFFU) << 8U;
-    v |= static_cast<uint64_t>(r[3] & 0xFFU);
-    return static_cast<uint32_t>(v);
-}
+constexpr std::array<Range, 1> kNeeded{ {
+    {0, 21},
+} };
 
-// firmware_version
-double decode_firmware_version(const std::array<uint16_t, 2> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU) << 8U;
-    v |= static_cast<uint64_t>(r[1] & 0xFFU);
-    auto x = static_cast<double>(v);
-    x = x / 10.0;
-    return x;
-}
 
-// modbus_address
-uint8_t decode_modbus_address(const std::array<uint16_t, 1> &r) {
+// modbus_address and 8 more functions of the same value IR
+uint8_t decode_0(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0] & 0xFFU);
     return static_cast<uint8_t>(v);
 }
 
-int encode_modbus_address(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value < 1) {
-        errno = EINVAL;
-        return -1;
-    }
-    if (value > 254) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// product_model
-uint8_t decode_product_model(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-// room_temperature
-double decode_room_temperature(const std::array<uint16_t, 1> &r) {
+// room_temperature and 3 more functions of the same value IR
+double decode_1(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
     v |= static_cast<uint64_t>(r[0]);
     const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
@@ -116,67 +85,8 @@ double decode_room_temperature(const std::array<uint16_t, 1> &r) {
     return x;
 }
 
-// humidity
-double decode_humidity(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    auto x = static_cast<double>(v);
-    x = x / 10.0;
-    return x;
-}
-
-// occupancy
-int decode_occupancy(const std::array<uint16_t, 1> &r, double *out) {
-    const int32_t r1 = r[0];
-    const auto arg = static_cast<double>(r1 & 1);
-    *out = arg;
-    return 0;
-}
-
-// fan_speed
-uint8_t decode_fan_speed(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_fan_speed(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 4) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// system_mode
-uint8_t decode_system_mode(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_system_mode(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 2) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// fan_relay_on
-uint8_t decode_fan_relay_on(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_fan_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
+// fan_relay_on and 4 more functions of the same value IR
+int encode_0(uint8_t value, std::array<uint16_t, 1> &r) {
     if (value > 1) {
         errno = EINVAL;
         return -1;
@@ -187,89 +97,8 @@ int encode_fan_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
     return 0;
 }
 
-// cooling_stage1_relay_on
-uint8_t decode_cooling_stage1_relay_on(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_cooling_stage1_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// cooling_stage2_relay_on
-uint8_t decode_cooling_stage2_relay_on(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_cooling_stage2_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// heating_stage1_relay_on
-uint8_t decode_heating_stage1_relay_on(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_heating_stage1_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// heating_stage2_relay_on
-uint8_t decode_heating_stage2_relay_on(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0] & 0xFFU);
-    return static_cast<uint8_t>(v);
-}
-
-int encode_heating_stage2_relay_on(uint8_t value, std::array<uint16_t, 1> &r) {
-    if (value > 1) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFU);
-    return 0;
-}
-
-// occupied_setpoint
-double decode_occupied_setpoint(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    auto x = static_cast<double>(s);
-    x = x / 10.0;
-    return x;
-}
-
-int encode_occupied_setpoint(double value, std::array<uint16_t, 1> &r) {
+// occupied_setpoint and 1 more function of the same value IR
+int encode_1(double value, std::array<uint16_t, 1> &r) {
     if (std::isnan(value)) {
         errno = EINVAL;
         return -1;
@@ -295,14 +124,78 @@ int encode_occupied_setpoint(double value, std::array<uint16_t, 1> &r) {
     return 0;
 }
 
-// unoccupied_setpoint
-double decode_unoccupied_setpoint(const std::array<uint16_t, 1> &r) {
+// serial_number
+uint32_t decode_serial_number(const std::array<uint16_t, 4> &r) {
     uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    auto x = static_cast<double>(s);
+    v |= static_cast<uint64_t>(r[0] & 0xFFU) << 24U;
+    v |= static_cast<uint64_t>(r[1] & 0xFFU) << 16U;
+    v |= static_cast<uint64_t>(r[2] & 0xFFU) << 8U;
+    v |= static_cast<uint64_t>(r[3] & 0xFFU);
+    return static_cast<uint32_t>(v);
+}
+
+// firmware_version
+double decode_firmware_version(const std::array<uint16_t, 2> &r) {
+    uint64_t v = 0;
+    v |= static_cast<uint64_t>(r[0] & 0xFFU) << 8U;
+    v |= static_cast<uint64_t>(r[1] & 0xFFU);
+    auto x = static_cast<double>(v);
     x = x / 10.0;
     return x;
+}
+
+int encode_modbus_address(uint8_t value, std::array<uint16_t, 1> &r) {
+    if (value < 1) {
+        errno = EINVAL;
+        return -1;
+    }
+    if (value > 254) {
+        errno = EINVAL;
+        return -1;
+    }
+    auto v = static_cast<uint64_t>(value);
+    v &= 0xFFULL;
+    r[0] = static_cast<uint16_t>(v & 0xFFU);
+    return 0;
+}
+
+// humidity
+double decode_humidity(const std::array<uint16_t, 1> &r) {
+    uint64_t v = 0;
+    v |= static_cast<uint64_t>(r[0]);
+    auto x = static_cast<double>(v);
+    x = x / 10.0;
+    return x;
+}
+
+// occupancy
+int decode_occupancy(const std::array<uint16_t, 1> &r, double *out) {
+    const int32_t r1 = r[0];
+    const auto arg = static_cast<double>(r1 & 1);
+    *out = arg;
+    return 0;
+}
+
+int encode_fan_speed(uint8_t value, std::array<uint16_t, 1> &r) {
+    if (value > 4) {
+        errno = EINVAL;
+        return -1;
+    }
+    auto v = static_cast<uint64_t>(value);
+    v &= 0xFFULL;
+    r[0] = static_cast<uint16_t>(v & 0xFFU);
+    return 0;
+}
+
+int encode_system_mode(uint8_t value, std::array<uint16_t, 1> &r) {
+    if (value > 2) {
+        errno = EINVAL;
+        return -1;
+    }
+    auto v = static_cast<uint64_t>(value);
+    v &= 0xFFULL;
+    r[0] = static_cast<uint16_t>(v & 0xFFU);
+    return 0;
 }
 
 int encode_unoccupied_setpoint(double value, std::array<uint16_t, 1> &r) {
@@ -331,183 +224,79 @@ int encode_unoccupied_setpoint(double value, std::array<uint16_t, 1> &r) {
     return 0;
 }
 
-// occupied_heating_setpoint
-double decode_occupied_heating_setpoint(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    const int64_t s = static_cast<int64_t>(v ^ 0x8000ULL) - static_cast<int64_t>(0x8000ULL);
-    auto x = static_cast<double>(s);
-    x = x / 10.0;
-    return x;
-}
-
-int encode_occupied_heating_setpoint(double value, std::array<uint16_t, 1> &r) {
-    if (std::isnan(value)) {
-        errno = EINVAL;
-        return -1;
-    }
-    if (value < 10.0) {
-        errno = EINVAL;
-        return -1;
-    }
-    if (value > 30.0) {
-        errno = EINVAL;
-        return -1;
-    }
-    double x = value;
-    x = x * 10.0;
-    x = std::floor(x + 0.5);
-    if (!(x >= -32768.0 && x <= 32767.0)) {
-        errno = EINVAL;
-        return -1;
-    }
-    auto v = static_cast<uint64_t>(static_cast<int64_t>(x));
-    v &= 0xFFFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFFFU);
-    return 0;
-}
-
 
 // read_all's decoding, part 1 of 1: small functions keep the compile time
 // linear in the number of functions
-int decode_part_0(const std::array<uint16_t, 21> &raw, const std::array<bool, 21> &have, TemcoTstatValues &values) {
+int decode_part_0(const std::array<uint16_t, 21> &raw, TemcoTstatValues &values) {
     {
         const std::array<uint16_t, 4> r{ raw[0], raw[1], raw[2], raw[3] };
-        if (!have[0] || !have[1] || !have[2] || !have[3]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.serial_number = decode_serial_number(r);
     }
     {
         const std::array<uint16_t, 2> r{ raw[4], raw[5] };
-        if (!have[4] || !have[5]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.firmware_version = decode_firmware_version(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[6] };
-        if (!have[6]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.modbus_address = decode_modbus_address(r);
+        values.modbus_address = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[7] };
-        if (!have[7]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.product_model = decode_product_model(r);
+        values.product_model = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[8] };
-        if (!have[8]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.room_temperature = decode_room_temperature(r);
+        values.room_temperature = decode_1(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[11] };
-        if (!have[11]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.humidity = decode_humidity(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[12] };
-        if (!have[12]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         if (decode_occupancy(r, &values.occupancy) == -1) {
             return -1;
         }
     }
     {
         const std::array<uint16_t, 1> r{ raw[10] };
-        if (!have[10]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan_speed = decode_fan_speed(r);
+        values.fan_speed = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[9] };
-        if (!have[9]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.system_mode = decode_system_mode(r);
+        values.system_mode = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[13] };
-        if (!have[13]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan_relay_on = decode_fan_relay_on(r);
+        values.fan_relay_on = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[14] };
-        if (!have[14]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.cooling_stage1_relay_on = decode_cooling_stage1_relay_on(r);
+        values.cooling_stage1_relay_on = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[15] };
-        if (!have[15]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.cooling_stage2_relay_on = decode_cooling_stage2_relay_on(r);
+        values.cooling_stage2_relay_on = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[16] };
-        if (!have[16]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.heating_stage1_relay_on = decode_heating_stage1_relay_on(r);
+        values.heating_stage1_relay_on = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[17] };
-        if (!have[17]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.heating_stage2_relay_on = decode_heating_stage2_relay_on(r);
+        values.heating_stage2_relay_on = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[18] };
-        if (!have[18]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.occupied_setpoint = decode_occupied_setpoint(r);
+        values.occupied_setpoint = decode_1(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[19] };
-        if (!have[19]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.unoccupied_setpoint = decode_unoccupied_setpoint(r);
+        values.unoccupied_setpoint = decode_1(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[20] };
-        if (!have[20]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.occupied_heating_setpoint = decode_occupied_heating_setpoint(r);
+        values.occupied_heating_setpoint = decode_1(r);
     }
     return 0;
 }
@@ -578,6 +367,55 @@ int TemcoTstat::check_reply_ended_() {
     return 0;
 }
 
+// Reads one run of 1 register and decodes it with decode_0: the read_<name> of each function
+// that does is a call of this one, kept out of line so that the compile time stays small and linear
+[[gnu::noinline]] int TemcoTstat::read_0_(int table, int start, uint8_t *out) {
+    std::array<uint16_t, 1> r{};
+    if (read_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    *out = decode_0(r);
+    return 0;
+}
+
+// Reads one run of 1 register and decodes it with decode_1: the read_<name> of each function
+// that does is a call of this one, kept out of line so that the compile time stays small and linear
+[[gnu::noinline]] int TemcoTstat::read_1_(int table, int start, double *out) {
+    std::array<uint16_t, 1> r{};
+    if (read_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    *out = decode_1(r);
+    return 0;
+}
+
+// Encodes a value with encode_0 and writes its run of 1 register: the write_<name>
+// of each function that does is a call of this one, kept out of line as read_<n>_ is
+[[gnu::noinline]] int TemcoTstat::write_0_(int table, int start, uint8_t value) {
+    std::array<uint16_t, 1> r{};
+    if (encode_0(value, r) == -1) {
+        return -1;
+    }
+    if (write_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+// Encodes a value with encode_1 and writes its run of 1 register: the write_<name>
+// of each function that does is a call of this one, kept out of line as read_<n>_ is
+[[gnu::noinline]] int TemcoTstat::write_1_(int table, int start, double value) {
+    std::array<uint16_t, 1> r{};
+    if (encode_1(value, r) == -1) {
+        return -1;
+    }
+    if (write_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+// serial_number
 int TemcoTstat::read_serial_number(uint32_t *out) {
     std::array<uint16_t, 4> r{};
     if (read_table_(kHolding, 0, 4, r.data()) == -1) {
@@ -587,6 +425,7 @@ int TemcoTstat::read_serial_number(uint32_t *out) {
     return 0;
 }
 
+// firmware_version
 int TemcoTstat::read_firmware_version(double *out) {
     std::array<uint16_t, 2> r{};
     if (read_table_(kHolding, 4, 2, r.data()) == -1) {
@@ -596,13 +435,9 @@ int TemcoTstat::read_firmware_version(double *out) {
     return 0;
 }
 
+// modbus_address
 int TemcoTstat::read_modbus_address(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 6, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_modbus_address(r);
-    return 0;
+    return read_0_(kHolding, 6, out);
 }
 
 int TemcoTstat::write_modbus_address(uint8_t value) {
@@ -616,24 +451,17 @@ int TemcoTstat::write_modbus_address(uint8_t value) {
     return 0;
 }
 
+// product_model
 int TemcoTstat::read_product_model(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 7, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_product_model(r);
-    return 0;
+    return read_0_(kHolding, 7, out);
 }
 
+// room_temperature
 int TemcoTstat::read_room_temperature(double *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 121, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_room_temperature(r);
-    return 0;
+    return read_1_(kHolding, 121, out);
 }
 
+// humidity
 int TemcoTstat::read_humidity(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 140, 1, r.data()) == -1) {
@@ -643,6 +471,7 @@ int TemcoTstat::read_humidity(double *out) {
     return 0;
 }
 
+// occupancy
 int TemcoTstat::read_occupancy(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 184, 1, r.data()) == -1) {
@@ -654,13 +483,9 @@ int TemcoTstat::read_occupancy(double *out) {
     return 0;
 }
 
+// fan_speed
 int TemcoTstat::read_fan_speed(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 137, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_fan_speed(r);
-    return 0;
+    return read_0_(kHolding, 137, out);
 }
 
 int TemcoTstat::write_fan_speed(uint8_t value) {
@@ -674,13 +499,9 @@ int TemcoTstat::write_fan_speed(uint8_t value) {
     return 0;
 }
 
+// system_mode
 int TemcoTstat::read_system_mode(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 128, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_system_mode(r);
-    return 0;
+    return read_0_(kHolding, 128, out);
 }
 
 int TemcoTstat::write_system_mode(uint8_t value) {
@@ -694,133 +515,63 @@ int TemcoTstat::write_system_mode(uint8_t value) {
     return 0;
 }
 
+// fan_relay_on
 int TemcoTstat::read_fan_relay_on(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 255, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_fan_relay_on(r);
-    return 0;
+    return read_0_(kHolding, 255, out);
 }
 
 int TemcoTstat::write_fan_relay_on(uint8_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_fan_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 255, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kHolding, 255, value);
 }
 
+// cooling_stage1_relay_on
 int TemcoTstat::read_cooling_stage1_relay_on(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 256, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_cooling_stage1_relay_on(r);
-    return 0;
+    return read_0_(kHolding, 256, out);
 }
 
 int TemcoTstat::write_cooling_stage1_relay_on(uint8_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_cooling_stage1_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 256, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kHolding, 256, value);
 }
 
+// cooling_stage2_relay_on
 int TemcoTstat::read_cooling_stage2_relay_on(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 257, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_cooling_stage2_relay_on(r);
-    return 0;
+    return read_0_(kHolding, 257, out);
 }
 
 int TemcoTstat::write_cooling_stage2_relay_on(uint8_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_cooling_stage2_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 257, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kHolding, 257, value);
 }
 
+// heating_stage1_relay_on
 int TemcoTstat::read_heating_stage1_relay_on(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 258, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_heating_stage1_relay_on(r);
-    return 0;
+    return read_0_(kHolding, 258, out);
 }
 
 int TemcoTstat::write_heating_stage1_relay_on(uint8_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_heating_stage1_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 258, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kHolding, 258, value);
 }
 
+// heating_stage2_relay_on
 int TemcoTstat::read_heating_stage2_relay_on(uint8_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 259, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_heating_stage2_relay_on(r);
-    return 0;
+    return read_0_(kHolding, 259, out);
 }
 
 int TemcoTstat::write_heating_stage2_relay_on(uint8_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_heating_stage2_relay_on(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 259, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kHolding, 259, value);
 }
 
+// occupied_setpoint
 int TemcoTstat::read_occupied_setpoint(double *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 345, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_occupied_setpoint(r);
-    return 0;
+    return read_1_(kHolding, 345, out);
 }
 
 int TemcoTstat::write_occupied_setpoint(double value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_occupied_setpoint(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 345, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1_(kHolding, 345, value);
 }
 
+// unoccupied_setpoint
 int TemcoTstat::read_unoccupied_setpoint(double *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 346, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_unoccupied_setpoint(r);
-    return 0;
+    return read_1_(kHolding, 346, out);
 }
 
 int TemcoTstat::write_unoccupied_setpoint(double value) {
@@ -834,28 +585,16 @@ int TemcoTstat::write_unoccupied_setpoint(double value) {
     return 0;
 }
 
+// occupied_heating_setpoint
 int TemcoTstat::read_occupied_heating_setpoint(double *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 348, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_occupied_heating_setpoint(r);
-    return 0;
+    return read_1_(kHolding, 348, out);
 }
 
 int TemcoTstat::write_occupied_heating_setpoint(double value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_occupied_heating_setpoint(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 348, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1_(kHolding, 348, value);
 }
 
 int TemcoTstat::read_all(TemcoTstatValues *out) {
-    TemcoTstatValues values;  // *out changes only when every value is read
     // The plan's registers and bits, and which of them the device answered. A register the device
     // refuses with exception 2 even when asked alone has no value: expressions that need it read
     // std::nullopt, any other function fails with EMBXILADD.
@@ -884,9 +623,26 @@ int TemcoTstat::read_all(TemcoTstatValues *out) {
             std::fill_n(&have[q.offset + s.delta], s.count, true);
         }
     }
-    if (decode_part_0(raw, have, values) == -1) {
+    // Every register a function without an expression needs was answered: checked, as a fragment
+    // that has no value is, before *out changes (it changes only when every value is read).
+    for (const Range &range : kNeeded) {
+        for (std::size_t s = range.first; s < range.end; ++s) {
+            if (!have[s]) {
+                errno = EMBXILADD;
+                return -1;
+            }
+        }
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[12] };
+        double value{};
+        if (decode_occupancy(r, &value) == -1) {
+            return -1;
+        }
+    }
+    TemcoTstatValues &values = *out;  // nothing fails from here on
+    if (decode_part_0(raw, values) == -1) {
         return -1;
     }
-    *out = values;
     return 0;
 }

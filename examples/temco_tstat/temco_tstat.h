@@ -160,6 +160,11 @@ public:
 private:
     [[nodiscard]] int read_table_(int table, int start, int count, uint16_t *dest);
     [[nodiscard]] int write_table_(int table, int start, int count, const uint16_t *src);
+    // what the reads and writes of functions of the same value IR share (temco_tstat.cc)
+    [[nodiscard]] int read_0_(int table, int start, uint8_t *out);
+    [[nodiscard]] int read_1_(int table, int start, double *out);
+    [[nodiscard]] int write_0_(int table, int start, uint8_t value);
+    [[nodiscard]] int write_1_(int table, int start, double value);
     void drop_stale_bytes_();
     [[nodiscard]] int check_reply_ended_();
 

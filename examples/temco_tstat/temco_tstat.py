@@ -87,11 +87,12 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
 
 
 
-def _need(name: str, regs: list[int | None]) -> list[int]:
-    """The registers of a function; ModbusExceptionError if the device refused one of them."""
-    if None in regs:
-        raise ModbusExceptionError(2, f"reading {name}")
-    return cast("list[int]", regs)
+def _refused(raw: list[int | None]) -> None:
+    """ModbusExceptionError for the first function (in decode order) without an expression whose
+    registers the device refused (even when asked alone)."""
+    for name, slots in _SLOTS:
+        if any(raw[s] is None for s in slots):
+            raise ModbusExceptionError(2, f"reading {name}")
 
 
 def _decode_serial_number(r: list[int]) -> int:
@@ -438,6 +439,46 @@ _PLAN: tuple[tuple[_Request, int, tuple[_Request, ...]], ...] = (
     (('holding', 348, 1), 20, ()),
 )
 _BUFFER_SIZE = 21
+# each readable function without an expression and its slots in that buffer, in decode order
+_SLOTS: tuple[tuple[str, tuple[int, ...]], ...] = (
+    ('serial_number', (0, 1, 2, 3)),
+    ('firmware_version', (4, 5)),
+    ('modbus_address', (6,)),
+    ('product_model', (7,)),
+    ('room_temperature', (8,)),
+    ('humidity', (11,)),
+    ('occupancy', (12,)),
+    ('fan_speed', (10,)),
+    ('system_mode', (9,)),
+    ('fan_relay_on', (13,)),
+    ('cooling_stage1_relay_on', (14,)),
+    ('cooling_stage2_relay_on', (15,)),
+    ('heating_stage1_relay_on', (16,)),
+    ('heating_stage2_relay_on', (17,)),
+    ('occupied_setpoint', (18,)),
+    ('unoccupied_setpoint', (19,)),
+    ('occupied_heating_setpoint', (20,)),
+)
+# every readable function's name, in decode order: read_all's result starts as a copy of this
+_NAMES: dict[str, None] = dict.fromkeys((
+    'serial_number',
+    'firmware_version',
+    'modbus_address',
+    'product_model',
+    'room_temperature',
+    'humidity',
+    'occupancy',
+    'fan_speed',
+    'system_mode',
+    'fan_relay_on',
+    'cooling_stage1_relay_on',
+    'cooling_stage2_relay_on',
+    'heating_stage1_relay_on',
+    'heating_stage2_relay_on',
+    'occupied_setpoint',
+    'unoccupied_setpoint',
+    'occupied_heating_setpoint',
+))
 
 
 class TemcoTstatValues(TypedDict):
@@ -464,42 +505,45 @@ class TemcoTstatValues(TypedDict):
 
 def _values(raw: list[int | None]) -> TemcoTstatValues:
     """Every readable function's value from the registers of the read plan, in dependency order."""
-    v_serial_number = _decode_serial_number(_need('serial_number', raw[0:4]))
-    v_firmware_version = _decode_firmware_version(_need('firmware_version', raw[4:6]))
-    v_modbus_address = _decode_modbus_address(_need('modbus_address', raw[6:7]))
-    v_product_model = _decode_product_model(_need('product_model', raw[7:8]))
-    v_room_temperature = _decode_room_temperature(_need('room_temperature', raw[8:9]))
-    v_humidity = _decode_humidity(_need('humidity', raw[11:12]))
-    v_occupancy = _decode_occupancy(_need('occupancy', raw[12:13]))
-    v_fan_speed = _decode_fan_speed(_need('fan_speed', raw[10:11]))
-    v_system_mode = _decode_system_mode(_need('system_mode', raw[9:10]))
-    v_fan_relay_on = _decode_fan_relay_on(_need('fan_relay_on', raw[13:14]))
-    v_cooling_stage1_relay_on = _decode_cooling_stage1_relay_on(_need('cooling_stage1_relay_on', raw[14:15]))
-    v_cooling_stage2_relay_on = _decode_cooling_stage2_relay_on(_need('cooling_stage2_relay_on', raw[15:16]))
-    v_heating_stage1_relay_on = _decode_heating_stage1_relay_on(_need('heating_stage1_relay_on', raw[16:17]))
-    v_heating_stage2_relay_on = _decode_heating_stage2_relay_on(_need('heating_stage2_relay_on', raw[17:18]))
-    v_occupied_setpoint = _decode_occupied_setpoint(_need('occupied_setpoint', raw[18:19]))
-    v_unoccupied_setpoint = _decode_unoccupied_setpoint(_need('unoccupied_setpoint', raw[19:20]))
-    v_occupied_heating_setpoint = _decode_occupied_heating_setpoint(_need('occupied_heating_setpoint', raw[20:21]))
-    return {
-        'serial_number': v_serial_number,
-        'firmware_version': v_firmware_version,
-        'modbus_address': v_modbus_address,
-        'product_model': v_product_model,
-        'room_temperature': v_room_temperature,
-        'humidity': v_humidity,
-        'occupancy': v_occupancy,
-        'fan_speed': v_fan_speed,
-        'system_mode': v_system_mode,
-        'fan_relay_on': v_fan_relay_on,
-        'cooling_stage1_relay_on': v_cooling_stage1_relay_on,
-        'cooling_stage2_relay_on': v_cooling_stage2_relay_on,
-        'heating_stage1_relay_on': v_heating_stage1_relay_on,
-        'heating_stage2_relay_on': v_heating_stage2_relay_on,
-        'occupied_setpoint': v_occupied_setpoint,
-        'unoccupied_setpoint': v_unoccupied_setpoint,
-        'occupied_heating_setpoint': v_occupied_heating_setpoint,
-    }
+    if None in raw:
+        _refused(raw)
+    regs = cast("list[int]", raw)  # only expressions read a register the device refused
+    v_serial_number = _decode_serial_number([regs[0], regs[1], regs[2], regs[3]])
+    v_firmware_version = _decode_firmware_version([regs[4], regs[5]])
+    v_modbus_address = _decode_modbus_address([regs[6]])
+    v_product_model = _decode_product_model([regs[7]])
+    v_room_temperature = _decode_room_temperature([regs[8]])
+    v_humidity = _decode_humidity([regs[11]])
+    v_occupancy = _decode_occupancy([regs[12]])
+    v_fan_speed = _decode_fan_speed([regs[10]])
+    v_system_mode = _decode_system_mode([regs[9]])
+    v_fan_relay_on = _decode_fan_relay_on([regs[13]])
+    v_cooling_stage1_relay_on = _decode_cooling_stage1_relay_on([regs[14]])
+    v_cooling_stage2_relay_on = _decode_cooling_stage2_relay_on([regs[15]])
+    v_heating_stage1_relay_on = _decode_heating_stage1_relay_on([regs[16]])
+    v_heating_stage2_relay_on = _decode_heating_stage2_relay_on([regs[17]])
+    v_occupied_setpoint = _decode_occupied_setpoint([regs[18]])
+    v_unoccupied_setpoint = _decode_unoccupied_setpoint([regs[19]])
+    v_occupied_heating_setpoint = _decode_occupied_heating_setpoint([regs[20]])
+    values = cast("TemcoTstatValues", _NAMES.copy())  # every key in place: nothing grows as it fills
+    values['serial_number'] = v_serial_number
+    values['firmware_version'] = v_firmware_version
+    values['modbus_address'] = v_modbus_address
+    values['product_model'] = v_product_model
+    values['room_temperature'] = v_room_temperature
+    values['humidity'] = v_humidity
+    values['occupancy'] = v_occupancy
+    values['fan_speed'] = v_fan_speed
+    values['system_mode'] = v_system_mode
+    values['fan_relay_on'] = v_fan_relay_on
+    values['cooling_stage1_relay_on'] = v_cooling_stage1_relay_on
+    values['cooling_stage2_relay_on'] = v_cooling_stage2_relay_on
+    values['heating_stage1_relay_on'] = v_heating_stage1_relay_on
+    values['heating_stage2_relay_on'] = v_heating_stage2_relay_on
+    values['occupied_setpoint'] = v_occupied_setpoint
+    values['unoccupied_setpoint'] = v_unoccupied_setpoint
+    values['occupied_heating_setpoint'] = v_occupied_heating_setpoint
+    return values
 
 
 class TemcoTstat:

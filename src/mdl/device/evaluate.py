@@ -1,19 +1,23 @@
 """Values of functions from raw registers, expressions and their dependencies included: the value
-IR of a resolved device run in Python, compiled once per device (`Evaluator`)."""
+IR of a resolved device run in Python, compiled once per device (`Evaluator`), and per list of
+functions read (`BufferDecoder`)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+import struct
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from mdl.lang.expr.fields import python_function
 from mdl.model import Device, Scalar, Value
 from mdl.resolve import ResolvedDevice, resolve
 from mdl.values.build import decode_steps
 from mdl.values.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
+from mdl.values.ir import DecodeStep
 
 RawLookup = Callable[[str, int], int | None]  # (table, address) -> register or bit value, None: none
-# a function's decoding: name, table, addresses, decoder (None for an expression), expression, its dependencies
-_Step = tuple[str, str, tuple[int, ...], Decoder | None, Callable[..., Value] | None, tuple[str, ...]]
+Buffer = Sequence[int | None]  # registers and bits by slot; None where the device gave none
+# a function's decoding: name, its slots, decoder (None for an expression), expression, its dependencies
+_Step = tuple[str, tuple[int, ...], Decoder | None, Callable[..., Value] | None, tuple[str, ...]]
 
 
 class Evaluator:
@@ -26,7 +30,6 @@ class Evaluator:
         self._expressions = {f.name: python_function(f.fn.compiled) for f in resolved.functions
                              if f.fn.compiled is not None}
         self._orders: dict[tuple[str, ...], list[str]] = {}
-        self._steps: dict[tuple[str, ...], list[_Step]] = {}
 
     def order(self, names: Iterable[str]) -> list[str]:
         """The named functions and what their expressions need, each after what it needs."""
@@ -36,29 +39,36 @@ class Evaluator:
         return self._orders[key]
 
     def values(self, names: Iterable[str], raw: RawLookup) -> dict[str, Value]:
-        """name -> value for the named functions (and their dependencies); `raw(table, address)`
-        gives a register or bit value, or None where there is none."""
-        tables: dict[str, dict[int, int]] = {}
-        for name in self.order(names):
-            f = self.resolved.by_name[name]
-            table = tables.setdefault(f.layout.table, {})
-            for a in f.layout.addresses:
-                value = raw(f.layout.table, a)
-                if value is not None:
-                    table[a] = value
-        return self.values_from_tables(names, tables)
+        """name -> value for the named functions (and their dependencies, in decode order);
+        `raw(table, address)` gives a register or bit value, or None where there is none."""
+        order = self.order(names)
+        buffer: list[int | None] = []
+        slots: dict[str, tuple[int, ...]] = {}
+        for name in order:
+            lay = self.resolved.by_name[name].layout
+            slots[name] = tuple(range(len(buffer), len(buffer) + len(lay.addresses)))
+            buffer += [raw(lay.table, a) for a in lay.addresses]
+        return self._run([self._step(name, slots[name]) for name in order], buffer)
 
-    def values_from_tables(self, names: Iterable[str], tables: dict[str, dict[int, int]]) -> dict[str, Value]:
-        """As `values`, from what a read got: table -> address -> register or bit value."""
-        key = tuple(names)
-        steps = self._steps.get(key)
-        if steps is None:
-            steps = self._steps[key] = [self._step(name) for name in self.order(key)]
+    def decoder(self, names: Sequence[str], slots: Mapping[str, tuple[int, ...]]) -> BufferDecoder:
+        """What decodes `names` from a buffer where each function's registers are at `slots[name]`
+        (every function of `order(names)` has its slots)."""
+        return BufferDecoder(self, tuple(names), self.order(names), slots)
+
+    def _step(self, name: str, slots: tuple[int, ...]) -> _Step:
+        """What decoding one function needs."""
+        f = self.resolved.by_name[name]
+        decode = self._compiled[name].decode
+        if decode is None and name not in self._expressions:  # a write-only function, read by the simulator
+            decode = compile_decoder(name, decode_steps(f.fn, f.layout))
+        return name, slots, decode, self._expressions.get(name), f.deps
+
+    @staticmethod
+    def _run(steps: list[_Step], raw: Buffer) -> dict[str, Value]:
+        """Every step's value, in order, running each function's closures (mdl.values.codec)."""
         values: dict[str, Value] = {}
-        empty: dict[int, int] = {}
-        for name, table, addresses, decode, expression, deps in steps:
-            get = tables.get(table, empty).get
-            regs = [get(a) for a in addresses]
+        for name, slots, decode, expression, deps in steps:
+            regs = [raw[s] for s in slots]
             if expression is not None:
                 values[name] = expression(regs, *[values[d] for d in deps])
             elif None in regs:
@@ -66,14 +76,6 @@ class Evaluator:
             else:
                 values[name] = decode(regs)  # type: ignore[arg-type, misc]  # no None left; not an expression
         return values
-
-    def _step(self, name: str) -> _Step:
-        """What decoding one function needs, looked up once per list of names."""
-        f = self.resolved.by_name[name]
-        decode = self._compiled[name].decode
-        if decode is None and name not in self._expressions:  # a write-only function, read by the simulator
-            decode = compile_decoder(name, decode_steps(f.fn, f.layout))
-        return name, f.layout.table, f.layout.addresses, decode, self._expressions.get(name), f.deps
 
     def encode(self, name: str, value: Scalar) -> list[int]:
         encoder = self._compiled[name].encode
@@ -83,6 +85,59 @@ class Evaluator:
 
     def parse(self, name: str, text: str) -> Scalar:
         return parse_value(self.resolved.by_name[name].fn, text)
+
+
+class BufferDecoder:
+    """Decodes a list of functions (and what their expressions need) from a poll's buffer: registers
+    and bits by slot, None where the device gave none. Returns {name: value} for the names asked.
+
+    The first decode runs each function's closures (mdl.values.codec): a one-off `mdl read` never
+    imports Jinja. From the second on (a poll), a buffer without a gap goes through one Python
+    function printed for these functions by the Python target's own templates (the decoders every
+    generated driver carries, one per shape of IR: mdl.targets.python.reader) and compiled once;
+    a buffer with a gap (a register refused: expressions read None) still takes the closures."""
+
+    def __init__(self, evaluator: Evaluator, names: tuple[str, ...], order: list[str],
+                 slots: Mapping[str, tuple[int, ...]]) -> None:
+        self.evaluator, self.names = evaluator, names
+        self.steps = [evaluator._step(name, slots[name]) for name in order]
+        self.uses = 0
+        self.compiled: Callable[[Buffer], dict[str, Value]] | None = None
+
+    def __call__(self, raw: Buffer) -> dict[str, Value]:
+        self.uses += 1
+        if self.compiled is None and self.uses > 1:
+            self.compiled = self._compile()
+        if self.compiled is not None and None not in raw:
+            return self.compiled(raw)
+        values = self.evaluator._run(self.steps, raw)
+        return {name: values[name] for name in self.names}
+
+    def _compile(self) -> Callable[[Buffer], dict[str, Value]]:
+        from mdl.targets.python.reader import Row, reader_source
+
+        resolved = self.evaluator.resolved
+        shapes: dict[str, int] = {}  # decode shape -> its printed decoder
+        shape_steps: list[tuple[DecodeStep, ...]] = []
+        namespace: dict[str, object] = {"struct": struct}
+        var_of: dict[str, int] = {}
+        rows = []
+        for var, (name, slots, decode, expression, deps) in enumerate(self.steps):
+            f = resolved.by_name[name]
+            var_of[name] = var
+            shape = f.decode_shape
+            if shape is not None and expression is None:
+                if shape not in shapes:
+                    shapes[shape] = len(shape_steps)
+                    shape_steps.append(f.codec.decode)  # type: ignore[arg-type]  # a shape: not None
+                rows.append(Row(var, "shape", shapes[shape], slots))
+            else:  # a fragment, an expression or a write-only function: its closure
+                namespace[f"_f{var}"] = expression if expression is not None else decode
+                rows.append(Row(var, "call", var, slots, tuple(var_of[d] for d in deps)))
+        source = reader_source(shape_steps, rows, [(name, var_of[name]) for name in self.names])
+        exec(compile(source, f"<mdl decoder of {resolved.name}>", "exec"), namespace)  # noqa: S102  # our own printing
+        decode_all: Callable[[Buffer], dict[str, Value]] = namespace["decode"]  # type: ignore[assignment]
+        return decode_all
 
 
 def evaluate(device: ResolvedDevice | Device, names: Iterable[str], raw: RawLookup) -> dict[str, Value]:

@@ -19,7 +19,7 @@ from pymodbus.framer import FramerRTU
 from pymodbus.pdu import ModbusPDU
 
 from mdl.device.connection import Connection
-from mdl.device.evaluate import Evaluator
+from mdl.device.evaluate import BufferDecoder, Evaluator
 from mdl.diagnostics import DeviceError, error
 from mdl.model import Device, Function, Scalar, Value
 from mdl.model.layout import Layout, layout
@@ -163,15 +163,17 @@ class Wire:
 
 
 class _ReadPlan:
-    """What a read of some functions needs, worked out once: the decode order (dependencies first),
-    the requests (each with its smaller ones for exception 2, None: split when refused), and the
-    layout of every function without an expression (these must have all their registers)."""
+    """What a read of some functions needs, worked out once: the requests, each with where its
+    registers go in the read's buffer and its smaller requests for exception 2 (None: split when
+    refused), the buffer's size, the slots of every function without an expression (these must
+    have all their registers) and the decoder of the buffer."""
 
-    __slots__ = ("order", "groups", "plain", "layouts")
+    __slots__ = ("groups", "size", "plain", "layouts", "decode")
 
-    def __init__(self, order: list[str], groups: list[tuple[Request, list[Request] | None]],
-                 plain: list[tuple[str, Layout]], layouts: dict[str, Layout]) -> None:
-        self.order, self.groups, self.plain, self.layouts = order, groups, plain, layouts
+    def __init__(self, groups: list[tuple[Request, int, list[Request] | None]], size: int,
+                 plain: list[tuple[str, Layout, tuple[int, ...]]], layouts: dict[str, Layout],
+                 decode: BufferDecoder) -> None:
+        self.groups, self.size, self.plain, self.layouts, self.decode = groups, size, plain, layouts, decode
 
 
 class Session:
@@ -216,16 +218,25 @@ class Session:
             resolved = self.resolved
             order = self.evaluator.order(names)
             layouts = {f.name: f.layout for f in resolved.functions}
-            groups: list[tuple[Request, list[Request] | None]]
+            groups: list[tuple[Request, int, list[Request] | None]]
             if set(order) == {f.name for f in resolved.readable}:  # all: the plan resolve made
-                groups = [(g.request, list(g.smaller)) for g in resolved.plan]
+                groups = [(g.request, g.offset, list(g.smaller)) for g in resolved.plan]
+                size = resolved.buffer_size
+                table_slots = resolved.table_slots
             else:
                 by_name = resolved.by_name
                 requests = plan_reads(self.device, [by_name[n].fn for n in order], layouts=layouts,
                                       defined=defined_addresses(self.device, layouts))
-                groups = [(r, None) for r in requests]  # split only if the device refuses one
-            plain = [(n, layouts[n]) for n in order if resolved.by_name[n].fn.compiled is None]
-            plan = self._plans[names] = _ReadPlan(order, groups, plain, layouts)
+                groups, size, table_slots = [], 0, {}
+                for req in requests:  # split only if the device refuses one
+                    groups.append((req, size, None))
+                    table_slots.setdefault(req.table, {}).update(
+                        zip(range(req.start, req.end), range(size, size + req.count), strict=True))
+                    size += req.count
+            slots = {n: tuple(map(table_slots.get(layouts[n].table, {}).__getitem__, layouts[n].addresses))
+                     for n in order}
+            plain = [(n, layouts[n], slots[n]) for n in order if resolved.by_name[n].fn.compiled is None]
+            plan = self._plans[names] = _ReadPlan(groups, size, plain, layouts, self.evaluator.decoder(names, slots))
         return plan
 
     def __enter__(self) -> Session:
@@ -286,56 +297,55 @@ class Session:
         return str(exc)
 
     def read_request(self, req: Request) -> list[int]:
+        """The `req.count` registers or bits of one request (the reply's byte count was checked)."""
         what = f"reading {req.count} {req.table} from {req.start}"
         result = self._call(what, self._methods[req.table], req.start, count=req.count)
-        if req.table in ("coil", "discrete"):  # the byte count was checked; the padding bits are dropped
+        if req.table in ("coil", "discrete"):  # the padding bits are dropped
             return [int(b) for b in result.bits[: req.count]]
-        return list(result.registers)
+        registers = list(result.registers)
+        if len(registers) != req.count:  # the byte count was checked: never, but a buffer must not shift
+            raise DeviceError(self.where(f"{what}: the reply carries {len(registers)} registers"))
+        return registers
 
     def read(self, functions: list[Function]) -> dict[str, Value]:
         """Values of the functions (reading what their expressions depend on too)."""
-        names = tuple(fn.name for fn in functions)
-        plan = self._plan(names)
-        tables: dict[str, dict[int, int]] = {"holding": {}, "input": {}, "coil": {}, "discrete": {}}
+        plan = self._plan(tuple(fn.name for fn in functions))
+        raw: list[int | None] = [None] * plan.size
         missing: list[Request] = []
-        for i, (group, smaller) in enumerate(plan.groups):
+        for i, (group, offset, smaller) in enumerate(plan.groups):
             if group not in self.refused:
                 try:
-                    values = self.read_request(group)
+                    raw[offset:offset + group.count] = self.read_request(group)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                 else:
-                    tables[group.table].update(zip(range(group.start, group.end), values, strict=True))
                     continue
                 if smaller is None:
                     smaller = split_request(self.device, group, plan.layouts)
-                    plan.groups[i] = (group, smaller)  # the next read goes straight to them
+                    plan.groups[i] = (group, offset, smaller)  # the next read goes straight to them
                 if smaller in ([], [group]):
                     missing.append(group)  # refused even alone: these registers have no value
                     continue
                 self.refused.add(group)
             for req in smaller or ():
                 try:
-                    values = self.read_request(req)
+                    at = offset + req.start - group.start
+                    raw[at:at + req.count] = self.read_request(req)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
                     missing.append(req)
-                    continue
-                tables[req.table].update(zip(range(req.start, req.end), values, strict=True))
         if missing:  # only expressions may read a register the device does not answer
-            for _, lay in plan.plain:
-                got = tables[lay.table]
-                if any(a not in got for a in lay.addresses):
+            for _, lay, slots in plan.plain:
+                if any(raw[s] is None for s in slots):
                     req = next(r for r in missing
                                if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
                     raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
         try:
-            computed = self.evaluator.values_from_tables(names, tables)
+            return plan.decode(raw)
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
-        return {fn.name: computed[fn.name] for fn in functions}
 
     def write(self, fn: Function, value: Scalar) -> None:
         """Encode `value` and write it: one request per run of consecutive addresses. One register is

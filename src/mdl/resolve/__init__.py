@@ -20,7 +20,7 @@ from mdl.model.names import camel, stem, unique_identifiers
 from mdl.plan import Request, plan_groups
 from mdl.resolve.checks import check_device
 from mdl.values.build import build
-from mdl.values.ir import Codec
+from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
 
 
 @dataclass(frozen=True)
@@ -30,14 +30,38 @@ class ResolvedFunction:
     layout: Layout
     codec: Codec
 
-    @property
+    @cached_property
     def name(self) -> str:
         return self.fn.name
+
+    @cached_property
+    def runs(self) -> tuple[tuple[int, int], ...]:
+        """Its layout's runs (first address, count), worked out once."""
+        return self.layout.runs
 
     @property
     def deps(self) -> tuple[str, ...]:
         """The functions its expression names, in parameter order."""
         return tuple(self.fn.compiled.deps) if self.fn.compiled is not None else ()
+
+    @cached_property
+    def decode_shape(self) -> str | None:
+        """Its decode IR as text (`repr` tells 0.0 from -0.0 and 1 from 1.0): functions of the same
+        shape decode alike whatever their names and addresses, so the targets print each shape once
+        and the runtime compiles it once. None where it cannot be read, or where it has a fragment
+        or an expression (their text need not show their compiled trees)."""
+        return _shape(self.codec.decode)
+
+    @cached_property
+    def encode_shape(self) -> str | None:
+        """Its encode IR as text, as `decode_shape`."""
+        return _shape(self.codec.encode)
+
+
+def _shape(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None) -> str | None:
+    if steps is None or any(isinstance(s, (Fragment, Expression)) for s in steps):
+        return None
+    return repr(steps)
 
 
 @dataclass(frozen=True)
@@ -102,12 +126,21 @@ class ResolvedDevice:
     @cached_property
     def slots(self) -> dict[tuple[str, int], int]:
         """(table, address) -> its position in the read plan's buffer."""
-        return {(g.request.table, a): g.offset + a - g.request.start
-                for g in self.plan for a in range(g.request.start, g.request.end)}
+        return {(table, a): slot for table, slots in self.table_slots.items() for a, slot in slots.items()}
+
+    @cached_property
+    def table_slots(self) -> dict[str, dict[int, int]]:
+        """table -> address -> its position in the read plan's buffer."""
+        out: dict[str, dict[int, int]] = {}
+        for g in self.plan:
+            req = g.request
+            out.setdefault(req.table, {}).update(
+                zip(range(req.start, req.end), range(g.offset, g.offset + req.count), strict=True))
+        return out
 
     def slots_of(self, f: ResolvedFunction) -> tuple[int, ...]:
         """Where a readable function's registers are in the read plan's buffer, in address order."""
-        return tuple(self.slots[(f.layout.table, a)] for a in f.layout.addresses)
+        return tuple(map(self.table_slots.get(f.layout.table, {}).__getitem__, f.layout.addresses))
 
 
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:

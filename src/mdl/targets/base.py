@@ -17,6 +17,18 @@ class Target:
 
 
 Rows = list[dict[str, Any]]
+Run = tuple[str, int, int, int]  # (table as the target spells it, first address, count, first register in r)
+
+
+def runs_at(table: str, runs: tuple[tuple[int, int], ...]) -> list[Run]:
+    """A function's requests (`Layout.runs`) with where each one's registers start in the
+    function's own register array: the rows a single read or write loops over."""
+    out = []
+    at = 0
+    for start, count in runs:
+        out.append((table, start, count, at))
+        at += count
+    return out
 
 
 def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple[Rows, Rows]:

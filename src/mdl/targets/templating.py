@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import jinja2
@@ -56,6 +57,27 @@ def cstring(text: object) -> str:
     return '"' + "".join(out) + '"'
 
 
+def _memoized(function: Callable[[object], str]) -> Callable[[object], str]:
+    """`function` of a string, computed once per distinct string (for as long as the environment lives)."""
+    done: dict[object, str] = {}
+
+    def memoized(text: object) -> str:
+        if not isinstance(text, str):
+            return function(text)
+        found = done.get(text)
+        if found is None:
+            found = done[text] = function(text)
+        return found
+
+    return memoized
+
+
+def each(items: Iterable[object], pattern: str, sep: str) -> str:
+    """Each item through a %-pattern, joined by sep: `[0, 1] | each("raw[%d]", ", ")` is
+    `raw[0], raw[1]` (one filter call where a loop would cost one step per item)."""
+    return sep.join([pattern % (item,) for item in items])
+
+
 def environment() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TARGETS_DIR)),
@@ -67,9 +89,35 @@ def environment() -> jinja2.Environment:
     )
     env.filters["pyrepr"] = pyrepr
     env.filters["pycomment"] = pycomment
-    env.filters["ccomment"] = ccomment
+    env.filters["ccomment"] = _memoized(ccomment)  # a description goes into several comments
     env.filters["cstring"] = cstring
+    env.filters["each"] = each
     return env
+
+
+class SharedRendering:
+    """A template macro that prints part of one function from its arguments alone (the steps of its
+    IR and a few facts about it, never its name or addresses), called once per distinct argument
+    list: a device's functions repeat a few shapes of IR (10,000 functions of a meter are some ten
+    shapes), so each shape is printed once, not once per function.
+
+    Called as `shared(shape, steps, *rest)`: `shape` is the steps as text
+    (`ResolvedFunction.decode_shape`/`encode_shape`), None to print without sharing (a fragment or
+    an expression); the rest must be values whose repr says all the macro prints from them (strings,
+    numbers, None, bools, lists of them, small dataclasses of them)."""
+
+    def __init__(self, macro: Callable[..., str]) -> None:
+        self.macro = macro
+        self.cache: dict[tuple[str, str], str] = {}
+
+    def __call__(self, shape: str | None, steps: object, *rest: object) -> str:
+        if shape is None:
+            return self.macro(steps, *rest)
+        key = (shape, repr(rest))
+        text = self.cache.get(key)
+        if text is None:
+            text = self.cache[key] = self.macro(steps, *rest)
+        return text
 
 
 def write_outputs(outputs: dict[Path, str], check: bool) -> list[Path]:

@@ -183,51 +183,39 @@ static const struct mdl_request mdl_splits[14] = {
     {MDL_INPUT, 2, 2, 2U},
 };
 
-/* pump */
-static int decode_pump(const uint16_t *r, bool *out, bool *has) {
+/* pump and 3 more functions of the same value IR */
+static int decode_0(const uint16_t *r, bool *out, bool *has) {
     *out = r[0] != 0U;
 
     *has = true;
     return 0;
 }
 
-static int encode_pump(bool value, uint16_t *r) {
+/* gap_low and 2 more functions of the same value IR */
+static int decode_1(const uint16_t *r, uint16_t *out, bool *has) {
+    uint64_t v = 0;
+    v |= (uint64_t)r[0];
+
+    *out = (uint16_t)v;
+    *has = true;
+    return 0;
+}
+
+/* pump and 2 more functions of the same value IR */
+static int encode_0(bool value, uint16_t *r) {
     r[0] = (uint16_t)(value ? 1U : 0U);
     return 0;
 }
 
-/* fan */
-static int decode_fan(const uint16_t *r, bool *out, bool *has) {
-    *out = r[0] != 0U;
+/* gap_low and 2 more functions of the same value IR */
+static int encode_1(uint16_t value, uint16_t *r) {
 
-    *has = true;
+    uint64_t v = (uint64_t)value;
+    v &= UINT64_C(0xFFFF);
+
+    r[0] = (uint16_t)(v & 0xFFFFU);
     return 0;
-}
 
-static int encode_fan(bool value, uint16_t *r) {
-    r[0] = (uint16_t)(value ? 1U : 0U);
-    return 0;
-}
-
-static int encode_alarm_reset(bool value, uint16_t *r) {
-    r[0] = (uint16_t)(value ? 1U : 0U);
-    return 0;
-}
-
-/* door_open */
-static int decode_door_open(const uint16_t *r, bool *out, bool *has) {
-    *out = r[0] != 0U;
-
-    *has = true;
-    return 0;
-}
-
-/* filter_dirty */
-static int decode_filter_dirty(const uint16_t *r, bool *out, bool *has) {
-    *out = r[0] != 0U;
-
-    *has = true;
-    return 0;
 }
 
 /* energy */
@@ -277,46 +265,6 @@ static int decode_voltage(const uint16_t *r, double *out, bool *has) {
     return 0;
 }
 
-/* gap_low */
-static int decode_gap_low(const uint16_t *r, uint16_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    *out = (uint16_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_gap_low(uint16_t value, uint16_t *r) {
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFFFF);
-
-    r[0] = (uint16_t)(v & 0xFFFFU);
-    return 0;
-
-}
-
-/* gap_high */
-static int decode_gap_high(const uint16_t *r, uint16_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    *out = (uint16_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_gap_high(uint16_t value, uint16_t *r) {
-
-    uint64_t v = (uint64_t)value;
-    v &= UINT64_C(0xFFFF);
-
-    r[0] = (uint16_t)(v & 0xFFFFU);
-    return 0;
-
-}
-
 /* setpoint */
 static int decode_setpoint(const uint16_t *r, double *out, bool *has) {
     uint64_t v = 0;
@@ -351,26 +299,6 @@ static int encode_setpoint(double value, uint16_t *r) {
         return -1;
     }
     uint64_t v = (uint64_t)(int64_t)x;
-    v &= UINT64_C(0xFFFF);
-
-    r[0] = (uint16_t)(v & 0xFFFFU);
-    return 0;
-
-}
-
-/* mode */
-static int decode_mode(const uint16_t *r, uint16_t *out, bool *has) {
-    uint64_t v = 0;
-    v |= (uint64_t)r[0];
-
-    *out = (uint16_t)v;
-    *has = true;
-    return 0;
-}
-
-static int encode_mode(uint16_t value, uint16_t *r) {
-
-    uint64_t v = (uint64_t)value;
     v &= UINT64_C(0xFFFF);
 
     r[0] = (uint16_t)(v & 0xFFFFU);
@@ -568,110 +496,102 @@ void all_tables_init(struct all_tables_driver *driver, modbus_t *ctx) {
     driver->ctx = ctx;
 }
 
-int all_tables_read_pump(modbus_t *ctx, bool *out) {
+/* Reads one run of 1 register and decodes it with decode_0: the read of each function that does. */
+static int read_0(modbus_t *ctx, enum mdl_table table, int start, bool *out) {
     bool value;
     bool value_has = true;
     {
         uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_COIL, 0, 1, &r[0]) == -1) {
+        if (mdl_read_table(ctx, table, start, 1, &r[0]) == -1) {
             return -1;
         }
-        if (decode_pump(r, &value, &value_has) == -1) {
+        if (decode_0(r, &value, &value_has) == -1) {
             return -1;
         }
     }
     (void)value_has;
     *out = value;
     return 0;
+}
+
+/* Reads one run of 1 register and decodes it with decode_1: the read of each function that does. */
+static int read_1(modbus_t *ctx, enum mdl_table table, int start, uint16_t *out) {
+    uint16_t value;
+    bool value_has = true;
+    {
+        uint16_t r[1];
+        if (mdl_read_table(ctx, table, start, 1, &r[0]) == -1) {
+            return -1;
+        }
+        if (decode_1(r, &value, &value_has) == -1) {
+            return -1;
+        }
+    }
+    (void)value_has;
+    *out = value;
+    return 0;
+}
+
+/* Encodes a value with encode_0 and writes its run of 1 register: the write of each function that does. */
+static int write_0(modbus_t *ctx, enum mdl_table table, int start, bool value) {
+    uint16_t r[1];
+    memset(r, 0, sizeof r);
+    if (encode_0(value, r) == -1) {
+        return -1;
+    }
+    if (mdl_write_table(ctx, table, start, 1, &r[0]) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+/* Encodes a value with encode_1 and writes its run of 1 register: the write of each function that does. */
+static int write_1(modbus_t *ctx, enum mdl_table table, int start, uint16_t value) {
+    uint16_t r[1];
+    memset(r, 0, sizeof r);
+    if (encode_1(value, r) == -1) {
+        return -1;
+    }
+    if (mdl_write_table(ctx, table, start, 1, &r[0]) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+/* pump */
+int all_tables_read_pump(modbus_t *ctx, bool *out) {
+    return read_0(ctx, MDL_COIL, 0, out);
 }
 
 int all_tables_write_pump(modbus_t *ctx, bool value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_pump(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_COIL, 0, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_COIL, 0, value);
 }
 
+/* fan */
 int all_tables_read_fan(modbus_t *ctx, bool *out) {
-    bool value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_COIL, 1, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_fan(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_COIL, 1, out);
 }
 
 int all_tables_write_fan(modbus_t *ctx, bool value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_fan(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_COIL, 1, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_COIL, 1, value);
 }
 
+/* alarm_reset */
 int all_tables_write_alarm_reset(modbus_t *ctx, bool value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_alarm_reset(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_COIL, 5, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0(ctx, MDL_COIL, 5, value);
 }
 
+/* door_open */
 int all_tables_read_door_open(modbus_t *ctx, bool *out) {
-    bool value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_DISCRETE, 0, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_door_open(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_DISCRETE, 0, out);
 }
 
+/* filter_dirty */
 int all_tables_read_filter_dirty(modbus_t *ctx, bool *out) {
-    bool value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_DISCRETE, 1, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_filter_dirty(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_0(ctx, MDL_DISCRETE, 1, out);
 }
 
+/* energy */
 int all_tables_read_energy(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -689,6 +609,7 @@ int all_tables_read_energy(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* power */
 int all_tables_read_power(modbus_t *ctx, float *out) {
     float value;
     bool value_has = true;
@@ -706,6 +627,7 @@ int all_tables_read_power(modbus_t *ctx, float *out) {
     return 0;
 }
 
+/* voltage */
 int all_tables_read_voltage(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -726,64 +648,25 @@ int all_tables_read_voltage(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* gap_low */
 int all_tables_read_gap_low(modbus_t *ctx, uint16_t *out) {
-    uint16_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 50, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_gap_low(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 50, out);
 }
 
 int all_tables_write_gap_low(modbus_t *ctx, uint16_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_gap_low(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 50, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1(ctx, MDL_HOLDING, 50, value);
 }
 
+/* gap_high */
 int all_tables_read_gap_high(modbus_t *ctx, uint16_t *out) {
-    uint16_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 52, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_gap_high(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 52, out);
 }
 
 int all_tables_write_gap_high(modbus_t *ctx, uint16_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_gap_high(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 52, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1(ctx, MDL_HOLDING, 52, value);
 }
 
+/* setpoint */
 int all_tables_read_setpoint(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -813,35 +696,16 @@ int all_tables_write_setpoint(modbus_t *ctx, double value) {
     return 0;
 }
 
+/* mode */
 int all_tables_read_mode(modbus_t *ctx, uint16_t *out) {
-    uint16_t value;
-    bool value_has = true;
-    {
-        uint16_t r[1];
-        if (mdl_read_table(ctx, MDL_HOLDING, 101, 1, &r[0]) == -1) {
-            return -1;
-        }
-        if (decode_mode(r, &value, &value_has) == -1) {
-            return -1;
-        }
-    }
-    (void)value_has;
-    *out = value;
-    return 0;
+    return read_1(ctx, MDL_HOLDING, 101, out);
 }
 
 int all_tables_write_mode(modbus_t *ctx, uint16_t value) {
-    uint16_t r[1];
-    memset(r, 0, sizeof r);
-    if (encode_mode(value, r) == -1) {
-        return -1;
-    }
-    if (mdl_write_table(ctx, MDL_HOLDING, 101, 1, &r[0]) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1(ctx, MDL_HOLDING, 101, value);
 }
 
+/* label */
 int all_tables_read_label(modbus_t *ctx, char out[9]) {
     char value[9];
     bool value_has = true;
@@ -871,6 +735,7 @@ int all_tables_write_label(modbus_t *ctx, const char *value) {
     return 0;
 }
 
+/* status_bit */
 int all_tables_read_status_bit(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -888,6 +753,7 @@ int all_tables_read_status_bit(modbus_t *ctx, double *out) {
     return 0;
 }
 
+/* flow */
 int all_tables_read_flow(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -917,6 +783,7 @@ int all_tables_write_flow(modbus_t *ctx, double value) {
     return 0;
 }
 
+/* big */
 int all_tables_read_big(modbus_t *ctx, int64_t *out) {
     int64_t value;
     bool value_has = true;
@@ -946,6 +813,7 @@ int all_tables_write_big(modbus_t *ctx, int64_t value) {
     return 0;
 }
 
+/* temp_offset */
 int all_tables_read_temp_offset(modbus_t *ctx, double *out) {
     double value;
     bool value_has = true;
@@ -975,6 +843,7 @@ int all_tables_write_temp_offset(modbus_t *ctx, double value) {
     return 0;
 }
 
+/* serial */
 int all_tables_read_serial(modbus_t *ctx, uint32_t *out) {
     uint32_t value;
     bool value_has = true;
@@ -1004,6 +873,7 @@ int all_tables_write_serial(modbus_t *ctx, uint32_t value) {
     return 0;
 }
 
+/* low_byte */
 int all_tables_read_low_byte(modbus_t *ctx, int8_t *out) {
     int8_t value;
     bool value_has = true;
@@ -1033,6 +903,7 @@ int all_tables_write_low_byte(modbus_t *ctx, int8_t value) {
     return 0;
 }
 
+/* high_byte */
 int all_tables_read_high_byte(modbus_t *ctx, uint8_t *out) {
     uint8_t value;
     bool value_has = true;
@@ -1104,7 +975,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_pump(r, &values.pump, &has) == -1) {
+        if (decode_0(r, &values.pump, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1116,7 +987,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_fan(r, &values.fan, &has) == -1) {
+        if (decode_0(r, &values.fan, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1128,7 +999,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_door_open(r, &values.door_open, &has) == -1) {
+        if (decode_0(r, &values.door_open, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1140,7 +1011,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_filter_dirty(r, &values.filter_dirty, &has) == -1) {
+        if (decode_0(r, &values.filter_dirty, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1186,7 +1057,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_gap_low(r, &values.gap_low, &has) == -1) {
+        if (decode_1(r, &values.gap_low, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1198,7 +1069,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_gap_high(r, &values.gap_high, &has) == -1) {
+        if (decode_1(r, &values.gap_high, &has) == -1) {
             return -1;
         }
         (void)has;
@@ -1222,7 +1093,7 @@ int all_tables_driver_read_all(struct all_tables_driver *driver, struct all_tabl
             return -1;
         }
         bool has = true;
-        if (decode_mode(r, &values.mode, &has) == -1) {
+        if (decode_1(r, &values.mode, &has) == -1) {
             return -1;
         }
         (void)has;

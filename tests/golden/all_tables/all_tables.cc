@@ -8,7 +8,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <utility>
 
 namespace {
 
@@ -62,6 +61,17 @@ constexpr std::array<Request, 14> kSplits{ {
     {kInput, 2, 2, 2},
 } };
 
+// The slots of read_all's buffer that functions without an expression read: without an answer for
+// one of them, read_all fails (EMBXILADD) before *out changes.
+struct Range {
+    std::size_t first;
+    std::size_t end;
+};
+
+constexpr std::array<Range, 1> kNeeded{ {
+    {0, 28},
+} };
+
 /* the first error of a fragment: EDOM or ERANGE */
 void mdl_frag_fail(int *e, int code) {
     if (*e == 0) {
@@ -83,39 +93,30 @@ double mdl_frag_f2i(double x, double low, double high, int *e) {
     return 0.0;
 }
 
-// pump
-bool decode_pump(const std::array<uint16_t, 1> &r) {
+// pump and 3 more functions of the same value IR
+bool decode_0(const std::array<uint16_t, 1> &r) {
     return r[0] != 0;
 }
 
-int encode_pump(bool value, std::array<uint16_t, 1> &r) {
+// gap_low and 2 more functions of the same value IR
+uint16_t decode_1(const std::array<uint16_t, 1> &r) {
+    uint64_t v = 0;
+    v |= static_cast<uint64_t>(r[0]);
+    return static_cast<uint16_t>(v);
+}
+
+// pump and 2 more functions of the same value IR
+int encode_0(bool value, std::array<uint16_t, 1> &r) {
     r[0] = value ? 1U : 0U;
     return 0;
 }
 
-// fan
-bool decode_fan(const std::array<uint16_t, 1> &r) {
-    return r[0] != 0;
-}
-
-int encode_fan(bool value, std::array<uint16_t, 1> &r) {
-    r[0] = value ? 1U : 0U;
+// gap_low and 2 more functions of the same value IR
+int encode_1(uint16_t value, std::array<uint16_t, 1> &r) {
+    auto v = static_cast<uint64_t>(value);
+    v &= 0xFFFFULL;
+    r[0] = static_cast<uint16_t>(v & 0xFFFFU);
     return 0;
-}
-
-int encode_alarm_reset(bool value, std::array<uint16_t, 1> &r) {
-    r[0] = value ? 1U : 0U;
-    return 0;
-}
-
-// door_open
-bool decode_door_open(const std::array<uint16_t, 1> &r) {
-    return r[0] != 0;
-}
-
-// filter_dirty
-bool decode_filter_dirty(const std::array<uint16_t, 1> &r) {
-    return r[0] != 0;
 }
 
 // energy
@@ -151,34 +152,6 @@ std::optional<double> decode_voltage(const std::array<uint16_t, 1> &r) {
     return x;
 }
 
-// gap_low
-uint16_t decode_gap_low(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    return static_cast<uint16_t>(v);
-}
-
-int encode_gap_low(uint16_t value, std::array<uint16_t, 1> &r) {
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFFFU);
-    return 0;
-}
-
-// gap_high
-uint16_t decode_gap_high(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    return static_cast<uint16_t>(v);
-}
-
-int encode_gap_high(uint16_t value, std::array<uint16_t, 1> &r) {
-    auto v = static_cast<uint64_t>(value);
-    v &= 0xFFFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFFFU);
-    return 0;
-}
-
 // setpoint
 double decode_setpoint(const std::array<uint16_t, 1> &r) {
     uint64_t v = 0;
@@ -210,20 +183,6 @@ int encode_setpoint(double value, std::array<uint16_t, 1> &r) {
         return -1;
     }
     auto v = static_cast<uint64_t>(static_cast<int64_t>(x));
-    v &= 0xFFFFULL;
-    r[0] = static_cast<uint16_t>(v & 0xFFFFU);
-    return 0;
-}
-
-// mode
-uint16_t decode_mode(const std::array<uint16_t, 1> &r) {
-    uint64_t v = 0;
-    v |= static_cast<uint64_t>(r[0]);
-    return static_cast<uint16_t>(v);
-}
-
-int encode_mode(uint16_t value, std::array<uint16_t, 1> &r) {
-    auto v = static_cast<uint64_t>(value);
     v &= 0xFFFFULL;
     r[0] = static_cast<uint16_t>(v & 0xFFFFU);
     return 0;
@@ -384,161 +343,85 @@ int encode_high_byte(uint8_t value, std::array<uint16_t, 1> &r) {
 
 // read_all's decoding, part 1 of 1: small functions keep the compile time
 // linear in the number of functions
-int decode_part_0(const std::array<uint16_t, 28> &raw, const std::array<bool, 28> &have, AllTablesValues &values) {
+int decode_part_0(const std::array<uint16_t, 28> &raw, AllTablesValues &values) {
     {
         const std::array<uint16_t, 1> r{ raw[0] };
-        if (!have[0]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.pump = decode_pump(r);
+        values.pump = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[1] };
-        if (!have[1]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.fan = decode_fan(r);
+        values.fan = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[2] };
-        if (!have[2]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.door_open = decode_door_open(r);
+        values.door_open = decode_0(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[3] };
-        if (!have[3]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.filter_dirty = decode_filter_dirty(r);
+        values.filter_dirty = decode_0(r);
     }
     {
         const std::array<uint16_t, 2> r{ raw[23], raw[24] };
-        if (!have[23] || !have[24]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.energy = decode_energy(r);
     }
     {
         const std::array<uint16_t, 2> r{ raw[25], raw[26] };
-        if (!have[25] || !have[26]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.power = decode_power(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[27] };
-        if (!have[27]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.voltage = decode_voltage(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[4] };
-        if (!have[4]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.gap_low = decode_gap_low(r);
+        values.gap_low = decode_1(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[5] };
-        if (!have[5]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.gap_high = decode_gap_high(r);
+        values.gap_high = decode_1(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[6] };
-        if (!have[6]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.setpoint = decode_setpoint(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[7] };
-        if (!have[7]) {
-            errno = EMBXILADD;
-            return -1;
-        }
-        values.mode = decode_mode(r);
+        values.mode = decode_1(r);
     }
     {
         const std::array<uint16_t, 4> r{ raw[8], raw[9], raw[10], raw[11] };
-        if (!have[8] || !have[9] || !have[10] || !have[11]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.label = decode_label(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[12] };
-        if (!have[12]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         if (decode_status_bit(r, &values.status_bit) == -1) {
             return -1;
         }
     }
     {
         const std::array<uint16_t, 1> r{ raw[13] };
-        if (!have[13]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         if (decode_flow(r, &values.flow) == -1) {
             return -1;
         }
     }
     {
         const std::array<uint16_t, 4> r{ raw[14], raw[15], raw[16], raw[17] };
-        if (!have[14] || !have[15] || !have[16] || !have[17]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.big = decode_big(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[18] };
-        if (!have[18]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.temp_offset = decode_temp_offset(r);
     }
     {
         const std::array<uint16_t, 2> r{ raw[19], raw[20] };
-        if (!have[19] || !have[20]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.serial = decode_serial(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[21] };
-        if (!have[21]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.low_byte = decode_low_byte(r);
     }
     {
         const std::array<uint16_t, 1> r{ raw[22] };
-        if (!have[22]) {
-            errno = EMBXILADD;
-            return -1;
-        }
         values.high_byte = decode_high_byte(r);
     }
     return 0;
@@ -610,75 +493,88 @@ int AllTables::check_reply_ended_() {
     return 0;
 }
 
-int AllTables::read_pump(bool *out) {
+// Reads one run of 1 register and decodes it with decode_0: the read_<name> of each function
+// that does is a call of this one, kept out of line so that the compile time stays small and linear
+[[gnu::noinline]] int AllTables::read_0_(int table, int start, bool *out) {
     std::array<uint16_t, 1> r{};
-    if (read_table_(kCoil, 0, 1, r.data()) == -1) {
+    if (read_table_(table, start, 1, r.data()) == -1) {
         return -1;
     }
-    *out = decode_pump(r);
+    *out = decode_0(r);
     return 0;
+}
+
+// Reads one run of 1 register and decodes it with decode_1: the read_<name> of each function
+// that does is a call of this one, kept out of line so that the compile time stays small and linear
+[[gnu::noinline]] int AllTables::read_1_(int table, int start, uint16_t *out) {
+    std::array<uint16_t, 1> r{};
+    if (read_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    *out = decode_1(r);
+    return 0;
+}
+
+// Encodes a value with encode_0 and writes its run of 1 register: the write_<name>
+// of each function that does is a call of this one, kept out of line as read_<n>_ is
+[[gnu::noinline]] int AllTables::write_0_(int table, int start, bool value) {
+    std::array<uint16_t, 1> r{};
+    if (encode_0(value, r) == -1) {
+        return -1;
+    }
+    if (write_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+// Encodes a value with encode_1 and writes its run of 1 register: the write_<name>
+// of each function that does is a call of this one, kept out of line as read_<n>_ is
+[[gnu::noinline]] int AllTables::write_1_(int table, int start, uint16_t value) {
+    std::array<uint16_t, 1> r{};
+    if (encode_1(value, r) == -1) {
+        return -1;
+    }
+    if (write_table_(table, start, 1, r.data()) == -1) {
+        return -1;
+    }
+    return 0;
+}
+
+// pump
+int AllTables::read_pump(bool *out) {
+    return read_0_(kCoil, 0, out);
 }
 
 int AllTables::write_pump(bool value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_pump(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kCoil, 0, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kCoil, 0, value);
 }
 
+// fan
 int AllTables::read_fan(bool *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kCoil, 1, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_fan(r);
-    return 0;
+    return read_0_(kCoil, 1, out);
 }
 
 int AllTables::write_fan(bool value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_fan(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kCoil, 1, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kCoil, 1, value);
 }
 
+// alarm_reset
 int AllTables::write_alarm_reset(bool value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_alarm_reset(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kCoil, 5, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_0_(kCoil, 5, value);
 }
 
+// door_open
 int AllTables::read_door_open(bool *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kDiscrete, 0, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_door_open(r);
-    return 0;
+    return read_0_(kDiscrete, 0, out);
 }
 
+// filter_dirty
 int AllTables::read_filter_dirty(bool *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kDiscrete, 1, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_filter_dirty(r);
-    return 0;
+    return read_0_(kDiscrete, 1, out);
 }
 
+// energy
 int AllTables::read_energy(double *out) {
     std::array<uint16_t, 2> r{};
     if (read_table_(kInput, 0, 2, r.data()) == -1) {
@@ -688,6 +584,7 @@ int AllTables::read_energy(double *out) {
     return 0;
 }
 
+// power
 int AllTables::read_power(float *out) {
     std::array<uint16_t, 2> r{};
     if (read_table_(kInput, 2, 2, r.data()) == -1) {
@@ -697,6 +594,7 @@ int AllTables::read_power(float *out) {
     return 0;
 }
 
+// voltage
 int AllTables::read_voltage(std::optional<double> *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kInput, 10, 1, r.data()) == -1) {
@@ -706,46 +604,25 @@ int AllTables::read_voltage(std::optional<double> *out) {
     return 0;
 }
 
+// gap_low
 int AllTables::read_gap_low(uint16_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 50, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_gap_low(r);
-    return 0;
+    return read_1_(kHolding, 50, out);
 }
 
 int AllTables::write_gap_low(uint16_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_gap_low(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 50, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1_(kHolding, 50, value);
 }
 
+// gap_high
 int AllTables::read_gap_high(uint16_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 52, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_gap_high(r);
-    return 0;
+    return read_1_(kHolding, 52, out);
 }
 
 int AllTables::write_gap_high(uint16_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_gap_high(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 52, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1_(kHolding, 52, value);
 }
 
+// setpoint
 int AllTables::read_setpoint(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 100, 1, r.data()) == -1) {
@@ -766,26 +643,16 @@ int AllTables::write_setpoint(double value) {
     return 0;
 }
 
+// mode
 int AllTables::read_mode(uint16_t *out) {
-    std::array<uint16_t, 1> r{};
-    if (read_table_(kHolding, 101, 1, r.data()) == -1) {
-        return -1;
-    }
-    *out = decode_mode(r);
-    return 0;
+    return read_1_(kHolding, 101, out);
 }
 
 int AllTables::write_mode(uint16_t value) {
-    std::array<uint16_t, 1> r{};
-    if (encode_mode(value, r) == -1) {
-        return -1;
-    }
-    if (write_table_(kHolding, 101, 1, r.data()) == -1) {
-        return -1;
-    }
-    return 0;
+    return write_1_(kHolding, 101, value);
 }
 
+// label
 int AllTables::read_label(std::string *out) {
     std::array<uint16_t, 4> r{};
     if (read_table_(kHolding, 102, 4, r.data()) == -1) {
@@ -806,6 +673,7 @@ int AllTables::write_label(const std::string &value) {
     return 0;
 }
 
+// status_bit
 int AllTables::read_status_bit(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 110, 1, r.data()) == -1) {
@@ -817,6 +685,7 @@ int AllTables::read_status_bit(double *out) {
     return 0;
 }
 
+// flow
 int AllTables::read_flow(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 111, 1, r.data()) == -1) {
@@ -839,6 +708,7 @@ int AllTables::write_flow(double value) {
     return 0;
 }
 
+// big
 int AllTables::read_big(int64_t *out) {
     std::array<uint16_t, 4> r{};
     if (read_table_(kHolding, 200, 4, r.data()) == -1) {
@@ -859,6 +729,7 @@ int AllTables::write_big(int64_t value) {
     return 0;
 }
 
+// temp_offset
 int AllTables::read_temp_offset(double *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 300, 1, r.data()) == -1) {
@@ -879,6 +750,7 @@ int AllTables::write_temp_offset(double value) {
     return 0;
 }
 
+// serial
 int AllTables::read_serial(uint32_t *out) {
     std::array<uint16_t, 2> r{};
     if (read_table_(kHolding, 400, 2, r.data()) == -1) {
@@ -899,6 +771,7 @@ int AllTables::write_serial(uint32_t value) {
     return 0;
 }
 
+// low_byte
 int AllTables::read_low_byte(int8_t *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 402, 1, r.data()) == -1) {
@@ -919,6 +792,7 @@ int AllTables::write_low_byte(int8_t value) {
     return 0;
 }
 
+// high_byte
 int AllTables::read_high_byte(uint8_t *out) {
     std::array<uint16_t, 1> r{};
     if (read_table_(kHolding, 403, 1, r.data()) == -1) {
@@ -940,7 +814,6 @@ int AllTables::write_high_byte(uint8_t value) {
 }
 
 int AllTables::read_all(AllTablesValues *out) {
-    AllTablesValues values;  // *out changes only when every value is read
     // The plan's registers and bits, and which of them the device answered. A register the device
     // refuses with exception 2 even when asked alone has no value: expressions that need it read
     // std::nullopt, any other function fails with EMBXILADD.
@@ -969,9 +842,33 @@ int AllTables::read_all(AllTablesValues *out) {
             std::fill_n(&have[q.offset + s.delta], s.count, true);
         }
     }
-    if (decode_part_0(raw, have, values) == -1) {
+    // Every register a function without an expression needs was answered: checked, as a fragment
+    // that has no value is, before *out changes (it changes only when every value is read).
+    for (const Range &range : kNeeded) {
+        for (std::size_t s = range.first; s < range.end; ++s) {
+            if (!have[s]) {
+                errno = EMBXILADD;
+                return -1;
+            }
+        }
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[12] };
+        double value{};
+        if (decode_status_bit(r, &value) == -1) {
+            return -1;
+        }
+    }
+    {
+        const std::array<uint16_t, 1> r{ raw[13] };
+        double value{};
+        if (decode_flow(r, &value) == -1) {
+            return -1;
+        }
+    }
+    AllTablesValues &values = *out;  // nothing fails from here on
+    if (decode_part_0(raw, values) == -1) {
         return -1;
     }
-    *out = std::move(values);
     return 0;
 }

@@ -88,11 +88,12 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
 
 
 
-def _need(name: str, regs: list[int | None]) -> list[int]:
-    """The registers of a function; ModbusExceptionError if the device refused one of them."""
-    if None in regs:
-        raise ModbusExceptionError(2, f"reading {name}")
-    return cast("list[int]", regs)
+def _refused(raw: list[int | None]) -> None:
+    """ModbusExceptionError for the first function (in decode order) without an expression whose
+    registers the device refused (even when asked alone)."""
+    for name, slots in _SLOTS:
+        if any(raw[s] is None for s in slots):
+            raise ModbusExceptionError(2, f"reading {name}")
 
 
 def _f32(x: float) -> float:
@@ -436,6 +437,50 @@ _PLAN: tuple[tuple[_Request, int, tuple[_Request, ...]], ...] = (
     (('input', 10, 1), 27, ()),
 )
 _BUFFER_SIZE = 28
+# each readable function without an expression and its slots in that buffer, in decode order
+_SLOTS: tuple[tuple[str, tuple[int, ...]], ...] = (
+    ('pump', (0,)),
+    ('fan', (1,)),
+    ('door_open', (2,)),
+    ('filter_dirty', (3,)),
+    ('energy', (23, 24)),
+    ('power', (25, 26)),
+    ('voltage', (27,)),
+    ('gap_low', (4,)),
+    ('gap_high', (5,)),
+    ('setpoint', (6,)),
+    ('mode', (7,)),
+    ('label', (8, 9, 10, 11)),
+    ('status_bit', (12,)),
+    ('flow', (13,)),
+    ('big', (14, 15, 16, 17)),
+    ('temp_offset', (18,)),
+    ('serial', (19, 20)),
+    ('low_byte', (21,)),
+    ('high_byte', (22,)),
+)
+# every readable function's name, in decode order: read_all's result starts as a copy of this
+_NAMES: dict[str, None] = dict.fromkeys((
+    'pump',
+    'fan',
+    'door_open',
+    'filter_dirty',
+    'energy',
+    'power',
+    'voltage',
+    'gap_low',
+    'gap_high',
+    'setpoint',
+    'mode',
+    'label',
+    'status_bit',
+    'flow',
+    'big',
+    'temp_offset',
+    'serial',
+    'low_byte',
+    'high_byte',
+))
 
 
 class AllTablesValues(TypedDict):
@@ -464,46 +509,49 @@ class AllTablesValues(TypedDict):
 
 def _values(raw: list[int | None]) -> AllTablesValues:
     """Every readable function's value from the registers of the read plan, in dependency order."""
-    v_pump = _decode_pump(_need('pump', raw[0:1]))
-    v_fan = _decode_fan(_need('fan', raw[1:2]))
-    v_door_open = _decode_door_open(_need('door_open', raw[2:3]))
-    v_filter_dirty = _decode_filter_dirty(_need('filter_dirty', raw[3:4]))
-    v_energy = _decode_energy(_need('energy', raw[23:25]))
-    v_power = _decode_power(_need('power', raw[25:27]))
-    v_voltage = _decode_voltage(_need('voltage', raw[27:28]))
-    v_gap_low = _decode_gap_low(_need('gap_low', raw[4:5]))
-    v_gap_high = _decode_gap_high(_need('gap_high', raw[5:6]))
-    v_setpoint = _decode_setpoint(_need('setpoint', raw[6:7]))
-    v_mode = _decode_mode(_need('mode', raw[7:8]))
-    v_label = _decode_label(_need('label', raw[8:12]))
-    v_status_bit = _decode_status_bit(_need('status_bit', raw[12:13]))
-    v_flow = _decode_flow(_need('flow', raw[13:14]))
-    v_big = _decode_big(_need('big', raw[14:18]))
-    v_temp_offset = _decode_temp_offset(_need('temp_offset', raw[18:19]))
-    v_serial = _decode_serial(_need('serial', raw[19:21]))
-    v_low_byte = _decode_low_byte(_need('low_byte', raw[21:22]))
-    v_high_byte = _decode_high_byte(_need('high_byte', raw[22:23]))
-    return {
-        'pump': v_pump,
-        'fan': v_fan,
-        'door_open': v_door_open,
-        'filter_dirty': v_filter_dirty,
-        'energy': v_energy,
-        'power': v_power,
-        'voltage': v_voltage,
-        'gap_low': v_gap_low,
-        'gap_high': v_gap_high,
-        'setpoint': v_setpoint,
-        'mode': v_mode,
-        'label': v_label,
-        'status_bit': v_status_bit,
-        'flow': v_flow,
-        'big': v_big,
-        'temp_offset': v_temp_offset,
-        'serial': v_serial,
-        'low_byte': v_low_byte,
-        'high_byte': v_high_byte,
-    }
+    if None in raw:
+        _refused(raw)
+    regs = cast("list[int]", raw)  # only expressions read a register the device refused
+    v_pump = _decode_pump([regs[0]])
+    v_fan = _decode_fan([regs[1]])
+    v_door_open = _decode_door_open([regs[2]])
+    v_filter_dirty = _decode_filter_dirty([regs[3]])
+    v_energy = _decode_energy([regs[23], regs[24]])
+    v_power = _decode_power([regs[25], regs[26]])
+    v_voltage = _decode_voltage([regs[27]])
+    v_gap_low = _decode_gap_low([regs[4]])
+    v_gap_high = _decode_gap_high([regs[5]])
+    v_setpoint = _decode_setpoint([regs[6]])
+    v_mode = _decode_mode([regs[7]])
+    v_label = _decode_label([regs[8], regs[9], regs[10], regs[11]])
+    v_status_bit = _decode_status_bit([regs[12]])
+    v_flow = _decode_flow([regs[13]])
+    v_big = _decode_big([regs[14], regs[15], regs[16], regs[17]])
+    v_temp_offset = _decode_temp_offset([regs[18]])
+    v_serial = _decode_serial([regs[19], regs[20]])
+    v_low_byte = _decode_low_byte([regs[21]])
+    v_high_byte = _decode_high_byte([regs[22]])
+    values = cast("AllTablesValues", _NAMES.copy())  # every key in place: nothing grows as it fills
+    values['pump'] = v_pump
+    values['fan'] = v_fan
+    values['door_open'] = v_door_open
+    values['filter_dirty'] = v_filter_dirty
+    values['energy'] = v_energy
+    values['power'] = v_power
+    values['voltage'] = v_voltage
+    values['gap_low'] = v_gap_low
+    values['gap_high'] = v_gap_high
+    values['setpoint'] = v_setpoint
+    values['mode'] = v_mode
+    values['label'] = v_label
+    values['status_bit'] = v_status_bit
+    values['flow'] = v_flow
+    values['big'] = v_big
+    values['temp_offset'] = v_temp_offset
+    values['serial'] = v_serial
+    values['low_byte'] = v_low_byte
+    values['high_byte'] = v_high_byte
+    return values
 
 
 class AllTables:

@@ -14,14 +14,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import jinja2
+
 from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Target, plan_rows
+from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.c import expressions
-from mdl.targets.templating import environment
+from mdl.targets.templating import SharedRendering, environment
 from mdl.values import ir
 
 RUNTIME = Path(__file__).resolve().parent / "runtime"
@@ -60,7 +62,7 @@ class RangeCheck:
     never: bool = False
 
 
-@dataclass
+@dataclass(eq=False)  # compared by identity: one per function
 class CFunction:
     rf: ResolvedFunction
     ident: str
@@ -72,7 +74,7 @@ class CFunction:
     expr: Any  # expressions.CExpression, or None
     decode: tuple[ir.DecodeStep, ...] | None
     encode: tuple[ir.EncodeStep, ...] | None
-    runs: list[tuple[str, int, int]]
+    runs: list[Run]
     slots: list[int]
     read_fragment: str | None = None  # the names of its fragment functions
     write_fragment: str | None = None
@@ -81,54 +83,44 @@ class CFunction:
     list_type: str = ""
     deps: list[CFunction] = field(default_factory=list)
     steps: list[CFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
+    # its decoder decode_<decoder> and encoder encode_<encoder>: a shared one's number, or its own
+    # identifier with its body (templates/steps.j2) in decode_text (not for an expression) and encode_text
+    decoder: str = ""
+    encoder: str = ""
+    decode_text: str = ""
+    encode_text: str = ""
+    reader: int | None = None  # read_<reader> reads its one run and decodes it, if shared
+    writer: int | None = None  # write_<writer> encodes a value and writes its one run, if shared
 
     @property
     def fn(self) -> Any:
         return self.rf.fn
 
     @property
+    def reads_device(self) -> bool:
+        """Whether read_<ident> reads registers (of its own or of the functions it needs)."""
+        return any(step.n for step in self.steps)
+
+    @property
     def is_text(self) -> bool:
         return self.text_size > 0
 
     @property
-    def params(self) -> str:
-        """The parameters of decode_<ident>."""
-        out = ["const uint16_t *r"] + (["const bool *present"] if self.expr is not None else [])
-        for i, d in enumerate(self.deps):
-            out += [f"{_param_type(d, self.list_type)}p{i}", f"bool p{i}_has"]
-        out.append(f"{self.t} *out")
-        return ", ".join(out + ["bool *has"])
-
-    def call_args(self, mode: str, target: str, has_target: str) -> str:
-        """The arguments of a call of decode_<ident> in read_<ident> (mode single: the values it needs
-        are v_<name>) or in read_all (mode all: values.<name>)."""
-        out = ["r"] + (["present"] if self.expr is not None else [])
-        for d in self.deps:
-            value = f"v_{d.ident}" if mode == "single" else f"values.{d.ident}"
-            if d.expr is None and d.t not in ("char", "bool"):
-                value = f"(int64_t){value}" if d.rf.codec.value_type.kind == "int" else f"(double){value}"
-            elif d.t.startswith("struct"):
-                value = "&" + value
-            has = f"v_{d.ident}_has" if mode == "single" else f"values.has_{d.ident}" if d.nullable else "true"
-            out += [value, has]
-        out.append(target if self.is_text else "&" + target)
-        return ", ".join(out + [has_target])
+    def param_type(self) -> str:
+        """The C type of an expression's parameter naming this function (as the expression sees it;
+        a scalar one is converted to it)."""
+        if self.t == "char":
+            return "const char *"
+        if self.t.startswith("struct"):
+            return f"const {self.t} *"
+        if self.expr is None and self.t != "bool":
+            return "int64_t " if self.rf.codec.value_type.kind == "int" else "double "
+        return f"{self.t} "
 
     @property
     def fails(self) -> bool:
         """Whether decoding can fail (a fragment's EDOM/ERANGE)."""
         return self.read_fragment is not None
-
-
-def _param_type(d: CFunction, list_type: str) -> str:
-    """The C type of an expression's parameter naming function d (as the expression sees it)."""
-    if d.t == "char":
-        return "const char *"
-    if d.t.startswith("struct"):
-        return f"const {d.t} *"
-    if d.expr is None and d.t != "bool":
-        return "int64_t " if d.rf.codec.value_type.kind == "int" else "double "
-    return f"{d.t} "
 
 
 def _int_limits(t: str) -> tuple[int, int] | None:
@@ -186,7 +178,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             rf=rf, ident=rf.ident, n=len(rf.layout.addresses), t=c_type(vt, rd.stem),
             wt=c_type(codec.write_type, rd.stem),
             text_size=text_size, nullable=vt.nullable, expr=expr, decode=codec.decode, encode=codec.encode,
-            runs=[(TABLE_CONST[rf.layout.table], s, c) for s, c in rf.layout.runs],
+            runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
             slots=list(rd.slots_of(rf)) if codec.decode else [])
         for step in codec.decode or ():
             if isinstance(step, ir.Fragment):
@@ -256,11 +248,106 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     }
 
 
+@dataclass
+class SharedCode:
+    """`decode_<k>` or `encode_<k>`: the decoder or encoder of every function of the same IR (shape,
+    type, registers and, to write, bounds); `reads`: a function whose one run `read_<k>` reads, if
+    several do."""
+
+    k: int
+    t: str
+    text: str  # its body (templates/steps.j2)
+    first: str  # the name of the first function it serves
+    uses: int
+    reads: CFunction | None = None
+
+
+@dataclass
+class SharedWriter:
+    """`write_<j>`: encodes a value and writes one run of registers, as `first` does."""
+
+    j: int
+    first: CFunction
+
+
+@dataclass
+class Shared:
+    decoders: list[SharedCode] = field(default_factory=list)
+    encoders: list[SharedCode] = field(default_factory=list)
+    writers: list[SharedWriter] = field(default_factory=list)
+
+
+def _check_key(check: RangeCheck | None) -> tuple[str | None, str | None, bool] | None:
+    return None if check is None else (check.low, check.high, check.never)
+
+
+def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
+    """Each function's decoder and encoder, printed by steps.j2 from its IR. Functions of the same IR
+    share one decoder and one encoder (and those that read or write one run of registers, one
+    function doing it), so that each <stem>_read_<name> and <stem>_write_<name> of a device of
+    10,000 functions is one call; a function whose IR no other has (a fragment) has its own,
+    named after it, and an expression is printed by mdl.targets.c.expressions."""
+    steps = env.get_template("c/templates/steps.j2").module
+    decoder = SharedRendering(steps.decoder)  # type: ignore[attr-defined]
+    encoder = SharedRendering(steps.encoder)  # type: ignore[attr-defined]
+    decoding: dict[object, list[CFunction]] = {}
+    encoding: dict[object, list[CFunction]] = {}
+    for f in functions:
+        rf = f.rf
+        key: object
+        if f.decode is not None:
+            f.decoder = f.ident
+            if f.expr is None:
+                key = (rf.decode_shape, f.t, f.n, f.text_size, f.nullable) if rf.decode_shape is not None else f.ident
+                decoding.setdefault(key, []).append(f)
+        if f.encode is not None:
+            f.encoder = f.ident
+            key = (rf.encode_shape, f.wt, _check_key(f.range_check), _check_key(f.round_check), f.n) \
+                if rf.encode_shape is not None else f.ident
+            encoding.setdefault(key, []).append(f)
+    for group in decoding.values():  # printed once per group: its first function's
+        f = group[0]
+        f.decode_text = decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment)
+    for group in encoding.values():
+        f = group[0]
+        f.encode_text = encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment)
+    out = Shared()
+    for group in decoding.values():
+        if len(group) > 1:
+            first = group[0]
+            d = SharedCode(len(out.decoders), first.t, first.decode_text, first.fn.name, len(group))
+            out.decoders.append(d)
+            one_run = [f for f in group if len(f.runs) == 1]
+            d.reads = one_run[0] if len(one_run) > 1 else None
+            for f in group:
+                f.decoder, f.decode_text = str(d.k), ""
+            for f in one_run if d.reads is not None else ():
+                f.reader = d.k
+    writers: dict[tuple[int, bool], list[CFunction]] = {}
+    for group in encoding.values():
+        if len(group) > 1:
+            first = group[0]
+            e = SharedCode(len(out.encoders), first.wt, first.encode_text, first.fn.name, len(group))
+            out.encoders.append(e)
+            for f in group:
+                f.encoder, f.encode_text = str(e.k), ""
+                if len(f.runs) == 1:
+                    writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
+    for group in writers.values():
+        if len(group) > 1:
+            w = SharedWriter(len(out.writers), group[0])
+            out.writers.append(w)
+            for f in group:
+                f.writer = w.j
+    return out
+
+
 def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
     ctx = context(rd, source_name)
     env = environment()
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name
     env.globals.update(ctx)
+    env.globals["shared"] = share(ctx["functions"], env)
     return {f"{ctx['stem']}.h": env.get_template("c/templates/device.h.j2").render(),
             f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render()}
 

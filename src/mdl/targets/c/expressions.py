@@ -57,6 +57,7 @@ class CExpression:
         self.lowered = lowered
         self.param_caps: dict[str, int] = {}
         self.param_lists: dict[str, int] = {}
+        self._body: list[str] | None = None
 
     @property
     def type(self) -> str:
@@ -92,7 +93,13 @@ class CExpression:
         return _REGISTER_TEXT[op.kind](d["count"])
 
     def body(self) -> list[str]:
-        """The statements of `decode_<ident>(r, present, params..., out, has)`; *has false for null."""
+        """The statements of `decode_<ident>(r, present, params..., out, has)`; *has false for null.
+        Worked out once, on the first call: the parameters' capacities are known by then."""
+        if self._body is None:
+            self._body = self._statements()
+        return self._body
+
+    def _statements(self) -> list[str]:
         caps = self.caps()
         lines: list[str] = []
         for op in self.lowered.ops:

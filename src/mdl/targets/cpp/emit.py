@@ -23,9 +23,10 @@ from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Target, plan_rows
+from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
+from mdl.targets.templating import SharedRendering
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
@@ -94,8 +95,9 @@ def range_tests(step: ir.CheckRange | None, t: str) -> list[str] | None:
 
 # ---- the template's view of the device ----
 
-@dataclass
+@dataclass(eq=False)  # compared by identity: one per function
 class CppFunction:
+    resolved: ResolvedFunction
     fn: Function
     ident: str
     codec: ir.Codec  # its value IR, which templates/ops.j2 prints
@@ -104,7 +106,8 @@ class CppFunction:
     n: int  # registers (or bits)
     expr: bool
     deps: list[str]  # idents of the functions an expression refers to, in parameter order
-    runs: list[dict[str, Any]]
+    dep_types: list[str]  # their value types
+    runs: list[Run]
     slots: list[int]  # positions of the registers in read_all's buffer
     readable: bool
     writable: bool
@@ -113,8 +116,15 @@ class CppFunction:
     encode_lines: list[str]  # a write fragment's statements
     range_tests: list[str] | None  # conditions refusing a value to write; None: every value is refused
     int_bits: int  # the width of the C type of an integer value
-    params: str = ""
     steps: list[CppFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
+    # its decoder decode_<decoder> and encoder encode_<encoder>: a shared one's number, or its own
+    # identifier (a fragment, an expression) with its body (templates/ops.j2) in decode_text/encode_text
+    decoder: str = ""
+    encoder: str = ""
+    decode_text: str = ""
+    encode_text: str = ""
+    reader: int | None = None  # read_<reader>_ reads its one run and decodes it, if shared
+    writer: int | None = None  # write_<writer>_ encodes a value and writes its one run, if shared
 
     @property
     def reads_device(self) -> bool:
@@ -136,10 +146,10 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
         decode_lines = []
     wt = value_type(codec.write_type)
     return CppFunction(
-        fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
+        resolved=f, fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
         rt=f"std::optional<{t}>" if codec.value_type.nullable else t,
-        deps=[ident_of[d] for d in f.deps],
-        runs=[{"table": TABLE_CONST[lay.table], "start": s, "count": c} for s, c in lay.runs],
+        deps=[ident_of[d] for d in f.deps], dep_types=[],
+        runs=runs_at(TABLE_CONST[lay.table], f.runs),
         slots=list(resolved.slots_of(f)) if fn.readable else [],
         readable=codec.decode is not None, writable=codec.encode is not None,
         status=read_fragment is not None, decode_lines=decode_lines,
@@ -152,18 +162,28 @@ def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     ident_of = {f.name: f.ident for f in resolved.functions}
     out = {f.ident: _function(resolved, f, ident_of) for f in resolved.functions}
     for f in out.values():
-        f.params = ", ".join(([f"const std::array<uint16_t, {f.n}> &r"] if f.n else [])
-                             + ([f"const std::array<bool, {f.n}> &present"] if f.n and f.expr else [])
-                             + [f"const std::optional<{out[d].t}> &p{i}" for i, d in enumerate(f.deps)]
-                             + ([f"{f.rt} *out"] if f.status else []))
-        closure = resolved.closure([f.fn.name]) if f.deps else [resolved.by_name[f.fn.name]]
-        f.steps = [out[g.ident] for g in closure]
+        if f.deps:
+            f.steps = [out[g.ident] for g in resolved.closure([f.fn.name])]
+            f.dep_types = [out[d].t for d in f.deps]
+        else:
+            f.steps = [f]
     return out
 
 
 def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
     return [step.tree.c("c++") for f in resolved.functions for steps in (f.codec.decode, f.codec.encode)
             for step in steps or () if isinstance(step, ir.Fragment)]
+
+
+def _ranges(slots: list[int]) -> list[tuple[int, int]]:
+    """Sorted slots as (first, end) ranges of consecutive ones."""
+    out: list[tuple[int, int]] = []
+    for s in slots:
+        if out and out[-1][1] == s:
+            out[-1] = (out[-1][0], s + 1)
+        else:
+            out.append((s, s + 1))
+    return out
 
 
 def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
@@ -180,17 +200,18 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     if fragments:
         runtime += "\n" + helpers_source(fragments, "c++")
         runtime_includes += FRAGMENT_INCLUDES["c++"]
-    chunks = [{"functions": part, "uses_raw": any(f.n for f in part)}
+    chunks = [{"functions": part, "uses_raw": any(f.n for f in part), "uses_have": any(f.n and f.expr for f in part)}
               for part in (readable[i:i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))]
     types = [f.t for f in functions] + [f.rt for f in functions]
-    values_own_memory = any("std::string" in f.rt or "std::vector" in f.rt for f in readable)
+    needed = _ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
     return {
         "device": device, "version": __version__, "source": source_name, "stem": file_stem,
         "class_name": resolved.class_name, "guard": f"MDL_{file_stem.upper().rstrip('_')}_H", "functions": functions,
         "readable": readable, "chunks": chunks, "groups": groups, "splits": splits, "raw_total": raw_total,
-        "fragments": bool(fragments), "runtime": runtime, "values_own_memory": values_own_memory,
+        "fragments": bool(fragments), "runtime": runtime,
+        "needed": needed, "fragment_reads": [f for f in readable if f.status],
         "writes_multiple": any(f.writable and f.fn.write_multiple for f in functions),  # FC15/FC16 only
-        "includes": sorted(set(BASE_INCLUDES) | set(runtime_includes) | ({"utility"} if values_own_memory else set())),
+        "includes": sorted(set(BASE_INCLUDES) | set(runtime_includes)),
         "header_includes": sorted({"array", "cstddef", "cstdint"}
                                   | ({"optional"} if any("std::optional" in t for t in types) else set())
                                   | ({"string"} if any("std::string" in t for t in types) else set())
@@ -204,9 +225,114 @@ def environment() -> jinja2.Environment:
     return env
 
 
+@dataclass
+class SharedDecoder:
+    """`decode_<k>`: the decoder of every function of the same IR (decode shape, registers, type)."""
+
+    k: int
+    rt: str
+    n: int
+    text: str  # its body (templates/ops.j2)
+    first: str  # the name of the first function it decodes
+    uses: int
+    reads: bool = False  # whether `read_<k>_` reads one run of registers into it
+
+
+@dataclass
+class SharedEncoder:
+    """`encode_<k>`: the encoder of every function of the same IR (encode shape, bounds, registers, type)."""
+
+    k: int
+    t: str
+    n: int
+    text: str
+    first: str
+    uses: int
+
+
+@dataclass
+class SharedWriter:
+    """`write_<j>_`: encodes a value with `encode_<encoder>` and writes one run of registers."""
+
+    j: int
+    encoder: int
+    t: str
+    n: int
+    multiple: bool  # with write_multiple_ (function 15/16 only)
+
+
+@dataclass
+class Shared:
+    decoders: list[SharedDecoder] = field(default_factory=list)
+    encoders: list[SharedEncoder] = field(default_factory=list)
+    writers: list[SharedWriter] = field(default_factory=list)
+
+
+def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared:
+    """Each function's decoder and encoder, printed by ops.j2 from its IR. Functions of the same IR
+    share one decoder and one encoder (and those that read or write one run of registers, one
+    member doing it), so that a device of 10,000 functions compiles some ten of each and every
+    read_<name> and write_<name> is one call; a function whose IR no other has (a fragment, an
+    expression) has its own, named after it."""
+    ops = env.get_template("cpp/templates/ops.j2").module
+    decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
+    encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
+    decoding: dict[object, list[CppFunction]] = {}
+    encoding: dict[object, list[CppFunction]] = {}
+    for f in functions:
+        rf = f.resolved
+        key: object
+        if f.readable:
+            key = (rf.decode_shape, f.n, f.rt) if rf.decode_shape is not None else f.ident
+            decoding.setdefault(key, []).append(f)
+            f.decoder = f.ident
+        if f.writable:
+            tests = tuple(f.range_tests) if f.range_tests is not None else None
+            key = (rf.encode_shape, tests, f.int_bits, f.t, f.n) if rf.encode_shape is not None else f.ident
+            encoding.setdefault(key, []).append(f)
+            f.encoder = f.ident
+    for group in decoding.values():  # printed once per group: its first function's
+        f = group[0]
+        f.decode_text = decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip()
+    for group in encoding.values():
+        f = group[0]
+        f.encode_text = encode_body(f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines,
+                                    f.int_bits).rstrip()
+    out = Shared()
+    for group in decoding.values():
+        if len(group) > 1:
+            first = group[0]
+            d = SharedDecoder(len(out.decoders), first.rt, first.n, first.decode_text, first.fn.name, len(group))
+            out.decoders.append(d)
+            one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
+            d.reads = len(one_run) > 1
+            for f in group:
+                f.decoder, f.decode_text = str(d.k), ""
+            for f in one_run if d.reads else ():
+                f.reader = d.k
+    writers: dict[tuple[int, bool], list[CppFunction]] = {}
+    for group in encoding.values():
+        if len(group) > 1:
+            first = group[0]
+            e = SharedEncoder(len(out.encoders), first.t, first.n, first.encode_text, first.fn.name, len(group))
+            out.encoders.append(e)
+            for f in group:
+                f.encoder, f.encode_text = str(e.k), ""
+                if len(f.runs) == 1:
+                    writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
+    for (k, multiple), group in writers.items():
+        if len(group) > 1:
+            w = SharedWriter(len(out.writers), k, group[0].t, group[0].n, multiple)
+            out.writers.append(w)
+            for f in group:
+                f.writer = w.j
+    return out
+
+
 def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
     ctx = context(resolved, source_name)
     env = environment()
+    ctx["shared"] = share(ctx["functions"], env)
     return {f"{resolved.stem}.h": env.get_template("cpp/templates/device.h.j2").render(**ctx),
             f"{resolved.stem}.cc": env.get_template("cpp/templates/device.cc.j2").render(**ctx)}
 

@@ -1,9 +1,10 @@
 """MDL model -> a standalone Python module over pymodbus (SPEC section 5).
 
 The module is typed for `mypy --strict` and clean under ruff's default rules: it carries only the
-helpers it calls and imports only what it uses. The decoders and encoders are written here as
-whole functions; the names they use decide which runtime helpers (fragments' and expressions',
-copied from their pyhelpers.py) and which standard-library imports the module gets.
+helpers it calls and imports only what it uses. The bodies of decoders and encoders are printed
+from the IR by templates/ops.j2 (once per distinct IR); the names they use decide which runtime
+helpers (fragments' and expressions', copied from their pyhelpers.py) and which standard-library
+imports the module gets.
 """
 
 from __future__ import annotations
@@ -25,8 +26,8 @@ from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
+from mdl.targets.templating import SharedRendering, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
-from mdl.targets.templating import pycomment, pyrepr
 from mdl.values import ir
 from mdl.values.ir import ValueType
 
@@ -73,10 +74,10 @@ def _loaded(lines: list[str]) -> set[str]:
 def runtime_helpers() -> dict[str, tuple[str, frozenset[str]]]:
     """Fragments' and expressions' helper name -> (its source, the names it uses), in file order."""
     out = {}
+    lines = RUNTIME_SOURCE.splitlines(keepends=True)
     for node in ast.parse(RUNTIME_SOURCE).body:
-        if isinstance(node, ast.FunctionDef):
-            source = ast.get_source_segment(RUNTIME_SOURCE, node)
-            assert source is not None
+        if isinstance(node, ast.FunctionDef):  # top-level: whole lines, from its `def` (helpers have no decorators)
+            source = "".join(lines[node.lineno - 1:node.end_lineno]).rstrip("\n")
             names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
             out[node.name] = (source, frozenset(names))
     return out
@@ -177,15 +178,12 @@ def _read_plan(resolved: ResolvedDevice) -> list[tuple[Request, int, tuple[Reque
              tuple((s.table, s.start, s.count) for s in g.smaller)) for g in resolved.plan]
 
 
-def _gather(resolved: ResolvedDevice, f: ResolvedFunction) -> str:
-    """The expression in read_all giving the function's registers from the buffer: None for a
-    missing one where an expression can take it, else ModbusExceptionError."""
-    slots = resolved.slots_of(f)
-    if slots and slots == tuple(range(slots[0], slots[0] + len(slots))):
-        regs = f"raw[{slots[0]}:{slots[0] + len(slots)}]"
-    else:
-        regs = "[" + ", ".join(f"raw[{s}]" for s in slots) + "]"
-    return regs if f.fn.compiled is not None else f"_need({f.name!r}, {regs})"
+def span(slots: tuple[int, ...]) -> tuple[int, int] | None:
+    """(first, end) where the slots are more than 4 and consecutive: a slice of the buffer; else None:
+    a list of its items (cheaper than a slice for a few)."""
+    if len(slots) > 4 and slots == tuple(range(slots[0], slots[0] + len(slots))):
+        return slots[0], slots[0] + len(slots)
+    return None
 
 
 def _typed_dict_form(names: list[str]) -> str:
@@ -194,11 +192,13 @@ def _typed_dict_form(names: list[str]) -> str:
     return "class" if ok else "call"
 
 
-@dataclass
+@dataclass(eq=False)  # compared by identity: one per function
 class FunctionCode:
     """What the templates write for one function."""
 
+    resolved: ResolvedFunction
     fn: Function
+    name: str  # its MDL name
     ident: str
     codec: ir.Codec  # its value IR, which templates/ops.j2 prints
     runs: list[Request]  # the requests reading its registers
@@ -207,36 +207,69 @@ class FunctionCode:
     write_type: str | None
     params: str  # of its decoder
     args: str  # ", v_a, v_b": the values of the functions its expression names
-    gather: str  # its registers in read_all
+    slots: tuple[int, ...]  # where its registers are in read_all's buffer, if readable
+    span: tuple[int, int] | None  # (first, end) where those are read as a slice
     closure: list[str]  # the functions to decode before it, dependencies first
     fragment_read: list[str] = field(default_factory=list)  # a read fragment's Python lines
     fragment_write: list[str] = field(default_factory=list)
     expression_body: list[str] = field(default_factory=list)  # an expression's Python lines
-    decoder: str = ""  # the rendered _decode_<ident>, if readable
-    encoder: str = ""  # the rendered _encode_<ident>, if writable
+    decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
+    encode_body: str = ""  # the body of _encode_<ident>, if writable
 
 
 def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str],
                   idents: dict[str, str]) -> FunctionCode:
     fn, codec = f.fn, f.codec
+    deps = f.deps
     if fn.compiled is not None:
-        params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(f.deps)])
+        params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
     else:
         params = "r: list[int]"
     read_fragment = ir.find_step(codec.decode, ir.Fragment)
     write_fragment = ir.find_step(codec.encode, ir.Fragment)
     expression = ir.find_step(codec.decode, ir.Expression)
+    table = f.layout.table
+    slots = resolved.slots_of(f) if fn.readable else ()
     return FunctionCode(
-        fn=fn, ident=f.ident, codec=codec, runs=[(f.layout.table, start, count) for start, count in f.layout.runs],
+        resolved=f, fn=fn, name=fn.name, ident=f.ident, codec=codec,
+        runs=[(table, start, count) for start, count in f.runs],
         doc=doc_text(fn), type=types[fn.name],
         write_type=write_type(codec.write_type) if codec.encode is not None else None, params=params,
-        args="".join(f", v_{idents[d]}" for d in f.deps),
-        gather=_gather(resolved, f) if fn.readable else "",
-        closure=[g.name for g in resolved.closure([fn.name])[:-1]] if f.deps else [],
+        args="".join(f", v_{idents[d]}" for d in deps),
+        slots=slots, span=span(slots),
+        closure=[g.name for g in resolved.closure([fn.name])[:-1]] if deps else [],
         fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
         fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
         expression_body=expr_body(expression.lowered) if expression else [],
     )
+
+
+def print_bodies(functions: list[FunctionCode], env: jinja2.Environment) -> None:
+    """Each function's decoder and encoder body, printed by ops.j2 from its IR: functions of the
+    same IR share one printing."""
+    ops = env.get_template("python/templates/ops.j2").module
+    decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
+    encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
+    decoded: dict[str, str] = {}  # shape -> body (a function of a shape has no fragment, no expression)
+    encoded: dict[tuple[str, str], str] = {}
+    for code in functions:
+        f, codec = code.resolved, code.codec
+        if codec.decode is not None:
+            shape = f.decode_shape
+            body = decoded.get(shape) if shape is not None else None
+            if body is None:
+                body = decode_body(shape, codec.decode, code.fragment_read, code.expression_body).rstrip()
+                if shape is not None:
+                    decoded[shape] = body
+            code.decode_body = body
+        if codec.encode is not None:
+            key = (f.encode_shape, codec.write_type.kind) if f.encode_shape is not None else None
+            body = encoded.get(key) if key is not None else None
+            if body is None:
+                body = encode_body(f.encode_shape, codec.encode, codec.write_type.kind, code.fragment_write).rstrip()
+                if key is not None:
+                    encoded[key] = body
+            code.encode_body = body
 
 
 def _pyfloat(x: float) -> str:
@@ -268,15 +301,12 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     types = {f.name: value_type(f.codec.value_type) for f in resolved.functions}
     idents = {f.name: f.ident for f in resolved.functions}
     functions = [function_code(resolved, f, types, idents) for f in resolved.functions]
-    ops = env.get_template("python/templates/ops.j2").module
-    for code in functions:
-        if code.codec.decode is not None:
-            code.decoder = ops.decoder(code).rstrip()  # type: ignore[attr-defined]
-        if code.codec.encode is not None:
-            code.encoder = ops.encoder(code).rstrip()  # type: ignore[attr-defined]
+    print_bodies(functions, env)
     infos = {f.fn.name: f for f in functions}
     readable = [infos[f.name] for f in resolved.readable]
-    code_text = [text for f in functions for text in (f.decoder, f.encoder) if text] + [f.gather for f in readable]
+    # the names the code uses (each distinct text scanned once): which helpers and imports it needs
+    code_text = {text for f in functions for text in (f.decode_body, f.params, f.type) if f.decode_body}
+    code_text |= {text for f in functions for text in (f.encode_body, f.write_type or "") if f.encode_body}
     used = set().union(*map(_names, code_text))
     helpers = helpers_for(used)
     used = used.union(*map(_names, helpers), TEMPLATE_NAMES)
@@ -287,11 +317,11 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     return {
         "device": device, "version": __version__, "source": source_name, "requirement": PYMODBUS_REQUIREMENT,
         "functions": functions, "infos": infos, "readable": readable, "class_name": class_name,
-        "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.fn.name for f in readable]),
+        "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.name for f in readable]),
         "groups": _read_plan(resolved), "buffer_size": resolved.buffer_size, "imports": import_lines(used),
-        "helpers": helpers, "uses": used,
-        "exports": sorted(exports), "writes": any(f.encoder for f in functions),
-        "writes_multiple": any(f.encoder and f.fn.write_multiple for f in functions),  # FC15/FC16 only
+        "helpers": helpers, "uses": used, "plain": [f for f in readable if f.fn.compiled is None],
+        "exports": sorted(exports), "writes": any(f.encode_body for f in functions),
+        "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "module_doc": docstring(f"Driver for {device.name}: {device.description}"),
     }
 
