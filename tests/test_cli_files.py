@@ -247,3 +247,21 @@ def test_a_signal_while_writing_leaves_no_temporary_file(tmp_path, sig, exc, cod
     assert kept.read_text() == "old\n"
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
 
+
+
+@pytest.mark.parametrize(("argv", "code"), [(["validate", str(TSTAT)], 0), (["validate", str(DATA / "nope.xml")], 1),
+                                            (["gen", str(TSTAT), "--lang", "klingon"], 2)])
+def test_program_entry_exits_with_the_command_status_and_skips_the_last_collection(monkeypatch, argv, code):
+    """`mdl` (the console script, `python -m mdl`) is `cli.run`: the command's own exit status, and
+    the collector's last walk over what the command left skipped (gc.freeze), success or not."""
+    import gc
+
+    from mdl import cli
+
+    frozen = []
+    monkeypatch.setattr(gc, "freeze", lambda: frozen.append(True))
+    monkeypatch.setattr("sys.argv", ["mdl", *argv])
+    with pytest.raises(SystemExit) as exit_info:
+        cli.run()
+    assert (exit_info.value.code or 0) == code
+    assert frozen == [True]

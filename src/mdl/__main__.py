@@ -1,3 +1,3 @@
-from mdl.cli import main
+from mdl.cli import run
 
-main()
+run()

@@ -107,6 +107,18 @@ class Group(click.Group):
             sys.exit(130)
 
 
+def run() -> None:
+    """The `mdl` program (the console script and `python -m mdl`): `main`, and then, whatever its
+    outcome, the objects it leaves are frozen out of the collector. The interpreter's last
+    collections would otherwise walk a large model's 10^6 objects once more only to free memory
+    the process gives back as it exits (a fifth of `mdl gen --lang all` at 10,000 functions).
+    Every file a command writes is closed before it returns; tests call `main` itself."""
+    try:
+        main()
+    finally:
+        gc.freeze()
+
+
 @click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="mdl")
 def main() -> None:
