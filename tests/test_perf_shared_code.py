@@ -93,3 +93,43 @@ def test_shared_code_reads_and_writes_as_the_python_driver(target, request):
     dev.write_k10_1(-40.0)
     compare(h.values("read k10_1"), {"k10_1": dev.read_k10_1()})
     assert h.values("write k9_0 -60") == {"error": 22}  # below the minimum: EINVAL, as its pair's
+
+
+# ---- expressions: functions of the same statements share one decoder ----
+
+EXPRESSIONS = "".join(fn_xml(name, addresses, expression=expression) for name, addresses, expression in [
+    ("sf", "0", "int16(hr:0)"),
+    ("a0", "1", "uint16(hr:1) * 10^sf"), ("a1", "2", "uint16(hr:2) * 10^sf"),
+    ("b0", "3 4", "int32(hr:3#2) / 100"), ("b1", "5 6", "int32(hr:5#2) / 100"),
+    ("s0", "1", "a0 + a1"), ("s1", "3", "b0 + b1"),  # the same statements on other functions' values
+    ("n0", "7", "uint16(hr:7; 0xFFFF)"), ("n1", "8", "uint16(hr:8; 0xFFFF)"),
+    ("t0", "9 10", "utf8(hr:9#2)"), ("t1", "11 12", "utf8(hr:11#2)"),
+])
+EXPRESSION_REGISTERS = 13
+# plain functions over the same registers, so that the test can write them (expressions are read-only)
+RAW = "".join(fn_xml(f"raw{i}", str(i), format="UINT16") for i in range(EXPRESSION_REGISTERS))
+
+
+@pytest.fixture(scope="module", params=["cpp", "c"])
+def expression_setup(tmp_path_factory, request):
+    harness = None if request.param == "cpp" else build_c
+    with served_device(tmp_path_factory, EXPRESSIONS + RAW, "Expression Device", harness) as served:
+        yield request.param, served
+
+
+def test_functions_of_one_expression_share_a_decoder_and_read_as_the_python_driver(expression_setup):
+    target, (path, module, client, h, _) = expression_setup
+    text = (path.parent / f"expression_device.{'cc' if target == 'cpp' else 'c'}").read_text()
+    # one decoder for each pair: a, b, s, n and t; sf alone keeps its own
+    assert text.count("more function of the same expression") == 5, text
+    assert ("decode_sf(" in text) and "decode_a0(" not in text and "decode_s1(" not in text
+    compare = assert_same_values if target == "cpp" else assert_exactly
+    dev = module.ExpressionDevice(client)
+    rng = random.Random(5)
+    for _ in range(8):
+        regs = [rng.choice([0, 1, 0xFFFF, 0x8000, 0x4142, rng.randrange(65536)]) for _ in range(EXPRESSION_REGISTERS)]
+        regs[0] = rng.choice([-2, -1, 0, 1, 2]) & 0xFFFF  # the scale factor
+        load_registers(client, regs, [])
+        compare(h.values(), dev.read_all())
+        for name in ("a1", "b0", "s0", "s1", "n1", "t1"):
+            compare(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
 
 from mdl.resolve import ResolvedDevice
 
@@ -16,7 +15,28 @@ class Target:
     render: Callable[[ResolvedDevice, str], dict[str, str]]  # (device, source file name) -> file name -> text
 
 
-Rows = list[dict[str, Any]]
+@dataclass(frozen=True)
+class GroupRow:
+    """A request of the read plan as a row of the C and C++ drivers' groups table."""
+
+    table: str  # as the target spells it
+    start: int
+    count: int
+    offset: int  # its first slot in read_all's buffer
+    split_first: int  # its smaller requests (used when the device refuses it): first row in splits
+    split_count: int
+
+
+@dataclass(frozen=True)
+class SplitRow:
+    """One of a group's smaller requests, as a row of the splits table."""
+
+    table: str
+    start: int
+    count: int
+    delta: int  # its first slot within its group
+
+
 Run = tuple[str, int, int, int]  # (table as the target spells it, first address, count, first register in r)
 
 
@@ -31,16 +51,14 @@ def runs_at(table: str, runs: tuple[tuple[int, int], ...]) -> list[Run]:
     return out
 
 
-def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple[Rows, Rows]:
+def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple[list[GroupRow], list[SplitRow]]:
     """The read plan as rows of a groups table (table, start, count, offset in the buffer, first and
     number of its smaller requests) and a splits table (table, start, count, delta: first slot
     within its group); `table_names` spells each table in the target's language."""
-    groups: Rows = []
-    splits: Rows = []
+    groups: list[GroupRow] = []
+    splits: list[SplitRow] = []
     for group in resolved.plan:
         req, smaller = group.request, group.smaller
-        groups.append({"table": table_names[req.table], "start": req.start, "count": req.count,
-                       "offset": group.offset, "split_first": len(splits), "split_count": len(smaller)})
-        splits += [{"table": table_names[s.table], "start": s.start, "count": s.count, "delta": s.start - req.start}
-                   for s in smaller]
+        groups.append(GroupRow(table_names[req.table], req.start, req.count, group.offset, len(splits), len(smaller)))
+        splits += [SplitRow(table_names[s.table], s.start, s.count, s.start - req.start) for s in smaller]
     return groups, splits

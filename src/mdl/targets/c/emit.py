@@ -118,6 +118,12 @@ class CFunction:
         return f"{self.t} "
 
     @property
+    def own_expression(self) -> bool:
+        """Whether it prints its own expression decoder, decode_<ident> (no other function has its
+        expression's statements, registers and types)."""
+        return self.expr is not None and self.decoder == self.ident
+
+    @property
     def fails(self) -> bool:
         """Whether decoding can fail (a fragment's EDOM/ERANGE)."""
         return self.read_fragment is not None
@@ -260,6 +266,7 @@ class SharedCode:
     first: str  # the name of the first function it serves
     uses: int
     reads: CFunction | None = None
+    proto: CFunction | None = None  # an expression's: its first function, whose parameters it takes
 
 
 @dataclass
@@ -299,7 +306,9 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
             f.decoder = f.ident
             if f.expr is None:
                 key = (rf.decode_shape, f.t, f.n, f.text_size, f.nullable) if rf.decode_shape is not None else f.ident
-                decoding.setdefault(key, []).append(f)
+            else:  # its statements name its registers and parameters by position only
+                key = ("expression", tuple(f.expr.body()), f.n, f.t, tuple(d.param_type for d in f.deps))
+            decoding.setdefault(key, []).append(f)
         if f.encode is not None:
             f.encoder = f.ident
             key = (rf.encode_shape, f.wt, _check_key(f.range_check), _check_key(f.round_check), f.n) \
@@ -307,7 +316,8 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
             encoding.setdefault(key, []).append(f)
     for group in decoding.values():  # printed once per group: its first function's
         f = group[0]
-        f.decode_text = decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment)
+        if f.expr is None:  # an expression's is printed by the template from its statements
+            f.decode_text = decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment)
     for group in encoding.values():
         f = group[0]
         f.encode_text = encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment)
@@ -315,9 +325,10 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
     for group in decoding.values():
         if len(group) > 1:
             first = group[0]
-            d = SharedCode(len(out.decoders), first.t, first.decode_text, first.fn.name, len(group))
+            d = SharedCode(len(out.decoders), first.t, first.decode_text, first.fn.name, len(group),
+                           proto=first if first.expr is not None else None)
             out.decoders.append(d)
-            one_run = [f for f in group if len(f.runs) == 1]
+            one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
             d.reads = one_run[0] if len(one_run) > 1 else None
             for f in group:
                 f.decoder, f.decode_text = str(d.k), ""

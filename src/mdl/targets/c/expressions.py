@@ -218,7 +218,7 @@ def _parts() -> dict[str, str]:
 def runtime(exprs: list[CExpression]) -> str:
     """The runtime parts the expressions call, and those they call in turn, in expr.c's order."""
     parts = _parts()
-    code = "\n".join(line for e in exprs for line in e.body())
+    code = "\n".join({line for e in exprs for line in e.body()})  # each distinct line scanned once
     wanted: set[str] = set()
     todo = [code]
     while todo:

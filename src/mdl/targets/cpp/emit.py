@@ -170,6 +170,16 @@ def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     return out
 
 
+@dataclass(frozen=True)
+class Chunk:
+    """A part of read_all's decoding (`decode_part_<k>`): its functions, and whether they take
+    registers from the buffer and whether an expression among them asks which were answered."""
+
+    functions: list[CppFunction]
+    uses_raw: bool
+    uses_have: bool
+
+
 def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
     return [step.tree.c("c++") for f in resolved.functions for steps in (f.codec.decode, f.codec.encode)
             for step in steps or () if isinstance(step, ir.Fragment)]
@@ -194,13 +204,13 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     by_ident = _functions(resolved)
     functions = list(by_ident.values())
     readable = [by_ident[f.ident] for f in resolved.readable]
-    code = [line for f in functions for line in f.decode_lines]
+    code = {line for f in functions for line in f.decode_lines}  # each distinct line scanned once
     runtime, runtime_includes = helpers("\n".join(code))
     fragments = _fragments(resolved)
     if fragments:
         runtime += "\n" + helpers_source(fragments, "c++")
         runtime_includes += FRAGMENT_INCLUDES["c++"]
-    chunks = [{"functions": part, "uses_raw": any(f.n for f in part), "uses_have": any(f.n and f.expr for f in part)}
+    chunks = [Chunk(part, any(f.n for f in part), any(f.n and f.expr for f in part))
               for part in (readable[i:i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))]
     types = [f.t for f in functions] + [f.rt for f in functions]
     needed = _ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
@@ -227,7 +237,8 @@ def environment() -> jinja2.Environment:
 
 @dataclass
 class SharedDecoder:
-    """`decode_<k>`: the decoder of every function of the same IR (decode shape, registers, type)."""
+    """`decode_<k>`: the decoder of every function of the same IR (decode shape, registers, type),
+    or of the same expression (the same statements, registers, parameter and value types)."""
 
     k: int
     rt: str
@@ -236,6 +247,7 @@ class SharedDecoder:
     first: str  # the name of the first function it decodes
     uses: int
     reads: bool = False  # whether `read_<k>_` reads one run of registers into it
+    proto: CppFunction | None = None  # an expression's: its first function, whose parameters it takes
 
 
 @dataclass
@@ -283,7 +295,12 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared:
         rf = f.resolved
         key: object
         if f.readable:
-            key = (rf.decode_shape, f.n, f.rt) if rf.decode_shape is not None else f.ident
+            if rf.decode_shape is not None:
+                key = (rf.decode_shape, f.n, f.rt)
+            elif f.expr:  # its statements name its registers and parameters by position only
+                key = ("expression", tuple(f.decode_lines), f.n, f.t, f.rt, tuple(f.dep_types))
+            else:
+                key = f.ident
             decoding.setdefault(key, []).append(f)
             f.decoder = f.ident
         if f.writable:
@@ -302,7 +319,8 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared:
     for group in decoding.values():
         if len(group) > 1:
             first = group[0]
-            d = SharedDecoder(len(out.decoders), first.rt, first.n, first.decode_text, first.fn.name, len(group))
+            d = SharedDecoder(len(out.decoders), first.rt, first.n, first.decode_text, first.fn.name, len(group),
+                              proto=first if first.expr else None)
             out.decoders.append(d)
             one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
             d.reads = len(one_run) > 1
