@@ -90,7 +90,7 @@ def environment() -> jinja2.Environment:
     # `a.b` in a template is Python's own attribute lookup, done in C: the contexts hold objects
     # (dataclasses, tuples), never dicts read with a dot. Jinja's lookup, a Python method that falls
     # back to `a["b"]`, was a tenth of rendering a large device. A missing attribute still fails.
-    env.getattr = getattr  # type: ignore[method-assign]
+    env.getattr = getattr  # type: ignore[method-assign, assignment]
     env.filters["pyrepr"] = pyrepr
     env.filters["pycomment"] = pycomment
     env.filters["ccomment"] = _memoized(ccomment)  # a description goes into several comments
