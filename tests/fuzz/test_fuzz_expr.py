@@ -73,3 +73,29 @@ def test_compiled_expressions_compute_a_value(text):
         fn.addresses = list(fn.compiled.lowered.addresses)
         fn.register_type = fn.compiled.lowered.table
     evaluate(device, ["F"], _register)
+
+
+# field ids that begin alike: a reference is always the longest field id written there
+NAMED = ["A", "A b", "A b c", "A_b", "Ab", "b", "Tempé", "Temp"]
+
+
+def _refs(node) -> list[str]:
+    from dataclasses import fields
+
+    from mdl.lang.expr.nodes import Node, Ref
+
+    if isinstance(node, Ref):
+        return [node.name]
+    out = []
+    for f in fields(node):
+        value = getattr(node, f.name)
+        for child in value if isinstance(value, list) else [value]:
+            if isinstance(child, Node):
+                out += _refs(child)
+    return out
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.sampled_from(NAMED), min_size=1, max_size=8), st.sampled_from([" + ", "+", " * ", "-"]))
+def test_references_are_the_longest_field_ids_written(names, op):
+    assert _refs(parse(op.join(names), NAMED)) == names

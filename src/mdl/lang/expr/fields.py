@@ -10,7 +10,7 @@ from typing import Any
 
 from mdl.lang.expr.lower import Lowered, lower, refs_of
 from mdl.lang.expr.nodes import ExprError, Node
-from mdl.lang.expr.parser import MAX_DEPTH, parse
+from mdl.lang.expr.parser import MAX_DEPTH, FieldIndex, parse
 from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
 from mdl.model import CompiledExpression, Device, Function, Value
 from mdl.model.layout import MAX_REGISTERS
@@ -53,12 +53,16 @@ def compile_device(device: Device) -> list[FieldError]:
     for fn in device.functions:
         blocks.setdefault(fn.block, {})[fn.field_id] = fn
     parsed: dict[str, Node] = {}
+    indexes: dict[str, FieldIndex] = {}
     for fn in device.functions:
         fn.compiled = None
         if fn.expression is None:
             continue
+        index = indexes.get(fn.block)
+        if index is None:
+            index = indexes[fn.block] = FieldIndex(blocks[fn.block])
         try:
-            parsed[fn.name] = parse(fn.expression, blocks[fn.block].keys())
+            parsed[fn.name] = parse(fn.expression, index)
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
     done: dict[str, str] = {}  # name -> type, for compiled or plain functions

@@ -34,11 +34,23 @@ MAX_DEPTH = 64  # levels of nesting; Toolkit expressions use a handful
 LONG_MAX = 2**63 - 1
 
 
+class FieldIndex:
+    """A block's field ids by their leading identifier, longest first: a field matches where the
+    expression's identifier is its leading one (built once per block, not once per expression)."""
+
+    def __init__(self, fields: Iterable[str]):
+        self.by_lead: dict[str, list[str]] = {}
+        for field_id in sorted(set(fields), key=len, reverse=True):
+            m = _IDENT.match(field_id)
+            if m:  # one that starts otherwise ('%RH') can never be named where an identifier starts
+                self.by_lead.setdefault(m.group(0), []).append(field_id)
+
+
 class Parser:
-    def __init__(self, text: str, fields: Iterable[str] = ()):
+    def __init__(self, text: str, fields: Iterable[str] | FieldIndex = ()):
         self.text = text
         self.pos = 0
-        self.fields = sorted(set(fields), key=len, reverse=True)
+        self.fields = fields if isinstance(fields, FieldIndex) else FieldIndex(fields)
         self.depth = 0
         self.listed = 0  # registers listed by all register sets so far
 
@@ -47,8 +59,13 @@ class Parser:
         return ExprError(message, (self.pos if pos is None else pos) + 1)
 
     def ws(self) -> None:
-        while self.pos < len(self.text) and self.text[self.pos].isspace():
-            self.pos += 1
+        if self.pos < len(self.text) and self.text[self.pos].isspace():
+            self.pos = self._space_end(self.pos)
+
+    def _space_end(self, pos: int) -> int:
+        end = _SPACE.match(self.text, pos)
+        assert end is not None  # \s* matches everywhere
+        return end.end()
 
     def peek(self) -> str:
         self.ws()
@@ -62,9 +79,8 @@ class Parser:
 
     def next_char(self, pos: int) -> str:
         """The first character at or after pos that is not a space ('' at the end)."""
-        end = _SPACE.match(self.text, pos)
-        assert end is not None  # \s* matches everywhere
-        return self.text[end.end(): end.end() + 1]
+        end = self._space_end(pos)
+        return self.text[end: end + 1]
 
     def descend(self, pos: int | None = None) -> None:
         """One level deeper; refused past MAX_DEPTH. The caller restores self.depth when done."""
@@ -158,7 +174,9 @@ class Parser:
             if word.lower() in FUNCTIONS and follows == "(":
                 self.pos = after
                 return self.call(word.lower(), start)
-            for field_id in self.fields:
+            # the identifier a field id begins with is the whole of `word` (field ids may hold
+            # spaces: 'Boolean Value'), so only the fields it leads can match here
+            for field_id in self.fields.by_lead.get(word, ()):
                 end = self.pos + len(field_id)
                 if self.text.startswith(field_id, self.pos) and not (
                         end < len(self.text) and (self.text[end].isalnum() or self.text[end] == "_")):
@@ -364,5 +382,5 @@ class Parser:
         return self.string()
 
 
-def parse(text: str, fields: Iterable[str] = ()) -> Node:
+def parse(text: str, fields: Iterable[str] | FieldIndex = ()) -> Node:
     return Parser(text, fields).parse()
