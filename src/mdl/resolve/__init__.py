@@ -97,8 +97,21 @@ class ResolvedDevice:
         return camel(self.stem)
 
     def closure(self, names: list[str]) -> list[ResolvedFunction]:
-        """The named functions and those their expressions need, each after what it needs."""
+        """The named functions and those their expressions need, each after what it needs (that of
+        one function worked out once: every target asks it of each function with dependencies)."""
+        if len(names) == 1:
+            found = self._closures.get(names[0])
+            if found is None:
+                found = self._closures[names[0]] = self._closure(names)
+            return list(found)
+        return self._closure(names)
+
+    def _closure(self, names: list[str]) -> list[ResolvedFunction]:
         return [self.by_name[fn.name] for fn in evaluation_order(self.device, names, self._functions_by_name)]
+
+    @cached_property
+    def _closures(self) -> dict[str, list[ResolvedFunction]]:
+        return {}
 
     @cached_property
     def _functions_by_name(self) -> dict[str, Function]:
