@@ -10,6 +10,7 @@ import signal
 import stat
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 from conftest import DATA, EXAMPLE, assert_clean_error, mdl_cmd, run_mdl
@@ -265,3 +266,28 @@ def test_program_entry_exits_with_the_command_status_and_skips_the_last_collecti
         cli.run()
     assert (exit_info.value.code or 0) == code
     assert frozen == [True]
+
+
+def test_gen_keeps_compiled_templates_in_the_user_cache_and_works_without_one(tmp_path):
+    """Compiled templates go to $XDG_CACHE_HOME/mdl/templates/ and are used again; a cache that is
+    corrupt, or that cannot be made (XDG_CACHE_HOME is a file), changes nothing in what gen writes."""
+
+    def gen(cache: Path, out: str) -> dict[str, str]:
+        proc = subprocess.run(mdl_cmd("gen", TSTAT, "--lang", "all", "-o", tmp_path / out), capture_output=True,
+                              text=True, env=dict(os.environ, XDG_CACHE_HOME=str(cache)), timeout=120)
+        assert proc.returncode == 0, proc.stderr
+        return {p.name: p.read_text() for p in (tmp_path / out).iterdir()}
+
+    cache = tmp_path / "cache"
+    first = gen(cache, "first")
+    compiled = sorted((cache / "mdl" / "templates").rglob("*.cache"))
+    assert len(compiled) >= 6  # each target's driver templates and their macros
+    stamps = [p.stat().st_mtime_ns for p in compiled]
+    assert gen(cache, "again") == first
+    assert [p.stat().st_mtime_ns for p in compiled] == stamps  # read, not written again
+    for p in compiled:
+        p.write_bytes(b"not a compiled template")
+    assert gen(cache, "corrupt") == first
+    blocked = tmp_path / "blocked"
+    blocked.write_text("")
+    assert gen(blocked, "uncached") == first

@@ -152,8 +152,17 @@ class ResolvedDevice:
         return out
 
     def slots_of(self, f: ResolvedFunction) -> tuple[int, ...]:
-        """Where a readable function's registers are in the read plan's buffer, in address order."""
-        return tuple(map(self.table_slots.get(f.layout.table, {}).__getitem__, f.layout.addresses))
+        """Where a readable function's registers are in the read plan's buffer, in address order
+        (worked out once per function: every target asks)."""
+        found = self._slots_of.get(f.name)
+        if found is None:
+            table = self.table_slots.get(f.layout.table, {})
+            found = self._slots_of[f.name] = tuple(map(table.__getitem__, f.layout.addresses))
+        return found
+
+    @cached_property
+    def _slots_of(self) -> dict[str, tuple[int, ...]]:
+        return {}
 
 
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:

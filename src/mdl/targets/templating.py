@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import hashlib
+import os
 import re
 from collections.abc import Callable, Iterable
+from functools import cache
 from pathlib import Path
+from typing import Any
 
 import jinja2
+import jinja2.bccache
 
+from mdl import __version__
 from mdl.diagnostics import error
 from mdl.fileio import would_change, write_atomic
 
@@ -78,14 +84,49 @@ def each(items: Iterable[object], pattern: str, sep: str) -> str:
     return sep.join([pattern % (item,) for item in items])
 
 
+# how the templates are read: the compiled templates in the cache depend on it too
+_OPTIONS: dict[str, Any] = dict(trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True, autoescape=False)
+
+
+class _TemplateCache(jinja2.FileSystemBytecodeCache):
+    """Compiled templates kept between runs (compiling them took 0.07 s per target at every `mdl
+    gen`). Jinja checks each one against its template's source and the Python version; the folder
+    is named for mdl's and Jinja's versions and the options. A cache that cannot be read or written
+    is no cache: nothing fails for it."""
+
+    def load_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        try:
+            super().load_bytecode(bucket)
+        except OSError:
+            bucket.reset()
+
+    def dump_bytecode(self, bucket: jinja2.bccache.Bucket) -> None:
+        try:
+            super().dump_bytecode(bucket)
+        except OSError:
+            pass
+
+
+@cache
+def _template_cache() -> _TemplateCache | None:
+    """`$XDG_CACHE_HOME/mdl/templates/<key>` (`~/.cache/...` without it), made if need be; None
+    where it cannot be."""
+    try:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+        key = hashlib.sha256(repr((__version__, jinja2.__version__, sorted(_OPTIONS.items()))).encode()).hexdigest()
+        folder = base / "mdl" / "templates" / key[:16]
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+    except (OSError, RuntimeError):  # RuntimeError: no home directory
+        return None
+    return _TemplateCache(str(folder))
+
+
 def environment() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TARGETS_DIR)),
         undefined=jinja2.StrictUndefined,
-        trim_blocks=True,
-        lstrip_blocks=True,
-        keep_trailing_newline=True,
-        autoescape=False,
+        bytecode_cache=_template_cache(),
+        **_OPTIONS,
     )
     # `a.b` in a template is Python's own attribute lookup, done in C: the contexts hold objects
     # (dataclasses, tuples), never dicts read with a dot. Jinja's lookup, a Python method that falls
