@@ -2,8 +2,9 @@
 (`all`, `read NAME`, `write NAME VALUE`, `connect`; see cpp_harness), so `cpp_harness.Harness` runs it.
 
 Every driver is compiled with STRICT (the flags docs/c-api.md promises) by gcc and by clang, once per
-compiler and content in a session. A read's value holds a poison value before the call, and a read
-that fails but leaves anything else there aborts the program. A single read that finds the value null
+compiler and content in a session. A read's value holds a poison value before the call (a text: as
+much of "poison" as its array holds), and a read that fails but leaves anything else there aborts the
+program. A single read that finds the value null
 (-1 with ENODATA, docs/c-api.md) prints `NAME null`.
 """
 
@@ -89,6 +90,16 @@ static void unhex(const char *h, char *out, size_t size) {
     }
     out[i] = '\0';
 }
+/* "poison", cut to fit a text array of `size` bytes (NUL included) */
+static void poison_s(char *v, size_t size) {
+    const size_t n = size - 1 < 6 ? size - 1 : 6;
+    memcpy(v, "poison", n);
+    v[n] = '\0';
+}
+static int still_poison_s(const char *v, size_t size) {
+    const size_t n = size - 1 < 6 ? size - 1 : 6;
+    return strlen(v) == n && strncmp(v, "poison", n) == 0;
+}
 static void poison_fail(const char *n) {
     fprintf(stderr, "a failed read stored a value in %s\n", n);
     abort();
@@ -115,8 +126,8 @@ def _put(f: cgen.CFunction, value: str, has: str | None) -> str:
 
 
 def _poison(f: cgen.CFunction, value: str) -> str:
-    if f.t == "char":
-        return f'strcpy({value}, "poison");'
+    if f.t == "char":  # within its array, however short
+        return f"poison_s({value}, sizeof({value}));"
     if f.t.startswith("struct"):
         return f'({value}).count = 1; ({value}).items[0] = "poison";'
     return f"{value} = ({f.t})77;" if f.t != "bool" else f"{value} = true;"
@@ -124,7 +135,7 @@ def _poison(f: cgen.CFunction, value: str) -> str:
 
 def _still_poison(f: cgen.CFunction, value: str) -> str:
     if f.t == "char":
-        test = f'strcmp({value}, "poison") == 0'
+        test = f"still_poison_s({value}, sizeof({value}))"
     elif f.t.startswith("struct"):
         test = f'({value}).count == 1 && strcmp(({value}).items[0], "poison") == 0'
     else:

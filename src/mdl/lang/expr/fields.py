@@ -46,6 +46,17 @@ def plain_type(fn: Function) -> str:
     return {"int": "long", "string": "string", "bool": "bool"}[kind]
 
 
+def _plain_uint64(fn: Function) -> bool:
+    """Whether an expression sees fn as an unsigned 64-bit integer (a UINT64 without scaling): its
+    value may not fit the long it becomes there."""
+    from mdl.model.layout import layout
+
+    if fn.expression is not None or plain_type(fn) != "long":
+        return False
+    lay = layout(fn)
+    return lay.bits == 64 and not lay.signed
+
+
 def compile_device(device: Device) -> list[FieldError]:
     """Attach fn.compiled to every expression function; return the problems found."""
     errors: list[FieldError] = []
@@ -115,6 +126,7 @@ def compile_device(device: Device) -> list[FieldError]:
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
             return None
+        lowered.wide = tuple(i for i, r in enumerate(lowered.refs) if _plain_uint64(block[r]))
         fn.compiled = Compiled(lowered, [block[r].name for r in lowered.refs])
         done[fn.name] = lowered.type
         return lowered.type

@@ -60,6 +60,9 @@ class Lowered:
     table: str | None
     addresses: list[int]  # the function's own registers, ascending
     refs: list[str]  # referenced field ids, in parameter order
+    # the parameters (indexes) naming a plain UINT64 function: a long is 64 bits, so the expression
+    # sees such a value as its 64 bits, two's complement (above 2^63 - 1, negative) in every target
+    wide: tuple[int, ...] = ()
 
 
 def registers_of(node: Node, out: list[tuple[str, list[int], int]]) -> None:

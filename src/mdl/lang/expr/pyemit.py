@@ -66,8 +66,10 @@ def _line(op: Op) -> str:
 
 
 def body(lowered: Lowered) -> list[str]:
-    """Lines computing the value from `r` (the function's registers, ascending) and p0..pn."""
-    return [_line(op) for op in lowered.ops] + [f"return {lowered.result}"]
+    """Lines computing the value from `r` (the function's registers, ascending) and p0..pn (a
+    plain UINT64 one first taken as the long it is: its 64 bits, lowered.wide)."""
+    wide = [f"p{i} = None if p{i} is None else _x_long(p{i})" for i in lowered.wide]
+    return wide + [_line(op) for op in lowered.ops] + [f"return {lowered.result}"]
 
 
 def signature(lowered: Lowered) -> str:

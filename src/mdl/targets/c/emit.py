@@ -81,6 +81,7 @@ class CFunction:
     range_check: RangeCheck | None = None
     round_check: RangeCheck | None = None
     list_type: str = ""
+    list_cap: int = 0  # a list (bitset): the capacity of its text as concat prints it, [a, b]
     deps: list[CFunction] = field(default_factory=list)
     steps: list[CFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
     # its decoder decode_<decoder> and encoder encode_<encoder>: a shared one's number, or its own
@@ -201,12 +202,19 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
     for f in out.values():
         f.deps = [out[d] for d in f.rf.deps]
         f.steps = [out[g.name] for g in rd.closure([f.rf.name])] if f.deps else [f]
-    for f in out.values():  # in declaration order, so a text parameter's capacity is known
-        if f.expr is not None:
-            for i, d in enumerate(f.deps):
-                if d.is_text:
-                    f.expr.param_caps[f"p{i}"] = d.text_size - 1
-            f.text_size = f.expr.result_size if f.t == "char" else 0
+    # each expression after the functions it names (whatever their order in the file), so that the
+    # text capacity of each text or list parameter is known: its buffers hold its longest value
+    for rf in rd.closure([f.rf.name for f in out.values() if f.expr is not None]):
+        f = out[rf.name]
+        if f.expr is None:
+            continue
+        for i, d in enumerate(f.deps):
+            if d.is_text or d.list_cap:
+                f.expr.param_caps[f"p{i}"] = d.text_size - 1 if d.is_text else d.list_cap
+        if f.t == "char":
+            f.text_size = f.expr.result_cap + 1
+        elif f.expr.type == "list":
+            f.list_cap = f.expr.result_cap
     return list(out.values())
 
 
@@ -228,7 +236,7 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     by_name = {f.rf.name: f for f in functions}
     readable = [by_name[rf.name] for rf in rd.readable]
     fragments = _fragments(functions)
-    runtime = [(RUNTIME / "modbus_io.c").read_text(encoding="utf-8")]
+    runtime = []
     if raw_total or any(f.n for f in readable):
         runtime.append((RUNTIME / "read_table.c").read_text(encoding="utf-8"))
     writers = {bool(f.fn.write_multiple) for f in functions if f.encode is not None}  # FC15/FC16 only, or not
@@ -236,6 +244,8 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
         runtime.append((RUNTIME / "write_table.c").read_text(encoding="utf-8"))
     if True in writers:
         runtime.append((RUNTIME / "write_multiple.c").read_text(encoding="utf-8"))
+    if runtime:  # what requests share (a driver of register-less expressions sends none)
+        runtime.insert(0, (RUNTIME / "modbus_io.c").read_text(encoding="utf-8"))
     includes = set(BASE_INCLUDES)
     if fragments:
         runtime.append(helpers_source([c for _, c in fragments], "c"))

@@ -49,14 +49,14 @@ def _labels(mapping: dict[int, str], nbits: int) -> list[str]:
 
 class CExpression:
     """A function's expression as the body of its C decoder. `param_caps`: the text capacity of each
-    text parameter (pN), given by the functions it names."""
+    text or list parameter (pN; a list's as concat prints it), given by the functions it names: set
+    for every one of them before the first call of caps(), result_cap or body()."""
 
     def __init__(self, ident: str, lowered: Lowered, list_type: str):
         self.ident = ident
         self.list_type = list_type
         self.lowered = lowered
         self.param_caps: dict[str, int] = {}
-        self.param_lists: dict[str, int] = {}
         self._body: list[str] | None = None
 
     @property
@@ -64,9 +64,10 @@ class CExpression:
         return self.lowered.type
 
     @property
-    def result_size(self) -> int:
-        """The size of the result's char array (capacity + NUL), for a text result."""
-        return self.caps()[self.lowered.result] + 1
+    def result_cap(self) -> int:
+        """The capacity of the result's text (without its NUL), for a text or list result (a list's as
+        concat prints it)."""
+        return self.caps()[self.lowered.result]
 
     def caps(self) -> dict[str, int]:
         caps = dict(self.param_caps)
@@ -88,7 +89,7 @@ class CExpression:
             return max([len(v.encode("utf-8")) for v in d["mapping"].values()] + [21 + 10 * d["count"] - 1])
         if op.kind == "concat":
             sizes = {"long": LONG_TEXT, "double": DOUBLE_TEXT, "bool": 5}
-            return sum(caps.get(a, 0) if t in ("string", "list") else sizes[t]
+            return sum(caps[a] if t in ("string", "list") else sizes[t]
                        for a, t in zip(op.args, d["types"], strict=True))
         return _REGISTER_TEXT[op.kind](d["count"])
 

@@ -21,6 +21,7 @@ import jinja2
 from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
+from mdl.lang.expr.fields import plain_type
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Run, Target, plan_rows, runs_at
@@ -106,7 +107,8 @@ class CppFunction:
     n: int  # registers (or bits)
     expr: bool
     deps: list[str]  # idents of the functions an expression refers to, in parameter order
-    dep_types: list[str]  # their value types
+    dep_types: list[str]  # the types of its decoder's parameters naming them (param_type)
+    dep_args: list[str]  # the arguments passing them, `%s` standing for where they are (v_, values.)
     runs: list[Run]
     slots: list[int]  # positions of the registers in read_all's buffer
     readable: bool
@@ -139,7 +141,7 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
     t = "double" if fn.write_function_code and fn.writable else value_type(codec.value_type)
     expression = ir.find_step(codec.decode, ir.Expression)
     if expression is not None:
-        decode_lines = expr_body(expression.lowered)
+        decode_lines = []  # printed once its parameters' types are known (_functions)
     elif read_fragment is not None:
         decode_lines = read_fragment.tree.c("c++").body()
     else:
@@ -148,7 +150,7 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
     return CppFunction(
         resolved=f, fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
         rt=f"std::optional<{t}>" if codec.value_type.nullable else t,
-        deps=[ident_of[d] for d in f.deps], dep_types=[],
+        deps=[ident_of[d] for d in f.deps], dep_types=[], dep_args=[],
         runs=runs_at(TABLE_CONST[lay.table], f.runs),
         slots=list(resolved.slots_of(f)) if fn.readable else [],
         readable=codec.decode is not None, writable=codec.encode is not None,
@@ -158,15 +160,33 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
         int_bits=codec.write_type.bits)
 
 
+def param_type(g: CppFunction) -> str:
+    """The type of an expression decoder's parameter naming g: the one the expression language gives
+    g (an expression's own type; for a plain function mdl.lang.expr.fields.plain_type: int64_t for an
+    integer, double for a float, a scaled or a fragment's value, bool, std::string). A UINT64 stays
+    uint64_t: the expression takes its 64 bits as the long it sees (mdl.targets.cpp.expressions)."""
+    if g.expr:
+        return g.t
+    t = cpp_type(plain_type(g.fn))
+    vt = g.codec.value_type
+    return "uint64_t" if t == "int64_t" and vt.kind == "int" and vt.bits == 64 and not vt.signed else t
+
+
 def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     ident_of = {f.name: f.ident for f in resolved.functions}
     out = {f.ident: _function(resolved, f, ident_of) for f in resolved.functions}
     for f in out.values():
         if f.deps:
             f.steps = [out[g.ident] for g in resolved.closure([f.fn.name])]
-            f.dep_types = [out[d].t for d in f.deps]
+            f.dep_types = [param_type(out[d]) for d in f.deps]
+            # a value of another type is converted where it is passed, spelled out
+            f.dep_args = [f"%s{d}" if out[d].t == t else f"std::optional<{t}>(%s{d})"
+                          for d, t in zip(f.deps, f.dep_types, strict=True)]
         else:
             f.steps = [f]
+        expression = ir.find_step(f.codec.decode, ir.Expression)
+        if expression is not None:
+            f.decode_lines = expr_body(expression.lowered, f.dep_types)
     return out
 
 

@@ -50,11 +50,24 @@ def _literal(op: Op) -> str:
     return f"INT64_C({v})" if op.type == "long" else _double(v)
 
 
-def _lines(op: Op, types: dict[str, str], result: str) -> list[str]:
+def _long(a: str, wide: set[str]) -> str:
+    """The value of long `a`: a plain UINT64 parameter is its 64 bits as an int64_t (an expression
+    sees every integer as a long, docs/expressions.md), any other as it is."""
+    return f"x_wrap<int64_t>(*{a})" if a in wide else f"*{a}"
+
+
+def _text(a: str, t: str, wide: set[str]) -> str:
+    """`a` as concat prints it (a plain UINT64 parameter as the long it is)."""
+    if a in wide:
+        return f"x_text_long({a} ? std::optional<int64_t>({_long(a, wide)}) : std::nullopt)"
+    return f"x_text_{t}({a})"
+
+
+def _lines(op: Op, types: dict[str, str], result: str, wide: set[str]) -> list[str]:
     t = f"std::optional<{_regs_type(op) if op.type == 'regs' else cpp_type(op.type)}>"
     types[op.tmp] = t
     const = "" if op.tmp == result else "const "  # the result is moved out, not copied
-    a = op.args[0] if op.args else None
+    a = op.args[0] if op.args else ""  # an operation without arguments names none
     d = op.data
     if op.kind == "lit":
         return [f"{const}{t} {op.tmp} = {_literal(op)};"]
@@ -65,7 +78,7 @@ def _lines(op: Op, types: dict[str, str], result: str) -> list[str]:
     if op.kind == "const":
         return [f"{const}{t} {op.tmp} = {_regs_literal(op, d['words'])};"]
     if op.kind == "concat":
-        parts = [f"x_text_{pt}({x})" for x, pt in zip(op.args, d["types"], strict=True)]
+        parts = [_text(x, pt, wide) for x, pt in zip(op.args, d["types"], strict=True)]
         return [f"{const}{t} {op.tmp} = {' + '.join(['std::string()', *parts])};"]
     out = [f"{t} {op.tmp};"]
     if op.kind in ("swapbytes", "swapendian"):
@@ -76,9 +89,9 @@ def _lines(op: Op, types: dict[str, str], result: str) -> list[str]:
         f, tr = d["labels"]
         return out + [f"if ({a}) {{ {op.tmp} = std::string(*{a} ? {cstring(tr)} : {cstring(f)}); }}"]
     if op.kind == "todouble":
-        return out + [f"if ({a}) {{ {op.tmp} = static_cast<double>(*{a}); }}"]
+        return out + [f"if ({a}) {{ {op.tmp} = static_cast<double>({_long(a, wide)}); }}"]
     if op.kind == "neg":
-        expr = f"x_sub<int64_t>(0, *{a})" if op.type == "long" else f"-*{a}"
+        expr = f"x_sub<int64_t>(0, {_long(a, wide)})" if op.type == "long" else f"-*{a}"
         return out + [f"if ({a}) {{ {op.tmp} = {expr}; }}"]
     if op.kind in ("arith", "div", "pow"):
         b = op.args[1]
@@ -88,7 +101,7 @@ def _lines(op: Op, types: dict[str, str], result: str) -> list[str]:
             expr = f"std::pow(*{a}, *{b})"
         elif op.type == "long":
             name = {"+": "add", "-": "sub", "*": "mul"}[d["op"]]
-            expr = f"x_{name}(*{a}, *{b})"
+            expr = f"x_{name}({_long(a, wide)}, {_long(b, wide)})"
         else:
             expr = f"*{a} {d['op']} *{b}"
         return out + [f"if ({a} && {b}) {{ {op.tmp} = {expr}; }}"]
@@ -116,13 +129,18 @@ def _register_function(op: Op) -> str:
     return _CONVERT[op.kind].format(a=a)
 
 
-def body(lowered: Lowered) -> list[str]:
-    """Statements of `decode_<name>(r, present, p0, p1, ...)`; the last returns the value."""
+def body(lowered: Lowered, params: list[str]) -> list[str]:
+    """Statements of `decode_<name>(r, present, p0, p1, ...)`, whose p<i> is a std::optional of
+    params[i] (mdl.targets.cpp.emit.param_type); the last returns the value."""
+    wide = {f"p{i}" for i, t in enumerate(params) if t == "uint64_t"}
     types: dict[str, str] = {}
     lines: list[str] = []
     for op in lowered.ops:
-        lines += _lines(op, types, lowered.result)
-    return lines + [f"return {lowered.result};"]
+        lines += _lines(op, types, lowered.result, wide)
+    result = lowered.result
+    if result in wide:  # the value as it is: its bits as the long the expression returns
+        return lines + [f"return {result} ? std::optional<int64_t>({_long(result, wide)}) : std::nullopt;"]
+    return lines + [f"return {result};"]
 
 
 class _Part(NamedTuple):
