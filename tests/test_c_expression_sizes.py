@@ -10,18 +10,17 @@ from __future__ import annotations
 
 import random
 import re
-import subprocess
 from pathlib import Path
 
 import pytest
-from c_harness import STRICT, build, harness_source, tool
+from c_harness import build, harness_source
 from conftest import device_xml, fn_xml
-from cpp_harness import Harness, modbus_flags
+from cpp_harness import Harness
 from test_c_driver import assert_exactly
+from test_c_hostile import build_sanitized
 from test_cpp_driver import load_registers, served_device
 
 from mdl.sources.mdlxml import load_device
-from mdl.targets import render
 
 LONG = "a label much longer than any default label of an enum or a bitset, " * 2
 
@@ -115,27 +114,13 @@ def test_expressions_on_later_functions_and_lists_read_as_the_python_driver(size
             assert_exactly(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
 
 
-SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g", "-O1"]
 
 
 def test_no_read_writes_past_a_buffer_under_address_sanitizer(sizes_setup, tmp_path):
     """The same driver and harness built with ASan and UBSan (which see a write past a stack array,
     where valgrind does not): every read of the longest values ends without a report."""
     path, module, client, _, sim = sizes_setup
-    gcc = tool("gcc")
-    cflags, libs = modbus_flags()
-    device = load_device(path)
-    for name, text in render(device, "device.xml", "c").items():
-        (tmp_path / name).write_text(text, encoding="utf-8")
-    (tmp_path / "c_harness.c").write_text(harness_source(device, "sizes_device"), encoding="utf-8")
-    obj = tmp_path / "sizes_device.o"
-    proc = subprocess.run([gcc, *STRICT, *SANITIZE, *cflags, "-c", str(tmp_path / "sizes_device.c"), "-o", str(obj)],
-                          capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
-    exe = tmp_path / "c_harness_san"
-    proc = subprocess.run([gcc, "-std=c99", *SANITIZE, *cflags, "-o", str(exe), str(tmp_path / "c_harness.c"),
-                           str(obj), *libs, "-lm"], capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
+    exe = build_sanitized(tmp_path, path)
     dev = module.SizesDevice(client)
     with Harness(exe, sim.port) as h:
         for regs in _register_sets()[:3]:

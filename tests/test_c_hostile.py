@@ -39,18 +39,20 @@ pytestmark = pytest.mark.exhaustive  # slow (a sanitizer build): CI runs it
 SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g", "-O1"]
 
 
-def build_sanitized(workdir: Path) -> Path:
-    """all_tables' C driver and the C harness, compiled by gcc with ASan and UBSan: the driver with the
-    strict flags docs/c-api.md promises, the harness (test code) with -std=c99."""
+def build_sanitized(workdir: Path, path: Path = DATA / "all_tables.xml") -> Path:
+    """The C driver of the description at `path` (all_tables by default) and the C harness, compiled
+    by gcc with ASan and UBSan: the driver with the strict flags docs/c-api.md promises, the harness
+    (test code) with -std=c99."""
     gcc = tool("gcc")
     cflags, libs = modbus_flags()
-    device = load_device(DATA / "all_tables.xml")
-    files = render(device, "all_tables.xml", "c")
+    device = load_device(path)
+    files = render(device, path.name, "c")
+    stem = next(name for name in files if name.endswith(".c"))[:-2]
     for name, text in files.items():
         (workdir / name).write_text(text, encoding="utf-8")
-    (workdir / "c_harness.c").write_text(harness_source(device, "all_tables"), encoding="utf-8")
-    driver = workdir / "all_tables.o"
-    proc = subprocess.run([gcc, *STRICT, *SANITIZE, *cflags, "-c", str(workdir / "all_tables.c"), "-o", str(driver)],
+    (workdir / "c_harness.c").write_text(harness_source(device, stem), encoding="utf-8")
+    driver = workdir / f"{stem}.o"
+    proc = subprocess.run([gcc, *STRICT, *SANITIZE, *cflags, "-c", str(workdir / f"{stem}.c"), "-o", str(driver)],
                           capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     exe = workdir / "c_harness_san"
