@@ -193,3 +193,30 @@ def test_fail_on_warning_without_warnings_changes_nothing(write_device, tmp_path
     schema = _toolkit(tmp_path, "        expression: 'int16(hr:1)'\n")
     proc = cli("import", schema, "--fail-on-warning")
     assert proc.returncode == 0 and proc.stderr == "" and "<addresses>1</addresses>" in proc.stdout
+
+
+# ---- what an expression may name
+
+
+@pytest.mark.parametrize("named, why", [
+    (fn_xml("wo", "1", format="UINT16", access="write"), "field 'wo' it refers to cannot be read (access 'write')"),
+    (fn_xml("wo", "1 2 3 4", format="UINT64", write_function_code="r1 = arg;"),
+     "field 'wo' it refers to has a write fragment: its value is a double in the C++ driver"),
+    (fn_xml("wo", "1 2 3 4", format="INT64", write_function_code="r1 = arg;"),
+     "field 'wo' it refers to has a write fragment"),
+])
+def test_an_expression_may_not_name_what_no_driver_reads_exactly(write_device, tmp_path, named, why):
+    """A write-only function, and a 64-bit integer with a write fragment (a double in the C++
+    driver), are refused where an expression names them: each driver would read them otherwise."""
+    path = write_device(named + fn_xml("e", "1", expression="concat(wo, '|')"))
+    for command in (["validate"], ["gen", "--lang", "all", "-o", tmp_path / "out"], ["test"]):
+        assert_clean_error(cli(*command, path), 1, "error: function 'e':", why)
+    assert not (tmp_path / "out").exists()
+
+
+def test_narrower_integers_with_a_write_fragment_may_be_named(write_device):
+    """A 32-bit integer with a write fragment is a double in the C++ driver too, and exact there."""
+    path = write_device(fn_xml("w", "1 2", format="INT32", write_function_code="r1 = arg;")
+                        + fn_xml("e", "1", expression="w + 1"))
+    proc = cli("validate", path)
+    assert proc.returncode == 0, proc.stderr

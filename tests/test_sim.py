@@ -163,3 +163,9 @@ def test_scenarios_by_position(sim_factory):
 ], ids=["units", "registers", "scenarios", "duplicate-unit", "unit-0"])
 def test_options_by_position_must_match_the_files(args, message):
     assert_clean_error(run_mdl("sim", *args, "--port", "0", timeout=30), 2, message)
+
+
+def test_an_expression_cannot_be_set():
+    proc = run_mdl("sim", HEAT_PUMP, "--port", "0", "--set", "FlowTemperature=20", timeout=30)
+    assert_clean_error(proc, 1, "--set FlowTemperature=20: 'FlowTemperature' is an expression, computed from "
+                                "registers: set the functions or registers it reads instead")

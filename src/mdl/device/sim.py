@@ -144,6 +144,9 @@ class Registers:
                     addresses[address] = value
 
     def set_value(self, fn: Function, text: str) -> None:
+        if fn.expression is not None:  # its registers are another function's, or none
+            raise error(f"--set {fn.name}={text}: '{fn.name}' is an expression, computed from registers: "
+                        "set the functions or registers it reads instead")
         try:
             regs = codec.encode(fn, codec.parse_value(fn, text))
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:

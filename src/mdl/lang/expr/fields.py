@@ -46,6 +46,24 @@ def plain_type(fn: Function) -> str:
     return {"int": "long", "string": "string", "bool": "bool"}[kind]
 
 
+def _unusable(fn: Function) -> str | None:
+    """Why an expression cannot name fn, or None: it must be read, and give every target its exact
+    value (a 64-bit integer with a write fragment is a double in the C++ driver, SPEC 5)."""
+    if not fn.readable:
+        return f"cannot be read (access '{fn.eff_access}')"
+    if fn.expression is None and fn.write_function_code and fn.writable:
+        from mdl.model.layout import LayoutError, layout
+
+        try:
+            lay = layout(fn)
+        except LayoutError:
+            return None  # reported as its own error
+        if lay.kind == "int" and lay.bits > 53 and not fn.scales and not fn.read_function_code:
+            return ("has a write fragment: its value is a double in the C++ driver (SPEC 5), which "
+                    f"cannot hold every {lay.bits}-bit integer an expression computes with")
+    return None
+
+
 def _plain_uint64(fn: Function) -> bool:
     """Whether an expression sees fn as an unsigned 64-bit integer (a UINT64 without scaling): its
     value may not fit the long it becomes there."""
@@ -109,6 +127,11 @@ def compile_device(device: Device) -> list[FieldError]:
         types: dict[str, str] = {}
         block = blocks[fn.block]
         for ref in refs:
+            unusable = _unusable(block[ref])
+            if unusable:
+                visiting.discard(fn.name)
+                errors.append(FieldError(fn, f"field '{ref}' it refers to {unusable}", None))
+                return None
             t = visit(block[ref], depth + 1)
             if t is None:
                 visiting.discard(fn.name)
