@@ -250,17 +250,20 @@ def print_bodies(functions: list[FunctionCode], env: jinja2.Environment) -> None
     ops = env.get_template("python/templates/ops.j2").module
     decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
     encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
-    decoded: dict[str, str] = {}  # shape -> body (a function of a shape has no fragment, no expression)
+    decoded: dict[object, str] = {}  # shape, or an expression's lines -> body
     encoded: dict[tuple[str, str], str] = {}
     for code in functions:
         f, codec = code.resolved, code.codec
         if codec.decode is not None:
             shape = f.decode_shape
-            body = decoded.get(shape) if shape is not None else None
+            # an expression's body is its lines alone (its one step): the same lines, the same body
+            key: object = shape if shape is not None else \
+                tuple(code.expression_body) if code.expression_body and len(codec.decode) == 1 else None
+            body = decoded.get(key) if key is not None else None
             if body is None:
                 body = decode_body(shape, codec.decode, code.fragment_read, code.expression_body).rstrip()
-                if shape is not None:
-                    decoded[shape] = body
+                if key is not None:
+                    decoded[key] = body
             code.decode_body = body
         if codec.encode is not None:
             key = (f.encode_shape, codec.write_type.kind) if f.encode_shape is not None else None
