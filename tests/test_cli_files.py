@@ -194,13 +194,73 @@ def test_ini_output_outside_its_folder_is_refused_unless_allowed(tstat_copy, tmp
     (tstat_copy / "link").symlink_to(outside)
     set_output(ini, value)
     proc = run_mdl("csv2xml", ini)
-    assert_clean_error(proc, 1, f"{ini}: error: output_xml_file names {written}", "--allow-outside")
+    assert_clean_error(proc, 1, f"{ini}:12: error: output_xml_file names {written}", "--allow-outside")
     assert proc.stdout == "" and not written.exists()
     assert sorted(p.name for p in tstat_copy.iterdir()) == ["link", "temco_tstat.csv", "temco_tstat.ini"]
     assert sorted(p.name for p in outside.iterdir()) == []
     proc = run_mdl("csv2xml", ini, "--allow-outside")
     assert proc.returncode == 0, proc.stderr
     assert written.read_text() == TSTAT.read_text()
+
+
+@pytest.mark.parametrize("value, what", [
+    ("temco_tstat.csv", "is the input"),
+    ("sub/../temco_tstat.csv", "is the input"),
+    ("temco_tstat.ini", "is the INI file itself"),
+    ("./TEMCO_TSTAT.INI/../temco_tstat.ini", "is the INI file itself"),
+])
+def test_ini_output_never_replaces_an_input_of_the_run(tstat_copy, value, what):
+    ini = tstat_copy / "temco_tstat.ini"
+    set_output(ini, value)
+    before = {p.name: p.read_bytes() for p in tstat_copy.iterdir()}
+    for extra in ((), ("--force",)):
+        proc = run_mdl("csv2xml", ini, *extra)
+        assert_clean_error(proc, 1, f"{ini}:12: error: the output ", what, "never writes over an input")
+        assert {p.name: p.read_bytes() for p in tstat_copy.iterdir()} == before
+
+
+def test_dash_o_never_replaces_an_input_even_through_a_hard_link(tstat_copy):
+    csv = tstat_copy / "temco_tstat.csv"
+    link = tstat_copy / "same.csv"
+    os.link(csv, link)
+    before = csv.read_bytes()
+    proc = run_mdl("csv2xml", csv, "--ini", tstat_copy / "temco_tstat.ini", "-o", link, "--force")
+    assert_clean_error(proc, 1, f"{link}: error: the output {link} is the input {csv}")
+    assert csv.read_bytes() == before
+
+
+@pytest.mark.parametrize("value", [".git/hooks/pre-commit", ".hidden.xml", "a/.config/x.xml"])
+def test_ini_output_never_goes_into_hidden_files_or_folders(tstat_copy, value):
+    ini = tstat_copy / "temco_tstat.ini"
+    hook = tstat_copy / ".git" / "hooks" / "pre-commit"
+    hook.parent.mkdir(parents=True)
+    hook.write_text("#!/bin/sh\nexit 0\n")
+    set_output(ini, value)
+    proc = run_mdl("csv2xml", ini, "--force")
+    assert_clean_error(proc, 1, f"{ini}:12: error: output_xml_file names {tstat_copy / value}, inside the hidden", "-o FILE")
+    assert hook.read_text() == "#!/bin/sh\nexit 0\n"
+    assert not (tstat_copy / ".hidden.xml").exists() and not (tstat_copy / "a").exists()
+
+
+def test_replacing_a_file_that_is_not_mdl_needs_force(tstat_copy):
+    ini = tstat_copy / "temco_tstat.ini"
+    readme = tstat_copy / "README"
+    readme.write_text("keep me\n")
+    set_output(ini, "README")
+    proc = run_mdl("csv2xml", ini)
+    assert_clean_error(proc, 1, f"{ini}:12: error: output_xml_file names {readme}, which exists and is not an MDL "
+                       "document", "--force")
+    assert readme.read_text() == "keep me\n"
+    proc = run_mdl("csv2xml", ini, "--force")
+    assert proc.returncode == 0, proc.stderr
+    assert readme.read_text() == TSTAT.read_text()
+    proc = run_mdl("csv2xml", ini)  # an earlier output (an MDL document) is replaced without --force
+    assert proc.returncode == 0, proc.stderr
+    other = tstat_copy / "notes.txt"  # -o is the user's own word
+    other.write_text("not xml")
+    proc = run_mdl("csv2xml", tstat_copy / "temco_tstat.csv", "--ini", ini, "-o", other)
+    assert proc.returncode == 0, proc.stderr
+    assert other.read_text() == TSTAT.read_text()
 
 
 # --- gen: all files or none ----------------------------------------------------------------------

@@ -140,6 +140,7 @@ def main() -> None:
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
               help="Output MDL file, - for stdout (default: stdout; with SOURCE an INI file, its output_xml_file).")
 @click.option("--allow-outside", is_flag=True, help="Let the INI's output_xml_file lie outside the INI's folder.")
+@click.option("--force", is_flag=True, help="Replace an existing output file that is not an MDL document.")
 @click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
@@ -148,7 +149,7 @@ def main() -> None:
 @click.option("--explain", "explain", multiple=True, metavar="FUNCTION",
               help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).")
 @fail_on_warning_option
-def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, interactive: bool,
+def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, force: bool, interactive: bool,
             threshold: float | None, emit_all: bool, strict: bool, explain: tuple[str, ...]) -> None:
     """Convert a vendor register table (CSV) to MDL XML.
 
@@ -167,32 +168,13 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
       mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
     from mdl.sources.csvmap.convert import run_csv2xml
+    from mdl.sources.csvmap.target import output_target
 
     _stdin_once([source] + ([ini] if ini else []))
-    target = _csv2xml_target(source, ini, output, allow_outside)
+    target = output_target(source, ini, output, allow_outside, force)
     fail_on_warning = bool(click.get_current_context().meta.get(_FAIL_ON_WARNING))
     run_csv2xml(source, ini, target, interactive, threshold, emit_all, fail_on_warning=fail_on_warning,
                 strict=strict, explain=explain)
-
-
-def _csv2xml_target(source: Path, ini: Path | None, output: Path | None, allow_outside: bool) -> Path:
-    """-o if given; in the `mdl csv2xml DEVICE.ini` form the INI's output_xml_file if any; else stdout."""
-    from mdl.diagnostics import error
-    from mdl.sources.csvmap.convert import _is_ini
-    from mdl.sources.csvmap.ini import read_ini
-
-    if output is not None:
-        return output
-    if ini is not None or not _is_ini(source):
-        return STDOUT
-    target = read_ini(source).output_file
-    if target is None:
-        return STDOUT
-    folder = source.parent
-    if not allow_outside and not target.resolve().is_relative_to(folder.resolve()):
-        raise error(f"output_xml_file names {target.resolve()}, outside the INI's folder {folder.resolve()}; "
-                    "give -o FILE, or --allow-outside to write it there", source)
-    return target
 
 
 @main.command()

@@ -21,7 +21,7 @@ from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
 from mdl.sources.csvmap.count_unit import count_unit
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
-from mdl.sources.csvmap.ini import DeviceIni, read_ini
+from mdl.sources.csvmap.ini import DeviceIni, is_ini, read_ini
 from mdl.sources.csvmap.match import Candidate, Index, assign, best, candidates
 from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import COMMA, NATIVE, UNIT_ALONE, WIDTHLESS, ParsedRow, RowSettings, parse_row, row_texts
@@ -34,10 +34,6 @@ from mdl.sources.mdlxml.write import device_to_xml
 DEFAULT_THRESHOLD = 0.6
 DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
 LONG_TABLE = 2000  # rows from which the row reading shows progress on a terminal
-
-
-def _is_ini(path: Path) -> bool:
-    return path.suffix.lower() in (".ini", ".cfg", ".conf")
 
 
 def _split_rows(table: Table, ini: DeviceIni | None) -> tuple[Row | None, list[Row]]:
@@ -389,7 +385,7 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
     report = Report()
     ini = None
     csv_given: Path | None = source
-    if ini_path is None and _is_ini(source):
+    if ini_path is None and is_ini(source):
         ini_path, csv_given = source, None
     if ini_path is not None:
         ini = read_ini(ini_path)
@@ -414,7 +410,7 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
         raise error(f"{n} warning{'s' * (n != 1)} and {flag}: nothing written", ini_path or csv_path)
     xml = device_to_xml(device)
     _self_check(xml, device)
-    target = output if output is not None else (ini.output_file if ini else None)
+    target = output  # chosen and checked by the caller (csvmap/target.py)
     if target is None or str(target) == "-":
         sys.stdout.write(xml)
         sys.stdout.flush()

@@ -107,6 +107,11 @@ def _problem(exc: configparser.Error) -> str:
     return f"not an INI file: {exc.message.splitlines()[0]}"
 
 
+def is_ini(path: Path) -> bool:
+    """Whether `mdl csv2xml PATH` names a device INI (which names the CSV) rather than the CSV."""
+    return path.suffix.lower() in (".ini", ".cfg", ".conf")
+
+
 def read_ini(path: Path) -> DeviceIni:
     text = read_text(path, ("utf-8-sig", "cp1252"))
     lines = _line_numbers(text)
