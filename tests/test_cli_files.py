@@ -237,7 +237,8 @@ def test_ini_output_never_goes_into_hidden_files_or_folders(tstat_copy, value):
     hook.write_text("#!/bin/sh\nexit 0\n")
     set_output(ini, value)
     proc = run_mdl("csv2xml", ini, "--force")
-    assert_clean_error(proc, 1, f"{ini}:12: error: output_xml_file names {tstat_copy / value}, inside the hidden", "-o FILE")
+    assert_clean_error(proc, 1, f"{ini}:12: error: output_xml_file names {tstat_copy / value}, inside the hidden",
+                       "-o FILE")
     assert hook.read_text() == "#!/bin/sh\nexit 0\n"
     assert not (tstat_copy / ".hidden.xml").exists() and not (tstat_copy / "a").exists()
 

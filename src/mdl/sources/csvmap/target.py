@@ -17,7 +17,7 @@ from pathlib import Path
 from lxml import etree
 
 from mdl.diagnostics import MdlError, error
-from mdl.sources.csvmap.ini import DeviceIni, is_ini, read_ini
+from mdl.sources.csvmap.ini import is_ini, read_ini
 
 STDIO_ARG = "-"
 MDL_ROOT = "{http://www.ornl.gov/ModbusXMLSchema}device"
@@ -28,7 +28,8 @@ def output_target(source: Path, ini_path: Path | None, output: Path | None, allo
                   force: bool) -> Path | None:
     """The file csv2xml writes, checked against the rules above; None: stdout."""
     ini = read_ini(source) if ini_path is None and is_ini(source) else None  # the `mdl csv2xml DEVICE.ini` form
-    inputs = [p for p in (source, ini_path, ini.csv_file if ini else None) if p is not None and str(p) != STDIO_ARG]
+    named = (source, ini_path, ini.csv_file if ini else None)
+    inputs = [p for p in named if p is not None and str(p) != STDIO_ARG]
     if output is not None:
         if str(output) == STDIO_ARG:
             return None
@@ -47,17 +48,18 @@ def output_target(source: Path, ini_path: Path | None, output: Path | None, allo
     if hidden is not None:
         raise error(f"output_xml_file names {target}, inside the hidden {hidden!r}; mdl csv2xml does not write "
                     "into hidden files or folders from an INI: give -o FILE to write there", source, line)
-    _check_not_input(target, inputs, ini, line)
+    _check_not_input(target, inputs, source, line)
     _check_replace(target, force, source, line)
     return target
 
 
-def _check_not_input(target: Path, inputs: list[Path], ini: DeviceIni | None, line: int | None) -> None:
+def _check_not_input(target: Path, inputs: list[Path], ini: Path | None, line: int | None) -> None:
+    """Refuse `target` if it is one of `inputs`; `ini`: the INI that named it (None: -o named it)."""
     for path in inputs:
         if _same_file(target, path):
-            what = "the INI file itself" if ini is not None and _same_file(path, ini.path) else f"the input {path}"
+            what = "the INI file itself" if ini is not None and _same_file(path, ini) else f"the input {path}"
             raise error(f"the output {target} is {what}: csv2xml never writes over an input of the run",
-                        ini.path if ini is not None else target, line)
+                        ini or target, line)
 
 
 def _check_replace(target: Path, force: bool, ini: Path, line: int | None) -> None:
