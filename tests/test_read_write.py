@@ -31,6 +31,16 @@ def test_read_formats(sim_factory):
     assert "alarm_reset" not in values and len(values) == 19
 
 
+def test_csv_keeps_a_carriage_return_inside_its_cell(sim_factory):
+    """A device's text holding a bare CR is one quoted cell, not the end of a row (csv readers split on it)."""
+    sim = sim_factory(ALL, "--set", "label=a\rb", "--set", "setpoint=21.5")
+    proc = cli("read", ALL, "--host", sim.host, "--port", sim.port, "label", "setpoint", "--format", "csv")
+    assert proc.returncode == 0, proc.stderr
+    assert list(csv.reader(io.StringIO(proc.stdout, newline=""))) == [
+        ["name", "value", "units"], ["label", "a\rb", ""], ["setpoint", "21.5", "°C"]]
+    assert proc.stdout.count("\n") == 3
+
+
 def test_senml_format(sim_factory):
     sim = sim_factory(TSTAT, "--set", "room_temperature=21.5", "--set", "occupied_setpoint=22")
     proc = run_mdl("read", TSTAT, "--host", sim.host, "--port", sim.port, "room_temperature", "occupied_setpoint",
