@@ -38,6 +38,7 @@ from mdl.exports import Export
 from mdl.exports.engines import (
     Notes,
     bit_in_register,
+    comment_text,
     connection_of,
     decimals,
     hex_pattern,
@@ -70,6 +71,19 @@ _DEFAULTS: dict[str, dict[str, Any]] = {  # the schema's defaults that the valid
     "binary_sensors": {"input_type": "coil"}, "sensors": {"input_type": "holding"},
     "switches": {"write_type": "holding", "command_on": 1, "command_off": 0}}
 Entity = tuple["ResolvedFunction", dict[str, Any]]
+
+
+class _Dumper(yaml.SafeDumper):
+    """PyYAML's safe dumper, except that text holding a character that does not print is double-quoted:
+    in its other styles PyYAML writes NEL, U+2028 and U+2029 as they are, and they read back as line
+    breaks (folded into a space), a different text. Double-quoted, they are escapes (`\\x85`)."""
+
+
+def _text(dumper: yaml.SafeDumper, data: str) -> yaml.ScalarNode:
+    return dumper.represent_scalar("tag:yaml.org,2002:str", data, style=None if data.isprintable() else '"')
+
+
+_Dumper.add_representer(str, _text)
 
 
 def ha_type(lay: Layout) -> dict[str, Any] | str:
@@ -310,8 +324,9 @@ def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export
         raise nothing_left(resolved, ENGINE, notes)
     hub.update(entities)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
-    head = (f"# Home Assistant modbus integration: {resolved.name}, from {source} by mdl export.\n"
-            "# Put it in configuration.yaml (merge the hub into an existing modbus: list).\n")
-    body = yaml.safe_dump({"modbus": [hub]}, sort_keys=False, allow_unicode=True, default_flow_style=False, width=100)
+    head = (f"# Home Assistant modbus integration: {comment_text(resolved.name)}, from {comment_text(source)} by "
+            "mdl export.\n# Put it in configuration.yaml (merge the hub into an existing modbus: list).\n")
+    body = yaml.dump({"modbus": [hub]}, Dumper=_Dumper, sort_keys=False, allow_unicode=True,
+                     default_flow_style=False, width=100)
     return Export(text=head + body, warnings=notes.found)
 

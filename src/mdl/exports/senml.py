@@ -3,11 +3,10 @@
 
 from __future__ import annotations
 
-import json
-
 from mdl.device.output import capability
 from mdl.diagnostics import Diagnostic
 from mdl.exports import Export, Settings
+from mdl.exports.engines import json_text
 from mdl.resolve import ResolvedDevice
 
 
@@ -19,4 +18,4 @@ def export_capability(resolved: ResolvedDevice, settings: Settings) -> Export:
         warnings.append(Diagnostic(None, None, None, "the capability document describes the functions: the "
                                    "connection options and --interval are not part of it", "note"))
     doc = capability([f.fn for f in resolved.functions], resolved.name)
-    return Export(json.dumps(doc, indent=2, ensure_ascii=False) + "\n", warnings=warnings)
+    return Export(json_text(doc, indent=2), warnings=warnings)

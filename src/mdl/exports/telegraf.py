@@ -24,7 +24,6 @@ bit) is read as UINT16 and `[[processors.enum]]` maps 0 to false and every other
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -32,12 +31,14 @@ from mdl.exports import Export
 from mdl.exports.engines import (
     Notes,
     bit_in_register,
+    comment_text,
     connection_of,
     hex_pattern,
     nothing_left,
     patterns_of,
     plain_number,
     scale_of,
+    toml_string,
     unreadable,
 )
 
@@ -92,7 +93,7 @@ def _toml(value: object) -> str:
         return str(value)
     if isinstance(value, float):
         return repr(value)
-    return json.dumps(str(value), ensure_ascii=False)
+    return toml_string(str(value))
 
 
 def _inline(entries: dict[str, object]) -> str:
@@ -258,7 +259,7 @@ def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
     if not exported:
         raise nothing_left(resolved, ENGINE, notes)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
-    head = (f"# Telegraf modbus input: {resolved.name}, from {source} by mdl export.\n"
+    head = (f"# Telegraf modbus input: {comment_text(resolved.name)}, from {comment_text(source)} by mdl export.\n"
             "# One request section per request of mdl's read plan. Needs Telegraf 1.30 or newer.\n")
     text = head + _input(resolved, settings, notes, exported) + _processors(resolved, exported)
     return Export(text=text, warnings=notes.found)

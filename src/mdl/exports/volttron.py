@@ -24,13 +24,16 @@ write_multiple (warned); registers with function 16 when the config's `write_mul
 true, else one register with function 6 (which writes a struct-format or multi-register value wrong).
 It is false where every writable register function is one int16/uint16 register that mdl writes with
 function 6; true otherwise, with one warning naming the functions then written with 16 where mdl uses 6.
+
+The CSVs are written by Python's csv module (a cell holding a comma, a quote or a line break is quoted);
+a cell of free text (Units, Description, Volttron Point Name) that starts with a formula character
+(`=` `+` `-` `@`, tab, carriage return) gets a single quote in front, with a warning (engines.spreadsheet_cell).
 """
 
 from __future__ import annotations
 
 import csv
 import io
-import json
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import error
@@ -41,10 +44,12 @@ from mdl.exports.engines import (
     connection_of,
     decimals,
     hex_pattern,
+    json_text,
     nothing_left,
     patterns_of,
     plain_number,
     scale_of,
+    spreadsheet_cell,
     unreadable,
     write_code,
     written_by_fragment,
@@ -160,21 +165,35 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
         "Register Name": f.ident,
         "Address": str(f.layout.addresses[0]),
         "Type": vtype,
-        "Units": f.fn.units or "",
+        "Units": _cell(f, "Units", f.fn.units or "", notes),
         "Writable": "TRUE" if writable else "FALSE",
         "Default Value": "",
         "Transform": transform,
         "Table": TABLES[f.layout.table],
         "Mixed Endian": "TRUE" if mixed else "FALSE",
-        "Description": " ".join(f.fn.description.split()),
+        "Description": _cell(f, "Description", " ".join(f.fn.description.split()), notes),
     }
 
 
+def _cell(f: ResolvedFunction, column: str, text: str, notes: Notes) -> str:
+    """A cell of free text that a spreadsheet opening the CSV shows as text, never runs as a formula."""
+    cell = spreadsheet_cell(text)
+    if cell != text:
+        notes.warn(f, f"its {column} cell starts with {text[0]!r}, which a spreadsheet runs as a formula: written "
+                      f"with a single quote in front, {cell[:20]!r}" + ("..." if len(cell) > 20 else "")
+                      + (" (the point's name in VOLTTRON too)" if column == "Volttron Point Name" else ""))
+    return cell
+
+
 def _csv(columns: tuple[str, ...], rows: list[dict[str, str]]) -> str:
+    """The CSV text: cells quoted where needed, and every cell of a row holding a carriage return (which
+    Python's csv writer leaves unquoted when the lines end in \\n, and every reader takes for a line end)."""
     out = io.StringIO()
     writer = csv.DictWriter(out, fieldnames=columns, lineterminator="\n")
+    quoted = csv.DictWriter(out, fieldnames=columns, lineterminator="\n", quoting=csv.QUOTE_ALL)
     writer.writeheader()
-    writer.writerows(rows)
+    for row in rows:
+        (quoted if any("\r" in cell for cell in row.values()) else writer).writerow(row)
     return out.getvalue()
 
 
@@ -216,7 +235,7 @@ def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes, multiple
     interval: float | int = int(settings.interval) if settings.interval == int(settings.interval) else settings.interval
     config = {"driver_config": driver, "driver_type": "modbus_tk", "registry_config": f"config://{stem}.csv",
               "interval": interval}
-    return json.dumps(config, indent=4, ensure_ascii=False) + "\n"
+    return json_text(config, indent=4)
 
 
 def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
@@ -225,7 +244,7 @@ def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
     if not rows:
         raise nothing_left(resolved, ENGINE, notes)
     exported = {row["Register Name"] for row in rows}
-    registry = [{"Volttron Point Name": f.name, "Register Name": f.ident}
+    registry = [{"Volttron Point Name": _cell(f, "Volttron Point Name", f.name, notes), "Register Name": f.ident}
                 for f in resolved.functions if f.ident in exported]
     stem = resolved.stem
     files = {f"{stem}_map.csv": _csv(MAP_COLUMNS, rows), f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),

@@ -10,6 +10,13 @@ and shifts the rest (no unit is written as one space; no minimum/maximum as the 
 scaled). What the format cannot express is a warning naming the function: a function it cannot read
 at all is left out (fragments, expressions, text, bytes, 64-bit values, byte orders datatypes 0-8 do not
 have, addresses not next to each other); one it reads with a loss is written and the loss named.
+
+No text can make a line of its own or shift the columns: the agent splits the file at line breaks and a line
+at commas (strtok), so a name or unit has its commas, quotes, control characters and line breaks of every
+kind (NEL, U+2028, U+2029 too) written as `_`, the Lua column its quotes and line breaks refused, and the
+device's name (`[Platform] Name`) its line breaks written as spaces: each change said in a warning. `=`, `[`,
+`;` and `#` inside a value are kept: a key ends at the line's first `=`, and only a line's first character
+makes a section or a comment. The header comments escape what does not print (engines.comment_text).
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from mdl import __version__
 from mdl.device.connection import Connection
 from mdl.diagnostics import Diagnostic
 from mdl.exports import Export, Settings
+from mdl.exports.engines import comment_text
 from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
 from mdl.sources.wise.lua import KEPT, kept_lua, kept_twice
 from mdl.sources.wise.sections import (
@@ -42,8 +50,10 @@ if TYPE_CHECKING:
 FLOAT32_MAX = 3.4028234663852886e38
 _RAW_RANGE = {"UINT16": (0, 0xFFFF), "UINT32": (0, 0xFFFFFFFF), "INT32": (-(1 << 31), (1 << 31) - 1),
               "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX)}
-_UNSAFE = re.compile(r'[,"\x00-\x1f\x7f]')  # what would split or end an INI line
-_UNSAFE_LUA = re.compile(r'["\x00-\x1f\x7f]')  # what would end the quoted Lua column or its line
+_BREAKS = r"\x00-\x1f\x7f-\x9f\u2028\u2029"  # control characters (C0, DEL, C1 with NEL) and line/paragraph separators
+_UNSAFE = re.compile(f'[,"{_BREAKS}]')  # what would split or end an INI line
+_UNSAFE_LUA = re.compile(f'["{_BREAKS}]')  # what would end the quoted Lua column or its line
+_LINE_BREAKING = re.compile(f"[{_BREAKS}]")
 PARITY = {"N": "None", "E": "Even", "O": "Odd"}
 
 
@@ -102,8 +112,8 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
                  f"'{line.lua}': the agent applies it, mdl does not", line=rf.fn.line)
         lines[line.table].append(line)
     _device_losses(resolved, lines, warn)
-    out = [f"; WISE-Agent Modbus handler configuration for {_safe(resolved.name)}",
-           f"; written by mdl {__version__}" + (f" from {_safe(Path(source).name)}" if source else ""), ""]
+    out = [f"; WISE-Agent Modbus handler configuration for {comment_text(resolved.name)}",
+           f"; written by mdl {__version__}" + (f" from {comment_text(Path(source).name)}" if source else ""), ""]
     out += _platform(resolved.name, connection, unit, interval, warn)
     for section in AGENT_SECTIONS:
         entries = sorted(lines[section.table], key=lambda e: e.offset)
@@ -120,21 +130,21 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
 
 def _platform(name: str, connection: Connection | None, unit: int, interval: float,
               warn: _Warn) -> list[str]:
-    out = ["[Platform]", f"Name={_safe(name)}"]
+    out = ["[Platform]", f"Name={_value(name, 'the device name', warn)}"]
     if connection is None:
         connection = Connection()
         warn(f"no --host or --serial: the agent is set to ClientIP={connection.host} "
              f"ClientPort={connection.port}", "note")
     if connection.serial is not None:
-        out += ["Protocol=Modbus_RTU", f"SlavePort={_safe(connection.serial)}", f"Baud={connection.baud}",
-                f"Parity={PARITY.get(connection.parity, connection.parity)}", f"DataBits={connection.bytesize}",
-                f"StopBits={connection.stopbits}", f"SlaveID={unit}"]
+        out += ["Protocol=Modbus_RTU", f"SlavePort={_value(connection.serial, '--serial', warn)}",
+                f"Baud={connection.baud}", f"Parity={PARITY.get(connection.parity, connection.parity)}",
+                f"DataBits={connection.bytesize}", f"StopBits={connection.stopbits}", f"SlaveID={unit}"]
     else:
         if connection.rtu:
             warn("the agent speaks Modbus TCP or RTU on a serial port, not RTU frames over TCP: "
                  "written as Protocol=Modbus_TCP")
-        out += ["Protocol=Modbus_TCP", f"ClientIP={_safe(connection.host)}", f"ClientPort={connection.port}",
-                f"UnitID={unit}"]
+        out += ["Protocol=Modbus_TCP", f"ClientIP={_value(connection.host, '--host', warn)}",
+                f"ClientPort={connection.port}", f"UnitID={unit}"]
     seconds = max(1, round(interval))
     if seconds != interval:
         warn(f"the agent polls every whole number of seconds: Interval={seconds} for --interval {interval:g}")
@@ -164,9 +174,9 @@ def _line(rf: ResolvedFunction) -> _Line:
     low = fn.minimum if fn.minimum is not None else min(lo * multiplier + add, hi * multiplier + add)
     high = fn.maximum if fn.maximum is not None else max(lo * multiplier + add, hi * multiplier + add)
     unit = (fn.units or "").strip()
-    if _UNSAFE.search(unit):
-        losses.append(f"the commas, quotes and control characters of its unit '{unit}'")
-        unit = _UNSAFE.sub("_", unit)
+    if _UNSAFE.search(fn.units or ""):
+        losses.append(f"the commas, quotes and control characters of its unit {fn.units!r}")
+        unit = _UNSAFE.sub("_", fn.units or "").strip()
     if lua is not None and kept_twice(fn.description):
         losses.append(f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
                       "starts is not clear)")
@@ -253,8 +263,8 @@ def _unique_name(line: _Line, section: list[_Line], warn: _Warn) -> None:
         n += 1
         name = f"{base}_{n}"
     if name != line.name:
-        warn(f"function '{line.fn.name}': written as '{name}' (a name in a Modbus.ini has no commas, quotes or "
-             "control characters and is unique in its section)", line=line.fn.line)
+        warn(f"function '{line.fn.name}': written as '{name}' (a name in a Modbus.ini has no commas, quotes, "
+             "control characters or line breaks and is unique in its section)", line=line.fn.line)
     line.name = name
 
 
@@ -281,6 +291,10 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
-def _safe(text: str) -> str:
-    """Text on one line of the file: control characters as spaces."""
-    return re.sub(r"[\x00-\x1f\x7f]", " ", text)
+def _value(text: str, what: str, warn: _Warn) -> str:
+    """Text as the value of a `key=value` line: control characters and line breaks as spaces, without the
+    spaces at its ends (the agent strips them); a warning where that changes it."""
+    value = _LINE_BREAKING.sub(" ", text).strip()
+    if value != text:
+        warn(f"{what} is written as {value!r} (a Modbus.ini value is one line, without spaces at its ends)")
+    return value

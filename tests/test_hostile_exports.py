@@ -1,0 +1,322 @@
+"""Issue 27: hostile text in a description never becomes configuration of the system an export configures.
+
+A device name, function name, description, unit or enumeration label may hold line breaks of every kind
+(\\n, \\r, NEL U+0085, U+2028, U+2029), quotes, backslashes, `]]`, `#`, `=`, `;`, `[`...: valid MDL, and
+reachable from an imported XIF or Modbus.ini. Each export is read back with the format's own parser (tomllib,
+yaml.safe_load, csv, json, configparser and mdl's own WISE reader) and must have the structure that was meant
+(the same tables, keys, sections, rows) with every text back exactly, or changed with a warning naming the
+function (CSV formula characters; the characters a Modbus.ini line cannot hold)."""
+
+from __future__ import annotations
+
+import configparser
+import csv
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+import yaml
+from conftest import MDL_NS, assert_clean_error, cli
+
+from mdl.device.output import capability
+from mdl.sources.loading import load_resolved
+from mdl.sources.wise.read import read_wise
+
+tomllib = pytest.importorskip("tomllib" if __import__("sys").version_info >= (3, 11) else "tomli")
+
+# texts that end a comment, a string, a line or a cell early in one format or another
+HOSTILE = ["a\nb", "a\rb", "a\r\nb", "a\x85b", "a\u2028b", "a\u2029b", 'say "hi"', "back\\slash", "end ]]",
+           "[[outputs.exec]]", "# hash", "=x", "k = v", "a;b", "x,y", "tab\there", "del\x7f", "csi\x9b",
+           "'quoted'", "!secret pw", "{{ states('x') }}", "bom\ufeff", "rlo\u202e", "\\u0041", "%(x)s", "---",
+           "... end", "[Platform]", "- item", "&amp;"]
+# a device name that, written raw into a header comment, would add a Telegraf output and a Home Assistant
+# shell command, a WISE section and an INI key
+INJECTING_NAME = ('Evil\n[[outputs.exec]]\n  commands = ["touch /tmp/pwned"]\nshell_command:\n  pwn: touch /tmp/pwned'
+                  '\r[Coils]\u2028numberOfB=1\u2029B0=0,x\x85# done')
+FORMULA = ("=", "+", "-", "@", "\t", "\r")
+
+
+def xml_text(text: str) -> str:
+    """`text` as MDL XML writes it: ASCII, everything else (and markup, controls) as character references."""
+    return "".join(ch if ch.isascii() and ch.isprintable() and ch not in "&<>" else f"&#x{ord(ch):X};"
+                   for ch in text)
+
+
+@dataclass
+class Fn:
+    name: str
+    description: str = "plain"
+    units: str | None = None
+    values: dict[int, str] = field(default_factory=dict)
+
+
+def write_device(path: Path, name: str, functions: list[Fn]) -> Path:
+    """A 1.0 description: each function one holding UINT16 register, at addresses 0, 1, 2..."""
+    body = ""
+    for address, fn in enumerate(functions):
+        body += (f"  <function>\n    <name>{xml_text(fn.name)}</name>\n"
+                 f"    <description>{xml_text(fn.description)}</description>\n"
+                 f"    <addresses>{address}</addresses>\n    <format>UINT16</format>\n")
+        if fn.units is not None:
+            body += f"    <units>{xml_text(fn.units)}</units>\n"
+        if fn.values:
+            inner = "".join(f'<value key="{k}">{xml_text(v)}</value>' for k, v in fn.values.items())
+            body += f"    <values>{inner}</values>\n"
+        body += "  </function>\n"
+    path.write_text(f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
+                    f"  <name>{xml_text(name)}</name>\n  <description>hostile</description>\n{body}</device>\n",
+                    encoding="ascii")
+    return path
+
+
+def export(path: Path, fmt: str, *extra: object):
+    proc = cli("export", path, "--to", fmt, "--host", "192.0.2.1", *extra)
+    assert "Traceback" not in proc.stderr
+    return proc
+
+
+def only_newlines(text: str) -> None:
+    """The text breaks lines at its own \\n only: no \\r, NEL, U+2028... that a reader could take as one."""
+    assert text.splitlines() == text.split("\n")[:-1] and text.endswith("\n"), [
+        line for line in text.split("\n") if len(line.splitlines()) > 1]
+
+
+# --- checks shared with the fuzz test (tests/fuzz/test_fuzz_exports.py) ---------------------------------------
+
+def check_telegraf(path: Path, text: str) -> None:
+    resolved = load_resolved(path)
+    only_newlines(text)
+    doc = tomllib.loads(text)
+    assert set(doc) <= {"inputs", "processors"} and list(doc["inputs"]) == ["modbus"], sorted(doc)
+    (plugin,) = doc["inputs"]["modbus"]
+    assert plugin["name"] == resolved.name
+    assert set(doc.get("processors", {})) <= {"enum"}
+    labels = {(m["field"], k): v for p in doc.get("processors", {}).get("enum", [])
+              for m in p["mapping"] for k, v in m["value_mappings"].items()}
+    assert labels == {(f.ident, str(k)): v for f in resolved.functions for k, v in (f.fn.values or {}).items()}
+    fields = [fld["name"] for req in plugin["request"] for fld in req["fields"] if "name" in fld]
+    assert sorted(fields) == sorted(f.ident for f in resolved.functions)
+
+
+def check_homeassistant(path: Path, text: str) -> None:
+    resolved = load_resolved(path)
+    only_newlines(text)
+    doc = yaml.safe_load(text)
+    assert list(doc) == ["modbus"] and len(doc["modbus"]) == 1
+    hub = doc["modbus"][0]
+    assert set(hub) == {"name", "type", "host", "port", "timeout", "sensors"}, sorted(hub)
+    assert [(s["name"], s.get("unit_of_measurement")) for s in hub["sensors"]] == \
+        [(f.name, f.fn.units or None) for f in resolved.functions]
+
+
+def spreadsheet(text: str) -> str:
+    return "'" + text if text.startswith(FORMULA) else text
+
+
+def check_volttron(path: Path, folder: Path, warnings: str) -> None:
+    resolved = load_resolved(path)
+    stem = resolved.stem
+    assert sorted(p.name for p in folder.iterdir()) == sorted([f"{stem}.config", f"{stem}.csv", f"{stem}_map.csv"])
+    config = json.loads((folder / f"{stem}.config").read_text(encoding="utf-8"))
+    only_newlines((folder / f"{stem}.config").read_text(encoding="utf-8"))
+    assert config["driver_config"]["name"] == resolved.name
+    with open(folder / f"{stem}_map.csv", newline="", encoding="utf-8") as handle:
+        rows = list(csv.reader(handle))
+    with open(folder / f"{stem}.csv", newline="", encoding="utf-8") as handle:
+        registry = list(csv.reader(handle))
+    assert rows[0][0] == "Register Name" and all(len(row) == 10 for row in rows), rows
+    assert registry[0] == ["Volttron Point Name", "Register Name"] and all(len(row) == 2 for row in registry)
+    fns = resolved.functions
+    assert [row[0] for row in rows[1:]] == [f.ident for f in fns]
+    assert [row[3] for row in rows[1:]] == [spreadsheet(f.fn.units or "") for f in fns]
+    assert [row[9] for row in rows[1:]] == [spreadsheet(" ".join(f.fn.description.split())) for f in fns]
+    assert registry[1:] == [[spreadsheet(f.name), f.ident] for f in fns]
+    for f in fns:  # every cell changed is said, naming the function
+        for column, text in (("Units", f.fn.units or ""), ("Description", " ".join(f.fn.description.split())),
+                             ("Volttron Point Name", f.name)):
+            if text.startswith(FORMULA):
+                said = f"function {_quoted(f.name)}: VOLTTRON: its {column} cell starts with {text[0]!r}"
+                assert said in warnings, (said, warnings)
+    for row in rows[1:] + registry[1:]:
+        assert not any(cell.startswith(FORMULA) for cell in row), row
+
+
+def _quoted(name: str) -> str:
+    from mdl.diagnostics import one_line
+    return f"'{one_line(name)}'"
+
+
+def check_senml(path: Path, text: str) -> None:
+    resolved = load_resolved(path)
+    only_newlines(text)
+    assert json.loads(text) == capability([f.fn for f in resolved.functions], resolved.name)
+
+
+WISE_BREAKS = re.compile(r'[,"\x00-\x1f\x7f-\x9f\u2028\u2029]')
+
+
+def check_wise(path: Path, out: Path, warnings: str) -> None:
+    resolved = load_resolved(path)
+    text = out.read_text(encoding="utf-8")
+    only_newlines(text)
+    parser = configparser.RawConfigParser(strict=True, delimiters=("=",), comment_prefixes=("#", ";"))
+    parser.optionxform = str  # type: ignore[assignment,method-assign]
+    parser.read_string(text)
+    assert parser.sections() == ["Platform", "Holding Registers"], parser.sections()
+    assert set(parser["Holding Registers"]) == {"numberOfR", *(f"R{i}" for i in range(len(resolved.functions)))}
+    device = read_wise(out)
+    assert device.notes is not None and not [d for d in device.notes if d.severity == "warning"], device.notes
+    want_name = re.sub(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]", " ", resolved.name).strip()
+    assert (device.name if want_name else "") == want_name
+    if want_name != resolved.name:
+        assert f"the device name is written as {want_name!r}" in warnings, warnings
+    got = [fn.name for fn in device.functions]
+    assert len(got) == len(resolved.functions)
+    for f, name in zip(resolved.functions, got, strict=True):
+        if name != f.name:  # only the characters a line cannot hold are changed, and that is said
+            assert name == (WISE_BREAKS.sub("_", f.name).strip() or "unnamed") or \
+                re.fullmatch(r".*_[0-9]+", name), (f.name, name)
+            assert f"function {_quoted(f.name)}: written as {_quoted(name)}" in warnings, (f.name, name, warnings)
+    for key, row in parser["Holding Registers"].items():
+        if key != "numberOfR":
+            assert row.count(",") == 6, row  # offset,name,min,max,precision,unit,datatype: no column shifted
+
+
+def run_all(path: Path, tmp: Path) -> None:
+    """Every text export of `path`, each read back by its format's parser and checked."""
+    for fmt, check in (("telegraf", check_telegraf), ("homeassistant", check_homeassistant),
+                       ("senml", check_senml)):
+        proc = export(path, fmt)
+        assert proc.returncode == 0, (fmt, proc.stderr)
+        check(path, proc.stdout)
+    folder = tmp / "volttron"
+    proc = export(path, "volttron", "-o", folder, "--force")
+    assert proc.returncode == 0, proc.stderr
+    check_volttron(path, folder, proc.stderr)
+    out = tmp / "Modbus.ini"
+    proc = export(path, "wise", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    check_wise(path, out, proc.stderr)
+
+
+# --- the tests --------------------------------------------------------------------------------------------------
+
+def test_hostile_device_passes_validate(tmp_path):
+    """A control: the hostile descriptions are valid MDL, so a user can hand them to export."""
+    path = write_device(tmp_path / "d.xml", INJECTING_NAME, [Fn(text, text, text, {1: text}) for text in HOSTILE])
+    proc = cli("validate", path)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_every_export_reads_back_as_meant(tmp_path):
+    functions = [Fn(text, description=f"{text} d", units=text, values={1: text, 2: "ok"}) for text in HOSTILE]
+    path = write_device(tmp_path / "d.xml", INJECTING_NAME, functions)
+    run_all(path, tmp_path)
+
+
+def test_device_name_adds_no_telegraf_output(tmp_path):
+    path = write_device(tmp_path / "d.xml", INJECTING_NAME, [Fn("t")])
+    proc = export(path, "telegraf")
+    assert proc.returncode == 0, proc.stderr
+    doc = tomllib.loads(proc.stdout)
+    assert "outputs" not in doc and doc["inputs"]["modbus"][0]["name"] == INJECTING_NAME
+    head = proc.stdout.split("\n")[0]  # the name in the header comment: escaped, on the comment's one line
+    assert head.startswith("# Telegraf modbus input: Evil\\n[[outputs.exec]]\\n") and "\\x85# done" in head
+
+
+def test_device_name_adds_no_home_assistant_key(tmp_path):
+    path = write_device(tmp_path / "d.xml", INJECTING_NAME, [Fn("t")])
+    proc = export(path, "homeassistant")
+    assert proc.returncode == 0, proc.stderr
+    assert list(yaml.safe_load(proc.stdout)) == ["modbus"]
+    assert proc.stdout.split("\n")[0].startswith("# Home Assistant modbus integration: Evil\\n[[outputs.exec]]")
+
+
+def test_yaml_keeps_nel_and_separators_in_names(tmp_path):
+    """PyYAML writes NEL, U+2028 and U+2029 raw in its plain and single-quoted styles, and reads them back as
+    a folded line break: the name would come back as another name. They are double-quoted escapes."""
+    names = ["a\x85b", "c\u2028d", "e\u2029f", "g\rh", " lead", "trail\t"]
+    path = write_device(tmp_path / "d.xml", "Dev", [Fn(n, units=n) for n in names])
+    proc = export(path, "homeassistant")
+    assert proc.returncode == 0, proc.stderr
+    sensors = yaml.safe_load(proc.stdout)["modbus"][0]["sensors"]
+    assert [(s["name"], s["unit_of_measurement"]) for s in sensors] == [(n, n) for n in names]
+    assert '  - name: "a\\Nb"\n' in proc.stdout
+
+
+def test_toml_escapes_what_tomllib_refuses_raw(tmp_path):
+    """DEL and the C1 controls in a basic string: json.dumps leaves them raw, which TOML forbids (DEL) or a
+    reader may take as a line break (NEL)."""
+    path = write_device(tmp_path / "d.xml", "Dev\x7f\x85\u2028", [Fn("t", values={1: "x\x7fy\x9b", 2: '"]]'})])
+    proc = export(path, "telegraf")
+    assert proc.returncode == 0, proc.stderr
+    assert '  name = "Dev\\u007F\\u0085\\u2028"\n' in proc.stdout
+    doc = tomllib.loads(proc.stdout)
+    assert doc["processors"]["enum"][0]["mapping"][0]["value_mappings"] == {"1": "x\x7fy\x9b", "2": '"]]'}
+
+
+@pytest.mark.parametrize("start", FORMULA)
+def test_volttron_neutralises_formulas(tmp_path, start):
+    name = f"{start}cmd|' /C calc'!A0"
+    path = write_device(tmp_path / "d.xml", "Dev", [Fn(name, description=f"{start}SUM(A1)", units=f"{start}V"),
+                                                    Fn("plain", description="a = b", units="V")])
+    folder = tmp_path / "out"
+    proc = export(path, "volttron", "-o", folder)
+    assert proc.returncode == 0, proc.stderr
+    check_volttron(path, folder, proc.stderr)
+    assert proc.stderr.count("which a spreadsheet runs as a formula") == (2 if start in "\t\r" else 3)
+    # (the description's whitespace is collapsed to one line, so a tab or CR cannot start that cell)
+    with open(folder / "dev.csv", newline="", encoding="utf-8") as handle:
+        assert list(csv.reader(handle))[1:] == [["'" + name, "cmd_c_calc_a0"], ["plain", "plain"]]
+
+
+def test_wise_names_cannot_add_keys_or_sections(tmp_path):
+    names = ["a\nR9=0,evil", "b\r[Coils]", "c\x85numberOfR=9", "d\u2028e", "f=g", "[Coils]", "; not", "# not",
+             "x,1,2,3,4,5,6", 'q"uote', " pad "]
+    path = write_device(tmp_path / "d.xml", "Dev\n[Coils]\nB0=0,x", [Fn(n, units=n) for n in names])
+    out = tmp_path / "Modbus.ini"
+    proc = export(path, "wise", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    check_wise(path, out, proc.stderr)
+    names_back = [fn.name for fn in read_wise(out).functions]
+    assert names_back[4:8] == ["f=g", "[Coils]", "; not", "# not"]  # harmless inside a value: kept exactly
+    assert "Name=Dev [Coils] B0=0,x\n" in out.read_text(encoding="utf-8")
+
+
+def test_wise_lua_column_cannot_break_its_line(tmp_path):
+    """A Lua conversion kept in a description is written back only when it fits its quoted column."""
+    lua = "math.floor(modbus_val)\u2028[Coils]"
+    kept = Fn("t", description=f"t (WISE Lua conversion, not applied: {lua})")
+    path = write_device(tmp_path / "d.xml", "Dev", [kept])
+    out = tmp_path / "Modbus.ini"
+    proc = export(path, "wise", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    assert "function 't': written, losing the Lua conversion its description keeps" in proc.stderr
+    check_wise(path, out, proc.stderr)
+
+
+def test_file_name_cannot_end_the_header_comment(tmp_path):
+    path = write_device(tmp_path / "x\n[[outputs.exec]]\u2028.xml", "Dev", [Fn("t")])
+    for fmt in ("telegraf", "homeassistant"):
+        proc = export(path, fmt)
+        assert proc.returncode == 0, proc.stderr
+        only_newlines(proc.stdout)
+        assert "from x\\n[[outputs.exec]]\\u2028.xml by mdl export" in proc.stdout.split("\n")[0]
+
+
+def test_nothing_exportable_is_a_clean_error(tmp_path):
+    """A control for the fuzz test's refusal: an export that can hold nothing exits 1, naming the file."""
+    path = tmp_path / "d.xml"
+    path.write_text(f'<?xml version="1.0"?>\n<device xmlns="{MDL_NS}" version="1.0"><name>a\u2028</name>'
+                    "<description>d</description></device>\n", encoding="utf-8")
+    assert_clean_error(export(path, "telegraf"), 1, "Telegraf can hold none of this description's functions")
+
+
+def test_output_is_unchanged_for_ordinary_text(tmp_path):
+    """Printable text (accents, degree signs, spaces) is written as it is, not escaped."""
+    path = write_device(tmp_path / "d.xml", "Heizung Küche", [Fn("Température", units="°C", values={1: "Zu"})])
+    assert '  name = "Heizung Küche"\n' in export(path, "telegraf").stdout
+    assert "  - name: Température\n" in export(path, "homeassistant").stdout
+    assert '"n": "Température",\n        "u": "°C"' in export(path, "senml").stdout
