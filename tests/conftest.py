@@ -43,9 +43,42 @@ def skip_or_fail(reason: str) -> None:
     pytest.skip(reason)
 
 
+# What a test costs, by file (docs/testing.md): `scripts/test --fast` leaves out compile, engines and fuzz.
+# A file not listed is `unit` (pure Python, in process or one `mdl` run), or `device` when its test serves
+# or dials a simulated device (the sim_factory or serial_line fixture).
+TIERS = {
+    "compile": {  # generated C and C++ built with g++, clang++, gcc (and clang-tidy), run against mdl sim
+        "test_c_all_header.py", "test_c_driver.py", "test_c_expression_sizes.py", "test_c_hostile.py",
+        "test_c_serial.py", "test_cpp_driver.py", "test_cpp_expression_params.py", "test_cpp_hostile.py",
+        "test_cpp_serial.py", "test_hostile_gen.py", "test_perf_shared_code.py", "test_write_multiple.py",
+        "test_generated_python_lint.py", "test_wheel.py",
+    },
+    "engines": {"test_export_homeassistant.py", "test_export_volttron.py"},  # engines in cached venvs
+}
+TIER_NAMES = ("unit", "device", "compile", "engines", "fuzz")
+
+
+def tier_of(item) -> str:
+    """The test's tier: its own marker (`@pytest.mark.engines` on one test of a cheaper file), else its file's."""
+    for tier in TIER_NAMES:
+        if item.get_closest_marker(tier) is not None:
+            return tier
+    path = Path(str(item.fspath))
+    if FUZZ in path.parents or path.name.endswith("_fuzz.py"):
+        return "fuzz"
+    for tier, files in TIERS.items():
+        if path.name in files:
+            return tier
+    if {"sim_factory", "serial_line"} & set(getattr(item, "fixturenames", ())):
+        return "device"
+    return "unit"
+
+
 def pytest_configure(config):
     config.addinivalue_line("markers", "conformance(folder): needs CONFORMANCE/folder (ORNL's or the Toolkit's files)")
     config.addinivalue_line("markers", "exhaustive: slow, many-case variants; run with --exhaustive (CI=true does)")
+    for tier in TIER_NAMES:
+        config.addinivalue_line("markers", f"{tier}: the {tier} tier (set by tests/conftest.py from the file)")
 
 
 def pytest_addoption(parser):
@@ -65,8 +98,11 @@ FUZZ = Path(__file__).resolve().parent / "fuzz"
 
 
 def pytest_collection_modifyitems(config, items):
-    for item in items:  # the fuzzers are exhaustive variants by nature: CI runs them, a quick local run need not
-        if FUZZ in Path(str(item.fspath)).parents:
+    for item in items:
+        tier = tier_of(item)
+        if item.get_closest_marker(tier) is None:
+            item.add_marker(getattr(pytest.mark, tier))
+        if tier == "fuzz":  # the fuzzers are exhaustive variants by nature: CI runs them, a quick run need not
             item.add_marker(pytest.mark.exhaustive)
     if _exhaustive(config):
         return

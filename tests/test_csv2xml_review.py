@@ -256,6 +256,7 @@ def test_volttron_struct_types_and_mixed_endian(tmp_path, sim_factory):
     assert values == VOLTTRON_VALUES
 
 
+@pytest.mark.engines
 def test_volttron_reads_the_map_as_csv2xml_does(tmp_path, sim_factory):
     """VOLTTRON's own driver on the same map, polling `mdl sim` serving csv2xml's result: every value alike."""
     from test_export_volttron import through_volttron
