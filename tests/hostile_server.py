@@ -30,6 +30,23 @@ read reply each register holds its own address and each bit is 1 at odd addresse
     reset                 resets the connection (TCP RST) once a request has arrived
     silent                reads requests and never answers
 
+Modes for function 43 / MEI 14 (Read Device Identification); reads are answered honestly in them, and
+the identification of an honest unit is VendorName "Hostile", ProductCode "H1", MajorMinorRevision "1.0"
+(IDENTITY):
+
+    id_long_length        an object whose length byte says 200 bytes, with 3 after it
+    id_extra_count        an object count of 5, with the 3 objects
+    id_huge               a PDU of 65,000 bytes (one object after another; Modbus allows 253)
+    id_more_forever       "more follows" on every reply, naming the object after the one asked (without end)
+    id_more_stuck         "more follows" naming the object asked, again and again
+    id_dribble            the honest reply, one byte every `gap` seconds (0.4 by default)
+    id_stream             the honest reply, then copies of it every 20 ms until the connection closes
+
+`framing="rtu"` speaks RTU frames over TCP instead (as a serial-to-Ethernet converter does); socat can
+put that on a pseudo terminal (`serial_bridge`). `units`: the unit ids that answer at all (all by
+default); a request for another gets exception 11 on Modbus TCP, as from a gateway, and no answer on
+RTU, as on a bus. `liar`: the one unit that lies (every unit by default); the others answer honestly.
+
 Except in drop and reset, a connection stays open after a lie, so a client that retries meets the
 same lie again; a client with a timeout T and R retries ends within about (R + 1) * T seconds.
 """
@@ -37,17 +54,23 @@ same lie again; a client with a timeout T and R retries ends within about (R + 1
 from __future__ import annotations
 
 import random
+import shutil
 import socket
 import struct
+import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager, suppress
+
+from pymodbus.framer import FramerRTU
 
 READS = (1, 2, 3, 4)
 WRITES = (5, 6, 15, 16)
 NEIGHBOUR = {1: 2, 2: 1, 3: 4, 4: 3, 5: 6, 6: 5, 15: 16, 16: 15}
 POLL = 0.1  # seconds between looks at the stop flag
+IDENTIFY = 0x2B  # function 43, MEI type 14: Read Device Identification
+IDENTITY = (b"Hostile", b"H1", b"1.0")  # an honest unit's basic objects 0, 1, 2
 
 
 def _count(request: bytes) -> int:
@@ -127,7 +150,46 @@ PDU_LIES: dict[str, Callable[[bytes], bytes]] = {
     "wrong_unit": _honest,
 }
 CONNECTION_LIES = ("garbage", "drop", "reset", "silent")
-MODES = (*PDU_LIES, *CONNECTION_LIES)
+
+
+def _objects(objects: list[tuple[int, bytes]]) -> bytes:
+    return b"".join(bytes([oid, len(data)]) + data for oid, data in objects)
+
+
+def identification(request: bytes, more: int = 0, next_object: int = 0, count: int | None = None,
+                   objects: bytes | None = None) -> bytes:
+    """A Read Device Identification reply to `request` (2b 0e CODE OBJECT): the IDENTITY objects from the one
+    asked, or what the arguments say instead."""
+    first = request[3] if len(request) > 3 else 0
+    chosen = [(oid, data) for oid, data in enumerate(IDENTITY) if oid >= first]
+    body = _objects(chosen) if objects is None else objects
+    return bytes([IDENTIFY, 0x0E, request[2] if len(request) > 2 else 1, 0x01, more, next_object,
+                  len(chosen) if count is None else count]) + body
+
+
+def _honest_identification(request: bytes) -> bytes:
+    if len(request) != 4 or request[1] != 0x0E:
+        return bytes([IDENTIFY | 0x80, 1])
+    return identification(request)
+
+
+def _huge(request: bytes) -> bytes:
+    objects = [(i % 3, bytes([0x41 + i % 26]) * 250) for i in range(65_000 // 252)]
+    return identification(request, count=len(objects) % 256, objects=_objects(objects))
+
+
+ID_LIES: dict[str, Callable[[bytes], bytes]] = {
+    "id_long_length": lambda r: identification(r, count=1, objects=bytes([0, 200]) + b"abc"),
+    "id_extra_count": lambda r: identification(r, count=5),
+    "id_huge": _huge,
+    "id_more_forever": lambda r: identification(r, more=0xFF, next_object=(r[3] + 1) & 0xFF, count=1,
+                                                objects=_objects([(r[3], b"x")])),
+    "id_more_stuck": lambda r: identification(r, more=0xFF, next_object=r[3], count=1,
+                                              objects=_objects([(r[3], b"x")])),
+    "id_dribble": _honest_identification,
+    "id_stream": _honest_identification,
+}
+MODES = (*PDU_LIES, *CONNECTION_LIES, *ID_LIES)
 
 
 def _recv_exactly(conn: socket.socket, size: int, stop: threading.Event) -> bytes | None:
@@ -148,11 +210,31 @@ def _recv_exactly(conn: socket.socket, size: int, stop: threading.Event) -> byte
     return data
 
 
+def _rtu_request_size(data: bytes) -> int:
+    """The length of the RTU request frame at the start of `data`; 0: more bytes needed; -1: not a request."""
+    if len(data) < 2:
+        return 0
+    fc = data[1]
+    if fc in (*READS, 5, 6):
+        return 8  # unit id, function code, address, count or value, CRC
+    if fc in (15, 16):
+        return 9 + data[6] if len(data) > 6 else 0
+    return 7 if fc == IDENTIFY else -1  # unit id, 2b 0e, read code, object id, CRC
+
+
+def rtu_frame(unit: int, pdu: bytes) -> bytes:
+    frame = bytes([unit]) + pdu
+    return frame + FramerRTU.compute_CRC(frame).to_bytes(2, "big")
+
+
 class _Server:
-    def __init__(self, mode: str, lifetime: float):
+    def __init__(self, mode: str, lifetime: float, framing: str = "tcp", units: Collection[int] | None = None,
+                 liar: int | None = None, gap: float = 0.4):
         if mode not in MODES:
             raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(MODES)}")
-        self.mode = mode
+        if framing not in ("tcp", "rtu"):
+            raise ValueError(f"unknown framing {framing!r}: tcp or rtu")
+        self.mode, self.rtu, self.units, self.liar, self.gap = mode, framing == "rtu", units, liar, gap
         self.deadline = time.monotonic() + lifetime
         self.stop = threading.Event()
         self.garbage = random.Random(8)
@@ -178,31 +260,79 @@ class _Server:
             thread.start()
         self.stop.set()
 
-    def _serve(self, conn: socket.socket) -> None:
-        with conn:
+    def _requests(self, conn: socket.socket) -> Iterator[tuple[int, int, bytes]]:
+        """(transaction id, unit id, PDU) of each request that arrives (transaction id 0 on RTU)."""
+        if not self.rtu:
             while (header := _recv_exactly(conn, 7, self.stop)) is not None:
                 tid, _pid, length, unit = struct.unpack(">HHHB", header)
                 request = _recv_exactly(conn, length - 1, self.stop) if length > 1 else b""
                 if not request:
                     return
-                if self.mode in ("drop", "reset"):
-                    if self.mode == "reset":
+                yield tid, unit, request
+            return
+        data = b""
+        while (chunk := _recv_exactly(conn, 1, self.stop)) is not None:
+            data += chunk
+            size = _rtu_request_size(data)
+            if size < 0:
+                data = b""  # not a request this server knows: dropped, as noise on a line
+            elif size and len(data) >= size:
+                frame, data = data[:size], data[size:]
+                yield 0, frame[0], frame[1:-2]
+
+    def _serve(self, conn: socket.socket) -> None:
+        with conn:
+            for tid, unit, request in self._requests(conn):
+                if self.units is not None and unit not in self.units:
+                    if not self.rtu:  # a gateway: nothing answers behind it
+                        with suppress(OSError):
+                            conn.sendall(self._frame(tid, unit, bytes([request[0] | 0x80, 11])))
+                    continue
+                mode = self.mode if self.liar is None or unit == self.liar else "honest"
+                if mode in ("drop", "reset"):
+                    if mode == "reset":
                         conn.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
                     return
-                if self.mode == "silent":
+                if mode == "silent":
                     continue
-                with suppress(OSError):
-                    conn.sendall(self._reply(tid, unit, request))
+                try:
+                    self._send(conn, mode, tid, unit, request)
+                except OSError:
+                    return
 
-    def _reply(self, tid: int, unit: int, request: bytes) -> bytes:
-        if self.mode == "garbage":
+    def _send(self, conn: socket.socket, mode: str, tid: int, unit: int, request: bytes) -> None:
+        identify = request[0] == IDENTIFY and (mode in ID_LIES or self.mode in ID_LIES)
+        if not identify or mode not in ("id_dribble", "id_stream"):
+            conn.sendall(self._reply(mode, tid, unit, request))
+            return
+        reply = self._frame(tid, unit, ID_LIES[mode](request))
+        if mode == "id_dribble":
+            for byte in reply:
+                if self.stop.wait(self.gap):
+                    return
+                conn.sendall(bytes([byte]))
+            return
+        while not self.stop.is_set():  # id_stream: without end
+            conn.sendall(reply)
+            self.stop.wait(0.02)
+
+    def _reply(self, mode: str, tid: int, unit: int, request: bytes) -> bytes:
+        if mode == "garbage":
             return self.garbage.randbytes(16)
-        pdu = PDU_LIES[self.mode](request)
-        if self.mode == "wrong_transaction_id":
+        if request[0] == IDENTIFY and (mode in ID_LIES or self.mode in ID_LIES):
+            pdu = ID_LIES.get(mode, _honest_identification)(request)
+        else:
+            pdu = PDU_LIES.get(mode, _honest)(request)
+        if mode == "wrong_transaction_id":
             tid = (tid + 1) & 0xFFFF
-        if self.mode == "wrong_unit":
+        if mode == "wrong_unit":
             unit = (unit + 1) & 0xFF
-        return struct.pack(">HHHB", tid, 0, len(pdu) + 1, unit) + pdu
+        return self._frame(tid, unit, pdu)
+
+    def _frame(self, tid: int, unit: int, pdu: bytes) -> bytes:
+        if self.rtu:
+            return rtu_frame(unit, pdu)
+        return struct.pack(">HHHB", tid, 0, (len(pdu) + 1) & 0xFFFF, unit) + pdu
 
     def close(self) -> None:
         self.stop.set()
@@ -215,10 +345,38 @@ class _Server:
 
 
 @contextmanager
-def hostile_server(mode: str, lifetime: float = 60.0) -> Iterator[tuple[str, int]]:
+def hostile_server(mode: str, lifetime: float = 60.0, framing: str = "tcp", units: Collection[int] | None = None,
+                   liar: int | None = None, gap: float = 0.4) -> Iterator[tuple[str, int]]:
     """Serve `mode` (see the module's docstring) on 127.0.0.1; yields (host, port)."""
-    server = _Server(mode, lifetime)
+    server = _Server(mode, lifetime, framing, units, liar, gap)
     try:
         yield server.address
     finally:
         server.close()
+
+
+@contextmanager
+def serial_bridge(port: int, timeout: float = 10) -> Iterator[str]:
+    """A pseudo terminal wired to 127.0.0.1:`port` by socat (a hostile server with framing="rtu" then stands
+    for a device on a serial line); yields the terminal's name. socat must be installed."""
+    from conftest import _read_lines  # the same line reader the serial fixtures use
+
+    if shutil.which("socat") is None:
+        raise RuntimeError("socat is not installed")
+    proc = subprocess.Popen(["socat", "-d", "-d", "pty,raw,echo=0", f"tcp:127.0.0.1:{port}"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = _read_lines(proc.stderr, lambda got: any(" PTY is " in line for line in got), proc, timeout)
+        ends = [line.split(" PTY is ", 1)[1].strip() for line in lines if " PTY is " in line]
+        if not ends:
+            raise RuntimeError(f"socat made no pseudo terminal: {lines!r}")
+        yield ends[0]
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            try:
+                proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        proc.stderr.close()

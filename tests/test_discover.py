@@ -135,9 +135,9 @@ def test_no_match_is_exit_1_and_still_lists_who_answered(library, bus):
     proc = discover(library["other"], library["plain"], *bus.connection, "--units", "1-10", "--format", "json")
     assert proc.returncode == 1, proc.stderr
     assert [(r["unit"], r["matches"]) for r in json.loads(proc.stdout)] == [(3, []), (4, []), (7, []), (9, [])]
-    proc = discover(library["other"], *bus.connection, "--units", "1,2")
-    assert proc.returncode == 1 and "Traceback" not in proc.stderr
-    assert proc.stdout.splitlines() == ["UNIT  FILE  DEVICE  VendorName  ProductCode  MajorMinorRevision"]
+    proc = discover(library["other"], *bus.connection, "--units", "1,2")  # nobody answers: exit 3 (SPEC 9, 10)
+    assert_clean_error(proc, 3, f"error: {bus.host}:{bus.port}: no unit answered (asked 1-2)")
+    assert proc.stdout == ""
 
 
 def test_several_ports(library, bus, sim_factory, tmp_path):

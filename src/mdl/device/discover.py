@@ -12,8 +12,14 @@ the basic objects).
 The first request a unit gets decides whether it is there: no reply within the connection's timeout
 (or exception 10/11, a gateway saying nothing answers behind it) and the unit is skipped, at the cost
 of that one timeout. Units that answer anything, even only exceptions, are in the results, matched
-or not; units that do not answer are not. Progress goes to stderr: a bar on a terminal, else a line
-per unit. docs/discovery.md has the workflow.
+or not; units that do not answer are not; none at all is exit 3. Progress goes to stderr: a bar on a
+terminal, else a line per unit. docs/discovery.md has the workflow.
+
+Replies are not trusted: an identification reply is checked byte by byte (`parse_identification`) and a
+malformed one shows nothing, with a warning naming the unit and what was wrong. After a request that got
+no clean reply, late bytes of it must not reach the next request (they would make a silent unit look
+present): on TCP the connection is opened anew, on a serial line what still comes is read and dropped
+until the line is quiet (`_Unit._settle`).
 """
 
 from __future__ import annotations
@@ -25,16 +31,25 @@ from collections.abc import Generator, Iterable
 from contextlib import closing
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import click
-from pymodbus.constants import DeviceInformation, MoreData
+from pymodbus.constants import DeviceInformation
 from pymodbus.exceptions import ModbusException
-from pymodbus.pdu.mei_message import ReadDeviceInformationResponse
 
 from mdl.device.connection import Connection
+from mdl.device.replies import (
+    DRAIN_MIN,
+    DRAIN_TIMEOUTS,
+    OBJECT_NAMES,
+    IdReply,
+    LineLost,
+    came_from,
+    drain,
+    parse_identification,
+    refused_problem,
+    reply_pdu,
+)
 from mdl.device.runtime import ModbusExceptionError, Session
-from mdl.device.sim import IDENTIFICATION
 from mdl.diagnostics import DeviceError, Diagnostic, one_line
 from mdl.model import Device, Function, Value
 from mdl.model.layout import Layout
@@ -45,7 +60,6 @@ from mdl.values.codec import Decoder, compile_decoder
 
 MAX_UNIT_ID = 255  # a unit id is one byte; 248-255 are reserved on a serial bus, used by some TCP devices
 GATEWAY_SILENT = (10, 11)  # GATEWAY PATH UNAVAILABLE, GATEWAY TARGET DEVICE FAILED TO RESPOND
-OBJECT_NAMES = tuple(name for name, _ in IDENTIFICATION)  # the basic objects, by object id
 _UNIT_ITEM = re.compile(r"\s*([0-9]{1,6})\s*(?:-\s*([0-9]{1,6})\s*)?", re.ASCII)
 _NUMBER_LIKE = re.compile(r"\s*[0-9]+\s*(?:-\s*[0-9]+\s*)?", re.ASCII)
 
@@ -135,13 +149,61 @@ class _Unit:
         self.answered = self.absent = False
         self.reads: dict[tuple[str, tuple[tuple[int, int], ...]], list[int] | None] = {}
 
-    def _silent(self) -> None:
-        """A request got no reply: the unit is absent if it never answered. The connection is opened
-        again if that closed it (pymodbus closes a TCP connection after several silent requests);
-        DeviceError (exit 3) if it cannot be."""
+    def _gateway_silent(self) -> None:
+        """Exception 10 or 11: a gateway saying nothing answers behind it; the unit is absent if it never
+        answered. The connection is opened again if that closed it (pymodbus closes a TCP connection after
+        several silent requests); DeviceError (exit 3) if it cannot be."""
         if not self.answered:
             self.absent = True
         self.session.connect()
+
+    def _failed(self) -> None:
+        """A request got no reply the client took (nothing, or bytes it could not decode). The unit answered
+        if what came back is its reply (`came_from`), and is absent if nothing of it came and it never
+        answered. Then the line is settled, so that nothing late reaches the next request."""
+        if came_from(self.session.wire, self.unit):
+            self.answered = True
+        elif not self.answered:
+            self.absent = True
+        self._settle()
+
+    def _stale(self) -> bool:
+        """Whether the last request got bytes, none of them its reply (late bytes of an earlier reply, of
+        another unit perhaps): then they are said and dropped, the line settled, and the request is to be
+        sent again."""
+        wire = self.session.wire
+        if not wire.received or came_from(wire, self.unit):
+            return False
+        data = wire.received[-1]
+        shown = data[:8].hex(" ") + (" ..." if len(data) > 8 else "")
+        how = "a new connection" if self.session.connection.serial is None else "the line drained"
+        what = (f"{len(data)} bytes came that are no reply of this unit ({shown}), late bytes of an earlier reply "
+                f"perhaps: dropped, with {how}, and asked again")
+        _say(f"warning: {self.session.where(what)}")
+        self._settle()
+        return True
+
+    def _settle(self) -> None:
+        """Make sure no late byte of the last reply is read as part of the next: on TCP (either framing) a
+        new connection; on a serial line, where bytes came, drop what comes until the line is quiet for one
+        timeout. DeviceError (exit 3) if the connection cannot be opened again, or the line never goes quiet."""
+        session, conn = self.session, self.session.connection
+        if conn.serial is None:
+            session.close()
+            try:
+                session.connect()
+            except DeviceError as exc:
+                raise LineLost(exc.diagnostics[0].message) from None
+            return
+        port = getattr(session.client, "socket", None)
+        if not session.wire.received or port is None:
+            return
+        limit = max(DRAIN_TIMEOUTS * conn.timeout, DRAIN_MIN)
+        busy = drain(port, conn.timeout, limit)
+        if busy is not None:
+            raise LineLost(f"{conn}: the line did not go quiet: bytes kept coming for {limit:g} s after unit "
+                              f"{self.unit} was asked ({busy.hex(' ')} ...), a device still sending; no other unit "
+                              "can be asked on this line")
 
     def registers(self, marker: _Marker) -> list[int] | None:
         """The registers of a marker function, read alone; None if the unit did not give them all."""
@@ -157,22 +219,32 @@ class _Unit:
             if self.absent:
                 return None
             try:
-                values = self.session.read_request(Request(lay.table, start, count, (name,)))
+                values = self._read_request(Request(lay.table, start, count, (name,)))
             except ModbusExceptionError as exc:
                 if exc.code in GATEWAY_SILENT:
-                    self._silent()
+                    self._gateway_silent()
                 else:
                     self.answered = True  # it is there, but has no such registers
                 return None
+            except LineLost:
+                raise
             except DeviceError:
-                if self.session.wire.received:
-                    self.answered = True  # something came back, not the registers
-                else:
-                    self._silent()
+                self._failed()
                 return None
             self.answered = True
             got.update(zip(range(start, start + count), values, strict=True))
         return [got[a] for a in lay.addresses]
+
+    def _read_request(self, request: Request) -> list[int]:
+        """session.read_request, sent once more where someone else's late bytes spoilt the first reply."""
+        try:
+            return self.session.read_request(request)
+        except ModbusExceptionError:
+            raise
+        except DeviceError:
+            if not self._stale():
+                raise
+        return self.session.read_request(request)
 
     def matches(self, candidate: _Candidate) -> bool:
         if not candidate.markers:
@@ -185,43 +257,61 @@ class _Unit:
 
     def identification(self) -> dict[str, str] | None:
         """The basic objects of Read Device Identification (asked for again from where the device says
-        "more follows"), or None where the unit answers with an exception, no reply, or none of them."""
+        "more follows", which must be a later basic object: three requests at most), or None where the unit
+        answers with an exception, no reply, or none of them. A malformed reply gives None, whatever earlier
+        replies gave, and a warning saying what was wrong with it."""
         found: dict[str, str] = {}
         object_id = 0
-        for _ in OBJECT_NAMES:  # one request per object at most
-            self.session.wire.clear()
-            try:
-                reply = self.session.client.read_device_information(
-                    read_code=DeviceInformation.BASIC, object_id=object_id, device_id=self.unit)
-            except (ModbusException, OSError):
-                if self.session.wire.received:
-                    self.answered = True
-                else:
-                    self._silent()
+        for _ in OBJECT_NAMES:  # each reply must name a later object: one request per object at most
+            reply = self._identification_reply(object_id)
+            if reply is None:
+                return None
+            if isinstance(reply, int):  # an exception
                 break
-            if reply.isError():
-                if getattr(reply, "exception_code", 0) in GATEWAY_SILENT:
-                    self._silent()
-                else:
-                    self.answered = True  # it is there, without identification
+            for oid, data in reply.objects:
+                if 0 <= oid < len(OBJECT_NAMES) and OBJECT_NAMES[oid] not in found:
+                    found[OBJECT_NAMES[oid]] = data.decode("utf-8", "replace")
+            if not reply.more:
                 break
-            self.answered = True
-            if not isinstance(reply, ReadDeviceInformationResponse):
-                break
-            for oid, data in sorted(reply.information.items()):
-                if 0 <= oid < len(OBJECT_NAMES):
-                    found[OBJECT_NAMES[oid]] = _object_text(data)
-            if reply.more_follows != MoreData.KEEP_READING or reply.next_object_id <= object_id:
-                break
-            object_id = reply.next_object_id
+            object_id = reply.next_object
         return {name: found[name] for name in OBJECT_NAMES if name in found} or None
 
+    def _identification_reply(self, object_id: int) -> IdReply | int | None:
+        """One Read Device Identification request from `object_id`: the reply, the exception code, or None
+        (no reply, or a malformed one: then a warning says what was wrong)."""
+        session = self.session
+        for attempt in (1, 2):  # once more where someone else's late bytes spoilt the first
+            session.wire.clear()
+            try:
+                session.client.read_device_information(read_code=DeviceInformation.BASIC, object_id=object_id,
+                                                       device_id=self.unit)
+                break
+            except (ModbusException, OSError):
+                if attempt == 1 and self._stale():
+                    continue
+                if came_from(session.wire, self.unit):
+                    self._warn(refused_problem(session.wire, self.unit, object_id, session.connection.timeout))
+                self._failed()
+                return None
+        pdu = reply_pdu(session.wire, self.unit)
+        try:
+            if pdu is None:
+                raise ValueError("the reply the client decoded is not in the bytes received")
+            reply = parse_identification(pdu, object_id)
+        except ValueError as exc:
+            self.answered = True
+            self._warn(str(exc))
+            self._settle()
+            return None
+        if isinstance(reply, int) and reply in GATEWAY_SILENT:
+            self._gateway_silent()
+        else:
+            self.answered = True  # with its identification, or an exception: it is there
+        return reply
 
-def _object_text(data: Any) -> str:
-    """An identification object as text (pymodbus gives bytes, or a list of them for a repeated object)."""
-    if isinstance(data, list):
-        data = data[0] if data else b""
-    return data.decode("utf-8", "replace") if isinstance(data, bytes) else str(data)
+    def _warn(self, problem: str) -> None:
+        _say(f"warning: {self.session.where('reading the device identification (function 43)')}: {problem}; "
+             "none of it is shown")
 
 
 def _ask(session: Session, unit: int, candidates: list[_Candidate]) -> UnitResult | None:
@@ -271,8 +361,8 @@ def _progress(units: list[int], connection: Connection) -> Generator[tuple[int, 
 def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
              units: list[int]) -> list[UnitResult]:
     """Ask each unit over `connection` which descriptions of `library` it is (SPEC section 10); the units
-    that answered, in ascending order. DeviceError (exit 3) if the connection cannot be opened, or is
-    lost and cannot be opened again."""
+    that answered, in ascending order. DeviceError (exit 3) if no unit answered, if the connection cannot
+    be opened, or is lost and cannot be opened again, or if a serial line never goes quiet."""
     candidates = [_candidate(path, resolved) for path, resolved in library]
     if connection.serial is not None and 0 in units:
         _say("unit 0 is the broadcast address on a serial line, which no device answers: not asked")
@@ -293,7 +383,22 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
                     results.append(result)
     matched = sum(1 for r in results if r.matches)
     _say(f"{len(results)} unit{'s' * (len(results) != 1)} answered, {matched} matched a description")
+    if not results:
+        hint = connection.silence_hint()
+        raise DeviceError(f"{connection}: no unit answered (asked {unit_list(units) or 'none'})"
+                          + (f"; {hint}" if hint else ""))
     return results
+
+
+def unit_list(units: Iterable[int]) -> str:
+    """Unit ids as `--units` takes them: ascending, runs as FIRST-LAST (`1-10,17`); parse_units reads it back."""
+    runs: list[list[int]] = []
+    for unit in sorted(set(units)):
+        if runs and unit == runs[-1][1] + 1:
+            runs[-1][1] = unit
+        else:
+            runs.append([unit, unit])
+    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
 
 
 def _cells(result: UnitResult) -> Iterable[list[str]]:

@@ -53,8 +53,10 @@ def _csv_line(cells: list[str]) -> str:
     """One CSV record ending in `\n`; a cell holding a carriage return is quoted too (csv quotes only the
     line terminator's own characters, and a bare `\r` ends a row for most readers)."""
     buf = io.StringIO()
-    quoting = csv.QUOTE_ALL if any("\r" in cell for cell in cells) else csv.QUOTE_MINIMAL
-    csv.writer(buf, lineterminator="\n", quoting=quoting).writerow(cells)
+    if any("\r" in cell for cell in cells):
+        csv.writer(buf, lineterminator="\n", quoting=csv.QUOTE_ALL).writerow(cells)
+    else:
+        csv.writer(buf, lineterminator="\n").writerow(cells)
     return buf.getvalue()
 
 

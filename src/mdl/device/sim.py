@@ -13,20 +13,26 @@ control block), so the server's decoder is given a request class of ours that as
 from __future__ import annotations
 
 import asyncio
+import functools
 import json
+import logging
 import os
 import signal
 import sys
+import time
+from collections import Counter
 from collections.abc import Awaitable, Callable, Iterable, Sequence
+from contextvars import ContextVar
 from types import SimpleNamespace
-from typing import TYPE_CHECKING, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
 from pymodbus.constants import DeviceInformation, ExcCodes
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.exceptions import NoSuchIdException
-from pymodbus.pdu import ExceptionResponse, ModbusPDU
+from pymodbus.pdu import DecodePDU, ExceptionResponse, ModbusPDU
 from pymodbus.pdu.device import DeviceInformationFactory, ModbusDeviceIdentification
 from pymodbus.pdu.mei_message import ReadDeviceInformationRequest, ReadDeviceInformationResponse
+from pymodbus.server.requesthandler import ServerRequestHandler
 
 from mdl.device.connection import Connection
 from mdl.diagnostics import error, one_line
@@ -42,12 +48,19 @@ if TYPE_CHECKING:
 
 FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
             3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
+# the functions served: the tables', diagnostics (8) and Read Device Identification (43 / MEI 14); the
+# others pymodbus knows (file records, FIFO, event counters, report server id) it would answer from one
+# process-wide state, not from the device, and file records with no reply at all for some requests
+SERVED_FUNCTIONS = frozenset({*FC_TABLE, 8, 43})
 
 # the basic objects of Read Device Identification (object id = position) and the identity element
 # (SPEC 2.2) each is answered from; mdl discover shows them under these names
 IDENTIFICATION = (("VendorName", "manufacturer"), ("ProductCode", "product"), ("MajorMinorRevision", "product_version"))
 # the longest object sent: one object and the reply's header must fit one PDU (pymodbus: 253 - 6 bytes in all)
 MAX_OBJECT_BYTES = 240
+# what pymodbus logs while serving: at most this many lines per client and in all per window of seconds
+LOG_PER_CLIENT, LOG_TOTAL, LOG_WINDOW = 3, 20, 1.0
+CLIENT: ContextVar[str] = ContextVar("mdl_sim_client", default="")  # host:port of the client being served
 
 
 def identification(device: Device) -> tuple[dict[int, bytes], list[str]]:
@@ -247,13 +260,149 @@ class ReadIdentification(ReadDeviceInformationRequest):
                                              transaction_id=self.transaction_id)
 
 
-def answer_identification(server: ModbusBaseServer) -> None:
-    """Make `server` decode function 43 / MEI 14 as ReadIdentification (its own decoder's table only)."""
-    decoder = server.decoder
-    table = {code: dict(subs) for code, subs in decoder.pdu_sub_table.items()}
-    table.setdefault(ReadIdentification.function_code, {})[ReadIdentification.sub_function_code] = (
-        ReadIdentification, ReadDeviceInformationResponse)
-    decoder.pdu_sub_table = table
+class Refused(ModbusPDU):
+    """A request the sim does not serve, answered with an exception by the unit asked: 1 (ILLEGAL FUNCTION)
+    for a function code it does not serve (SERVED_FUNCTIONS), one with the exception bit set (0x81), or a
+    sub-function it does not know (function 8 with an unknown diagnostic); 3 (ILLEGAL DATA VALUE) for a
+    request too short for its function. pymodbus would answer these with a logged traceback and
+    exception 4, with function code 0x80, or not at all."""
+
+    def __init__(self, function_code: int, code: ExcCodes) -> None:
+        super().__init__()
+        self.function_code, self.code = function_code, code
+
+    async def datastore_update(self, context: ModbusServerContext, device_id: int) -> ModbusPDU:
+        if isinstance(context, SimContext) and context.at(device_id) is None:  # at() raises when silent
+            return ExceptionResponse(self.function_code, ExcCodes.GATEWAY_NO_RESPONSE)
+        return ExceptionResponse(self.function_code, self.code)
+
+
+class SimDecoder(DecodePDU):
+    """The server's request decoder: pymodbus's, with function 43 / MEI 14 as ReadIdentification, and every
+    request it cannot serve turned into a `Refused` one instead of an error in its request handler."""
+
+    def __init__(self) -> None:
+        super().__init__(is_server=True)
+        table = {code: dict(subs) for code, subs in DecodePDU.pdu_sub_table.items()}  # this decoder's own
+        table.setdefault(ReadIdentification.function_code, {})[ReadIdentification.sub_function_code] = (
+            ReadIdentification, ReadDeviceInformationResponse)
+        self.pdu_sub_table = table
+
+    def lookupPduClass(self, data: bytes) -> type[ModbusPDU] | None:  # noqa: N802  (pymodbus's name)
+        """On RTU framing, the class that sizes a request's frame: a known function's own where the
+        sub-function is unknown, so that the request is answered rather than skipped."""
+        found = super().lookupPduClass(data)
+        if found is None and len(data) > 1 and data[1] in self.pdu_table:
+            return self.pdu_table[data[1]][0]
+        return found
+
+    def decode(self, frame: bytes) -> ModbusPDU | None:
+        if not frame:
+            return None
+        code = frame[0]
+        if code not in SERVED_FUNCTIONS:  # the exception bit set (0x81) too
+            return Refused(code, ExcCodes.ILLEGAL_FUNCTION)
+        pdu = super().decode(frame)
+        if pdu is None:
+            return Refused(code, ExcCodes.ILLEGAL_VALUE)
+        subs = self.pdu_sub_table.get(code)
+        if subs is not None and pdu.sub_function_code >= 0 and pdu.sub_function_code not in subs:
+            return Refused(code, ExcCodes.ILLEGAL_FUNCTION)
+        return pdu
+
+
+class ClientHandler(ServerRequestHandler):
+    """pymodbus's handler of one client connection, which names the client (CLIENT) while it decodes and
+    answers its requests, so that what pymodbus logs meanwhile is counted against that client."""
+
+    name = ""
+
+    @classmethod
+    def serving(cls, server: ModbusBaseServer) -> ClientHandler:
+        make: Callable[..., ClientHandler] = cls  # typed here: pymodbus leaves the constructor untyped
+        return make(server, server.trace_packet, server.trace_pdu, server.trace_connect)
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        peer = transport.get_extra_info("peername")
+        if isinstance(peer, tuple) and len(peer) >= 2:
+            self.name = f"{peer[0]}:{peer[1]}"
+        super().connection_made(transport)
+
+    def callback_data(self, data: bytes, addr: tuple[Any, ...] | None = None) -> int:
+        token = CLIENT.set(self.name)  # call_soon copies it into the task that answers the request
+        try:
+            handle: Callable[[bytes, tuple[Any, ...] | None], int] = super().callback_data
+            return handle(data, addr)
+        finally:
+            CLIENT.reset(token)
+
+
+class LogLimiter(logging.Handler):
+    """What pymodbus logs while the sim serves (a request it cannot decode, a unit not served), on stderr as
+    `mdl sim: CLIENT: MESSAGE`: the first line of each message only (never a traceback), at most
+    LOG_PER_CLIENT lines per client and LOG_TOTAL in all per LOG_WINDOW seconds. The rest are counted and
+    said in one line, `mdl sim: N more messages suppressed (from K clients)`, when the window ends (`roll`)."""
+
+    def __init__(self, where: str, stream: TextIO | None = None) -> None:
+        super().__init__(logging.WARNING)
+        self.where, self.stream = where, stream  # where: the client's name on a serial line
+        self.started = time.monotonic()
+        self.shown: Counter[str] = Counter()
+        self.suppressed: Counter[str] = Counter()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        if record.msg == "Repeating....":  # pymodbus's own stand-in for a repeated message: nothing to say
+            return
+        self.roll_if_due()
+        client = CLIENT.get() or self.where
+        if self.shown[client] >= LOG_PER_CLIENT or self.shown.total() >= LOG_TOTAL:
+            self.suppressed[client] += 1
+            return
+        self.shown[client] += 1
+        try:
+            text = record.getMessage()
+        except (TypeError, ValueError):  # arguments that do not fit the message
+            text = str(record.msg)
+        self._write(f"{one_line(client)}: {one_line(text.split(chr(10), 1)[0].split('; Traceback', 1)[0].strip())}")
+
+    def roll_if_due(self) -> None:
+        if time.monotonic() - self.started >= LOG_WINDOW:
+            self.roll()
+
+    def roll(self) -> None:
+        """End the window: say how many messages were suppressed in it, if any."""
+        total, clients = self.suppressed.total(), len(self.suppressed)
+        if total:
+            self._write(f"{total} more message{'s' * (total != 1)} suppressed (from {clients} "
+                        f"client{'s' * (clients != 1)})")
+        self.started = time.monotonic()
+        self.shown.clear()
+        self.suppressed.clear()
+
+    def _write(self, line: str) -> None:
+        stream = self.stream or sys.stderr
+        stream.write(f"mdl sim: {line}\n")
+        stream.flush()
+
+
+def quiet_pymodbus(connection: Connection) -> LogLimiter:
+    """Send what pymodbus logs through a LogLimiter (instead of Python's last-resort handler, which
+    prints every message and every traceback pymodbus includes)."""
+    limiter = LogLimiter(connection.serial or "client")
+    logger = logging.getLogger("pymodbus")
+    for handler in list(logger.handlers):
+        logger.removeHandler(handler)
+    logger.addHandler(limiter)
+    logger.setLevel(logging.WARNING)
+    logger.propagate = False
+    return limiter
+
+
+async def _roll_every_window(limiter: LogLimiter) -> None:
+    """Say what was suppressed once a window ends, also when nothing more is logged."""
+    while True:
+        await asyncio.sleep(LOG_WINDOW / 4)
+        limiter.roll_if_due()
 
 
 async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
@@ -266,7 +415,9 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
         for warning in registers.identity_warnings:
             print(f"mdl sim: warning: {one_line(registers.device.name)}: {warning}", file=sys.stderr)
     server = connection.server(SimContext(units, silent=connection.rtu))
-    answer_identification(server)
+    server.decoder = SimDecoder()
+    limiter = quiet_pymodbus(connection)
+    server.callback_new_connection = functools.partial(ClientHandler.serving, server)  # type: ignore[method-assign]
     refused: tuple[type[Exception], ...] = (OSError,)
     if os.name == "posix":
         import termios
@@ -286,11 +437,14 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     out.write("".join(f"mdl sim: serving {one_line(registers.device.name)} on {where} unit {unit}\n"
                       for unit, registers in units.items()))
     out.flush()
+    rolling = asyncio.create_task(_roll_every_window(limiter))
     try:
         await stop.wait()
     finally:
+        rolling.cancel()
         shutdown: Callable[[], Awaitable[None]] = server.shutdown  # typed here: pymodbus leaves it unannotated
         await shutdown()
+        limiter.roll()
 
 
 def run(units: dict[int, Registers], connection: Connection) -> None:
