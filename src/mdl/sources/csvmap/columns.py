@@ -18,7 +18,7 @@ from mdl.sources.csvmap.cells import (
 )
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.numbers import parse_int, parse_number
-from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header
+from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
 GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "divisor", "units",
@@ -187,8 +187,8 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
 
 def _candidates(key: str, headers: list[str], taken: set[int]) -> list[int]:
     words = HEADER_SYNONYMS[key]
-    found = sorted((words.index(h), i) for i, h in enumerate(headers) if h in words and i not in taken)
-    out = [i for _, i in found]
+    ranks = [(synonym_rank(key, h), i) for i, h in enumerate(headers) if i not in taken]
+    out = [i for _, i in sorted((r, i) for r, i in ranks if r is not None)]
     if key in PREFIX_KEYS:
         out += [i for i, h in enumerate(headers) if i not in taken and i not in out and any(
             h.startswith(s + " ") for s in words if len(s) >= 4)]

@@ -27,12 +27,11 @@ from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import COMMA, NATIVE, UNIT_ALONE, WIDTHLESS, ParsedRow, RowSettings, parse_row, row_texts
 from mdl.sources.csvmap.scoring import FUZZY, TIER_NAMES, FunctionName
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
-from mdl.sources.csvmap.table import Row, Table, find_header, read_table
+from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
 from mdl.sources.mdlxml.parse import schema_errors, secure_parser
 from mdl.sources.mdlxml.write import device_to_xml
 
 DEFAULT_THRESHOLD = 0.6
-DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
 LONG_TABLE = 2000  # rows from which the row reading shows progress on a terminal
 
 
@@ -189,8 +188,10 @@ def _choose_interactive(functions: dict[str, list[str]], index: Index, rows: lis
     return chosen
 
 
-def _table_notes(table: Table, report: Report) -> None:
+def _table_notes(table: Table, ini: DeviceIni | None, report: Report) -> None:
     where = str(table.path)
+    if table.encoding_guess:
+        report.note(where, table.encoding_guess.note(ini is not None))
     if table.markdown:
         report.note(where, "a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
                            "set delimiter = pipe in [Input/Output] to read every | as a cell boundary")
@@ -280,13 +281,13 @@ def _say_matches(where: str, functions: dict[str, list[str]], index: Index, pars
 
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
     """The device the table describes (None with --explain, which prints instead)."""
-    table = read_table(csv_path, ini.delimiter if ini else None)
+    table = read_table(csv_path, ini.delimiter if ini else None, ini.encoding if ini else None)
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
     if "addresses" not in cols.index:
         raise error("no address column: name it in the INI ([Column/Field Indices] addresses = N) "
                     "or give it a header such as 'Address' or 'Register'", csv_path, header.line if header else None)
-    _table_notes(table, report)
+    _table_notes(table, ini, report)
     for message in cols.notes:
         report.note(str(csv_path), message)
     parsed = _read_rows(table, cols, data, _settings(table, cols, data, ini, report), report)
@@ -313,7 +314,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         report.flush_notes()
         matched = Matched(_choose_interactive(functions, index, parsed.rows), {})
     else:
-        progress = Progress("mdl csv2xml: matching", len(functions)) if len(lines) >= LONG_TABLE else None
+        progress = (Progress(f"mdl csv2xml: matching {_count(len(functions), 'function')}", 2 * len(functions),
+                             percent=True) if len(lines) >= LONG_TABLE else None)
         matched = _match(functions, index, readable, limit, progress)
         if progress:
             progress.close()
@@ -391,6 +393,8 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
         ini = read_ini(ini_path)
         for w in ini.warnings:
             report.warn(w)
+        for said in ini.notes:
+            report.note(said.file, said.message)
     csv_path = csv_given or (ini.csv_file if ini else None)
     if csv_path is None:
         raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import codecs
 import configparser
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.fileio import read_text
+from mdl.fileio import read_bytes
+from mdl.sources.csvmap.table import decode_table
 from mdl.sources.mdlxml.write import unwritable
 
 COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
@@ -16,7 +18,7 @@ COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", 
                "access", "minimum", "maximum", "offset", "word_order")
 DEVICE_KEYS = ("device_name", "device_description", "register_type", "address_base", "byte_order",
                "word_order", "count_unit", "threshold", "default_synonyms")
-IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator")
+IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator", "encoding")
 DELIMITER_WORDS = {"comma": ",", ",": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "pipe": "|", "|": "|"}
 DECIMAL_WORDS = {"point": "point", ".": "point", "dot": "point", "comma": "comma", ",": "comma"}
 SECTIONS = {
@@ -45,6 +47,7 @@ class DeviceIni:
     output_file: Path | None = None
     delimiter: str | None = None  # , ; \t |
     decimal: str | None = None  # point | comma
+    encoding: str | None = None  # the table's (a Python codec name); None: UTF-8, else said as a guess
     columns: dict[str, int | str] = field(default_factory=dict)  # key -> index or header text
     blank_columns: set[str] = field(default_factory=set)  # keys the INI lists as absent
     claimed: list[int | str] = field(default_factory=list)  # columns of [Additional ...]
@@ -52,6 +55,7 @@ class DeviceIni:
     synonyms: dict[str, list[str]] = field(default_factory=dict)
     threshold: float | None = None
     warnings: list[Diagnostic] = field(default_factory=list)
+    notes: list[Diagnostic] = field(default_factory=list)  # guesses made reading the INI itself
     lines: dict[tuple[str, str], int] = field(default_factory=dict)  # (section kind, key) -> its line
 
     def line(self, kind: str, key: str) -> int | None:
@@ -112,11 +116,26 @@ def is_ini(path: Path) -> bool:
     return path.suffix.lower() in (".ini", ".cfg", ".conf")
 
 
+def _codec(value: str) -> str | None:
+    """A text encoding's name as Python knows it, None for anything else (an unknown name, base64)."""
+    try:
+        name = codecs.lookup(value).name
+        b"a".decode(name)  # a codec of bytes to bytes (base64) or text to text (rot13) says it is no text encoding
+    except LookupError:
+        return None
+    except UnicodeDecodeError:
+        pass  # a text encoding in which `a` alone is no text (utf-16)
+    return name
+
+
 def read_ini(path: Path) -> DeviceIni:
-    text = read_text(path, ("utf-8-sig", "cp1252"))
+    text, guess = decode_table(read_bytes(path), path)
     lines = _line_numbers(text)
     parser = _parse(text, path)
     ini = DeviceIni(path=path)
+    if guess:  # the INI's own encoding (its `encoding` key is the table's): saving it as UTF-8 says it
+        ini.notes.append(Diagnostic(str(path), None, None, f"{guess.why}; save the INI as UTF-8 to be sure of "
+                                                           "its text", "note"))
     errors: list[Diagnostic] = []
 
     def where(section: str, key: str | None = None) -> int | None:
@@ -191,6 +210,11 @@ def read_ini(path: Path) -> DeviceIni:
                     ini.delimiter = DELIMITER_WORDS.get(value.lower())
                     if ini.delimiter is None:
                         err(section, key, f"delimiter must be one of comma, semicolon, tab, pipe, not '{value}'")
+                elif lkey == "encoding" and value:
+                    ini.encoding = _codec(value)
+                    if ini.encoding is None:
+                        err(section, key, f"encoding must name a text encoding (utf-8, cp1252, latin-1, utf-16 ...), "
+                                          f"not '{value}'")
                 elif lkey == "decimal_separator" and value:
                     ini.decimal = DECIMAL_WORDS.get(value.lower())
                     if ini.decimal is None:

@@ -85,10 +85,14 @@ class Work:
     ratios = 0
 
 
+PULSE = 256  # steps of the fuzzy search between two calls of its `pulse`
+
+
 def candidates(name: str, phrases: list[str], index: Index, threshold: float,
-               budget: int | None = None) -> Iterator[Candidate]:
+               budget: int | None = None, pulse: Callable[[], None] | None = None) -> Iterator[Candidate]:
     """Every row scoring at least `threshold` for the function, best first (earlier rows first on ties).
-    With a budget, the fuzzy search stops after that many ratios (what it yielded is still right)."""
+    With a budget, the fuzzy search stops after that many ratios (what it yielded is still right).
+    `pulse` is called every PULSE steps of the fuzzy search (a progress bar's sign of life)."""
     syns = synonyms_of(phrases)
     strong: dict[int, Score] = {}  # rows found exactly or as a phrase, with their best score
     for s in syns:
@@ -112,11 +116,11 @@ def candidates(name: str, phrases: list[str], index: Index, threshold: float,
     for r, score in sorted(strong.items(), key=lambda kv: (-kv[1].tier, -kv[1].value, kv[0])):
         if score.value >= threshold:
             yield Candidate(name, r, score)
-    yield from _fuzzy(name, syns, index, threshold, set(strong), budget)
+    yield from _fuzzy(name, syns, index, threshold, set(strong), budget, pulse)
 
 
 def _fuzzy(name: str, syns: list[Synonym], index: Index, threshold: float, excluded: set[int],
-           budget: int | None) -> Iterator[Candidate]:
+           budget: int | None, pulse: Callable[[], None] | None = None) -> Iterator[Candidate]:
     # heap entries: (-bound, row, kind, tiebreak, payload); kind 0: an exact ratio, 1: a quick_ratio
     # bound of one pair, 2: a real_quick_ratio bound of every pair of one text length (row: its first row)
     heap: list[tuple[float, int, int, int, tuple[int, int, int]]] = []
@@ -133,7 +137,11 @@ def _fuzzy(name: str, syns: list[Synonym], index: Index, threshold: float, exclu
     heapq.heapify(heap)
     done: set[int] = set()
     best: dict[int, float] = {}  # row -> the best exact ratio pushed so far
+    steps = 0
     while heap:
+        steps += 1
+        if pulse is not None and steps % PULSE == 0:
+            pulse()
         neg, row, kind, _, (si, a, b) = heapq.heappop(heap)
         if kind == 0:
             if row not in done:
@@ -184,16 +192,21 @@ def assign(functions: dict[str, list[str]], index: Index, threshold: float,
 
     A function's search is dropped once it has given its best row (most functions keep it), and
     started again, past the rows it gave, only if a stronger function takes that row: memory stays
-    in proportion to the functions that compete for rows, not to functions x rows."""
+    in proportion to the functions that compete for rows, not to functions x rows.
+
+    `progress` is told of 2 steps per function: its first search done (the bulk of the work), and
+    the function settled (a row, or none left); between them, progress(0) while a search runs."""
     order = {name: i for i, name in enumerate(functions)}
     given = dict.fromkeys(functions, 0)  # candidates each function has given so far
     live: dict[str, Iterator[Candidate]] = {}  # the searches of functions that lost a row: kept
     heap: list[tuple[int, float, int, int, str]] = []
 
+    pulse = (lambda: progress(0)) if progress else None
+
     def push(name: str) -> None:
         stream = live.get(name)
         if stream is None:
-            stream = candidates(name, functions[name], index, threshold)
+            stream = candidates(name, functions[name], index, threshold, pulse=pulse)
             for _ in range(given[name]):
                 next(stream)
             if given[name]:
@@ -209,6 +222,8 @@ def assign(functions: dict[str, list[str]], index: Index, threshold: float,
 
     for name in functions:
         push(name)
+        if progress:
+            progress(1)
     chosen: dict[str, Candidate] = {}
     used: set[int] = set()
     while heap:

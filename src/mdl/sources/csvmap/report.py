@@ -39,13 +39,16 @@ class Report:
 
 
 class Progress:
-    """`label [#####.....] n/total` on a terminal, redrawn at most ten times a second and only once the
-    work has taken half a second; nothing at all when stderr is not a terminal."""
+    """`label [#####.....] n/total` (or `NN% Ts`, with percent: T seconds so far) on a terminal,
+    redrawn at most ten times a second, only when it changes, and only once the work has taken half
+    a second; nothing at all when stderr is not a terminal. Calling it with 0 advances nothing but
+    redraws when due: a sign of life in a long step."""
 
-    def __init__(self, label: str, total: int, stream: TextIO | None = None) -> None:
-        self.label, self.total, self.done = label, max(total, 1), 0
+    def __init__(self, label: str, total: int, stream: TextIO | None = None, percent: bool = False) -> None:
+        self.label, self.total, self.done, self.percent = label, max(total, 1), 0, percent
         self.stream = stream or sys.stderr
         self.shown = False
+        self.frame = ""  # what is on the screen
         self.enabled = _is_terminal(self.stream)
         self.start = self.last = time.monotonic()
 
@@ -59,9 +62,14 @@ class Progress:
         self.last = now
         width = 30
         filled = min(width, width * self.done // self.total)
-        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {self.done}/{self.total}")
+        count = (f"{min(100, 100 * self.done // self.total)}% {now - self.start:.0f}s" if self.percent
+                 else f"{self.done}/{self.total}")
+        frame = f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {count}"
+        if self.shown and frame == self.frame:
+            return
+        self.stream.write(frame)
         self.stream.flush()
-        self.shown = True
+        self.shown, self.frame = True, frame
 
     def close(self) -> None:
         if self.shown:

@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import codecs
 import csv
 import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.diagnostics import error
+from mdl.diagnostics import MdlError, error
 from mdl.fileio import decode_text, read_bytes
 
 DELIMITERS = (",", ";", "\t", "|")
+DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
 
 # column key -> header texts (normalized: lowercase, single spaces, no punctuation)
 HEADER_SYNONYMS = {
@@ -50,9 +52,26 @@ HEADER_SYNONYMS = {
 }
 
 
+# words around a header that say how a column is written, not what it holds: 'Modbus Protocol Start
+# Address Hex' is an address column (whose header says hex: see address_base.guess_address_base)
+QUALIFIERS = frozenset(("modbus", "protocol", "start", "starting", "hex", "hexadecimal", "dec", "decimal"))
+
+
 def normalize_header(text: str) -> str:
     text = re.sub(r"\(.*?\)|\[.*?\]", lambda m: " " + m.group(0)[1:-1] + " ", text.lower())
     return " ".join(re.sub(r"[^a-z0-9]+", " ", text).split())
+
+
+def synonym_rank(key: str, norm: str) -> int | None:
+    """How well a normalized header names the column `key` (0 best), None if it does not: one of the
+    key's synonyms, else one once the QUALIFIERS are dropped (ranked after every plain synonym)."""
+    words = HEADER_SYNONYMS[key]
+    if norm in words:
+        return words.index(norm)
+    core = " ".join(w for w in norm.split() if w not in QUALIFIERS)
+    if core and core != norm and core in words:
+        return len(words) + words.index(core)
+    return None
 
 
 @dataclass
@@ -75,6 +94,7 @@ class Table:
     data: list[Row] = field(default_factory=list)
     delimiter_guessed: bool = True
     markdown: bool = False  # a Markdown table: | at both ends of each row, a |---| rule under the header
+    encoding_guess: EncodingGuess | None = None  # how the bytes were read, when no one said and not UTF-8
 
 
 _RULE = re.compile(r"^\s*:?-{2,}:?\s*$")
@@ -105,8 +125,26 @@ def _records(text: str, delimiter: str, markdown: bool = False) -> list[Row]:
     return rows
 
 
+def _sample(text: str) -> str:
+    return "\n".join(line for line in text.splitlines()[:200] if line.strip() and not line.lstrip().startswith("#"))
+
+
+def table_delimiter(text: str) -> str | None:
+    """The delimiter read_table would pick, if it splits at least half of the first lines into the
+    same two or more cells; None for text that is no table."""
+    if _is_markdown(text):
+        return "|"
+    d = _pick_delimiter(text)
+    try:
+        widths = [len(r) for r in csv.reader(io.StringIO(_sample(text), newline=""), delimiter=d)]
+    except csv.Error:
+        return None
+    common = max(set(widths), key=widths.count, default=0)
+    return d if common > 1 and 2 * widths.count(common) >= len(widths) else None
+
+
 def _pick_delimiter(text: str) -> str:
-    sample = "\n".join(line for line in text.splitlines()[:200] if line.strip() and not line.lstrip().startswith("#"))
+    sample = _sample(text)
     best, best_score = ",", (-1, 0)
     for d in DELIMITERS:
         try:
@@ -133,13 +171,52 @@ def _is_markdown(text: str) -> bool:
         all(_RULE.match(c) or not c.strip() for c in line.strip("|").split("|")) for line in piped)
 
 
-def read_table(path: Path, delimiter: str | None = None) -> Table:
-    data = read_bytes(path)
-    if b"\x00" in data:
-        line = data[: data.index(b"\x00")].count(b"\n") + 1
-        raise error("a NUL byte: this is not a text CSV file", path, line)
-    text = decode_text(data, path, ("utf-8-sig", "cp1252"))
-    text = text.lstrip("\ufeff")
+FALLBACK = "cp1252"  # Windows-1252, the Latin-1 of Windows exports (Excel's "CSV" on a Western locale)
+_UTF16_BOMS = (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)  # Excel's "Unicode Text" export
+
+
+@dataclass(frozen=True)
+class EncodingGuess:
+    encoding: str  # the codec the text was read with
+    why: str  # what made it the guess, and what a byte became
+
+    def note(self, ini: bool) -> str:
+        where = "[Input/Output]" if ini else "[Input/Output] of a device INI (--ini)"
+        return (f"{self.why}; set encoding = {self.encoding} in {where} to say so, or encoding = NAME for "
+                "another (latin-1, cp1250, utf-16 ...)")
+
+
+def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[str, EncodingGuess | None]:
+    """The text, and the guess made when its encoding was not given: UTF-8 (with or without a BOM) is
+    no guess; UTF-16 with a BOM, else Windows-1252, is, with the first byte that is not UTF-8."""
+    if encoding is not None:
+        return decode_text(data, path, (encoding,)).lstrip("\ufeff"), None
+    if data.startswith(_UTF16_BOMS):
+        return decode_text(data, path, ("utf-16",)), EncodingGuess(
+            "utf-16", "read as UTF-16 (the file starts with its byte order mark)")
+    try:
+        return decode_text(data, path, ("utf-8-sig",)).lstrip("\ufeff"), None
+    except MdlError as exc:
+        bad = exc.diagnostics[0]
+    try:
+        text = data.decode(FALLBACK)
+    except UnicodeDecodeError:
+        raise error(f"{bad.message}, nor as {FALLBACK}: save the file as UTF-8, or, for a table, say how it is "
+                    "written with encoding = NAME in [Input/Output] of its device INI (a Python codec name: "
+                    "latin-1, utf-16, cp1250 ...)", path, bad.line, bad.col) from None
+    assert bad.line is not None and bad.col is not None, "decode_text names the byte's line and column"
+    byte = data.split(b"\n", bad.line)[bad.line - 1][bad.col - 1:bad.col]
+    return text, EncodingGuess(FALLBACK, f"not UTF-8 (byte 0x{byte.hex()} on line {bad.line}, column {bad.col}): "
+                                         f"read as Windows-1252 ({FALLBACK}, the Latin-1 of Windows exports), "
+                                         f"where that byte is '{byte.decode(FALLBACK)}'")
+
+
+def read_table(path: Path, delimiter: str | None = None, encoding: str | None = None) -> Table:
+    text, guess = decode_table(read_bytes(path), path, encoding)
+    if "\x00" in text:
+        line = text[: text.index("\x00")].count("\n") + 1
+        raise error("a NUL byte: this is not a text CSV file (if it is UTF-16 without a byte order mark, set "
+                    "encoding = utf-16-le in [Input/Output])", path, line)
     guessed = delimiter is None
     markdown = guessed and _is_markdown(text)
     if markdown:
@@ -155,7 +232,7 @@ def read_table(path: Path, delimiter: str | None = None) -> Table:
         raise
     if not rows:
         raise error("the table has no rows", path)
-    return Table(path, delimiter, rows, delimiter_guessed=guessed, markdown=markdown)
+    return Table(path, delimiter, rows, delimiter_guessed=guessed, markdown=markdown, encoding_guess=guess)
 
 
 def header_score(row: Row) -> tuple[int, bool]:
@@ -163,8 +240,8 @@ def header_score(row: Row) -> tuple[int, bool]:
     found = set()
     for cell in row.cells:
         norm = normalize_header(cell)
-        for key, words in HEADER_SYNONYMS.items():
-            if norm in words:
+        for key in HEADER_SYNONYMS:
+            if synonym_rank(key, norm) is not None:
                 found.add(key)
     return len(found), "addresses" in found
 

@@ -10,7 +10,7 @@ from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError, TextSpan, defer_spans, record_span
 from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
-from mdl.sources.mdlxml.parse import NS, StartTag, decoded, parse_source, schema_errors, start_tags
+from mdl.sources.mdlxml.parse import NS, StartTag, decoded, element_tags, parse_source, schema_errors
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -63,11 +63,7 @@ class _Reader:
         if self._tags is None:
             assert self.root is not None and self.data is not None
             self.text = decoded(self.root.getroottree(), self.data)
-            elements = [el for el in self.root.iter() if isinstance(el.tag, str)]
-            found = start_tags(self.text)
-            matched = len(found) == len(elements) and all(
-                etree.QName(el).localname == tag.localname for el, tag in zip(elements, found, strict=True))
-            self._tags = dict(zip(elements, found, strict=True)) if matched else {}
+            self._tags = element_tags(self.root, self.text)
         return self._tags
 
     def where(self, el: etree._Element, inside: bool = True) -> tuple[int | None, int | None]:
@@ -207,7 +203,7 @@ def read_device(path: StrPath, version: str = "1.0") -> Device:
     """The model of an MDL file: well-formed, valid against the XSD, numbers usable. Nothing more is
     checked here: `mdl.resolve.resolve` runs the checks of SPEC 2 (see mdl.sources.loading)."""
     tree, data = parse_source(path)
-    errors = schema_errors(tree, path, version)
+    errors = schema_errors(tree, path, version, data)
     if errors:
         raise MdlError(errors)
     return tree_to_device(tree, str(path), data)

@@ -13,6 +13,7 @@ from lxml import etree
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.fileio import read_bytes
 from mdl.resources import schema_path
+from mdl.sources.mdlxml.sniff import not_xml, starts_with_markup
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -39,6 +40,8 @@ def parse_source(path: StrPath) -> tuple[etree._ElementTree, bytes]:
         tree = etree.fromstring(data, secure_parser()).getroottree()
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (None, None)
+        if not starts_with_markup(data):  # another kind of file: say which, and the command that reads it
+            raise MdlError(Diagnostic(str(path), line, col, not_xml(data, path))) from None
         msg = re.sub(r", line \d+, column \d+$", "", str(exc.msg))
         raise MdlError(Diagnostic(str(path), line, col, f"malformed XML: {msg}")) from None
     if tree.docinfo.internalDTD is not None or tree.docinfo.doctype:
@@ -82,6 +85,16 @@ def start_tags(text: str) -> list[StartTag]:
     return out
 
 
+def element_tags(root: etree._Element, text: str) -> dict[etree._Element, StartTag]:
+    """Each element under (and with) `root` -> its start tag in `text`, the source it was parsed from;
+    empty if the two cannot be matched one to one."""
+    elements = [el for el in root.iter() if isinstance(el.tag, str)]
+    found = start_tags(text)
+    matched = len(found) == len(elements) and all(
+        etree.QName(el).localname == tag.localname for el, tag in zip(elements, found, strict=True))
+    return dict(zip(elements, found, strict=True)) if matched else {}
+
+
 def decoded(tree: etree._ElementTree, data: bytes) -> str:
     """The source text as characters (positions count characters, not bytes)."""
     encoding = tree.docinfo.encoding or "utf-8"
@@ -101,12 +114,22 @@ def _clean(message: str) -> str:
     return re.sub(r"\{[^}]*\}", "", message) if "{http" in message else message
 
 
-def schema_errors(tree: etree._ElementTree, path: StrPath, version: str) -> list[Diagnostic]:
+def schema_errors(tree: etree._ElementTree, path: StrPath, version: str, data: bytes | None = None) -> list[Diagnostic]:
+    """The XSD's errors, each with its line and column: libxml2's column where it knows one, else (with
+    `data`, the bytes the tree was parsed from) the column of the start tag of the element it is about."""
     xsd = schema(version)
     if xsd.validate(tree):
         return []
     out: list[Diagnostic] = []
+    tags: dict[etree._Element, StartTag] | None = None
     for entry in xsd.error_log:
+        line, col = entry.line or None, entry.column or None
+        if col is None and data is not None:
+            if tags is None:
+                tags = element_tags(tree.getroot(), decoded(tree, data))
+            tag = _tag_of(tree, entry.path, tags)
+            if tag is not None:
+                line, col = tag.line, tag.col
         message = _clean(entry.message)
         if "No matching global declaration" in message:
             root = etree.QName(tree.getroot())
@@ -115,5 +138,16 @@ def schema_errors(tree: etree._ElementTree, path: StrPath, version: str) -> list
                     f"root element '{root.localname}' is not in the MDL namespace; "
                     f'add xmlns="{NS}"'
                 )
-        out.append(Diagnostic(str(path), entry.line or None, entry.column or None, message))
+        out.append(Diagnostic(str(path), line, col, message))
     return out
+
+
+def _tag_of(tree: etree._ElementTree, xpath: str | None, tags: dict[etree._Element, StartTag]) -> StartTag | None:
+    """The start tag of the element an XSD error's path (`/*/*[7]/*[4]`) names."""
+    if not xpath:
+        return None
+    try:
+        found = tree.xpath(xpath)
+    except etree.XPathError:
+        return None
+    return tags.get(found[0]) if isinstance(found, list) and found and isinstance(found[0], etree._Element) else None
