@@ -467,3 +467,23 @@ def test_no_progress_when_stderr_is_not_a_terminal(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "\r" not in proc.stderr and "matching" not in proc.stderr and "[#" not in proc.stderr
     assert "summary: 2000 rows read" in proc.stderr
+
+
+# --- mdl import of a file whose format it cannot tell ------------------------------------------------
+
+@pytest.mark.parametrize("name, text, fragments", [
+    ("t.csv", "Register,Name\n40001,Temp\n", ["looks like a register table", "`mdl csv2xml ", "t.csv [--ini"]),
+    ("d.ini", "[Input/Output]\naddress_map_csv_file = t.csv\n", ["a device INI (csv2xml's)", "`mdl csv2xml ",
+                                                                 "d.ini` converts"]),
+    ("x.xml", "<device/>\n", ["looks like XML", "MDL needs no import"]),
+])
+def test_import_says_what_a_file_of_no_import_format_is(tmp_path, name, text, fragments):
+    path = tmp_path / name
+    path.write_text(text)
+    proc = cli("import", path)
+    assert_clean_error(proc, 1, f"{path}: error: cannot tell the format", *fragments)
+
+
+def test_import_of_an_unreadable_file_says_so(tmp_path):
+    proc = cli("import", tmp_path / "absent.bin")
+    assert_clean_error(proc, 1, f"{tmp_path / 'absent.bin'}: error: no such file")

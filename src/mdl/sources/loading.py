@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mdl.diagnostics import error
 from mdl.fileio import is_stdin
 from mdl.model import Device
 from mdl.sources.mdlxml.load import read_device
@@ -47,6 +48,26 @@ def guess_format(path: StrPath) -> str | None:
     if any(line.strip().lower() == "[platform]" for line in text.splitlines()):
         return "wise"
     return None
+
+
+def import_format(path: StrPath) -> str:
+    """The format `mdl import` reads the file as (guess_format), or an error saying what the file is
+    and which command reads it (a register table is csv2xml's, MDL XML needs no import)."""
+    fmt = guess_format(path)
+    if fmt is not None:
+        return fmt
+    give = "give --from xif, wise or schema"
+    if is_stdin(path):
+        raise error(f"cannot tell the format of standard input; {give}", path)
+    from mdl.fileio import read_bytes
+    from mdl.sources.mdlxml.sniff import looks_like, starts_with_markup
+
+    data = read_bytes(path, limit=64 * 1024)[:64 * 1024]  # a missing or unreadable file: its own error
+    if starts_with_markup(data):
+        raise error("cannot tell the format: this looks like XML, and mdl import reads XIF, WISE-Agent and "
+                    "Toolkit files, none of them XML; MDL needs no import: every command reads it as it is", path)
+    what, advice = looks_like(data, path)
+    raise error(f"cannot tell the format: this looks like {what}; {advice}; or {give}", path)
 
 
 def load_any(path: StrPath, fmt: str | None = None) -> Device:

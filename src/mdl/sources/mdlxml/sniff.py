@@ -31,11 +31,12 @@ def starts_with_markup(data: bytes) -> bool:
 
 def not_xml(data: bytes, path: StrPath) -> str:
     """`not MDL XML: this looks like …; …` for a file that does not start with markup."""
-    what, advice = _looks_like(data, path)
+    what, advice = looks_like(data, path)
     return f"not MDL XML (it does not start with '<'): this looks like {what}; {advice}"
 
 
-def _looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
+def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
+    """What the file looks like, and advice naming the command that reads it."""
     name = "-" if is_stdin(path) else shlex.quote(str(path))
     importable = _importable(path)
     if importable is not None:
