@@ -21,11 +21,32 @@ from conftest import DATA, EXAMPLE, assert_clean_error, device_xml, fn_xml, run_
 from engines import HOMEASSISTANT, installed_version, require
 from pymodbus.client import ModbusTcpClient
 from refusing_proxy import refusing_proxy
+from test_export_warnings import ACCEPTED, named
 
 ALL_TABLES = DATA / "all_tables.xml"
 TEMCO = EXAMPLE / "temco_tstat.xml"
 
-SCHEMA = r"""
+# what Home Assistant's sensor refuses (sensor/__init__.py logs it and "should raise"): a unit or a state_class
+# its device_class does not take (sensor/const.py DEVICE_CLASS_UNITS, DEVICE_CLASS_STATE_CLASSES)
+CLASS_CHECK = r"""
+from homeassistant.components.sensor.const import DEVICE_CLASS_STATE_CLASSES, DEVICE_CLASS_UNITS, SensorDeviceClass
+
+def class_errors(hubs):
+    errors = []
+    for hub in hubs:
+        for sensor in hub.get("sensors", []):
+            device_class = sensor.get("device_class")
+            if device_class is None:
+                continue
+            device_class = SensorDeviceClass(device_class)
+            if sensor.get("unit_of_measurement") not in DEVICE_CLASS_UNITS[device_class]:
+                errors.append(["unit", sensor["name"], device_class.value, sensor.get("unit_of_measurement")])
+            if sensor.get("state_class") not in DEVICE_CLASS_STATE_CLASSES[device_class]:
+                errors.append(["state_class", sensor["name"], device_class.value, str(sensor.get("state_class"))])
+    return errors
+"""
+
+SCHEMA = CLASS_CHECK + r"""
 import json, logging, sys
 from homeassistant.util.yaml import load_yaml
 from homeassistant.components.modbus import CONFIG_SCHEMA
@@ -42,7 +63,8 @@ config = load_yaml(sys.argv[1])
 given = [[len(hub.get(kind, [])) for kind in KINDS] for hub in config["modbus"]]
 valid = CONFIG_SCHEMA(config)
 kept = [[len(hub.get(kind, [])) for kind in KINDS] for hub in valid["modbus"]]
-print(json.dumps({"given": given, "kept": kept, "logged": logged, "valid": valid}, default=str))
+print(json.dumps({"given": given, "kept": kept, "logged": logged, "valid": valid,
+                  "class_errors": class_errors(valid["modbus"])}, default=str))
 """
 
 # Home Assistant's own entities on the exported hub: the schema fills the defaults, a ModbusHub connects,
@@ -100,11 +122,20 @@ def export(path, *extra) -> subprocess.CompletedProcess:
     return proc
 
 
+def configuration(folder, text: str):
+    """configuration.yaml in `folder` as a Home Assistant user writes it, `modbus: !include modbus.yaml`, beside
+    the export saved as modbus.yaml: its path (Home Assistant's load_yaml reads the include)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "modbus.yaml").write_text(text, encoding="utf-8")
+    path = folder / "configuration.yaml"
+    path.write_text("modbus: !include modbus.yaml\n", encoding="utf-8")
+    return path
+
+
 def through_home_assistant(tmp_path, text: str, turns: dict | None = None) -> dict:
     """The states Home Assistant's own entities show for the exported YAML (ENTITIES)."""
     python = require(HOMEASSISTANT)
-    path = tmp_path / "entities.yaml"
-    path.write_text(text, encoding="utf-8")
+    path = configuration(tmp_path / "entities", text)
     config_dir = tmp_path / "ha_config"
     config_dir.mkdir(exist_ok=True)
     proc = subprocess.run([str(python), "-c", ENTITIES, str(path), json.dumps(turns or {}), str(config_dir)],
@@ -115,8 +146,7 @@ def through_home_assistant(tmp_path, text: str, turns: dict | None = None) -> di
 
 def validate(tmp_path, text: str) -> subprocess.CompletedProcess:
     python = require(HOMEASSISTANT)
-    path = tmp_path / "modbus.yaml"
-    path.write_text(text, encoding="utf-8")
+    path = configuration(tmp_path / "config", text)
     return subprocess.run([str(python), "-c", SCHEMA, str(path)], capture_output=True, text=True, timeout=300)
 
 
@@ -131,6 +161,7 @@ def test_home_assistant_schema_accepts_the_export(tmp_path, path, connection):
     result = json.loads(proc.stdout.strip().splitlines()[-1])
     assert result["given"] == result["kept"], result  # no entity dropped as a duplicate
     assert result["logged"] == [], result["logged"]
+    assert result["class_errors"] == [], result["class_errors"]
     hub = result["valid"]["modbus"][0]
     assert hub["name"] == path.stem
     for sensor in hub.get("sensors", []):
@@ -140,13 +171,13 @@ def test_home_assistant_schema_accepts_the_export(tmp_path, path, connection):
 def test_home_assistant_schema_refuses_a_broken_export(tmp_path):
     """The schema check can fail: a swap Home Assistant forbids for one register is refused."""
     config = yaml.safe_load(export(ALL_TABLES, "--host", "h").stdout)
-    sensor = next(s for s in config["modbus"][0]["sensors"] if s["name"] == "gap_low")
+    sensor = next(s for s in config[0]["sensors"] if s["name"] == "gap_low")
     sensor["swap"] = "word"
     proc = validate(tmp_path, yaml.safe_dump(config))
     assert proc.returncode != 0 and "illegal" in proc.stderr, proc.stderr[-2000:]
 
 
-SCHEMA_MANY = r"""
+SCHEMA_MANY = CLASS_CHECK + r"""
 import json, logging, sys
 from homeassistant.util.yaml import load_yaml
 from homeassistant.components.modbus import CONFIG_SCHEMA
@@ -162,8 +193,10 @@ for path in sys.argv[1:]:
     logged.clear()
     config = load_yaml(path)
     given = [len(config["modbus"][0].get(kind, [])) for kind in KINDS]
-    kept = [len(CONFIG_SCHEMA(config)["modbus"][0].get(kind, [])) for kind in KINDS]
-    print(json.dumps({"path": path, "given": given, "kept": kept, "logged": list(logged)}))
+    valid = CONFIG_SCHEMA(config)
+    kept = [len(valid["modbus"][0].get(kind, [])) for kind in KINDS]
+    print(json.dumps({"path": path, "given": given, "kept": kept, "logged": list(logged),
+                      "class_errors": class_errors(valid["modbus"])}))
 """
 
 
@@ -198,9 +231,7 @@ def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
             result = export_to(load_resolved(path), "homeassistant", Settings())
         except MdlError:
             continue
-        out = tmp_path / f"d{case}.yaml"
-        out.write_text(result.text or "", encoding="utf-8")
-        paths.append(str(out))
+        paths.append(str(configuration(tmp_path / f"d{case}", result.text or "")))
     assert len(paths) >= 25
     python = require(HOMEASSISTANT)
     proc = subprocess.run([str(python), "-c", SCHEMA_MANY, *paths], capture_output=True, text=True, timeout=300)
@@ -208,7 +239,54 @@ def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
     results = [json.loads(line) for line in proc.stdout.strip().splitlines()]
     assert len(results) == len(paths)
     for result in results:
-        assert result["given"] == result["kept"] and result["logged"] == [], result
+        assert result["given"] == result["kept"] and result["logged"] == [] and result["class_errors"] == [], result
+
+
+TABLES = r"""
+import json
+from homeassistant.components.sensor.const import DEVICE_CLASS_STATE_CLASSES, DEVICE_CLASS_UNITS
+print(json.dumps({c.value: [sorted(str(u) for u in DEVICE_CLASS_UNITS[c]),
+                            sorted(s.value for s in DEVICE_CLASS_STATE_CLASSES[c])] for c in DEVICE_CLASS_UNITS}))
+"""
+
+
+def test_the_accepted_classes_are_home_assistants():
+    """ACCEPTED (tests/test_export_warnings.py, which its fuzz test checks exports against) is Home Assistant's
+    own DEVICE_CLASS_UNITS and DEVICE_CLASS_STATE_CLASSES for each device class the export writes."""
+    python = require(HOMEASSISTANT)
+    proc = subprocess.run([str(python), "-c", TABLES], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    tables = json.loads(proc.stdout.strip().splitlines()[-1])
+    for device_class, (units, states) in ACCEPTED.items():
+        assert (sorted(units), sorted(states)) == tuple(tables[device_class]), device_class
+
+
+def _xml_text(text: str) -> str:
+    return "".join(ch if ch.isascii() and ch not in "&<>" else f"&#x{ord(ch):X};" for ch in text)
+
+
+def test_every_unit_spelling_is_one_home_assistant_accepts(tmp_path):
+    """A sensor for every spelling the unit table knows (Home Assistant's, the vendors', the words), through
+    `modbus: !include modbus.yaml` and Home Assistant's schema: each device_class with a unit and a
+    state_class it takes, Volts as V, kWh a counter (total_increasing)."""
+    from mdl.exports import ha_units
+
+    spellings = sorted({*ha_units.CLASSES, *ha_units._SYMBOLS, *ha_units._WORDS, *ha_units._GUESSED,
+                        *ha_units._HUMIDITY, "Volts", "Amps", "Kilowatt Hours"})
+    path = tmp_path / "units.xml"
+    path.write_text(device_xml("".join(fn_xml(f"f{i}", i, format="UINT16", access="read", units=_xml_text(unit))
+                                       for i, unit in enumerate(spellings))), encoding="ascii")
+    proc = export(path, "--host", "192.0.2.10")
+    result = json.loads(validate(tmp_path, proc.stdout).stdout.strip().splitlines()[-1])
+    assert result["class_errors"] == [] and result["logged"] == [], result
+    sensors = {s["name"]: s for s in result["valid"]["modbus"][0]["sensors"]}
+    assert len(sensors) == len(spellings)
+    by_unit = {unit: sensors[f"f{i}"] for i, unit in enumerate(spellings)}
+    assert sum("device_class" in s for s in sensors.values()) > len(spellings) // 2
+    assert (by_unit["Volts"]["unit_of_measurement"], by_unit["Volts"]["device_class"]) == ("V", "voltage")
+    assert (by_unit["KWH"]["unit_of_measurement"], by_unit["KWH"]["state_class"]) == ("kWh", "total_increasing")
+    assert (by_unit["Amps"]["unit_of_measurement"], by_unit["Kilowatt Hours"]["unit_of_measurement"]) == ("A", "kWh")
+    assert by_unit["kvarh"]["state_class"] == "total_increasing" and "device_class" not in by_unit["kvarh"]
 
 
 def test_home_assistant_version_is_the_pinned_one():
@@ -281,7 +359,7 @@ def test_reading_as_the_yaml_says_gives_mdl_read_values(sim_factory, tmp_path, p
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps(raw))
     sim = sim_factory(path, "--registers", registers, "--unit", "4")
-    hub = yaml.safe_load(export(path, *sim.connection, "--unit", "4").stdout)["modbus"][0]
+    hub = yaml.safe_load(export(path, *sim.connection, "--unit", "4").stdout)[0]
     proc = run_mdl("read", path, *sim.connection, "--unit", "4", "--format", "json")
     assert proc.returncode == 0, proc.stderr
     expected = json.loads(proc.stdout)
@@ -314,7 +392,7 @@ def test_home_assistant_own_entities_show_mdl_read_values(sim_factory, tmp_path,
     registers.write_text(json.dumps(raw))
     sim = sim_factory(path, "--registers", registers, "--unit", "4")
     text = export(path, *sim.connection, "--unit", "4").stdout
-    hub = yaml.safe_load(text)["modbus"][0]
+    hub = yaml.safe_load(text)[0]
     states = through_home_assistant(tmp_path, text)
     proc = run_mdl("read", path, *sim.connection, "--unit", "4", "--format", "json")
     assert proc.returncode == 0, proc.stderr
@@ -348,9 +426,8 @@ def test_a_bit_in_a_register_shows_mdl_read_value(sim_factory, tmp_path, write_d
     registers.write_text(json.dumps({"holding": {"10": 2, "12": 0x1234}, "input": {"11": 0x8000}}))
     sim = sim_factory(path, "--registers", registers)
     proc = export(path, *sim.connection)
-    for name in ("flag", "ro_flag"):
-        assert f"function '{name}': Home Assistant: a bit in a register" in proc.stderr, proc.stderr
-    hub = yaml.safe_load(proc.stdout)["modbus"][0]
+    assert named(proc.stderr, "Home Assistant", "a bit in a register") == {"flag", "ro_flag"}, proc.stderr
+    hub = yaml.safe_load(proc.stdout)[0]
     sensors = {s["name"]: s for s in hub["sensors"]}
     assert sensors["flag"]["input_type"] == "holding" and sensors["ro_flag"]["input_type"] == "input"
     assert sensors["flag"]["max_value"] == 1 and "binary_sensors" not in hub
@@ -370,8 +447,7 @@ def test_a_bit_in_a_register_shows_mdl_read_value(sim_factory, tmp_path, write_d
     # the control: Home Assistant's own binary_sensor on the same registers says off
     bit0 = [{"name": "flag", "address": 10, "input_type": "holding", "device_address": 1},
             {"name": "ro_flag", "address": 11, "input_type": "input", "device_address": 1}]
-    control = {"modbus": [{**{k: v for k, v in hub.items() if k not in ("sensors", "switches")},
-                           "binary_sensors": bit0}]}
+    control = [{**{k: v for k, v in hub.items() if k not in ("sensors", "switches")}, "binary_sensors": bit0}]
     shown = through_home_assistant(tmp_path, yaml.safe_dump(control))["binary_sensors"]
     assert shown == {"flag": False, "ro_flag": False}
     zero = tmp_path / "zero.json"
@@ -393,7 +469,7 @@ def test_switches_write_with_mdl_function_codes(sim_factory, tmp_path, write_dev
     refused = {5, 6} if multiple else {15, 16}
     with refusing_proxy(sim.host, sim.port, refused=refused) as proxy:
         text = export(path, "--host", proxy.host, "--port", str(proxy.port)).stdout
-        switches = {s["name"]: s for s in yaml.safe_load(text)["modbus"][0]["switches"]}
+        switches = {s["name"]: s for s in yaml.safe_load(text)[0]["switches"]}
         assert switches["relay"]["write_type"] == ("coils" if multiple else "coil")
         assert switches["flag"]["write_type"] == ("holdings" if multiple else "holding")
         states = through_home_assistant(tmp_path, text, {"relay": True, "flag": True})
@@ -424,9 +500,7 @@ def test_one_entity_per_register_as_home_assistant_loads_them(tmp_path):
     path = tmp_path / "dup.xml"
     path.write_text(device_xml("".join(functions.values()), name="Dup"), encoding="ascii")
     proc = export(path, "--host", "192.0.2.10")
-    for name in functions:
-        left_out = f"function '{name}': Home Assistant: shares its register" in proc.stderr
-        assert left_out == (name in dropped), (name, proc.stderr)
+    assert named(proc.stderr, "Home Assistant", "shares its register") == dropped, proc.stderr
     proc_schema = validate(tmp_path, proc.stdout)
     assert proc_schema.returncode == 0, proc_schema.stderr[-3000:]
     result = json.loads(proc_schema.stdout.strip().splitlines()[-1])
@@ -437,8 +511,7 @@ def test_one_entity_per_register_as_home_assistant_loads_them(tmp_path):
     for name in sorted(dropped):
         alone = tmp_path / f"{name}.xml"
         alone.write_text(device_xml(functions[name], name="Dup"), encoding="ascii")
-        config["modbus"][0]["sensors"] += yaml.safe_load(export(alone, "--host", "192.0.2.10").stdout)["modbus"][0][
-            "sensors"]
+        config[0]["sensors"] += yaml.safe_load(export(alone, "--host", "192.0.2.10").stdout)[0]["sensors"]
     result = json.loads(validate(tmp_path, yaml.safe_dump(config)).stdout.strip().splitlines()[-1])
     assert result["given"][0][0] == result["kept"][0][0] + len(dropped)  # [sensors, binary_sensors, switches]
     assert sorted(line.split("/sensor.", 1)[1].split()[0] for line in result["logged"]) == sorted(dropped)
@@ -448,7 +521,7 @@ def test_not_implemented_reads_as_none(sim_factory, tmp_path):
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps({"input": {"10": 0xFFFF}}))
     sim = sim_factory(ALL_TABLES, "--registers", registers)
-    hub = yaml.safe_load(export(ALL_TABLES, *sim.connection).stdout)["modbus"][0]
+    hub = yaml.safe_load(export(ALL_TABLES, *sim.connection).stdout)[0]
     voltage = next(s for s in hub["sensors"] if s["name"] == "voltage")
     assert voltage["nan_value"] == 0xFFFF
     client = ModbusTcpClient(hub["host"], port=hub["port"])
@@ -467,12 +540,14 @@ def test_nan_value_is_what_home_assistant_unpacks(write_device):
                         + fn_xml("w", "2", format="UINT32", word_order="little", not_implemented="0x0000FFFF",
                                  access="read"))
     proc = export(path)
-    sensors = {s["name"]: s for s in yaml.safe_load(proc.stdout)["modbus"][0]["sensors"]}
+    sensors = {s["name"]: s for s in yaml.safe_load(proc.stdout)[0]["sensors"]}
     assert sensors["t"]["nan_value"] == -32768  # int16 0x8000, as struct unpacks it
     assert sensors["u"]["nan_value"] == -1
     assert sensors["w"]["nan_value"] == 0xFFFF0000  # registers 0x0000 0xFFFF, words swapped
-    assert "0x7FFF read as numbers" in proc.stderr  # one nan_value only
-    assert "also makes 1 read as not implemented" in proc.stderr
+    assert named(proc.stderr, "Home Assistant", "nan_value holds one 'not implemented' value") == {"t"}
+    assert "'t' (0x8000 used; 0x7FFF read as numbers)" in proc.stderr
+    assert named(proc.stderr, "Home Assistant", "also makes its negative read as not implemented") == {"u"}
+    assert "'u' (nan_value -1 also makes 1)" in proc.stderr
 
 
 def test_home_assistant_warnings_and_refusal(tmp_path, write_device):
@@ -480,8 +555,7 @@ def test_home_assistant_warnings_and_refusal(tmp_path, write_device):
     for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("mode", "enumeration"),
                            ("label", "NUL padding"), ("setpoint", "modbus.write_register"), ("power", "2 decimal"),
                            ("alarm_reset", "write-only")]:
-        assert any(f"function '{name}': Home Assistant:" in line and fragment in line
-                   for line in proc.stderr.splitlines()), (name, proc.stderr)
+        assert name in named(proc.stderr, "Home Assistant", fragment), (name, proc.stderr)
     assert "--interval 2.5 becomes 3" in proc.stderr
     assert "scan_interval 3 is under 5 seconds" in proc.stderr
     assert "note: Home Assistant: no connection given" in proc.stderr

@@ -3,8 +3,9 @@ configuration of an engine that polls fleets (SPEC 11: VOLTTRON, Home Assistant,
 
 The registry names each format's writer by module and function, imported only when that format is
 asked for. A writer takes the resolved device and the `Settings` of the command line and returns an
-`Export`: one text (stdout or `-o FILE`) or a folder of files (`-o DIR`), and a warning for each
-thing the format cannot express, naming the function: nothing is silently dropped or changed.
+`Export`: one text (stdout or `-o FILE`) or a folder of files (`-o DIR`), and the warnings for what the
+format cannot express, naming the functions (the engines: one per kind of loss, `engines.Notes`): nothing
+is silently dropped or changed.
 """
 
 from __future__ import annotations

@@ -2,10 +2,12 @@
 
 Each writer walks the resolved device's functions and decides, from the layout and the value IR
 the resolve step computed (never from the document again), how its engine reads each one. What the
-engine cannot express becomes a warning naming the function and the engine (`Notes.warn`); a
-function no engine can read as mdl does (an expression, a fragment, registers that are not one
-ascending run, a value built from bytes of several registers) is left out with such a warning
-(`unreadable`). An export that would hold nothing at all is an error (`nothing_left`).
+engine cannot express is said with `Notes.warn(f, kind, detail)`: the export prints one warning per
+kind of loss (SPEC 11), naming every function it concerns, each with its own detail where the kind
+needs one (`functions 'a', 'b' (0xFFFF): Telegraf: ...`), at the first function's line. A function no
+engine can read as mdl does (an expression, a fragment, registers that are not one ascending run, a
+value built from bytes of several registers) is left out with such a warning (`left_out_unreadable`).
+An export that would hold nothing at all is an error (`nothing_left`).
 
 How every export writes text (docs/fleet.md, "Text in exports"): the encoders at the end of this module
 (`comment_text`, `toml_string`, `json_text`, `spreadsheet_cell`; YAML's in homeassistant.py), so that no name, unit or
@@ -30,37 +32,98 @@ if TYPE_CHECKING:
 
 
 @dataclass
+class _Kind:
+    """One kind of loss (or note) of one export: the functions it concerns, each with its detail or None."""
+
+    severity: str
+    message: str
+    functions: list[tuple[ResolvedFunction, str | None]] = field(default_factory=list)
+    seen: set[tuple[str, str | None]] = field(default_factory=set)  # (function name, detail) in functions
+
+
+@dataclass
 class Notes:
-    """The warnings (and notes) of one export, each naming the engine."""
+    """The warnings (and notes) of one export, each naming the engine: those about functions gathered into one
+    per kind (severity and message), in the order each kind was first met."""
 
     resolved: ResolvedDevice
     engine: str
-    found: list[Diagnostic] = field(default_factory=list)
+    _said: list[_Kind | Diagnostic] = field(default_factory=list)
+    _kinds: dict[tuple[str, str], _Kind] = field(default_factory=dict)
 
-    def warn(self, f: ResolvedFunction, message: str) -> None:
-        self.found.append(Diagnostic(self.resolved.device.source, f.fn.line, None,
-                                     f"function '{f.name}': {self.engine}: {message}", "warning"))
+    def warn(self, f: ResolvedFunction, message: str, detail: str | None = None) -> None:
+        """A loss of kind `message` for `f`; `detail`: what is particular to this function (a value, a unit)."""
+        self._add(f, message, detail, "warning")
+
+    def note_for(self, f: ResolvedFunction, message: str, detail: str | None = None) -> None:
+        """Like warn, a note (a guess said, a spelling changed): not a loss, so --fail-on-warning lets it pass."""
+        self._add(f, message, detail, "note")
+
+    def _add(self, f: ResolvedFunction, message: str, detail: str | None, severity: str) -> None:
+        kind = self._kinds.get((severity, message))
+        if kind is None:
+            kind = self._kinds[(severity, message)] = _Kind(severity, message)
+            self._said.append(kind)
+        if (f.name, detail) not in kind.seen:
+            kind.seen.add((f.name, detail))
+            kind.functions.append((f, detail))
 
     def device_warning(self, message: str) -> None:
-        self.found.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "warning"))
+        self._said.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "warning"))
 
     def note(self, message: str) -> None:
-        self.found.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "note"))
+        self._said.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "note"))
+
+    @property
+    def found(self) -> list[Diagnostic]:
+        """Every warning and note: one for each kind, at its first function's line."""
+        return [said if isinstance(said, Diagnostic) else self._diagnostic(said) for said in self._said]
+
+    def _diagnostic(self, kind: _Kind) -> Diagnostic:
+        return Diagnostic(self.resolved.device.source, kind.functions[0][0].fn.line, None,
+                          f"{subject(kind.functions)}: {self.engine}: {kind.message}", kind.severity)
 
 
-def unreadable(f: ResolvedFunction) -> str | None:
-    """Why none of the engines can read `f` as mdl does (it is left out), or None."""
+def subject(functions: list[tuple[ResolvedFunction, str | None]]) -> str:
+    """`function 'a'`, or `functions 'a', 'b' (d1), 'c' (d2)`: the functions, those of the same details together
+    with them in parentheses (a function's several details joined by `; `), in the order first met."""
+    details: dict[str, list[str]] = {}
+    for f, detail in functions:
+        said = details.setdefault(f.name, [])
+        if detail:
+            said.append(detail)
+    by_detail: dict[str, list[str]] = {}
+    for name, said in details.items():
+        by_detail.setdefault("; ".join(said), []).append(name)
+    parts = [", ".join(f"'{name}'" for name in names) + (f" ({detail})" if detail else "")
+             for detail, names in by_detail.items()]
+    return ("function " if len(details) == 1 else "functions ") + ", ".join(parts)
+
+
+UNREADABLE = "cannot be read as mdl does: {}: left out"
+
+
+def unreadable(f: ResolvedFunction) -> tuple[str, str | None] | None:
+    """Why none of the engines can read `f` as mdl does (it is left out), and the function's detail; or None."""
     steps = f.codec.decode
     if find_step(steps, Expression) is not None or f.layout.kind == "expr":
-        return "a Toolkit expression computes its value"
+        return "a Toolkit expression computes its value", None
     if find_step(steps, Fragment) is not None:
-        return "a read fragment computes its value"
+        return "a read fragment computes its value", None
     addresses = f.layout.addresses
     if addresses != tuple(range(addresses[0], addresses[0] + len(addresses))):
-        return f"its registers ({' '.join(map(str, addresses))}) are not one ascending run"
+        return "its registers are not one ascending run", f"registers {' '.join(map(str, addresses))}"
     if f.layout.unit in ("low", "high") and len(addresses) > 1:
-        return "its value is built from bytes of several registers"
+        return "its value is built from bytes of several registers", None
     return None
+
+
+def left_out_unreadable(f: ResolvedFunction, notes: Notes) -> bool:
+    """Whether `f` is left out as unreadable (`unreadable`), with the warning that says so."""
+    found = unreadable(f)
+    if found is not None:
+        notes.warn(f, UNREADABLE.format(found[0]), found[1])
+    return found is not None
 
 
 def written_by_fragment(f: ResolvedFunction) -> bool:

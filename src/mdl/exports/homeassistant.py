@@ -1,13 +1,15 @@
 """`mdl export --to homeassistant`: a `modbus:` hub for Home Assistant's configuration.yaml (SPEC 11).
 
-One hub (named by the device's stem, with the connection of the command line) holding:
+The file is a YAML list of hubs, the form `modbus: !include modbus.yaml` in configuration.yaml reads, with
+one hub (named by the device's stem, with the connection of the command line) holding:
 - `sensors` for readable numbers and text: `data_type` (int16 ... uint64, float32/64, string with its
   `count`, or `custom` with a struct `structure` for one byte of a register), `swap` (byte: MDL
   byte_order little; word: word_order little; word_byte: both), `scale`/`offset` (Home Assistant
   computes scale * value + offset), `precision` (the function's, else the decimal places its
   scaling needs, as Home Assistant rounds what it shows to it), `nan_value` (the first
   not_implemented value, as the number Home Assistant unpacks from those registers), `input_type`,
-  `unit_of_measurement`;
+  `unit_of_measurement` in Home Assistant's spelling with the `device_class` and `state_class` it gives
+  (ha_units; not for text, which Home Assistant refuses with a unit);
 - `binary_sensors` for coils and discrete inputs that cannot be written, `switches` for writable coils
   (write_type `coil`, function 5, or `coils`, function 15, for a function that says write_multiple;
   `verify` reads the coil back);
@@ -42,14 +44,15 @@ from mdl.exports.engines import (
     connection_of,
     decimals,
     hex_pattern,
+    left_out_unreadable,
     nothing_left,
     patterns_of,
     scale_of,
-    unreadable,
     whole_seconds,
     write_code,
     written_by_fragment,
 )
+from mdl.exports.ha_units import ha_unit
 
 if TYPE_CHECKING:
     from mdl.exports import Settings
@@ -86,8 +89,16 @@ def _text(dumper: yaml.SafeDumper, data: str) -> yaml.ScalarNode:
 _Dumper.add_representer(str, _text)
 
 
+NO_DATA_TYPE = "no data_type holds its value"
+
+
+def _shape(lay: Layout) -> str:
+    return f"a {lay.bits}-bit {lay.kind} in {len(lay.addresses)} registers"
+
+
 def ha_type(lay: Layout) -> dict[str, Any] | str:
-    """data_type with its swap, count or structure, as Home Assistant reads the layout; or why none does."""
+    """data_type with its swap, count or structure, as Home Assistant reads the layout; or why none does
+    (NO_DATA_TYPE: `_shape` says what the value is)."""
     n = len(lay.addresses)
     if lay.unit in ("low", "high") or (n == 1 and lay.bits == 8):
         code = "b" if lay.signed else "B"
@@ -101,7 +112,7 @@ def ha_type(lay: Layout) -> dict[str, Any] | str:
         return {"data_type": "string", "count": n, **({"swap": swap} if swap else {})}
     data_type = _TYPES.get((lay.kind, lay.bits, lay.signed))
     if data_type is None or lay.bits != 16 * n:
-        return f"no data_type holds a {lay.bits}-bit {lay.kind} in {n} registers"
+        return NO_DATA_TYPE
     return {"data_type": data_type, **({"swap": swap} if swap else {})}
 
 
@@ -122,23 +133,23 @@ def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
     if not patterns:
         return None
     if len(patterns) > 1:
-        notes.warn(f, f"nan_value holds one 'not implemented' value: {hex_pattern(patterns[0])} is used, "
-                      f"{', '.join(map(hex_pattern, patterns[1:]))} read as numbers")
+        notes.warn(f, "nan_value holds one 'not implemented' value: the first is used, the others read as numbers",
+                   f"{hex_pattern(patterns[0])} used; {', '.join(map(hex_pattern, patterns[1:]))} read as numbers")
     if kind["data_type"] == "string":
-        notes.warn(f, f"text has no nan_value: {hex_pattern(patterns[0])} reads as text")
+        notes.warn(f, "text has no nan_value: the 'not implemented' value reads as text", hex_pattern(patterns[0]))
         return None
     value = unpacked(kind, patterns[0])
     if value != value:  # a float NaN: Home Assistant shows none for it anyway
         return None
     if value == 0 or value != int(value):
-        notes.warn(f, f"nan_value cannot be {value!r} (what {hex_pattern(patterns[0])} unpacks to): "
-                      "it reads as a number")
+        notes.warn(f, "nan_value cannot be 0 or a fraction: the 'not implemented' value reads as a number",
+                   f"{hex_pattern(patterns[0])} unpacks to {value!r}")
         return None
     number = int(value)
     lay = f.layout
     if lay.kind == "float" or (lay.signed and -(1 << (lay.bits - 1)) <= -number < (1 << (lay.bits - 1))):
-        notes.warn(f, f"nan_value {number} also makes {-number} read as not implemented (Home Assistant "
-                      "compares both signs)")
+        notes.warn(f, "nan_value also makes its negative read as not implemented (Home Assistant compares both "
+                      "signs)", f"nan_value {number} also makes {-number}")
     return number
 
 
@@ -147,7 +158,8 @@ def _precision(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
         return None
     if f.fn.precision is not None:
         if f.fn.precision < 0:
-            notes.warn(f, f"precision cannot round left of the point ({f.fn.precision}): whole numbers are shown")
+            notes.warn(f, "precision cannot round left of the point: whole numbers are shown",
+                       f"precision {f.fn.precision}")
             return 0
         return f.fn.precision
     step = scale_of(f)
@@ -163,7 +175,7 @@ def _precision(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
 def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any] | None:
     kind = ha_type(f.layout)
     if isinstance(kind, str):
-        notes.warn(f, f"{kind}: left out")
+        notes.warn(f, f"{kind}: left out", _shape(f.layout) if kind == NO_DATA_TYPE else None)
         return None
     entry = dict(base)
     entry["input_type"] = "input" if f.layout.table == "input" else "holding"
@@ -178,7 +190,7 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
     if precision is not None:
         entry["precision"] = precision
     if f.fn.units:
-        entry["unit_of_measurement"] = f.fn.units
+        entry.update(_unit(f, kind, notes))
     nan_value = _nan_value(f, kind, notes)
     if nan_value is not None:
         entry["nan_value"] = nan_value
@@ -188,8 +200,34 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
         notes.warn(f, "the text keeps the NUL padding that mdl strips")
     if f.fn.writable:
         notes.warn(f, "the modbus integration has no entity that writes a register value: exported as a sensor: "
-                      f"write it with {_write_action(f)}")
+                      f"write it with {WRITE_ACTION}", _write_detail(f))
     return entry
+
+
+def _unit(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> dict[str, Any]:
+    """unit_of_measurement in Home Assistant's spelling, with the device_class and state_class it gives
+    (ha_units); a change of spelling and each guess said in a note."""
+    units = f.fn.units or ""
+    if kind["data_type"] == "string":
+        notes.warn(f, "a unit makes Home Assistant expect a number, and the sensor shows text: written without its "
+                      "unit", repr(units))
+        return {}
+    found = ha_unit(units)
+    out: dict[str, Any] = {"unit_of_measurement": found.unit}
+    if found.unit != units:
+        notes.note_for(f, "units written in Home Assistant's spelling", f"{units!r} as {found.unit!r}")
+    if f.fn.values:  # an enumeration's number is a state, not a measurement
+        return out
+    if found.device_class is not None:
+        out["device_class"] = found.device_class
+    if found.state_class is not None:
+        out["state_class"] = found.state_class
+    else:
+        notes.note_for(f, "a unit Home Assistant does not class: no device_class or state_class (long-term "
+                          "statistics and the Energy dashboard leave the sensor out)", repr(units))
+    for guess in found.guesses:
+        notes.note_for(f, guess)
+    return out
 
 
 def _bit_sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any]:
@@ -209,12 +247,13 @@ def _write_type(f: ResolvedFunction) -> str:
     return {5: "coil", 15: "coils", 6: "holding", 16: "holdings"}[write_code(f)]
 
 
-def _write_action(f: ResolvedFunction) -> str:
-    """How Home Assistant writes a register function as mdl does: its modbus.write_register action, whose
-    value is written with function 6, or as a list with function 16 (modbus.py async_write_register)."""
-    if write_code(f) == 16:
-        return "the modbus.write_register action, its value a list of registers (function 16, as mdl writes it)"
-    return "the modbus.write_register action"
+WRITE_ACTION = "the modbus.write_register action"
+
+
+def _write_detail(f: ResolvedFunction) -> str | None:
+    """How Home Assistant's modbus.write_register action writes a register function as mdl does: its value is
+    written with function 6, or as a list with function 16 (modbus.py async_write_register): that, or None."""
+    return "its value a list of registers: function 16, as mdl writes it" if write_code(f) == 16 else None
 
 
 def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, list[Entity]]:
@@ -224,9 +263,7 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
         notes.device_warning(f"scan_interval {scan} is under {MIN_SCAN} seconds, which Home Assistant warns "
                              "may make it unstable")
     for f in resolved.functions:
-        reason = unreadable(f) if f.fn.readable else None
-        if reason is not None:
-            notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+        if f.fn.readable and left_out_unreadable(f, notes):
             continue
         base = {"name": f.name, "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
                 "device_address": settings.unit, "address": f.layout.addresses[0]}
@@ -259,8 +296,8 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
                 notes.warn(f, "neither readable nor writable here: left out")
             continue
         if not f.fn.readable:
-            notes.warn(f, f"write-only register: the modbus integration writes it only with {_write_action(f)}: "
-                          "left out")
+            notes.warn(f, f"write-only register: the modbus integration writes it only with {WRITE_ACTION}: "
+                          "left out", _write_detail(f))
             continue
         sensor = _sensor(f, base, notes)
         if sensor is not None:
@@ -292,11 +329,13 @@ def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) 
             first = registers.get(register)
             if first is not None or name in names:
                 table = entity.get("input_type") or entity.get("write_type", "holding")
-                what = (f"shares its register ({table} {entity['address']}, device_address "
-                        f"{entity['device_address']}) with '{first.name}'" if first is not None
-                        else f"its name is taken by another of the {component}")
-                notes.warn(f, f"{what}, and Home Assistant loads only the first entity (\"is duplicate, second "
-                              "entry not loaded!\"): left out")
+                if first is not None:
+                    what = "shares its register with an entity before it"
+                    detail = f"{table} {entity['address']}, device_address {entity['device_address']}: '{first.name}'"
+                else:
+                    what, detail = "its name is taken by another entity of its platform", component
+                notes.warn(f, f"{what}, and Home Assistant loads only the first (\"is duplicate, second entry not "
+                              "loaded!\"): left out", detail)
                 continue
             registers[register] = f
             names.add(name)
@@ -325,8 +364,9 @@ def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export
     hub.update(entities)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
     head = (f"# Home Assistant modbus integration: {comment_text(resolved.name)}, from {comment_text(source)} by "
-            "mdl export.\n# Put it in configuration.yaml (merge the hub into an existing modbus: list).\n")
-    body = yaml.dump({"modbus": [hub]}, Dumper=_Dumper, sort_keys=False, allow_unicode=True,
-                     default_flow_style=False, width=100)
+            "mdl export.\n# A list of modbus hubs: save it as modbus.yaml beside configuration.yaml, which reads it "
+            "with\n#   modbus: !include modbus.yaml\n# (where configuration.yaml already lists hubs under modbus:, "
+            "add this one to them).\n")
+    body = yaml.dump([hub], Dumper=_Dumper, sort_keys=False, allow_unicode=True, default_flow_style=False,
+                     width=100)
     return Export(text=head + body, warnings=notes.found)
-

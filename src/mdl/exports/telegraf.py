@@ -34,12 +34,12 @@ from mdl.exports.engines import (
     comment_text,
     connection_of,
     hex_pattern,
+    left_out_unreadable,
     nothing_left,
     patterns_of,
     plain_number,
     scale_of,
     toml_string,
-    unreadable,
 )
 
 if TYPE_CHECKING:
@@ -107,17 +107,16 @@ def _exported(resolved: ResolvedDevice, notes: Notes) -> dict[str, ResolvedFunct
         if not f.fn.readable:
             notes.warn(f, "write-only: Telegraf only reads: left out")
             continue
-        reason = unreadable(f)
-        if reason is not None:
-            notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+        if left_out_unreadable(f, notes):
             continue
         if not _fits_somehow(f.layout):
-            notes.warn(f, f"no field type reads a {f.layout.bits}-bit {f.layout.kind} in "
-                          f"{len(f.layout.addresses)} registers: left out")
+            notes.warn(f, "no field type reads its value: left out",
+                       f"a {f.layout.bits}-bit {f.layout.kind} in {len(f.layout.addresses)} registers")
             continue
         patterns = patterns_of(f)
         if patterns:
-            notes.warn(f, f"no 'not implemented' value: {', '.join(map(hex_pattern, patterns))} reads as a number")
+            notes.warn(f, "no 'not implemented' value: the values that mean it read as numbers",
+                       ", ".join(map(hex_pattern, patterns)))
         if f.layout.kind == "string":
             notes.warn(f, "a STRING field ends at its first NUL and keeps trailing spaces, which mdl strips")
         out[f.name] = f

@@ -45,12 +45,12 @@ from mdl.exports.engines import (
     decimals,
     hex_pattern,
     json_text,
+    left_out_unreadable,
     nothing_left,
     patterns_of,
     plain_number,
     scale_of,
     spreadsheet_cell,
-    unreadable,
     write_code,
     written_by_fragment,
 )
@@ -75,8 +75,16 @@ _PARITY = {"N": "none", "E": "even", "O": "odd"}
 _SINGLE_TYPES = ("int16", "uint16")  # what the driver writes right with function 6 (no struct format, one register)
 
 
+NO_TYPE = "no VOLTTRON type holds its value"
+
+
+def _shape(lay: Layout) -> str:
+    return f"a {lay.bits}-bit {lay.kind} in {len(lay.addresses)} registers"
+
+
 def volttron_type(lay: Layout) -> tuple[str, bool] | str:
-    """(Type, Mixed Endian) that reads the layout as mdl does, or why there is none."""
+    """(Type, Mixed Endian) that reads the layout as mdl does, or why there is none (NO_TYPE: `_shape` says
+    what the value is)."""
     n = len(lay.addresses)
     if lay.kind == "bool":
         return "bool", False
@@ -93,7 +101,7 @@ def volttron_type(lay: Layout) -> tuple[str, bool] | str:
         return (f">{pad}{code}" if lay.byte_order == "big" else f">{code}{pad}"), False
     key = (lay.kind, lay.bits, lay.signed)
     if key not in _STRUCT or lay.bits != 16 * n:
-        return f"no VOLTTRON type holds a {lay.bits}-bit {lay.kind} in {n} registers"
+        return NO_TYPE
     if lay.byte_order == "big":  # >: ABCD; mixed: CDAB
         return _NAMED.get(key, ">" + _STRUCT[key]), n > 1 and lay.word_order == "little"
     return "<" + _STRUCT[key], n > 1 and lay.word_order == "big"  # <: DCBA; mixed: BADC
@@ -105,24 +113,22 @@ def _transform(f: ResolvedFunction, notes: Notes) -> str | None:
     if step is None:
         return ""
     if step.offset != 0:
-        notes.warn(f, f"no transform adds an offset ({plain_number(step.offset)}): left out")
+        notes.warn(f, "no transform adds an offset: left out", f"offset {plain_number(step.offset)}")
         return None
     m = step.multiplier
     if f.layout.kind == "float":
-        notes.warn(f, f"scale() rounds to the {decimals(m)} decimal places of {plain_number(m)}, which would "
-                      "cut a float: left out")
+        notes.warn(f, "scale(m) rounds to the decimal places of m, which would cut a float: left out",
+                   f"scale({plain_number(m)}): {decimals(m)} places")
         return None
     if m < 0 or "e" in str(m):
-        notes.warn(f, f"scale() cannot take the multiplier {plain_number(m)} (its CSV syntax has no sign and "
-                      "it rounds by the digits of str(m)): left out")
+        notes.warn(f, "scale() cannot take the multiplier (its CSV syntax has no sign and it rounds by the digits "
+                      "of str(m)): left out", f"multiplier {plain_number(m)}")
         return None
     return f"scale({plain_number(m)})"
 
 
 def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
-    reason = unreadable(f) if f.fn.readable else None
-    if reason is not None:
-        notes.warn(f, f"cannot be read as mdl does: {reason}: left out")
+    if f.fn.readable and left_out_unreadable(f, notes):
         return None
     if bit_in_register(f):
         notes.warn(f, f"a BIT in the {f.layout.table} registers (true when the register is not 0): the driver's bool "
@@ -131,7 +137,7 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
         return None
     found = volttron_type(f.layout)
     if isinstance(found, str):
-        notes.warn(f, f"{found}: left out")
+        notes.warn(f, f"{found}: left out", _shape(f.layout) if found == NO_TYPE else None)
         return None
     vtype, mixed = found
     transform = _transform(f, notes)
@@ -155,8 +161,8 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
         notes.warn(f, "writes outside minimum/maximum are not refused")
     patterns = patterns_of(f)
     if patterns:
-        notes.warn(f, f"no 'not implemented' value: {', '.join(map(hex_pattern, patterns))} "
-                      "reads as a number")
+        notes.warn(f, "no 'not implemented' value: the values that mean it read as numbers",
+                   ", ".join(map(hex_pattern, patterns)))
     if f.fn.values:
         notes.warn(f, "no enumeration: the number is reported, not its label")
     if f.layout.kind == "string":
@@ -180,8 +186,9 @@ def _cell(f: ResolvedFunction, column: str, text: str, notes: Notes) -> str:
     cell = spreadsheet_cell(text)
     if cell != text:
         notes.warn(f, f"its {column} cell starts with {text[0]!r}, which a spreadsheet runs as a formula: written "
-                      f"with a single quote in front, {cell[:20]!r}" + ("..." if len(cell) > 20 else "")
-                      + (" (the point's name in VOLTTRON too)" if column == "Volttron Point Name" else ""))
+                      "with a single quote in front" + (" (the point's name in VOLTTRON too)"
+                                                        if column == "Volttron Point Name" else ""),
+                   f"{cell[:20]!r}" + ("..." if len(cell) > 20 else ""))
     return cell
 
 
