@@ -8,13 +8,15 @@ half a file. A new file gets the permissions the umask gives (as any program cre
 existing file keeps its mode, as editors do. Inside all_or_none() the renames wait until every file
 of the run is written, and a failed rename puts back the files already replaced: a run changes all
 its files or none. Temporary files are removed on every error, on SIGINT (KeyboardInterrupt), and on
-SIGTERM/SIGHUP, which raise SystemExit(128 + signal) while files are being written.
+SIGTERM/SIGHUP, which raise SystemExit(128 + signal) while files are being written; those a run
+killed outright (SIGKILL, a power cut) leaves, remove_leftovers() removes on the next run.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -27,7 +29,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from mdl.diagnostics import error
+from mdl.diagnostics import MdlError, error
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -48,11 +50,25 @@ def is_stdin(path: StrPath) -> bool:
     return str(path) == str(STDIN)
 
 
-def read_bytes(path: StrPath) -> bytes:
+def read_bytes(path: StrPath, limit: int | None = None) -> bytes:
+    """The file's bytes; with `limit`, an error (naming the limit) for a file larger than that, read no further."""
+    data = read_head(path, limit)
+    if limit is not None and len(data) > limit:
+        raise too_large(path, limit)
+    return data
+
+
+def too_large(path: StrPath, limit: int) -> MdlError:
+    return error(f"larger than {limit:,} bytes, the most this format's reader takes", path)
+
+
+def read_head(path: StrPath, limit: int | None = None) -> bytes:
+    """The file's bytes, with `limit` no more than limit + 1 of them (more than limit: the file is larger)."""
     try:
         if is_stdin(path):
-            return sys.stdin.buffer.read()
-        return Path(path).read_bytes()
+            return sys.stdin.buffer.read() if limit is None else sys.stdin.buffer.read(limit + 1)
+        with open(path, "rb") as f:
+            return f.read() if limit is None else f.read(limit + 1)
     except FileNotFoundError:
         raise error("no such file", path) from None
     except IsADirectoryError:
@@ -140,11 +156,35 @@ def all_or_none() -> Iterator[None]:
         _discard(staged)
 
 
+_TOKEN_BYTES = 6  # RANDOM in the names below: 12 hex digits
+
+
+def _hidden_name(path: Path, kind: str) -> Path:
+    """`.NAME.RANDOM.tmp` (a file being written) or `.NAME.RANDOM.old` (the old file's second name)."""
+    return path.with_name(f".{path.name}.{secrets.token_hex(_TOKEN_BYTES)}.{kind}")
+
+
+def remove_leftovers(path: StrPath) -> None:
+    """Remove the hidden files beside `path` that a run killed while writing it left: only names of
+    _hidden_name's pattern for this very file, never another file. (Two runs writing the same file at
+    once are not supported: the later one's leftovers may be the earlier one's files in progress.)"""
+    target = Path(path)
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.[0-9a-f]{{{2 * _TOKEN_BYTES}}}\.(?:tmp|old)")
+    try:
+        names = os.listdir(target.parent)
+    except OSError:
+        return  # no folder yet: nothing left in it
+    for name in names:
+        if pattern.fullmatch(name):
+            with contextlib.suppress(OSError):
+                os.unlink(target.parent / name)
+
+
 def _create_beside(path: Path) -> tuple[Path, int]:
     """Create `.NAME.RANDOM.tmp` exclusively, mode 0666 less the umask (what open(2) does)."""
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0)
     while True:
-        tmp = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
+        tmp = _hidden_name(path, "tmp")
         try:
             return tmp, os.open(tmp, flags, 0o666)
         except FileExistsError:
@@ -187,7 +227,7 @@ def _second_name(path: Path) -> Path | None:
         raise error(f"cannot write: {exc.strerror}", path) from None
     if not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
         return None  # a directory or a device: the rename fails, nothing to put back
-    old = path.with_name(f".{path.name}.{secrets.token_hex(6)}.old")
+    old = _hidden_name(path, "old")
     try:
         os.link(path, old, follow_symlinks=False)
     except OSError:

@@ -23,6 +23,10 @@ The rule:
    compiler searching the output directory cannot take it for the standard one: `String` ->
    `string_.h`, `Time` -> `time_.py`. The rule is for the stem only: a function called `time` still
    reads as `read_time`.
+3b. A stem is at most STEM_LIMIT (64) characters, so that file names derived from it (and the
+   hidden temporary files beside them) fit every file system: a longer identifier keeps its first 55
+   characters (less a trailing `_`) and gets `_` and 8 hex digits of its SHA-256, the same for the
+   same name on every run and different for different long names. `mdl gen` says so with a note.
 4. The class name is the CamelCase of the device's identifier, `Device` in front if it would start
    with a digit, and `_` appended if it is in CLASS_RESERVED: the names the generated files define
    or import at the level of the class (`Request`, `Group`, `Table`, `Regs` in the .cc;
@@ -33,6 +37,7 @@ The rule:
 
 from __future__ import annotations
 
+import hashlib
 import re
 import unicodedata
 from collections.abc import Iterable
@@ -122,10 +127,25 @@ def identifier(name: str) -> str:
     return ident
 
 
+STEM_LIMIT = 64  # characters of a stem: `.<stem>.cc.<12 hex>.tmp` stays far below any file system's 255
+
+
 def stem(device_name: str) -> str:
-    """The stem of a device's generated files: its identifier, `_` appended if a standard header's name."""
+    """The stem of a device's generated files: its identifier, `_` appended if a standard header's
+    name; a longer one than STEM_LIMIT is shortened (stem_shortened)."""
     ident = identifier(device_name)
+    if len(ident) > STEM_LIMIT:
+        digest = hashlib.sha256(ident.encode("ascii")).hexdigest()[:_STEM_HASH]
+        return f"{ident[:STEM_LIMIT - _STEM_HASH - 1].rstrip('_')}_{digest}"
     return ident + "_" if ident in STANDARD_HEADERS else ident
+
+
+def stem_shortened(device_name: str) -> bool:
+    """Whether the device's identifier was too long to be its stem (rule 3b)."""
+    return len(identifier(device_name)) > STEM_LIMIT
+
+
+_STEM_HASH = 8  # hex digits of the identifier's SHA-256 that keep shortened stems apart
 
 
 def unique_identifiers(names: Iterable[str]) -> list[str]:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at every start
+    from mdl.diagnostics import Diagnostic
     from mdl.model import Device
     from mdl.resolve import ResolvedDevice
     from mdl.targets.base import Target
@@ -42,8 +43,10 @@ def target(name: str) -> Target:
 
 def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict[str, str]:
     """File name -> content for the chosen target, or for every target with lang "all". A model
-    not yet resolved is resolved here, once for every target."""
+    not yet resolved is resolved here, once for every target. The files carry the stamp of this
+    generation (templating.stamp): a C or C++ source compiles only with the header of its run."""
     from mdl.resolve import ResolvedDevice, resolve
+    from mdl.targets.templating import stamp
 
     if not isinstance(device, ResolvedDevice):
         device = resolve(device, source_name)
@@ -51,7 +54,7 @@ def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict
     for name in names() if lang == "all" else [lang]:
         for file_name, text in target(name).render(device, source_name).items():
             out[file_name] = shared_header(out[file_name], text) if file_name in out else text
-    return out
+    return stamp(out)
 
 
 def shared_header(cpp: str, c: str) -> str:
@@ -60,6 +63,20 @@ def shared_header(cpp: str, c: str) -> str:
     first = cpp.split("\n", 1)[0]
     return (f"{first}\n// With --lang all, this header serves both drivers: C++ code (<stem>.cc) sees the C++17\n"
             f"// class, C code (<stem>.c) the C99 functions.\n#ifdef __cplusplus\n{cpp}#else\n{c}#endif\n")
+
+
+def notes(device: ResolvedDevice, source: Path) -> list[Diagnostic]:
+    """What `mdl gen` tells about the names it chose: a stem shortened (mdl.model.names, rule 3b)."""
+    from mdl.diagnostics import Diagnostic
+    from mdl.model.names import STEM_LIMIT, stem_shortened
+    from mdl.resolve.checks import position
+
+    if not stem_shortened(device.name):
+        return []
+    line, col = position(device.device, "name")
+    return [Diagnostic(str(source), line, col, f"the device name makes an identifier longer than {STEM_LIMIT} "
+                       f"characters: the generated files are named {device.stem}.* (and the class "
+                       f"{device.class_name})", "note")]
 
 
 def generate(device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:

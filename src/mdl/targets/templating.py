@@ -15,7 +15,7 @@ import jinja2.bccache
 
 from mdl import __version__
 from mdl.diagnostics import error
-from mdl.fileio import would_change, write_atomic
+from mdl.fileio import remove_leftovers, would_change, write_atomic
 
 # each target's templates are under <target>/templates/ here
 TARGETS_DIR = Path(__file__).resolve().parent
@@ -39,20 +39,31 @@ def pycomment(text: object) -> str:
     return _ascii_line(text).replace('"""', "'''").replace("\\", "\\\\")
 
 
+# Characters a comment must not hold as they are, beyond control characters and line breaks (which
+# become a space): the bidirectional controls (Trojan Source, gcc's -Wbidi-chars), the invisible
+# format characters (zero-width spaces and joiners, word joiner, BOM, soft hyphen, interlinear
+# annotations, tag characters) and the surrogates and noncharacters. A fixed list rather than
+# Python's Unicode tables, so that the same input prints the same bytes under every Python version.
+_HIDDEN = re.compile("[\u00ad\u061c\u180e\u200b-\u200f\u202a-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb"
+                     "\ufffe\uffff\ud800-\udfff\U000e0000-\U000e007f]")
+
+
 def ccomment(text: object) -> str:
     """Text for a C or C++ comment (`//` or `/* */`), as written (UTF-8) on one line, that cannot end
-    the comment or splice the next line into it: control characters and line breaks become a space,
-    `*/`, `/*` and the `??/` trigraph get a space inside, and a backslash that ends the text becomes
-    U+FF3C (a fullwidth backslash)."""
+    the comment, splice the next line into it or reorder what a reader sees: control characters and
+    line breaks become a space, a hidden character (_HIDDEN: bidirectional controls, zero-width ones)
+    becomes its code point as text (`<U+202E>`), `*/`, `/*` and the `??/` trigraph get a space
+    inside, and a backslash that ends the text becomes U+FF3C (a fullwidth backslash)."""
     text = re.sub(r"\s*[\x00-\x1f\x7f-\x9f\u2028\u2029]+\s*", " ", str(text)).strip()
+    text = _HIDDEN.sub(lambda m: f"<U+{ord(m.group()):04X}>", text)
     text = text.replace("*/", "* /").replace("/*", "/ *").replace("??/", "?? /")
     return text[:-1] + "\uff3c" if text.endswith("\\") else text
 
 
-def cstring(text: object) -> str:
-    """A C or C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
+def _escaped(data: bytes) -> str:
+    """Bytes inside a C or C++ string literal: printable ASCII as is, everything else as octal escapes."""
     out = []
-    for byte in str(text).encode("utf-8"):
+    for byte in data:
         ch = chr(byte)
         if ch in '"\\?':
             out.append("\\" + ch)
@@ -60,7 +71,73 @@ def cstring(text: object) -> str:
             out.append(ch)
         else:
             out.append(f"\\{byte:03o}")
-    return '"' + "".join(out) + '"'
+    return "".join(out)
+
+
+def cstring(text: object) -> str:
+    """A C or C++ string literal: printable ASCII as is, everything else as octal escapes of its UTF-8."""
+    return '"' + _escaped(str(text).encode("utf-8")) + '"'
+
+
+# The longest string literal (in bytes, after concatenation, without its NUL) each language's
+# compilers must accept: C99 5.2.4.1 (gcc and clang refuse longer ones under -Wpedantic), and
+# C++17 Annex B (clang++ -Wpedantic refuses longer ones).
+STRING_LIMIT = {"c": 4095, "c++": 65536}
+_CHARS_PER_LINE = 16
+
+
+def _char(byte: int) -> str:
+    """A byte as a C or C++ character constant."""
+    if byte in b"'\\":
+        return "'\\" + chr(byte) + "'"
+    return f"'{chr(byte)}'" if 0x20 <= byte < 0x7F else f"'\\{byte:03o}'"
+
+
+def ctext(text: str, name: str, lang: str) -> tuple[list[str], str]:
+    """Text for C (`lang` "c") or C++ ("c++") code: ([], its string literal) when the literal is
+    within STRING_LIMIT; else a declaration of `static const char name[]` initialised character by
+    character (no string literal, so no limit applies: every byte of the text is kept) and `name`,
+    which the code uses where it would use the literal (it decays to `const char *` alike)."""
+    data = text.encode("utf-8")
+    if len(data) <= STRING_LIMIT[lang]:
+        return [], cstring(text)
+    chars = [_char(byte) for byte in data] + ["0"]
+    rows = [", ".join(chars[i:i + _CHARS_PER_LINE]) for i in range(0, len(chars), _CHARS_PER_LINE)]
+    qualifier = "constexpr" if lang == "c++" else "const"
+    return [f"static {qualifier} char {name}[{len(data) + 1}] = {{", *(f"    {row}," for row in rows), "};"], name
+
+
+def c_int64(value: int) -> str:
+    """An int64_t literal for C and C++ (<stdint.h>/<cstdint>): INT64_MIN as `(-INT64_C(...) - 1)`,
+    since no literal of it exists (9223372036854775808 is too large for int64_t)."""
+    if not -(1 << 63) <= value < 1 << 63:
+        raise ValueError(f"{value} is outside int64_t")  # mdl validate refuses such keys before this
+    if value == -(1 << 63):
+        return "(-INT64_C(9223372036854775807) - 1)"
+    return f"INT64_C({value})" if value >= 0 else f"(-INT64_C({-value}))"
+
+
+# A generation stamp (docs/cpp-api.md): each C or C++ header defines `generation_macro(stem)` as the
+# stamp of its run of mdl gen, each source refuses (#error) to compile with any other. The templates
+# print GENERATION where the stamp goes; stamp() puts the hash of the run's files there. No input
+# text can print it: every text reaches a generated file escaped, and a NUL never as it is.
+GENERATION = "\0mdl-generation\0"
+STAMP_DIGITS = 12  # 48 bits of SHA-256: an integer constant of every C preprocessor
+
+
+def generation_macro(stem: str) -> str:
+    return f"MDL_{stem.upper().rstrip('_')}_GENERATION"
+
+
+def stamp(files: dict[str, str]) -> dict[str, str]:
+    """The files of one run with the stamp in place: a hash of their names and content (without
+    it), so the same input gives the same bytes (SPEC 5) and another input, another stamp."""
+    digest = hashlib.sha256()
+    for name in sorted(files):
+        digest.update(f"{len(name)}:{name}:{len(files[name])}:".encode())
+        digest.update(files[name].encode("utf-8"))
+    value = "0x" + digest.hexdigest()[:STAMP_DIGITS]
+    return {name: text.replace(GENERATION, value) for name, text in files.items()}
 
 
 def _memoized(function: Callable[[object], str]) -> Callable[[object], str]:
@@ -137,6 +214,7 @@ def environment() -> jinja2.Environment:
     env.filters["ccomment"] = _memoized(ccomment)  # a description goes into several comments
     env.filters["cstring"] = cstring
     env.filters["each"] = each
+    env.globals["generation"] = GENERATION
     return env
 
 
@@ -166,9 +244,12 @@ class SharedRendering:
 
 
 def write_outputs(outputs: dict[Path, str], check: bool) -> list[Path]:
-    """Write each file whose content changes; with check, write nothing. Returns the changed ones."""
+    """Write each file whose content changes; with check, write nothing. Returns the changed ones.
+    Writing, the hidden temporary files an earlier run killed while writing them left are removed."""
     changed = [path for path, text in outputs.items() if would_change(path, text)]
     if not check:
+        for path in outputs:
+            remove_leftovers(path)
         for path in changed:
             write_atomic(path, outputs[path])
     return changed

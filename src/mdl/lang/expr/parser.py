@@ -360,6 +360,10 @@ class Parser:
                 self.pos += 2
                 if value in node.mapping:
                     raise self.error(f"value {value} is mapped twice", part_start)
+                if not -LONG_MAX - 1 <= value <= LONG_MAX:  # every target compares int64 values
+                    raise self.error(f"mapped value {value} is outside int64 ({-LONG_MAX - 1}..{LONG_MAX})"
+                                     + (f": as 64 bits, write {value - 2**64}" if value > LONG_MAX else ""),
+                                     part_start)
                 node.mapping[value] = self.string_arg()
             else:
                 node.bit = value

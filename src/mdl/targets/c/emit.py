@@ -23,7 +23,7 @@ from mdl.lang.cfrag.cemit import float_literal
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.c import expressions
-from mdl.targets.templating import SharedRendering, environment
+from mdl.targets.templating import SharedRendering, ctext, environment, generation_macro
 from mdl.values import ir
 
 RUNTIME = Path(__file__).resolve().parent / "runtime"
@@ -257,10 +257,13 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     list_bits = max([16 * op.data["count"] for e in exprs for op in e.lowered.ops if op.kind == "bitset"], default=0)
     return {
         "device": rd.device, "version": __version__, "source": source_name, "stem": file_stem,
+        "generation_macro": generation_macro(file_stem),
         "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H", "functions": functions, "readable": readable,
         "groups": groups, "splits": splits, "raw_total": raw_total, "runtime": runtime,
         "fragments": [(name, c.function(name)) for name, c in fragments], "includes": sorted(includes),
         "c_double": c_double, "list_bits": list_bits,
+        # a name too long for a C99 string literal is a char array defined in the .c (templating.ctext)
+        "device_name": ctext(rd.device.name, f"{file_stem}_device_name", "c"),
     }
 
 

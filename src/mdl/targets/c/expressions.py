@@ -20,7 +20,7 @@ from pathlib import Path
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.lang.expr.lower import Lowered, Op
 from mdl.model.layout import MAX_REGISTERS
-from mdl.targets.templating import cstring
+from mdl.targets.templating import c_int64, ctext
 
 RUNTIME_SOURCE = Path(__file__).resolve().parent / "runtime" / "expr.c"
 C_TYPES = {"long": "int64_t", "double": "double", "string": "char", "bool": "bool", "list": "struct {stem}_list"}
@@ -37,10 +37,16 @@ def _double(value: float) -> str:
     return float_literal(float(value), "double") if value >= 0 else f"(-{float_literal(-float(value), 'double')})"
 
 
-def _long(value: int) -> str:
-    if value == -(1 << 63):
-        return "(-INT64_C(9223372036854775807) - 1)"
-    return f"INT64_C({value})" if value >= 0 else f"(-INT64_C({-value}))"
+def _texts(labels: list[str], tmp: str) -> tuple[list[str], str]:
+    """The declarations the labels need (those too long for a C99 string literal, templating.ctext)
+    and the labels as an initialiser list ("0" for none)."""
+    decls: list[str] = []
+    items = []
+    for i, label in enumerate(labels):
+        decl, text = ctext(label, f"{tmp}_label{i}", "c")
+        decls += decl
+        items.append(text)
+    return decls, ", ".join(items) or "0"
 
 
 def _labels(mapping: dict[int, str], nbits: int) -> list[str]:
@@ -120,9 +126,10 @@ class CExpression:
         if op.kind == "lit":
             v = d["value"]
             if op.type == "string":
-                return [f"char {t}[{caps[t] + 1}];", f"const bool {t}_has = true;",
-                        f"memcpy({t}, {cstring(v)}, {caps[t] + 1}U);"]
-            text = ("true" if v else "false") if op.type == "bool" else _long(int(v)) if op.type == "long" \
+                decl, text = ctext(str(v), f"{t}_text", "c")
+                return [*decl, f"char {t}[{caps[t] + 1}];", f"const bool {t}_has = true;",
+                        f"memcpy({t}, {text}, {caps[t] + 1}U);"]
+            text = ("true" if v else "false") if op.type == "bool" else c_int64(int(v)) if op.type == "long" \
                 else _double(float(v))
             return [f"const {C_TYPES[op.type]} {t} = {text};", f"const bool {t}_has = true;"]
         if op.kind == "regs":
@@ -150,8 +157,9 @@ class CExpression:
         if op.kind == "bit":
             return [*decl, f"if ({a}_has) {{ {t} = {a}[0] != 0U; {t}_has = true; }}"]
         if op.kind == "label":
-            f, tr = d["labels"]
-            return [*decl, f"if ({a}_has) {{ x_copy({t}, {a} ? {cstring(tr)} : {cstring(f)}); {t}_has = true; }}"]
+            false_text, true_text = d["labels"]
+            (f_decl, f), (tr_decl, tr) = ctext(false_text, f"{t}_f", "c"), ctext(true_text, f"{t}_t", "c")
+            return [*decl, *f_decl, *tr_decl, f"if ({a}_has) {{ x_copy({t}, {a} ? {tr} : {f}); {t}_has = true; }}"]
         if op.kind == "todouble":
             return [*decl, f"if ({a}_has) {{ {t} = (double){a}; {t}_has = true; }}"]
         if op.kind == "neg":
@@ -192,14 +200,14 @@ class CExpression:
             return [f"{t} = x_bit({a}, {n}U, {d['bit']}U);", f"{t}_has = true;"]
         if op.kind == "enum":
             items = sorted(d["mapping"].items())
-            keys = ", ".join(_long(k) for k, _ in items) or "0"
-            labels = ", ".join(cstring(v) for _, v in items) or "0"
-            return [f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
+            keys = ", ".join(c_int64(k) for k, _ in items) or "0"
+            decls, labels = _texts([v for _, v in items], t)
+            return [*decls, f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
                     f"static const char *const labels[{max(len(items), 1)}] = {{{labels}}};",
                     f"x_enum({a}, {n}U, keys, labels, {len(items)}U, {t});", f"{t}_has = true;"]
         if op.kind == "bitset":
-            labels = ", ".join(cstring(x) for x in _labels(d["mapping"], 16 * n))
-            return [f"static const char *const labels[{16 * n}] = {{{labels}}};",
+            decls, labels = _texts(_labels(d["mapping"], 16 * n), t)
+            return [*decls, f"static const char *const labels[{16 * n}] = {{{labels}}};",
                     f"x_bitset({a}, {n}U, labels, {t}.items, &{t}.count);", f"{t}_has = true;"]
         return [f"x_{op.kind}({a}, {n}U, {t});", f"{t}_has = true;"]
 

@@ -27,7 +27,7 @@ from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
-from mdl.targets.templating import SharedRendering
+from mdl.targets.templating import SharedRendering, ctext, generation_macro
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
@@ -236,6 +236,7 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     needed = _ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
     return {
         "device": device, "version": __version__, "source": source_name, "stem": file_stem,
+        "generation_macro": generation_macro(file_stem), "device_name": ctext(device.name, "kDeviceName", "c++"),
         "class_name": resolved.class_name, "guard": f"MDL_{file_stem.upper().rstrip('_')}_H", "functions": functions,
         "readable": readable, "chunks": chunks, "groups": groups, "splits": splits, "raw_total": raw_total,
         "fragments": bool(fragments), "runtime": runtime,

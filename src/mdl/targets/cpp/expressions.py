@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from mdl.lang.expr.lower import Lowered, Op
-from mdl.targets.templating import cstring
+from mdl.targets.templating import c_int64, ctext
 
 CPP_TYPES = {"long": "int64_t", "double": "double", "string": "std::string", "bool": "bool",
              "list": "std::vector<std::string>"}
@@ -41,13 +41,21 @@ def _regs_literal(op: Op, words: list[int]) -> str:
     return f"{_regs_type(op)}{{" + ", ".join(f"0x{w:04X}U" for w in words) + "}"
 
 
-def _literal(op: Op) -> str:
+def _literal(op: Op, decls: list[str]) -> str:
     v = op.data["value"]
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return f"std::string({cstring(v)}, {len(v.encode('utf-8'))})"
-    return f"INT64_C({v})" if op.type == "long" else _double(v)
+        return f"std::string({_text_of(v, f'{op.tmp}_text', decls)}, {len(v.encode('utf-8'))})"
+    return c_int64(int(v)) if op.type == "long" else _double(v)
+
+
+def _text_of(text: str, name: str, decls: list[str]) -> str:
+    """`text` as the code uses it: a string literal, or (too long for one, templating.ctext) the name
+    of a char array whose declaration is added to decls."""
+    decl, expr = ctext(text, name, "c++")
+    decls += decl
+    return expr
 
 
 def _long(a: str, wide: set[str]) -> str:
@@ -69,8 +77,10 @@ def _lines(op: Op, types: dict[str, str], result: str, wide: set[str]) -> list[s
     const = "" if op.tmp == result else "const "  # the result is moved out, not copied
     a = op.args[0] if op.args else ""  # an operation without arguments names none
     d = op.data
+    decls: list[str] = []  # the char arrays of texts too long for a literal
     if op.kind == "lit":
-        return [f"{const}{t} {op.tmp} = {_literal(op)};"]
+        value = _literal(op, decls)
+        return [*decls, f"{const}{t} {op.tmp} = {value};"]
     if op.kind == "regs":
         index = ", ".join(str(i) for i in d["index"])
         regs = ", ".join(f"r[{i}]" for i in d["index"])
@@ -86,8 +96,9 @@ def _lines(op: Op, types: dict[str, str], result: str, wide: set[str]) -> list[s
     if op.kind == "bit":
         return out + [f"if ({a}) {{ {op.tmp} = (*{a})[0] != 0; }}"]
     if op.kind == "label":
-        f, tr = d["labels"]
-        return out + [f"if ({a}) {{ {op.tmp} = std::string(*{a} ? {cstring(tr)} : {cstring(f)}); }}"]
+        false_text, true_text = d["labels"]
+        f, tr = _text_of(false_text, f"{op.tmp}_f", decls), _text_of(true_text, f"{op.tmp}_t", decls)
+        return decls + out + [f"if ({a}) {{ {op.tmp} = std::string(*{a} ? {tr} : {f}); }}"]
     if op.kind == "todouble":
         return out + [f"if ({a}) {{ {op.tmp} = static_cast<double>({_long(a, wide)}); }}"]
     if op.kind == "neg":
@@ -105,7 +116,8 @@ def _lines(op: Op, types: dict[str, str], result: str, wide: set[str]) -> list[s
         else:
             expr = f"*{a} {d['op']} *{b}"
         return out + [f"if ({a} && {b}) {{ {op.tmp} = {expr}; }}"]
-    return out + [f"if ({_guard(op, types)}) {{ {op.tmp} = {_register_function(op)}; }}"]
+    call = _register_function(op, decls)
+    return decls + out + [f"if ({_guard(op, types)}) {{ {op.tmp} = {call}; }}"]
 
 
 def _guard(op: Op, types: dict[str, str]) -> str:
@@ -116,13 +128,16 @@ def _guard(op: Op, types: dict[str, str]) -> str:
                        for g in op.data["ni"])
 
 
-def _register_function(op: Op) -> str:
+def _register_function(op: Op, decls: list[str]) -> str:
     a, d = op.args[0], op.data
     if op.kind == "enum":
-        table = ", ".join(f"{{INT64_C({k}), {cstring(v)}}}" for k, v in sorted(d["mapping"].items()))
+        table = ", ".join(f"{{{c_int64(k)}, {_text_of(v, f'{op.tmp}_label{i}', decls)}}}"
+                          for i, (k, v) in enumerate(sorted(d["mapping"].items())))
         return f"x_enum(*{a}, {{{table}}})"
-    if op.kind == "bitset":
-        table = ", ".join(f"{{{k}, {cstring(v)}}}" for k, v in sorted(d["mapping"].items()))
+    if op.kind == "bitset":  # a bit the registers do not have is never set: its label is left out
+        bits = 16 * d["count"]
+        table = ", ".join(f"{{{k}, {_text_of(v, f'{op.tmp}_label{k}', decls)}}}"
+                          for k, v in sorted(d["mapping"].items()) if 0 <= k < bits)
         return f"x_bitset(*{a}, {{{table}}})"
     if op.kind == "bitsetbit":
         return f"x_bit(*{a}, {d['bit']})"
