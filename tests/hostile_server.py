@@ -189,7 +189,8 @@ ID_LIES: dict[str, Callable[[bytes], bytes]] = {
     "id_dribble": _honest_identification,
     "id_stream": _honest_identification,
 }
-MODES = (*PDU_LIES, *CONNECTION_LIES, *ID_LIES)
+MODES = (*PDU_LIES, *CONNECTION_LIES)  # lies a driver meets (it never asks for the identification)
+ALL_MODES = (*MODES, *ID_LIES)  # and the identification's, which only mdl discover meets
 
 
 def _recv_exactly(conn: socket.socket, size: int, stop: threading.Event) -> bytes | None:
@@ -230,8 +231,8 @@ def rtu_frame(unit: int, pdu: bytes) -> bytes:
 class _Server:
     def __init__(self, mode: str, lifetime: float, framing: str = "tcp", units: Collection[int] | None = None,
                  liar: int | None = None, gap: float = 0.4):
-        if mode not in MODES:
-            raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(MODES)}")
+        if mode not in ALL_MODES:
+            raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(ALL_MODES)}")
         if framing not in ("tcp", "rtu"):
             raise ValueError(f"unknown framing {framing!r}: tcp or rtu")
         self.mode, self.rtu, self.units, self.liar, self.gap = mode, framing == "rtu", units, liar, gap
