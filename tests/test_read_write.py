@@ -146,3 +146,16 @@ def test_a_refused_group_is_read_as_smaller_requests_on_every_poll(write_device)
     asked.clear()
     assert session.read(a_and_b) == {"a": 7, "b": 8}
     assert asked == [(0, 1), (1, 1)]
+
+
+def test_a_float32_prints_as_the_shortest_decimal_that_is_the_same_float32(sim_factory):
+    """230.1 stored as a float32 is 230.10000610351562 as a double; every format shows 230.1, as mbpoll does."""
+    sim = sim_factory(ALL, "--set", "power=230.1")
+    conn = ["--host", sim.host, "--port", sim.port]
+    assert cli("read", ALL, *conn, "power").stdout.split() == ["power", "230.1", "W"]
+    assert json.loads(cli("read", ALL, *conn, "power", "--format", "json").stdout) == {"power": 230.1}
+    assert "230.1" in cli("read", ALL, *conn, "power", "--format", "json").stdout
+    assert list(csv.reader(io.StringIO(cli("read", ALL, *conn, "power", "--format", "csv").stdout)))[1] == [
+        "power", "230.1", "W"]
+    senml = json.loads(cli("read", ALL, *conn, "power", "--format", "senml").stdout)
+    assert [e["v"] for block in senml.values() for e in block["e"]] == [230.1]

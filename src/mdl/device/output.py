@@ -3,7 +3,8 @@
 without a device (`mdl export --to senml`). The SenML shape has this one home.
 
 The table shows a number with the function's `precision` (decimal places; negative rounds left of the
-point: 1234 with -1 shows 1230); json, csv and senml print values as read. A NaN or an infinity is `nan`,
+point: 1234 with -1 shows 1230); json, csv and senml print values as read, a FLOAT32 as the shortest decimal
+that reads back as the same float32 (`shortest_float32`). A NaN or an infinity is `nan`,
 `inf`, `-inf` in the table and csv, those strings in json (which has no number for them), and no `v` in senml.
 """
 
@@ -13,6 +14,7 @@ import csv
 import io
 import json
 import math
+import struct
 from collections import Counter
 from collections.abc import Callable
 from datetime import datetime, timezone
@@ -30,10 +32,44 @@ class Block(TypedDict):
 
 
 def shown(fn: Function, value: Value) -> Value:
-    """The value as users see it: enumeration text where `values` names it."""
+    """The value as users see it: enumeration text where `values` names it; a FLOAT32 read as it is as
+    the shortest decimal that reads back as the same float32 (230.1, not 230.10000610351562)."""
     if fn.values and isinstance(value, (int, float)) and not isinstance(value, bool):
         if float(value).is_integer() and int(value) in fn.values:
             return fn.values[int(value)]
+    if isinstance(value, float) and _plain_float32(fn):
+        return shortest_float32(value)
+    return value
+
+
+def _plain_float32(fn: Function) -> bool:
+    """Whether the function's value is a float32 as the registers hold it (no arithmetic in doubles after)."""
+    return (fn.format == "FLOAT32" and fn.multiplier in (None, 1.0) and not fn.offset and fn.expression is None
+            and fn.read_function_code is None)
+
+
+_FLOAT32 = struct.Struct(">f")
+
+
+def shortest_float32(value: float) -> float:
+    """The double of the fewest significant digits that rounds to the same float32 as `value` (which is one):
+    printed, it shows what mbpoll shows; read back as a float32, it is the same bits. NaN and infinities,
+    and a value no float32 holds, as they are."""
+    if not math.isfinite(value):
+        return value
+    try:
+        bits = _FLOAT32.pack(value)
+    except OverflowError:
+        return value
+    if _FLOAT32.unpack(bits)[0] != value:
+        return value
+    for digits in range(1, 10):  # 9 significant digits always identify a float32
+        candidate = float(f"{value:.{digits}g}")
+        try:
+            if _FLOAT32.pack(candidate) == bits:
+                return candidate
+        except OverflowError:  # rounded past the largest float32
+            continue
     return value
 
 

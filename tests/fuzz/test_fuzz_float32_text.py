@@ -1,0 +1,41 @@
+"""`shortest_float32`: for every float32, the fewest significant digits that read back as the same bits."""
+
+from __future__ import annotations
+
+import math
+import struct
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mdl.device.output import shortest_float32
+
+F32 = struct.Struct(">f")
+
+
+@settings(max_examples=3000, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_shortest_text_reads_back_as_the_same_float32(bits):
+    value = F32.unpack(bits.to_bytes(4, "big"))[0]
+    got = shortest_float32(value)
+    if not math.isfinite(value):
+        assert got is value or (math.isnan(got) and math.isnan(value))
+        return
+    assert F32.pack(got) == F32.pack(value)  # the same float32 (sign of zero included)
+    digits = len(repr(got).lstrip("-").split("e")[0].replace(".", "").strip("0")) or 1  # significant digits
+    if digits > 1:  # no text of fewer significant digits is the same float32
+        fewer = float(f"{value:.{digits - 1}g}")
+        try:
+            assert F32.pack(fewer) != F32.pack(value)
+        except OverflowError:
+            pass
+
+
+@given(st.floats(allow_nan=False, allow_infinity=False, width=64))
+def test_a_double_no_float32_holds_is_left_as_it_is(value):
+    try:
+        exact = F32.unpack(F32.pack(value))[0] == value
+    except OverflowError:
+        exact = False
+    if not exact:
+        assert shortest_float32(value) == value
