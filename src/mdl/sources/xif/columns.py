@@ -137,6 +137,36 @@ ORDERS = ("big", "little")
 IAP_COUNT, IAP_SIGNED, IAP_FLOAT, IAP_TEXT = "SNVT_count", "SNVT_count_inc", "SNVT_count_f", "SNVT_str_asc"
 
 
+# Text cells (names, descriptions, block names, product line values) and a spreadsheet. A cell starting
+# with one of these is a formula to Excel or LibreOffice (OWASP's CSV injection list): export writes
+# such a text behind a `'` (as a spreadsheet marks text), and import takes that `'` away again. A text
+# already starting with `'` and one of these or another `'` gets one too, so every text comes back.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+TEXT_MARK = "'"
+# what ends a line to someone: `str.splitlines` splits at each (a cell holding one would start a row)
+LINE_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+
+
+def marked(text: str) -> bool:
+    """Whether export writes `text` behind a `'`."""
+    return text[:1] in FORMULA_STARTS or (text[:1] == TEXT_MARK and text[1:2] in (*FORMULA_STARTS, TEXT_MARK))
+
+
+def unmarked(text: str) -> str | None:
+    """`text` without the `'` export put before it; None if it has none."""
+    if text[:1] == TEXT_MARK and text[1:2] in (*FORMULA_STARTS, TEXT_MARK):
+        return text[1:]
+    return None
+
+
+def line_break(text: str) -> str | None:
+    """The first line break of `text`, as `U+000A`; None if it has none."""
+    for ch in text:
+        if ch in LINE_BREAKS:
+            return f"U+{ord(ch):04X}"
+    return None
+
+
 def register_part(native: Native, byte_order: str | None) -> str:
     """Which part of its first register a datapoint's value takes: `low` or `high` byte (8-bit
     numbers and CHAR8/CHAR16 characters: the high one with Byte Order little), else the `word`. Two

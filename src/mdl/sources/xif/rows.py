@@ -12,14 +12,14 @@ from mdl.diagnostics import TextSpan, record_span
 from mdl.model import BIT_TABLES, READ_ONLY_TABLES, Function
 from mdl.model.addressing import MODICON_TABLE, AddressError, parse_address, whole_number
 from mdl.model.layout import MAX_ADDRESS
+from mdl.sources.mdlxml.write import unwritable
 from mdl.sources.xif import columns as C
 from mdl.sources.xif.records import Cell, Record
+from mdl.sources.xif.report import Reporter
 from mdl.sources.xif.scaling import ScalingError, abc, linear, number, to_float, two_point
 
 _WHOLE = re.compile(r"[+-]?[0-9]{1,12}")
 _FUNCTION_CODE = re.compile(r"(?i)(?:fc)?\s*0*([0-9]{1,3})")
-
-Report = Callable[[Cell, str, str], None]  # (cell, message, severity)
 
 
 class CellError(ValueError):
@@ -61,17 +61,29 @@ class Point:
 class RowReader:
     """One datapoint row read into a function; each bad cell reported, the rest still read."""
 
-    def __init__(self, columns: Columns, record: Record, report: Report, modicon_guessed: list[int]):
+    def __init__(self, columns: Columns, record: Record, report: Reporter, modicon_guessed: list[int]):
         self.columns, self.record, self.report = columns, record, report
         self.modicon_guessed = modicon_guessed  # lines whose address is read as a Modicon number: said once
         self.failed = False
 
     def error(self, cell: Cell, message: str) -> None:
         self.failed = True
-        self.report(cell, message, "error")
+        self.report.error(cell.line, cell.col, message)
 
-    def warn(self, cell: Cell, message: str) -> None:
-        self.report(cell, message, "warning")
+    def warn(self, cell: Cell, message: str, kind: str) -> None:
+        """A warning of `kind` (a fixed text: said once for all rows that have it)."""
+        self.report.warn(cell.line, cell.col, message, kind)
+
+    def text(self, key: str) -> str:
+        """A text cell (name, description, Block Name) as `text_cell` reads it; "" if bad (said)."""
+        cell = self.cell(key)
+        if cell is None or not cell.value:
+            return ""
+        value = text_cell(cell, cell.value, self.report)
+        if value is None:
+            self.failed = True
+            return ""
+        return value
 
     def cell(self, key: str) -> Cell | None:
         return self.columns.cell(self.record, key)
@@ -96,8 +108,8 @@ class RowReader:
         name_cell = self.cell("name")
         address_cell = self.cell("address")
         assert name_cell is not None and address_cell is not None  # required columns
-        name = name_cell.value
-        if not name:
+        name = self.text("name")
+        if not name_cell.value:
             self.error(name_cell, "the datapoint has no name")
         code = self.parse("function_code", _function_code)
         modicon = self.parse("modicon", _yes_no)
@@ -121,7 +133,7 @@ class RowReader:
             self.error(self.cell("native") or name_cell,
                        f"Native Type {native.name}: a {table} ({C.TABLE_CODES[table]}) holds one bit (use BIT)")
             return None
-        fn = Function(name, self.value("description") or name, [address], format=native.format,
+        fn = Function(name, self.text("description") or name, [address], format=native.format,
                       line=self.record.line)
         record_span(fn, "", TextSpan(name_cell.line, name_cell.col))
         if table != "holding":
@@ -131,12 +143,13 @@ class RowReader:
         self.limits(fn, native, scale, minimum, maximum)
         fn.precision = precision if isinstance(precision, int) else None
         fn.marker = marker if isinstance(marker, list) and marker else None
-        block = self.value("block")
+        block = self.text("block")
         index = block_index if isinstance(block_index, int) else 0
         if block:
             fn.block_labels = [block] + ([f"{block}[{index}]"] if index else [])
         elif index:
-            self.warn(self.cell("block_index") or name_cell, "Block Index without a Block Name; ignored")
+            self.warn(self.cell("block_index") or name_cell, "Block Index without a Block Name; ignored",
+                      "Block Index without a Block Name, ignored,")
         return Point(fn, self.record, name_cell, address_cell, (block, index), (table, address, part))
 
     # -- the cells that need more than one column --------------------------------------------------
@@ -152,7 +165,8 @@ class RowReader:
             upper = C.NATIVE_ALIASES.get(text.upper(), text.upper())
             found = C.NATIVE_TYPES.get(upper)
             if found is not None:
-                self.warn(cell, f"Native Type '{text}' read as {found.name} (SmartServer wants upper case)")
+                self.warn(cell, f"Native Type '{text}' read as {found.name} (SmartServer wants upper case)",
+                          "Native Types not in upper case, read as the upper-case type,")
         if found is None:
             known = ", ".join([*C.NATIVE_TYPES, *C.NATIVE_ALIASES])
             self.error(cell, f"Native Type: unknown native type '{text[:40]}' (expected one of {known})")
@@ -215,7 +229,8 @@ class RowReader:
         text = cell.value
         if not text:
             if table not in READ_ONLY_TABLES:
-                self.warn(cell, "Write Enable is blank: read as - (read-only)")
+                self.warn(cell, "Write Enable is blank: read as - (read-only)",
+                          "Write Enable blank, read as - (read-only),")
             return False, False
         found = C.WRITE_ENABLE.get(text.lower())
         if found is None:
@@ -227,7 +242,8 @@ class RowReader:
         cell = self.cell("ascii_length")
         if native is None or native.name not in C.STRING_TYPES:
             if cell is not None and cell.value not in ("", "0") and native is not None:
-                self.warn(cell, f"ASCII Length ignored: Native Type {native.name} is not a string")
+                self.warn(cell, f"ASCII Length ignored: Native Type {native.name} is not a string",
+                          "ASCII Length ignored on a Native Type that is not a string")
             return None
         if cell is None or not cell.value:
             self.error(cell or self.cell("native") or self.record.cells[0],
@@ -258,13 +274,14 @@ class RowReader:
                     return None
                 if legacy_abc or legacy_linear:
                     self.warn(cell, "A', B', C' / Multiplier, Offset ignored: the Native and Scaled Values give the "
-                                    "scale")
+                                    "scale", "A', B', C' / Multiplier, Offset ignored beside Native and Scaled Values")
                 n1, n2, s1, s2 = (_fraction(values[k]) for k in C.SCALING_POINTS)
                 return two_point(n1, n2, s1, s2)
             if legacy_abc:
                 a, b, c = (_fraction(values[k], default) for k, default in (("a", 1), ("b", 0), ("c", 0)))
                 if legacy_linear:
-                    self.warn(cell, "Multiplier and Offset ignored: A', B', C' give the scale")
+                    self.warn(cell, "Multiplier and Offset ignored: A', B', C' give the scale",
+                              "Multiplier and Offset ignored beside A', B', C'")
                 return abc(a, b, c)
             if legacy_linear:
                 return linear(_fraction(values["multiplier"], 1), _fraction(values["offset"], 0))
@@ -282,7 +299,7 @@ class RowReader:
         if bit == "big" and name != "BIT":
             self.warn(self.cell("bit_order") or self.record.cells[0],
                       "Bit Order big is not supported: bits are read least significant first, so the value "
-                      "differs from what a SmartServer reads")
+                      "differs from what a SmartServer reads", "Bit Order big (not supported)")
         if name == "BIT":
             return C.register_part(native, None)
         if native.chars == 1:  # CHAR8, CHAR16: a character in each register
@@ -291,7 +308,7 @@ class RowReader:
             if name == "CHAR16":
                 self.warn(self.cell("native") or self.record.cells[0],
                           "CHAR16 read as the low byte of each register: ASCII text reads right, other characters "
-                          "do not")
+                          "do not", "CHAR16 read as the low byte of each register")
             return C.register_part(native, byte if isinstance(byte, str) else None)
         registers = native.registers
         if native.chars == 2 and length is not None:  # CHAR8_2: two characters in each register
@@ -306,7 +323,7 @@ class RowReader:
                 self.warn(self.cell("word_order") or self.cell("byte_order") or self.record.cells[0],
                           "Word Order blank read as big (each register's bytes swapped); the vendor page reads "
                           "Byte Order little with a blank Word Order as the whole value little-endian: write Word "
-                          "Order little for that")
+                          "Order little for that", "Word Order blank with Byte Order little, read as big,")
         return C.register_part(native, byte if isinstance(byte, str) else None)
 
     def access(self, fn: Function, table: str, writable: bool, multiple: bool) -> None:
@@ -314,7 +331,7 @@ class RowReader:
             if writable:
                 self.warn(self.cell("write") or self.record.cells[0],
                           f"{C.TABLE_CODES[table]} datapoints are read-only: Write Enable "
-                          f"'{self.value('write')}' ignored")
+                          f"'{self.value('write')}' ignored", "Write Enable + or ++ on FC02/FC04, ignored,")
             return
         if not writable:
             fn.access = "read"
@@ -327,7 +344,8 @@ class RowReader:
         if scale is not None and scale != (1.0, 0.0):
             if native.format in ("BIT", "STRING"):
                 self.warn(self.cell("native_1") or self.cell("a") or self.cell("multiplier") or self.record.cells[0],
-                          f"scaling ignored: a {native.name} value is not a number")
+                          f"scaling ignored: a {native.name} value is not a number",
+                          "scaling ignored on a BIT or string datapoint")
             else:
                 fn.multiplier = scale[0] if scale[0] != 1 else None
                 fn.offset = scale[1] if scale[1] != 0 else None
@@ -336,9 +354,28 @@ class RowReader:
                 continue
             if text:
                 self.warn(self.cell("range_min" if key == "minimum" else "range_max") or self.record.cells[0],
-                          f"Range ignored: a {native.name} string has no order to bound")
+                          f"Range ignored: a {native.name} string has no order to bound",
+                          "Range ignored on a string datapoint")
                 continue
             setattr(fn, key, value)
+
+
+def text_cell(cell: Cell, value: str, report: Reporter) -> str | None:
+    """A text cell's value (a name, a description, a Block Name, a product line's): without the `'` mdl
+    export puts before a text a spreadsheet would take for a formula (a note says so); None, with an
+    error at the cell, if it holds a character MDL (XML) cannot carry."""
+    plain = C.unmarked(value)
+    if plain is not None:
+        report.warn(cell.line, cell.col, f"'{value[:40]}' read as '{plain[:40]}': a leading ' marks a text that a "
+                                         "spreadsheet would take for a formula (mdl export writes it)",
+                    "a leading ' (the mark mdl export puts before a text a spreadsheet would run as a formula) "
+                    "removed", "note")
+        value = plain
+    bad = unwritable(value)
+    if bad:
+        report.error(cell.line, cell.col, f"'{value[:40]}' holds the character {bad}, which MDL (XML) cannot carry")
+        return None
+    return value
 
 
 def _fraction(value: object, default: int | None = None) -> Fraction:

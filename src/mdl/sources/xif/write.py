@@ -6,18 +6,22 @@ A function XIF can express becomes one datapoint row; what a row cannot carry (a
 function XIF cannot express at all (a fragment, an expression, registers that are not consecutive,
 bytes of several registers) is left out with a warning that says why. Reading the file back
 (`mdl import`) gives every exported function the same value.
+
+Text cells (names, descriptions, the Block Name, product line values) never make a row or a cell of
+their own: commas and quotes are quoted as Excel does, a Block Name starting with `#` is quoted (else
+it reads as a product line), a description's line breaks become spaces, and a name, block label or
+identity value holding a line break is refused (MdlError naming each). A text a spreadsheet would run
+as a formula is written behind a `'` (OWASP), with a warning; import takes the `'` away.
 """
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.diagnostics import Diagnostic
+from mdl.diagnostics import Diagnostic, MdlError
 from mdl.exports import Export, Settings
 from mdl.model import Function
 from mdl.model.layout import Layout
@@ -32,6 +36,7 @@ class _Inexpressible(ValueError):
 
 @dataclass
 class _Datapoint:
+    fn: Function
     cells: dict[str, str]
     slot: tuple[str, int, str]  # as the reader keys it: (table, first address, part of the register)
     lost: list[str] = field(default_factory=list)  # what the row cannot carry
@@ -69,6 +74,24 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
     for name, base in _restore_names(kept):
         warn(None, f"function '{name}' written as datapoint '{base}', its name in its block (a .mod needs names "
                    "unique only within a block)", "note")
+    refused: list[Diagnostic] = []
+
+    def text(fn: Function | None, value: str, what: str, prose: bool = False) -> str:
+        cell, said, refusal = _text(value, what, prose)
+        for message, severity in said:
+            warn(fn, message, severity)
+        if refusal is not None:
+            subject = f"function '{fn.name}': " if fn is not None else ""
+            refused.append(Diagnostic(source, fn.line if fn else None, None, subject + refusal))
+        return cell
+
+    for point in kept:
+        for key, what in (("block", "block label"), ("name", "name"), ("description", "description")):
+            if point.cells.get(key):
+                point.cells[key] = text(point.fn, point.cells[key], what, prose=key == "description")
+        if _product_like(point.cells.get(C.EXPORT_COLUMNS[0], "")):
+            warn(point.fn, f"its {C.CURRENT[C.EXPORT_COLUMNS[0]]} starts with #: written in quotes, so that the row "
+                           "is not read as a product line", "note")
     rows = [[point.cells.get(key, "") for key in C.EXPORT_COLUMNS] for point in kept]
 
     program_id = device.program_id
@@ -87,17 +110,58 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
         warn(None, f"the device name '{device.name}' is not in the file: a .mod file's name (without .mod) is the "
                    "XIF's name", "note")
 
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\r\n")
-    writer.writerow(["#filetype", C.FILETYPE])
-    identity = {"program_id": program_id, "description": _one_line(device.description)}
+    lines = [_row(["#filetype", C.FILETYPE], datapoint=False)]
+    identity = {"program_id": program_id, "description": device.description}
     for line, attr in C.PRODUCT_LINE_NAMES:
         value = identity.get(attr, getattr(device, attr, None))
         if value:
-            writer.writerow([f"#{line}", value])
-    writer.writerow([C.CURRENT[key] for key in C.EXPORT_COLUMNS])
-    writer.writerows(rows)
-    return Export(text=out.getvalue(), warnings=warnings)
+            lines.append(_row([f"#{line}", text(None, value, f"#{line}", prose=attr == "description")],
+                              datapoint=False))
+    if refused:
+        raise MdlError(refused)
+    lines.append(_row([C.CURRENT[key] for key in C.EXPORT_COLUMNS]))
+    lines += (_row(row) for row in rows)
+    return Export(text="".join(lines), warnings=warnings)
+
+
+def _text(value: str, what: str, prose: bool) -> tuple[str, list[tuple[str, str]], str | None]:
+    """A text as its cell: (the cell, what to say about it, why it cannot be written or None). A line
+    break of any kind would start a row for some reader: prose (a description) is put on one line, any
+    other text refused; a text a spreadsheet would run as a formula gets a `'` before it."""
+    said: list[tuple[str, str]] = []  # (message, severity)
+    bad = C.line_break(value)
+    if bad is not None:
+        if not prose:
+            return value, said, (f"its {what} '{value[:40]}' holds a line break ({bad}), which would start a new row "
+                                 f"of the .mod file: change the {what} (a .mod cell cannot carry one)")
+        value = _one_line(value)
+        said.append((f"its {what} holds line breaks ({bad}): written on one line, with spaces", "note"))
+    elif prose:
+        value = value.strip()
+    if C.marked(value):
+        said.append((f"its {what} '{value[:40]}' written as '{C.TEXT_MARK}{value[:40]}', so that a spreadsheet "
+                     f"does not run it as a formula (CSV injection); mdl import reads it back without the "
+                     f"{C.TEXT_MARK}", "warning"))
+        value = C.TEXT_MARK + value
+    return value, said, None
+
+
+def _product_like(cell: str) -> bool:
+    """Whether a row's first cell would make it read as a product line."""
+    return cell.lstrip().startswith("#")
+
+
+def _row(cells: list[str], datapoint: bool = True) -> str:
+    """One CSV record as Excel writes it: a cell in quotes where it holds a comma, a quote or a line
+    break (a quote inside doubled); a datapoint's first cell also where it starts with `#`."""
+    def needs_quotes(i: int, cell: str) -> bool:
+        return any(ch in cell for ch in ',"\r\n') or (datapoint and i == 0 and _product_like(cell))
+
+    return ",".join(_quoted(cell) if needs_quotes(i, cell) else cell for i, cell in enumerate(cells)) + "\r\n"
+
+
+def _quoted(cell: str) -> str:
+    return '"' + cell.replace('"', '""') + '"'
 
 
 _RENAMED = re.compile(r"(.+)_([2-9]|[1-9][0-9]+)")
@@ -148,9 +212,9 @@ def _datapoint(rf: ResolvedFunction) -> _Datapoint:
         "address": str(first),
         "function_code": C.TABLE_CODES[lay.table],
         "native": native.name,
-        "description": "" if fn.description == fn.name else _one_line(fn.description),
+        "description": "" if fn.description == fn.name else fn.description,
     }
-    point = _Datapoint(cells, (lay.table, first, C.register_part(native, byte_order)))
+    point = _Datapoint(fn, cells, (lay.table, first, C.register_part(native, byte_order)))
     if length is not None:
         cells["ascii_length"] = str(length)
     if native.name != "BIT":
