@@ -5,7 +5,9 @@ functions are named "<block>.<id>". Expressions name fields of their own block b
 
 The YAML is read from the parser's events without recursion: aliases are refused (Toolkit files
 need none, and expanding them turns a few hundred bytes into gigabytes) and so is nesting deeper
-than MAX_YAML_DEPTH, each with the file, line and column.
+than MAX_YAML_DEPTH, each with the file, line and column. A file larger than MAX_FILE_BYTES is parsed
+up to there only and then refused (the YAML parser takes some seconds a megabyte), so time and memory
+stay linear in the file and bounded (docs/user-guide.md, "Limits of the Toolkit import").
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from yaml.events import (
 )
 
 from mdl.diagnostics import TextSpan, TextStyle, error, record_span
-from mdl.fileio import read_text
+from mdl.fileio import decode_text, read_head, too_large
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.model.addressing import AddressError, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
@@ -39,6 +41,8 @@ if TYPE_CHECKING:
 # Toolkit files nest 7 levels (tests > test > blocks > block > expected > field > values); deeper
 # input is refused while it is read, before the YAML scanner's look-ahead grows with the depth.
 MAX_YAML_DEPTH = 32
+MAX_FILE_BYTES = 2 * 1024 * 1024  # a hundred times the largest reference file (20 kB)
+_LOOK_AHEAD = 4096  # characters: a YAML error this close to where a larger file was cut may be the cut's
 
 
 class _Node:
@@ -139,13 +143,27 @@ def _compose(text: str, path: StrPath) -> _Node | None:
 
 
 def load_yaml(path: StrPath) -> _Map:
-    text = read_text(path)
+    """The file's root mapping. A file larger than MAX_FILE_BYTES is parsed up to there only: an error found
+    before (bad nesting, an alias, malformed YAML) is reported where it is, as it would be in the whole file;
+    otherwise the file is refused for its size."""
+    data = read_head(path, MAX_FILE_BYTES)
+    larger = len(data) > MAX_FILE_BYTES
+    if larger:
+        cut = MAX_FILE_BYTES
+        while cut and data[cut] & 0xC0 == 0x80:  # not inside a UTF-8 character
+            cut -= 1
+        data = data[:cut]
+    text = decode_text(data, path)
     try:
         root = _compose(text, path)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
+        if larger and (mark is None or mark.index >= len(text) - _LOOK_AHEAD):
+            raise too_large(path, MAX_FILE_BYTES) from None
         raise error(f"malformed YAML: {getattr(exc, 'problem', None) or exc}", path,
                     mark.line + 1 if mark else None, mark.column + 1 if mark else None) from None
+    if larger:
+        raise too_large(path, MAX_FILE_BYTES)
     if not isinstance(root, _Map):
         raise error("not a Modbus Schema Toolkit file (expected a mapping with description and blocks)", path, 1)
     return root

@@ -41,8 +41,11 @@ def plain_type(fn: Function) -> str:
     from mdl.model.layout import layout
 
     kind = layout(fn).kind
-    if fn.read_function_code or kind == "float" or (kind == "int" and fn.scales):
+    if fn.read_function_code or kind == "float" or (kind == "int" and (fn.scales or fn.factor is not None)):
         return "double"
+    span = fn.bit_range if kind == "int" else None
+    if span is not None and span[0] == span[1]:
+        return "bool"  # one bit of a register (SPEC 2.2 bits)
     return {"int": "long", "string": "string", "bool": "bool"}[kind]
 
 
@@ -98,12 +101,15 @@ def compile_device(device: Device) -> list[FieldError]:
     chain: dict[str, int] = {}  # name -> how many fields deep its references go (evaluation_order recurses that deep)
     too_deep: set[str] = set()
     visiting: set[str] = set()
+    erred: set[str] = set()  # names with an error, of errors[:seen]
+    seen = 0
 
     def refuse_depth(fn: Function) -> None:
         too_deep.add(fn.name)
         errors.append(FieldError(fn, f"fields refer to each other more than {MAX_DEPTH} deep", 1))
 
     def visit(fn: Function, depth: int = 0) -> str | None:
+        nonlocal seen
         if fn.name in done:
             return done[fn.name]
         if fn.name in too_deep:
@@ -135,7 +141,9 @@ def compile_device(device: Device) -> list[FieldError]:
             t = visit(block[ref], depth + 1)
             if t is None:
                 visiting.discard(fn.name)
-                if fn.name not in {e.function.name for e in errors}:
+                erred.update(e.function.name for e in errors[seen:])  # only those added since: linear
+                seen = len(errors)
+                if fn.name not in erred:
                     errors.append(FieldError(fn, f"field '{ref}' it refers to has an error", None))
                 return None
             types[ref] = t

@@ -9,15 +9,24 @@ addresses inside the section's table. The section is the function's block label;
 (in another section, as the agent's samples do) gets SPEC 3's `_2`.
 
 Lines are `[Section]`, `key=value`, blank, or comments starting with `#` or `;` (a whole line: the
-agent has no comments after a value). Every problem is collected: errors (a `numberOfX` that
-disagrees with the keys, a datatype outside 0-8, an address used twice in one table, a number that is
-not one...) are raised together as one MdlError with each line and column; warnings and notes travel
-on `Device.notes`.
+agent has no comments after a value). An entry is split at every comma, as the agent's C `strtok`
+splits it: quotes are not special (a name holding `"` is that name; a Lua column holding a comma is
+cut there for the agent). `strtok` also skips empty fields, moving every later field one column to the
+left; a line where that would happen is refused with the empty field's position rather than read
+another way than the agent reads it. Every problem is collected: errors (a `numberOfX` that disagrees
+with the keys, a datatype outside 0-8, an address used twice in one table, a number that is not
+one...) are raised together as one MdlError with each line and column; warnings and notes travel on
+`Device.notes`. Diagnostics of one kind (the same message but for its numbers and quoted texts) are
+shown SHOWN_PER_KIND times, then summed up in one line with a count and the next lines' numbers.
+
+Limits (docs/wise.md): a file of at most MAX_FILE_BYTES and MAX_ENTRIES entries in all; time and
+memory grow linearly with the file.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -26,7 +35,7 @@ from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
 from mdl.fileio import is_stdin, read_bytes
 from mdl.model import Device, Function
 from mdl.model.layout import MAX_ADDRESS
-from mdl.sources.wise.lua import affine, kept_in_description
+from mdl.sources.wise.lua import Affine, affine, kept_in_description
 from mdl.sources.wise.sections import (
     DATA_TYPES,
     DEFAULT_DATA_TYPE,
@@ -44,6 +53,11 @@ _INDEX = re.compile(r"(?P<tag>[A-Za-z]+?)(?P<index>[0-9]{1,6})")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _DIGITS = re.compile(r"[0-9]{1,9}")
 ENCODINGS = ("utf-8-sig", "cp1252", "latin-1")  # latin-1 decodes any byte: the last resort
+MAX_FILE_BYTES = 4 * 1024 * 1024  # the agent's samples are a few kB; a full table of entries is some 2 MB
+MAX_ENTRIES = 65536  # entries of all sections together: one whole table's worth
+SHOWN_PER_KIND = 5  # diagnostics of one kind printed in full before the rest are summed up
+_KIND = re.compile(r"'[^']*'|[0-9]+")  # what differs between two diagnostics of one kind
+COLUMNS = ("offset", "name", "min", "max", "precision", "unit", "datatype", "lua")  # a register line's fields
 
 
 @dataclass
@@ -67,8 +81,18 @@ class _Block:
 
 @dataclass
 class _Field:
-    text: str
+    text: str  # stripped
     col: int
+    raw: str = ""  # as written: the agent's token (empty only when nothing is between the commas)
+
+    @property
+    def token(self) -> bool:
+        """Whether strtok finds a token here (the last field, the rest of the line, may hold commas)."""
+        return self.raw.replace(",", "") != ""
+
+    @property
+    def blank(self) -> bool:
+        return not self.raw.replace(",", "").strip()
 
 
 @dataclass
@@ -91,19 +115,22 @@ class _Reader:
     def __init__(self, path: StrPath):
         self.path = str(path)
         self.diagnostics: list[Diagnostic] = []
+        self.errors = 0
+        self.entries = 0
 
     def report(self, line: int | None, col: int | None, message: str, severity: str = "error") -> None:
         self.diagnostics.append(Diagnostic(self.path, line, col, message, severity))
+        self.errors += severity == "error"
 
     @property
     def failed(self) -> bool:
-        return any(d.severity == "error" for d in self.diagnostics)
+        return self.errors > 0
 
 
 def read_wise(path: StrPath) -> Device:
     """The device a WISE-Agent Modbus.ini describes; MdlError with every error found."""
     reader = _Reader(path)
-    text = _decode(read_bytes(path), reader)
+    text = _decode(read_bytes(path, MAX_FILE_BYTES), reader)
     blocks = _blocks(text, reader)
     name = _platform(blocks, path, reader)
     functions: list[Function] = []
@@ -114,14 +141,38 @@ def read_wise(path: StrPath) -> Device:
     _check_addresses(claims, reader)
     _unique_names(functions, reader)
     if reader.failed:
-        errors: list[Diagnostic] = sorted((d for d in reader.diagnostics if d.severity == "error"), key=_line_order)
-        raise MdlError(errors)
+        errors = sorted((d for d in reader.diagnostics if d.severity == "error"), key=_line_order)
+        raise MdlError(summed_up(errors))
     source = "<stdin>" if is_stdin(path) else Path(path).name
     device = Device(name, f"Imported from WISE-Agent {source}", functions, source=str(path))
     if device.extensions():
         device.version = "1.0"
-    device.notes = sorted(reader.diagnostics, key=_line_order)
+    device.notes = summed_up(sorted(reader.diagnostics, key=_line_order))
     return device
+
+
+def summed_up(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """The diagnostics, with those of one kind and severity past the first SHOWN_PER_KIND folded into the
+    next one: its message ends with how many more there are and the lines of the first few of them."""
+    shown: list[Diagnostic] = []
+    rest: dict[tuple[str, str], list[Diagnostic]] = {}
+    counts: dict[tuple[str, str], int] = {}
+    for d in diagnostics:
+        kind = (d.severity, _KIND.sub("#", d.message))
+        counts[kind] = counts.get(kind, 0) + 1
+        if counts[kind] <= SHOWN_PER_KIND:
+            shown.append(d)
+        else:
+            rest.setdefault(kind, []).append(d)
+    for first, *more in rest.values():
+        if more:
+            lines = ", ".join(str(d.line) for d in more[:SHOWN_PER_KIND] if d.line)
+            etc = ", ..." if len(more) > SHOWN_PER_KIND else ""
+            where = f" (lines {lines}{etc})" if lines else ""
+            first = Diagnostic(first.file, first.line, first.col,
+                               f"{first.message}; and {len(more):,} more like it{where}", first.severity)
+        shown.append(first)
+    return sorted(shown, key=_line_order)
 
 
 def _line_order(d: Diagnostic) -> tuple[int, int]:
@@ -283,25 +334,41 @@ def _runs(indices: list[int]) -> list[tuple[int, int]]:
 
 
 def _fields(key: _Key) -> list[_Field]:
-    """The value split at commas outside double quotes, each field stripped, with its column."""
+    """The value split at every comma, as the agent's `strtok(str, ",")` splits it (quotes are not special),
+    each field stripped, with its column; after the columns the agent reads, the rest of the line is one
+    more field, commas and all."""
     out: list[_Field] = []
-    start, quoted = 0, False
-    text = key.value
-    for i, ch in enumerate(text + ","):
-        if ch == '"':
-            quoted = not quoted
-        elif ch == "," and (not quoted or i == len(text)):
-            piece = text[start:i]
-            lead = len(piece) - len(piece.lstrip())
-            out.append(_Field(piece.strip(), key.col + start + lead))
-            start = i + 1
+    start = 0
+    for raw in key.value.split(",", len(COLUMNS)):
+        lead = len(raw) - len(raw.lstrip())
+        out.append(_Field(raw.strip(), key.col + start + lead, raw))
+        start += len(raw) + 1
     return out
+
+
+def _shifted(section: Section, label: str, key: _Key, fields: list[_Field], reader: _Reader) -> bool:
+    """Whether a field the agent reads is empty with a field after it that is not: `strtok` skips the empty one
+    and the agent reads every later field one column to the left, so the line is refused (reported)."""
+    read = 2 if section.bits else len(COLUMNS)
+    for i, fld in enumerate(fields[:read]):
+        if fld.raw == "" and any(later.token for later in fields[i + 1:]):
+            reader.report(key.line, fld.col, f"{label}: the {COLUMNS[i]} field is empty: the agent (C strtok) skips "
+                                             "an empty field and reads every later one a column to the left; "
+                                             f"write the {COLUMNS[i]} (a unit may be one space)")
+            return True
+    return False
 
 
 def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: list[_Claim]) -> Function | None:
     """One entry line -> a function (None, with the line's errors reported, where it has any)."""
     fields = _fields(key)
-    errors_before = len([d for d in reader.diagnostics if d.severity == "error"])
+    errors_before = reader.errors
+    reader.entries += 1
+    if reader.entries == MAX_ENTRIES + 1:
+        reader.report(key.line, key.key_col, f"{label}: more than {MAX_ENTRIES:,} entries in the file, the most "
+                                             "the reader takes (each table has 65,536 addresses)")
+    if reader.entries > MAX_ENTRIES or _shifted(section, label, key, fields, reader):
+        return None
     offset = _offset(fields[0], label, key, reader)
     if offset is not None:
         claims.append(_claim(section, offset, label, key, fields, reader))
@@ -314,14 +381,14 @@ def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: lis
                   register_type=section.table)
     if section.bits:
         fn.format = "BIT"
-        if len(fields) > 2 and any(f.text for f in fields[2:]):
+        if len(fields) > 2 and not all(f.blank for f in fields[2:]):
             reader.report(key.line, fields[2].col, f"{label}: a bit line is offset,name; the rest is not read",
                           "warning")
     else:
         _register_fields(fn, fields, label, key, reader)
     if section.table == "holding":
         fn.register_type = None  # the default table: the model keeps only what differs
-    if len([d for d in reader.diagnostics if d.severity == "error"]) > errors_before:
+    if reader.errors > errors_before:
         return None
     fn.line = key.line
     record_span(fn, "", TextSpan(key.line, key.key_col))
@@ -379,16 +446,17 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
             reader.report(key.line, type_field.col, f"{label}: datatype '{type_field.text}' is outside 0-8")
         else:
             dtype = DATA_TYPES[int(type_field.text)]
-    lua = _lua_text(fields[7:], key) if len(fields) > 7 else None
+    lua = _lua_column(fields, label, key, reader) if len(fields) > 7 else None
     scale = 1.0 if not precision else precision  # the agent: precision 0 or absent means 1
     offset = 0.0
-    if lua:
-        plain = affine(lua)
+    if lua is not None:
+        text, plain = lua
         if plain is None:
-            fn.description = kept_in_description(fn.name, lua)
-            reader.report(key.line, fields[7].col, f"{label} '{fn.name}': the Lua column '{lua}' is not plain "
+            fn.description = kept_in_description(fn.name, text)
+            cut = "; the agent reads the column only up to its first comma" if len(fields) > 8 else ""
+            reader.report(key.line, fields[7].col, f"{label} '{fn.name}': the Lua column '{text}' is not plain "
                                                    "arithmetic on modbus_val: kept in the description (export "
-                                                   "writes it back), not applied", "warning")
+                                                   f"writes it back), not applied{cut}", "warning")
         else:  # the agent runs the Lua on the raw value, then multiplies by the precision
             offset = plain[1] * scale + 0.0
             scale = plain[0] * scale
@@ -399,6 +467,10 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
     fn.offset = offset or None
     fn.units = unit.text if unit is not None and unit.text else None
     low_col = fields[2].col if len(fields) > 2 else None
+    if (low is None) != (high is None):  # the agent reads an absent one as 0
+        absent = "max" if high is None else "min"
+        reader.report(key.line, low_col, f"{label} '{fn.name}': no {absent}: read as 0, as the agent does", "note")
+        low, high = low or 0.0, high or 0.0
     if low is not None and high is not None:
         if low == high == 0:
             reader.report(key.line, low_col,
@@ -412,13 +484,39 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
     fn.minimum, fn.maximum = low, high
 
 
-def _lua_text(rest: list[_Field], key: _Key) -> str | None:
-    """The Lua column (everything after the datatype), without its quotes; None if empty. As the agent
-    does, a quoted column is the text between its first two quotes."""
-    text = ",".join(f.text for f in rest).strip()
-    if text.startswith('"'):
-        text = text[1:].split('"', 1)[0]
-    return text.strip() or None
+def _lua_column(fields: list[_Field], label: str, key: _Key, reader: _Reader) -> tuple[str, Affine | None] | None:
+    """The Lua column as kept (everything after the datatype, a quoted column the text between its first two
+    quotes) and the scaling applied (None: not plain arithmetic, not applied); None where there is no column.
+    The agent runs the column up to its first comma, from after its first quote (and any quotes following
+    it) to the next one; where that plain arithmetic is other text than the column as kept, or where the
+    agent would get no number at all (it then reports -1 or 0), the line is refused (reported, None)."""
+    column = fields[7]
+    whole = ",".join(f.raw for f in fields[7:]).rstrip(", \t").strip()  # less Excel's trailing commas
+    if whole.startswith('"'):
+        whole = whole[1:].split('"', 1)[0].strip()
+    agent: str | None = column.raw or None  # nothing between the commas: no token, no conversion
+    if '"' in column.raw:
+        after = column.raw[column.raw.index('"') + 1:].lstrip('"')
+        agent = None if len(column.raw) <= 2 else after.split('"', 1)[0]  # the agent skips a column of 2
+        if agent == "":
+            reader.report(key.line, column.col, f"{label}: the Lua column '{column.text}' has nothing between quotes "
+                                                "for the agent, which then reports -1 for the value")
+            return None
+    if agent is not None and not agent.strip():
+        reader.report(key.line, column.col, f"{label}: the Lua column is only spaces: the agent's conversion "
+                                            "then returns nothing and it reports 0 for the value")
+        return None
+    agent = agent.strip() if agent is not None else None
+    plain = affine(agent) if agent else None
+    if plain is not None and agent != whole:
+        reader.report(key.line, column.col, f"{label}: the agent runs '{agent}' as this line's Lua conversion (the "
+                                            "column up to its first comma, between its first quotes), not "
+                                            f"'{whole}': write the column as one quoted expression without commas")
+        return None
+    text = whole or agent
+    if not text:
+        return None
+    return text, plain if text == agent else None
 
 
 def _check_addresses(claims: list[_Claim], reader: _Reader) -> None:
@@ -446,15 +544,17 @@ def _unique_names(functions: list[Function], reader: _Reader) -> None:
     """SPEC 3's rule for names: a name used again gets `_2`, `_3`...; said in a note (another section, as the
     agent's samples do) or a warning (the same section: the agent cannot tell the two apart)."""
     used: dict[str, Function] = {}
+    tried: dict[str, int] = {}  # name -> the last suffix tried for it: each is tried once (linear time)
     for fn in functions:
         original = fn.name
         if original not in used:
             used[original] = fn
             continue
         other = used[original]
-        n = 2
+        n = tried.get(original, 1) + 1
         while f"{original}_{n}" in used:
             n += 1
+        tried[original] = n
         fn.name = f"{original}_{n}"
         used[fn.name] = fn
         same = other.block == fn.block
