@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
-"""Regenerate the golden files that pin generated output: tests/golden/ and the examples' drivers.
+"""Regenerate every golden file: the drivers (tests/golden/all_tables, examples/temco_tstat) and the
+engine exports (tests/golden/exports, rendered by tests/test_export_golden.py).
 
     python3 scripts/regen_golden.py
 
-Review the diff before committing it: every changed line is a change users will see.
+Only files whose content changes are written, all of them or none; an export golden file no export
+writes any more is removed. Review the diff before committing it: every changed line is a change users
+will see. Run it in mdl's virtual environment with the test dependencies (scripts/test installs them):
+the exports are rendered by running `mdl export` as the tests do.
 """
 
 from __future__ import annotations
@@ -14,8 +18,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
+from mdl.diagnostics import MdlError  # noqa: E402  (after the sys.path line: runs from a checkout without an install)
 from mdl.sources.mdlxml import load_device  # noqa: E402
-from mdl.targets import render  # noqa: E402  (after the sys.path line: runs from a checkout without an install)
+from mdl.targets import render  # noqa: E402
 
 # MDL source -> directory its generated files are pinned in
 GOLDEN = {
@@ -26,6 +31,7 @@ LANGS = ("all",)  # every target; the C and C++ drivers share <stem>.h (mdl.targ
 
 
 def expected_files() -> dict[Path, str]:
+    """Every driver golden file (its path) -> the content `mdl gen` gives it now (tests/test_gen.py)."""
     out = {}
     for source, directory in GOLDEN.items():
         device = load_device(source)
@@ -35,12 +41,31 @@ def expected_files() -> dict[Path, str]:
     return out
 
 
+def write_golden(expected: dict[Path, str], stale: list[Path]) -> None:
+    """Write the files whose content changed, all or none (mdl.fileio), then remove the stale ones."""
+    from mdl.fileio import all_or_none, would_change, write_atomic
+
+    changed = [path for path, text in expected.items() if would_change(path, text)]
+    with all_or_none():
+        for path in changed:
+            write_atomic(path, expected[path])
+    for path in changed:
+        print(f"wrote {path.relative_to(ROOT)}")
+    for path in stale:
+        path.unlink()
+        print(f"removed {path.relative_to(ROOT)}")
+
+
 def main() -> int:
-    for path, text in expected_files().items():
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if not path.exists() or path.read_text() != text:
-            path.write_text(text)
-            print(f"wrote {path.relative_to(ROOT)}")
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_export_golden  # the export golden files are rendered as their test renders them
+
+    try:
+        exports = test_export_golden.expected_files()
+        write_golden({**expected_files(), **exports}, test_export_golden.stale_files(exports))
+    except MdlError as exc:
+        print(exc, file=sys.stderr)
+        return exc.exit_code
     return 0
 
 

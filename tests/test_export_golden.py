@@ -1,7 +1,8 @@
 """The engine exports of the examples, pinned byte for byte (and the warnings they print).
 
 Regenerate after an intended change, then review the diff:
-    python3 tests/test_export_golden.py --regen
+    python3 scripts/regen_golden.py            (every golden file: these and the drivers)
+    python3 tests/test_export_golden.py --regen   (these only)
 """
 
 from __future__ import annotations
@@ -14,6 +15,8 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from conftest import DATA, EXAMPLE, ROOT, run_mdl  # noqa: E402
+
+from mdl.diagnostics import MdlError, error  # noqa: E402
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "exports"
 CASES = {"temco_tstat": EXAMPLE / "temco_tstat.xml", "all_tables": DATA / "all_tables.xml"}
@@ -29,7 +32,9 @@ def render(path: Path) -> dict[str, str]:
         for engine in ("volttron", "homeassistant", "telegraf"):
             extra = ("-o", folder) if engine == "volttron" else ()
             proc = run_mdl("export", source, "--to", engine, *ARGS, *extra, cwd=ROOT)
-            assert proc.returncode == 0, proc.stderr
+            if proc.returncode != 0:  # an error, not a traceback, for python3 scripts/regen_golden.py too
+                said = "; ".join(proc.stderr.strip().splitlines())
+                raise error(f"mdl export --to {engine} exited {proc.returncode}: {said}", source)
             out[f"{engine}.warnings.txt"] = proc.stderr
             if engine == "volttron":
                 for file in sorted(folder.iterdir()):
@@ -50,19 +55,29 @@ def test_exports_match_the_golden_files(name):
             f"{name}/{relative} changed; if intended: python3 tests/test_export_golden.py --regen")
 
 
+def expected_files() -> dict[Path, str]:
+    """Every export golden file (its path) -> the content it should have, rendered now."""
+    return {GOLDEN / name / relative: text for name, path in CASES.items() for relative, text in render(path).items()}
+
+
+def stale_files(expected: dict[Path, str]) -> list[Path]:
+    """The files under tests/golden/exports that no export writes any more."""
+    return sorted(p for p in GOLDEN.rglob("*") if p.is_file() and p not in expected) if GOLDEN.exists() else []
+
+
 def regenerate() -> None:
-    for name, path in CASES.items():
-        folder = GOLDEN / name
-        for old in sorted(folder.rglob("*"), reverse=True) if folder.exists() else ():
-            old.unlink() if old.is_file() else old.rmdir()
-        for relative, text in render(path).items():
-            target = folder / relative
-            target.parent.mkdir(parents=True, exist_ok=True)
-            target.write_text(text, encoding="utf-8")
-        print(f"wrote {folder.relative_to(ROOT)}")
+    """Only the export golden files; `python3 scripts/regen_golden.py` writes them with the drivers'."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from regen_golden import write_golden
+
+    expected = expected_files()
+    write_golden(expected, stale_files(expected))
 
 
 if __name__ == "__main__":
     if sys.argv[1:] != ["--regen"]:
         sys.exit("usage: python3 tests/test_export_golden.py --regen")
-    regenerate()
+    try:
+        regenerate()
+    except MdlError as exc:
+        sys.exit(str(exc))

@@ -51,6 +51,7 @@ def test_wheel_carries_schemas_and_templates(wheel):
     assert "mdl/schema/mdl-1.0.xsd" in names and "mdl/schema/mdl-0.9b.xsd" in names
     assert "mdl/targets/python/templates/device.py.j2" in names
     assert any(n.startswith("mdl/targets/cpp/templates/") for n in names)
+    assert "mdl/py.typed" in names  # PEP 561: users' type checkers read mdl's annotations
 
 
 def test_installed_wheel_runs_every_file_command(installed, tmp_path):
