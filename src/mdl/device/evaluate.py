@@ -73,15 +73,17 @@ class Evaluator:
                 values[name] = expression(regs, *[values[d] for d in deps])
             elif None in regs:
                 values[name] = None
-            else:
-                values[name] = decode(regs)  # type: ignore[arg-type, misc]  # no None left; not an expression
+            else:  # a scaled function's decoder takes its factor's value
+                values[name] = decode(regs, *[values[d] for d in deps])  # type: ignore[misc]  # not an expression
         return values
 
-    def encode(self, name: str, value: Scalar) -> list[int]:
+    def encode(self, name: str, value: Scalar, *factor: Value) -> list[int]:
+        """The registers of a value (only its bits for a function with bits: ir.Merge); a function scaled
+        by another takes that one's value as `factor`."""
         encoder = self._compiled[name].encode
         if encoder is None:
             raise CodecError(f"function '{name}' cannot be written")
-        return encoder(value)
+        return encoder(value, *factor)
 
     def parse(self, name: str, text: str) -> Scalar:
         return parse_value(self.resolved.by_name[name].fn, text)
@@ -130,7 +132,7 @@ class BufferDecoder:
                 if shape not in shapes:
                     shapes[shape] = len(shape_steps)
                     shape_steps.append(f.codec.decode)  # type: ignore[arg-type]  # a shape: not None
-                rows.append(Row(var, "shape", shapes[shape], slots))
+                rows.append(Row(var, "shape", shapes[shape], slots, tuple(var_of[d] for d in deps)))
             else:  # a fragment, an expression or a write-only function: its closure
                 namespace[f"_f{var}"] = expression if expression is not None else decode
                 rows.append(Row(var, "call", var, slots, tuple(var_of[d] for d in deps)))

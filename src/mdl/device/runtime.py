@@ -22,10 +22,11 @@ from mdl.device.connection import Connection
 from mdl.device.evaluate import BufferDecoder, Evaluator
 from mdl.diagnostics import DeviceError, error
 from mdl.model import Device, Function, Scalar, Value
-from mdl.model.layout import Layout, layout
+from mdl.model.layout import Layout
 from mdl.plan import Request, defined_addresses, plan_reads, split_request
 from mdl.resolve import ResolvedDevice, resolve
 from mdl.values import codec
+from mdl.values.ir import Merge, find_step
 
 EXCEPTION_NAMES = {
     1: "ILLEGAL FUNCTION", 2: "ILLEGAL DATA ADDRESS", 3: "ILLEGAL DATA VALUE",
@@ -75,17 +76,19 @@ def _rtu_reply_size(data: bytes) -> int:
         return 5  # unit, function code, exception code, CRC
     if fc in (1, 2, 3, 4):
         return 5 + data[2] if len(data) > 2 else 0  # unit, function code, byte count, data, CRC
+    if fc == 22:
+        return 10  # unit, function code, address, AND mask, OR mask, CRC
     return 8 if fc in (5, 6, 15, 16) else 0  # unit, function code, address, value or count, CRC
 
 
 def reply_problem(request: bytes, reply: bytes) -> str | None:
-    """What is wrong with the PDU `reply` as the answer to the PDU `request` (functions 1-6, 15, 16), or None."""
+    """What is wrong with the PDU `reply` as the answer to the PDU `request` (functions 1-6, 15, 16, 22), or None."""
     fc = request[0]
     if reply[0] & 0x7F != fc:
         return f"the reply has function code {reply[0] & 0x7F}, expected {fc}"
     if reply[0] & 0x80:
         return None if len(reply) == 2 else f"the exception reply has {len(reply)} bytes, expected 2"
-    if fc in (5, 6):  # the echo of the request
+    if fc in (5, 6, 22):  # the echo of the request
         expected = request
     elif fc in (15, 16):  # the echo of the address and the count
         expected = request[:5]
@@ -255,7 +258,8 @@ class Session:
         if conn.serial is not None:
             raise DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
         nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
-        raise DeviceError(f"cannot connect to {conn}: {nobody}")
+        hint = conn.refused_hint()
+        raise DeviceError(f"cannot connect to {conn}: {nobody}{'; ' + hint if hint else ''}")
 
     def close(self) -> None:
         close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
@@ -350,9 +354,32 @@ class Session:
     def write(self, fn: Function, value: Scalar) -> None:
         """Encode `value` and write it: one request per run of consecutive addresses. One register is
         written with function 6 and one coil with function 5, unless the function says `write_multiple`
-        (devices that refuse 5 and 6): then always 16 and 15; more registers always take function 16."""
-        regs = codec.encode(fn, value)
-        lay = layout(fn)
+        (devices that refuse 5 and 6): then always 16 and 15; more registers always take function 16.
+        A function scaled by another reads that one's value first (never a stale one); a function with
+        bits reads its registers and writes them back with only its bits changed, or, with
+        write_function_code 22, sends Mask Write Register for each register holding its bits."""
+        f = self.resolved.by_name[fn.name]
+        lay = f.layout
+        factor: tuple[Value, ...] = ()
+        if fn.factor is not None:
+            factor = (self.read([self.resolved.by_name[fn.factor].fn])[fn.factor],)
+        try:
+            regs = self.evaluator.encode(fn.name, value, *factor)
+        except codec.CodecError as exc:
+            said = f" ('{fn.factor}' reads {'null' if factor[0] is None else factor[0]})" if factor else ""
+            raise error(f"{fn.name}={value}: {exc}{said}") from None
+        merge = find_step(f.codec.encode, Merge)
+        if merge is not None and merge.mask_write:
+            for address, mask, bits in zip(lay.addresses, merge.masks, regs, strict=True):
+                if mask:
+                    self._call(f"writing {fn.name} at {lay.table} {address} (function 22)",
+                               self.client.mask_write_register, address=address, and_mask=~mask & 0xFFFF, or_mask=bits)
+            return
+        if merge is not None:  # read, change only these bits, write back
+            current: list[int] = []
+            for start, count in lay.runs:
+                current += self.read_request(Request(lay.table, start, count, (fn.name,)))
+            regs = codec.merge(current, regs, merge.masks)
         at = 0
         for start, count in lay.runs:
             values, at = regs[at:at + count], at + count

@@ -37,10 +37,11 @@ from pymodbus.server.requesthandler import ServerRequestHandler
 from mdl.device.connection import Connection
 from mdl.diagnostics import error, one_line
 from mdl.fileio import read_text
-from mdl.model import Device, Function, Scenario
+from mdl.model import Device, Function, Scenario, Value
 from mdl.model.layout import layout
 from mdl.plan import TABLE_ORDER, defined_addresses
-from mdl.values import codec
+from mdl.values import codec, ir
+from mdl.values.build import encode_steps
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -102,6 +103,10 @@ class Registers:
             if fn.writable:
                 lay = layout(fn)
                 self.read_only[lay.table].difference_update(lay.addresses)
+        for fn in device.functions:  # the raw values the device starts with (SPEC 2.2 initial)
+            if fn.initial is not None and fn.expression is None:
+                lay = layout(fn)
+                self.put_each(lay.table, lay.addresses, fn.initial)
 
     def defined(self, table: str, address: int, count: int) -> bool:
         return self.permissive or all(a in self.tables[table] for a in range(address, address + count))
@@ -112,6 +117,11 @@ class Registers:
     def put(self, table: str, address: int, values: Iterable[int]) -> None:
         for i, v in enumerate(values):
             self.tables[table][address + i] = int(v) & (1 if table in ("coil", "discrete") else 0xFFFF)
+
+    def put_each(self, table: str, addresses: Iterable[int], values: Iterable[int]) -> None:
+        """Values at addresses that need not follow each other."""
+        for address, value in zip(addresses, values, strict=True):
+            self.put(table, address, [value])
 
     def load_json(self, path: StrPath) -> None:
         text = read_text(path)
@@ -160,13 +170,24 @@ class Registers:
         if fn.expression is not None:  # its registers are another function's, or none
             raise error(f"--set {fn.name}={text}: '{fn.name}' is an expression, computed from registers: "
                         "set the functions or registers it reads instead")
-        try:
-            regs = codec.encode(fn, codec.parse_value(fn, text))
-        except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
-            raise error(f"--set {fn.name}={text}: {exc}") from None
         lay = layout(fn)
-        for address, value in zip(lay.addresses, regs, strict=True):
-            self.tables[lay.table][address] = value
+        factor: tuple[Value, ...] = ()
+        if fn.factor is not None:  # encoded with the factor the device holds now (as a driver reads it)
+            found = next(f for f in self.device.functions if f.name == fn.factor)
+            at = layout(found)
+            factor = (codec.decode(found, self.get_each(at.table, at.addresses)),)
+        try:
+            regs = codec.encode(fn, codec.parse_value(fn, text), *factor)
+        except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
+            said = f" ('{fn.factor}' holds {'null' if factor[0] is None else factor[0]})" if factor else ""
+            raise error(f"--set {fn.name}={text}: {exc}{said}") from None
+        merge = ir.find_step(encode_steps(fn, lay), ir.Merge)
+        if merge is not None:  # only its bits: the functions sharing its registers keep theirs
+            regs = codec.merge(self.get_each(lay.table, lay.addresses), regs, merge.masks)
+        self.put_each(lay.table, lay.addresses, regs)
+
+    def get_each(self, table: str, addresses: Iterable[int]) -> list[int]:
+        return [self.tables[table].get(a, 0) for a in addresses]
 
 
 def set_value(devices: Sequence[Registers], name: str, text: str) -> None:
@@ -427,6 +448,8 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
         await server.serve_forever(background=True)
     except refused as exc:
         why = exc.args[-1] if exc.args else exc
+        if connection.serial is not None and not isinstance(exc, OSError):  # termios.error: the line's settings
+            why = connection.settings_refusal(why)
         raise error(f"cannot serve on {connection.serial or connection}: {why}") from None
     sockets = getattr(server.transport, "sockets", None) or []
     where = connection.serving_at(sockets[0].getsockname()[1] if sockets else connection.port)

@@ -6,6 +6,7 @@ apply the defaults of SPEC section 2, so writing a loaded model back never adds 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
@@ -40,6 +41,19 @@ class CompiledExpression(Protocol):
     def type(self) -> str: ...  # its value's type: long, double, string, bool or list
 
 
+_BITS = re.compile(r"\s*([0-9]{1,2})\s*(?:-\s*([0-9]{1,2})\s*)?")
+
+
+def parse_bits(text: str) -> tuple[int, int] | None:
+    """`N` or `N-M` (either order) -> (lowest, highest) bit; None if the text is neither."""
+    m = _BITS.fullmatch(text)
+    if m is None:
+        return None
+    a = int(m.group(1))
+    b = int(m.group(2)) if m.group(2) is not None else a
+    return min(a, b), max(a, b)
+
+
 # element name -> attribute, in schema order; used by the loader and writer alike
 EXTENSION_FIELDS = (
     "register_type",
@@ -58,6 +72,11 @@ EXTENSION_FIELDS = (
     "marker",
     "precision",
     "write_multiple",
+    "bits",
+    "scale_exponent",
+    "scale_by",
+    "role",
+    "initial",
 )
 
 # the device's identity elements (SPEC 2.2), in schema order, after its description
@@ -93,6 +112,11 @@ class Function:
     marker: list[int] | None = None  # raw values it reads on a device of this kind (mdl discover)
     precision: int | None = None  # decimal places to show; display only
     write_multiple: bool | None = None  # FC16/FC15 even for one register or coil
+    bits: str | None = None  # "N" or "N-M": one bit (a boolean) or a range (an unsigned integer) of the value
+    scale_exponent: str | None = None  # the function whose integer e scales this one by 10^e
+    scale_by: str | None = None  # the function whose value multiplies this one
+    role: str | None = None  # a profile's name for what the value is (SPEC 13); kept, not used here
+    initial: list[int] | None = None  # raw register (or bit) values `mdl sim` starts with
     line: int | None = field(default=None, compare=False, repr=False)
     expression_line: int | None = field(default=None, compare=False, repr=False)
     compiled: CompiledExpression | None = field(default=None, compare=False, repr=False)
@@ -121,6 +145,22 @@ class Function:
     def scales(self) -> bool:
         """Whether a multiplier or an offset applies (SPEC 2.3: then the value is a float)."""
         return self.eff_multiplier != 1.0 or self.eff_offset != 0.0
+
+    @property
+    def bit_range(self) -> tuple[int, int] | None:
+        """(lowest, highest) bit of `bits`, either order accepted; None without `bits` or where the
+        text is not `N` or `N-M` (mdl.resolve says so)."""
+        return parse_bits(self.bits) if self.bits is not None else None
+
+    @property
+    def mask_write(self) -> bool:
+        """Written with function 22 (Mask Write Register): `write_function_code` 22 on a function with bits."""
+        return self.write_function_code is not None and self.write_function_code.strip() == "22"
+
+    @property
+    def factor(self) -> str | None:
+        """The function whose value scales this one (scale_exponent or scale_by), if any."""
+        return self.scale_exponent if self.scale_exponent is not None else self.scale_by
 
     @property
     def table(self) -> str:

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.lang.expr.fields import evaluation_order
 from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
@@ -39,10 +38,13 @@ class ResolvedFunction:
         """Its layout's runs (first address, count), worked out once."""
         return self.layout.runs
 
-    @property
+    @cached_property
     def deps(self) -> tuple[str, ...]:
-        """The functions its expression names, in parameter order."""
-        return tuple(self.fn.compiled.deps) if self.fn.compiled is not None else ()
+        """The functions its decoder takes the values of, in parameter order: those its expression
+        names, or the one whose value scales it (scale_exponent, scale_by)."""
+        if self.fn.compiled is not None:
+            return tuple(self.fn.compiled.deps)
+        return (self.fn.factor,) if self.fn.factor is not None else ()
 
     @cached_property
     def decode_shape(self) -> str | None:
@@ -107,15 +109,30 @@ class ResolvedDevice:
         return self._closure(names)
 
     def _closure(self, names: list[str]) -> list[ResolvedFunction]:
-        return [self.by_name[fn.name] for fn in evaluation_order(self.device, names, self._functions_by_name)]
+        """Depth first over `deps` (resolve refused cycles), iteratively: chains may be long."""
+        out: list[ResolvedFunction] = []
+        seen: set[str] = set()
+        by_name = self.by_name
+        for name in names:
+            if name in seen:
+                continue
+            seen.add(name)
+            stack = [(by_name[name], 0)]
+            while stack:
+                f, i = stack.pop()
+                if i < len(f.deps):
+                    stack.append((f, i + 1))
+                    dep = f.deps[i]
+                    if dep not in seen:
+                        seen.add(dep)
+                        stack.append((by_name[dep], 0))
+                else:
+                    out.append(f)
+        return out
 
     @cached_property
     def _closures(self) -> dict[str, list[ResolvedFunction]]:
         return {}
-
-    @cached_property
-    def _functions_by_name(self) -> dict[str, Function]:
-        return {f.name: f.fn for f in self.functions}
 
     @cached_property
     def readable(self) -> tuple[ResolvedFunction, ...]:

@@ -15,6 +15,7 @@ from mdl.lang.cfrag import FragmentError, check
 from mdl.lang.expr.fields import compile_device
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
+from mdl.resolve.packing import mask_write, packing_problems
 from mdl.values.build import int_range
 
 FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float element of MDL 1.0
@@ -57,6 +58,7 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
             err(fn, f"duplicate function name (first defined on line {seen[fn.name]})")
         else:
             seen[fn.name] = fn.line
+    by_name = {fn.name: fn for fn in device.functions}
     for problem in compile_device(device):
         out.append(_expression_problem(problem.function, problem.message, problem.col, path))
     for fn in device.functions:
@@ -74,7 +76,7 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
             err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
         for attr, code in (("read_function_code", fn.read_function_code),
                            ("write_function_code", fn.write_function_code)):
-            if code is None:
+            if code is None or (attr == "write_function_code" and mask_write(fn)):
                 continue
             try:
                 check(code, len(lay.addresses))
@@ -89,6 +91,8 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
             err(fn, "multiplier 0 reads every value as the offset and can write none")
         for message in bound_problems(fn, lay):
             err(fn, message)
+        for message, severity, key in packing_problems(fn, lay, by_name):
+            err(fn, message, severity, key)
         for message, severity in marker_problems(fn, lay):
             err(fn, message, severity)
         for token in fn.not_implemented or ():
@@ -167,7 +171,8 @@ def _check_expression_function(fn: Function, err: Report) -> None:
         err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
     if fn.access in ("write", "read_write"):
         err(fn, "a function computed by an expression can only be read")
-    for attr in ("read_function_code", "write_function_code", "not_implemented", "marker"):
+    for attr in ("read_function_code", "write_function_code", "not_implemented", "marker", "bits", "scale_exponent",
+                 "scale_by", "initial"):
         if getattr(fn, attr) is not None:
             err(fn, f"{attr} cannot be combined with an expression")
     if fn.addresses and sorted(fn.addresses) != lay.addresses:

@@ -8,6 +8,7 @@ from mdl.lang.cfrag import compile_fragment
 from mdl.model import Function
 from mdl.model.layout import Layout, int_type_bits
 from mdl.values.ir import (
+    Bits,
     CheckRange,
     Codec,
     Compose,
@@ -19,9 +20,12 @@ from mdl.values.ir import (
     FromFloat,
     FromText,
     Mask,
+    Merge,
     NotImplemented,
+    PlaceBits,
     RoundInt,
     Scale,
+    ScaleFactor,
     SignExtend,
     Split,
     ToBool,
@@ -29,6 +33,7 @@ from mdl.values.ir import (
     ToText,
     Unit,
     Unscale,
+    UnscaleFactor,
     ValueType,
 )
 
@@ -76,10 +81,36 @@ def not_implemented_patterns(fn: Function, n: int) -> tuple[tuple[int, ...], ...
     return tuple(out)
 
 
+def split_value(units_: tuple[Unit, ...], n: int, v: int) -> tuple[int, ...]:
+    """`Split`: each unit of `v` into its register."""
+    regs = [0] * n
+    for u in units_:
+        x = (v >> u.shift) & (0xFFFF if u.part in ("word", "swap") else 0xFF)
+        regs[u.index] = {"word": x, "swap": ((x & 0xFF) << 8) | (x >> 8), "low": x, "high": x << 8}[u.part]
+    return tuple(regs)
+
+
+def bit_fields(fn: Function, lay: Layout) -> tuple[int, int] | None:
+    """(shift, width) of the function's bits where it has bits of an integer, else None."""
+    span = fn.bit_range
+    if span is None or lay.kind != "int":
+        return None
+    return span[0], span[1] - span[0] + 1
+
+
 def value_type(fn: Function, lay: Layout) -> ValueType:
     nullable = bool(fn.not_implemented)
     if fn.compiled is not None:
         return ValueType("expr", nullable=True, expr_type=fn.compiled.type)
+    if fn.factor is not None:
+        return ValueType("float", 64, True, nullable=True)  # null where the factor has no value
+    field = bit_fields(fn, lay)
+    if field is not None:
+        if field[1] == 1:
+            return ValueType("bool", nullable=nullable)
+        if fn.scales:
+            return ValueType("float", 64, True, nullable=nullable)
+        return ValueType("int", int_type_bits(field[1]), False, nullable=nullable)
     if fn.read_function_code or (lay.kind == "int" and fn.scales) or (lay.kind == "float" and fn.scales):
         return ValueType("float", 64, True, nullable=nullable)
     if lay.kind == "int":
@@ -92,7 +123,13 @@ def value_type(fn: Function, lay: Layout) -> ValueType:
 
 
 def write_type(fn: Function, lay: Layout) -> ValueType:
-    if fn.write_function_code or ((lay.kind in ("int", "float")) and fn.scales):
+    if fn.factor is not None:
+        return ValueType("float", 64, True)
+    if fn.write_function_code and not fn.mask_write:
+        return ValueType("float", 64, True)
+    if bit_fields(fn, lay) is not None:
+        return value_type(fn, lay)
+    if ((lay.kind in ("int", "float")) and fn.scales):
         return ValueType("float", 64, True)
     return value_type(fn, lay)
 
@@ -112,14 +149,22 @@ def decode_steps(fn: Function, lay: Layout) -> tuple[DecodeStep, ...]:
     if lay.kind == "string":
         return (*steps, ToText(units(lay), span_bits(lay) // 8))
     steps.append(Compose(units(lay)))
+    field = bit_fields(fn, lay)
     if lay.kind == "float":
         steps.append(ToFloat(lay.bits))
     else:
         if lay.bits < span_bits(lay):
             steps.append(Mask(lay.bits))
-        if lay.signed:
+        if field is not None:
+            steps.append(Bits(field[0], field[1], field[1] == 1))
+            if field[1] == 1:
+                return tuple(steps)
+        elif lay.signed:
             steps.append(SignExtend(lay.bits))
-    if fn.scales:
+    if fn.factor is not None:
+        m = fn.eff_multiplier
+        steps.append(ScaleFactor(fn.scale_exponent is not None, divisor_of(m), m, fn.eff_offset))
+    elif fn.scales:
         steps.append(Scale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
     return tuple(steps)
 
@@ -129,14 +174,27 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
     if lay.kind != "string" and (fn.minimum is not None or fn.maximum is not None):
         steps.append(CheckRange(fn.minimum, fn.maximum))
     n = len(lay.addresses)
-    if fn.write_function_code:
+    if fn.write_function_code and not fn.mask_write:
         code = fn.write_function_code
         return (*steps, Fragment(code, n, False, compile_fragment(code, n, False)))
+    field = bit_fields(fn, lay)
+    if field is not None:
+        shift, width = field
+        if width > 1:
+            if fn.scales:
+                steps.append(Unscale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
+            steps.append(RoundInt(0, (1 << width) - 1, width, False, width))
+        lay_units = units(lay)
+        masks = split_value(lay_units, n, ((1 << width) - 1) << shift)
+        return (*steps, PlaceBits(shift, width == 1), Split(lay_units), Merge(masks, fn.mask_write))
     if lay.kind == "bool":
         return (*steps, FromBool())
     if lay.kind == "string":
         return (*steps, FromText(units(lay), span_bits(lay) // 8))
-    if fn.scales:
+    if fn.factor is not None:
+        m = fn.eff_multiplier
+        steps.append(UnscaleFactor(fn.scale_exponent is not None, divisor_of(m), m, fn.eff_offset))
+    elif fn.scales:
         steps.append(Unscale(divisor_of(fn.eff_multiplier), fn.eff_multiplier, fn.eff_offset))
     if lay.kind == "float":
         steps.append(FromFloat(lay.bits))

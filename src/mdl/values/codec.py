@@ -25,8 +25,8 @@ class CodecError(ValueError):
     """A value cannot be encoded (out of range, wrong type) or registers cannot be decoded."""
 
 
-Decoder = Callable[[Sequence[int]], Value]  # registers (address order) -> value
-Encoder = Callable[[Scalar], list[int]]  # value -> registers (address order)
+Decoder = Callable[..., Value]  # registers (address order)[, the scale factor's value] -> value
+Encoder = Callable[..., list[int]]  # value[, the scale factor's value] -> registers (address order)
 
 
 def _part(unit: ir.Unit) -> Callable[[Sequence[int]], int]:
@@ -89,7 +89,48 @@ def _value_step(step: ir.DecodeStep) -> Callable[[int | float], int | float]:
         return lambda v: float(struct.unpack(fmt, int(v).to_bytes(size, "big"))[0])
     if isinstance(step, ir.Scale):
         return _scale(step)
+    if isinstance(step, ir.Bits):
+        shift, mask = step.shift, (1 << step.width) - 1
+        if step.boolean:
+            return lambda v: bool((int(v) >> shift) & mask)
+        return lambda v: (int(v) >> shift) & mask
     raise AssertionError(f"not a value step: {step}")
+
+
+def power_of_ten(e: int) -> float:
+    """10^|e| as every target computes it: 1.0 multiplied by 10.0 |e| times (exact up to 22)."""
+    p = 1.0
+    for _ in range(abs(e)):
+        p *= 10.0
+    return p
+
+
+def _factor(step: ir.ScaleFactor | ir.UnscaleFactor, f: Value) -> float | None:
+    """The factor's power of ten (or its value as a double); None where it has none (null, or an exponent
+    outside -22..22)."""
+    if f is None or isinstance(f, (str, list)):
+        return None
+    if step.exponent:
+        return power_of_ten(int(f)) if -ir.MAX_EXPONENT <= int(f) <= ir.MAX_EXPONENT else None
+    return float(f)
+
+
+def _scale_factor(step: ir.ScaleFactor) -> Callable[[int | float, Value], float | None]:
+    d, m, o = step.divisor, step.multiplier, step.offset
+
+    def scale(v: int | float, f: Value) -> float | None:
+        p = _factor(step, f)
+        if p is None:
+            return None
+        x = float(v)
+        if d is not None:
+            x = x / d
+        elif m != 1.0:
+            x = x * m
+        x = x / p if step.exponent and int(f) < 0 else x * p  # type: ignore[arg-type]  # f is a number here
+        return x + o if o != 0.0 else x
+
+    return scale
 
 
 def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
@@ -119,6 +160,16 @@ def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
         def body(r: Sequence[int]) -> Value:
             return compose(r).to_bytes(nbytes, "big").rstrip(b"\x00 ").decode("utf-8", errors="replace")
 
+    elif isinstance(first, ir.Compose) and isinstance(head[-1], ir.ScaleFactor):
+        compose, scaled = _compose(first.units), _scale_factor(head[-1])
+        rest = [_value_step(step) for step in head[1:-1]]
+
+        def body(r: Sequence[int], f: Value = None) -> Value:
+            v: int | float = compose(r)
+            for step in rest:
+                v = step(v)
+            return scaled(v, f)
+
     elif isinstance(first, ir.Compose):
         compose = _compose(first.units)
         rest = [_value_step(step) for step in head[1:]]
@@ -133,7 +184,7 @@ def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
         raise AssertionError(f"a decode cannot start with {first}")
     if not missing:
         return body
-    return lambda r: None if tuple(r) in missing else body(r)
+    return lambda r, *f: None if tuple(r) in missing else body(r, *f)
 
 
 def _number(value: Scalar) -> int | float:
@@ -180,9 +231,9 @@ def compile_encoder(codec: ir.Codec, steps: tuple[ir.EncodeStep, ...]) -> Encode
         return body
     check = checks[0]
 
-    def checked(value: Scalar) -> list[int]:
+    def checked(value: Scalar, *factor: Value) -> list[int]:
         check(value)
-        return body(value)
+        return body(value, *factor)
 
     return checked
 
@@ -202,21 +253,43 @@ def _range_check(step: ir.CheckRange) -> Callable[[Scalar], None]:
     return check
 
 
+def _unscale_factor(step: ir.UnscaleFactor, x: int | float, f: Value) -> float:
+    """`UnscaleFactor`: CodecError where the factor has no value (or is 0)."""
+    p = _factor(step, f)
+    if p is None:
+        raise CodecError("the scale factor has no value: nothing is written")
+    if p == 0.0:
+        raise CodecError("the scale factor is 0: no register value gives this value")
+    x = float(x)
+    if step.offset != 0.0:
+        x = x - step.offset
+    if step.divisor is not None:
+        x = x * step.divisor
+    elif step.multiplier != 1.0:
+        x = x / step.multiplier
+    return x * p if step.exponent and int(f) < 0 else x / p  # type: ignore[arg-type]  # f is a number here
+
+
 def _numeric_encoder(steps: list[ir.EncodeStep], n: int) -> Encoder:
     unscale = next((s for s in steps if isinstance(s, ir.Unscale)), None)
+    by_factor = next((s for s in steps if isinstance(s, ir.UnscaleFactor)), None)
     to_float = next((s for s in steps if isinstance(s, ir.FromFloat)), None)
     to_int = next((s for s in steps if isinstance(s, ir.RoundInt)), None)
-    split_step = steps[-1]
-    assert isinstance(split_step, ir.Split)
+    place = next((s for s in steps if isinstance(s, ir.PlaceBits)), None)
+    split_step = next(s for s in steps if isinstance(s, ir.Split))
     split = _split(split_step.units, n)
 
-    def encode(value: Scalar) -> list[int]:
+    def encode(value: Scalar, factor: Value = None) -> list[int]:
+        if place is not None and place.boolean:
+            return split((1 if value else 0) << place.shift)
         x = _number(value)
         if unscale is not None:
             x = float(x)
             if unscale.offset != 0.0:
                 x = x - unscale.offset
             x = x * unscale.divisor if unscale.divisor is not None else x / unscale.multiplier
+        if by_factor is not None:
+            x = _unscale_factor(by_factor, x, factor)
         if to_float is not None:
             fmt = ">f" if to_float.bits == 32 else ">d"
             try:
@@ -229,8 +302,11 @@ def _numeric_encoder(steps: list[ir.EncodeStep], n: int) -> Encoder:
                 raise CodecError(f"{value} is not a finite number")
             x = math.floor(x + 0.5)
         if not to_int.low <= x <= to_int.high:
+            if place is not None:
+                raise CodecError(f"{value} does not fit its {to_int.bits} bits (0..{to_int.high})")
             raise CodecError(f"{value} does not fit {'' if to_int.signed else 'u'}int{to_int.bits}")
-        return split(x & ((1 << to_int.span) - 1))
+        v = x & ((1 << to_int.span) - 1)
+        return split(v << place.shift if place is not None else v)
 
     return encode
 
@@ -259,22 +335,41 @@ def decode(fn: Function, regs: Sequence[int]) -> Value:
     return compile_decoder(fn.name, decode_steps(fn, layout(fn)))(regs)
 
 
-def encode(fn: Function, value: Scalar) -> list[int]:
-    """The engineering value -> registers, refusing values outside minimum/maximum."""
+def encode(fn: Function, value: Scalar, *factor: Value) -> list[int]:
+    """The engineering value -> registers, refusing values outside minimum/maximum. A function scaled by
+    another takes that one's value as `factor`; without it only what needs no factor is checked (the
+    type, minimum and maximum: `mdl write` checks every value before it connects) and nothing is
+    returned. A function with bits gets registers holding only its bits (ir.Merge says how they are written)."""
     lay = layout(fn)
-    return compile_encoder(build(fn, lay), encode_steps(fn, lay))(value)
+    steps = encode_steps(fn, lay)
+    if fn.factor is not None and not factor:
+        _number(value)
+        check = steps[0]
+        if isinstance(check, ir.CheckRange):
+            _range_check(check)(value)
+        return []
+    return compile_encoder(build(fn, lay), steps)(value, *factor)
+
+
+def merge(current: Sequence[int], new: Sequence[int], masks: Sequence[int]) -> list[int]:
+    """`ir.Merge`: the registers `current` with the bits of `masks` taken from `new`."""
+    return [(c & ~m & 0xFFFF) | (n & m) for c, n, m in zip(current, new, masks, strict=True)]
 
 
 def parse_value(fn: Function, text: str) -> Scalar:
     """A value typed by a user (`NAME=VALUE`) -> a Python value for `encode`."""
     kind = layout(fn).kind
+    span = fn.bit_range
+    if kind == "int" and span is not None and span[0] == span[1]:
+        kind = "bool"  # one bit of a register
     if fn.values:
         for key, label in fn.values.items():
             if label == text:
                 return key
-    if kind == "string" and not fn.write_function_code:
+    fragment = fn.write_function_code is not None and not fn.mask_write
+    if kind == "string" and not fragment:
         return text
-    if kind == "bool" and not fn.write_function_code:
+    if kind == "bool" and not fragment:
         low = text.strip().lower()
         if low in ("1", "true", "on", "yes"):
             return True

@@ -23,6 +23,13 @@ unsigned accumulator `v`:
   `x = x / divisor` when the multiplier is the exact reciprocal of an integer (0.1 -> / 10, so 87
   reads 8.7, the double nearest 87 * 0.1), else `x = x * multiplier`; then, as a separate
   operation (never a fused multiply-add), `x = x + offset` when the offset is not 0.
+- `Bits(shift, width, boolean)`: `v = (v >> shift) & (2**width - 1)`; `boolean`: the value is
+  `v != 0`, which ends the program (SPEC 2.2 `bits`).
+- `ScaleFactor(exponent, divisor, multiplier, offset)`: the value of another function, `f` (the
+  decoder's one parameter), scales it: null where `f` is null (or, for an exponent, outside
+  -22..22); `x = double(v)`, then `x / divisor` or `x * multiplier` as `Scale` (neither when the
+  multiplier is 1); then for an exponent `p = 10^|f|` (exact: 1.0 multiplied by 10.0 |f| times),
+  `x = x * p` for f >= 0 and `x = x / p` below; for `scale_by` `x = x * double(f)`; then the offset.
 
 Encoding starts from `value` and ends with `r`:
 
@@ -36,6 +43,14 @@ Encoding starts from `value` and ends with `r`:
 - `RoundInt(low, high, span)`: a non-finite `x` is refused; `x = floor(x + 0.5)` for a
   fraction; outside `low..high` is refused; `v = x mod 2**span`.
 - `Split(units)`: each unit of `v` back into its register (the inverse of `Compose`).
+- `UnscaleFactor(exponent, divisor, multiplier, offset)`: as `Unscale`, with the factor `f` (the
+  encoder's second parameter, read from the device just before) inverted after it: refused when `f`
+  is null (or, for an exponent, outside -22..22; for `scale_by`, 0); `x = x / p` for f >= 0, `x = x * p`
+  below; `x = x / double(f)`.
+- `PlaceBits(shift, boolean)`: `v = (1 if value else 0) << shift` (boolean), or `v = v << shift`.
+- `Merge(masks)`: after `Split`, the registers hold only the function's bits: each register `i` is
+  written as `(current[i] & ~masks[i]) | r[i]`, `current` read just before the write; with Mask
+  Write Register (`mask_write`), one request per register with a mask: AND `~masks[i]`, OR `r[i]`.
 """
 
 from __future__ import annotations
@@ -48,6 +63,10 @@ if TYPE_CHECKING:
     from mdl.lang.expr.lower import Lowered
 
 T = TypeVar("T")
+
+# the exponents of scale_exponent whose power of ten every target computes exactly (10^22 is the largest
+# exact double); outside them a value has no number
+MAX_EXPONENT = 22
 
 Part = Literal["word", "swap", "low", "high"]  # the register as is, its bytes swapped, its low / high byte
 
@@ -120,6 +139,41 @@ class Scale:
 
 
 @dataclass(frozen=True)
+class Bits:
+    shift: int
+    width: int
+    boolean: bool
+
+
+@dataclass(frozen=True)
+class ScaleFactor:
+    exponent: bool  # True: scale_exponent (10^f), False: scale_by (f)
+    divisor: int | None
+    multiplier: float  # 1.0: no multiplier
+    offset: float
+
+
+@dataclass(frozen=True)
+class UnscaleFactor:
+    exponent: bool
+    divisor: int | None
+    multiplier: float
+    offset: float
+
+
+@dataclass(frozen=True)
+class PlaceBits:
+    shift: int
+    boolean: bool
+
+
+@dataclass(frozen=True)
+class Merge:
+    masks: tuple[int, ...]  # per register, address order: the bits the function owns
+    mask_write: bool  # write with function 22 (Mask Write Register) instead of read-modify-write
+
+
+@dataclass(frozen=True)
 class CheckRange:
     minimum: float | None
     maximum: float | None
@@ -163,8 +217,9 @@ class Split:
 
 
 DecodeStep: TypeAlias = (NotImplemented | Fragment | Expression | ToBool | Compose | ToText | Mask | SignExtend
-                          | ToFloat | Scale)
-EncodeStep: TypeAlias = CheckRange | Fragment | FromBool | FromText | Unscale | FromFloat | RoundInt | Split
+                          | ToFloat | Scale | Bits | ScaleFactor)
+EncodeStep: TypeAlias = (CheckRange | Fragment | FromBool | FromText | Unscale | UnscaleFactor | FromFloat | RoundInt
+                         | PlaceBits | Split | Merge)
 
 ValueKind = Literal["int", "float", "string", "bool", "expr"]
 

@@ -24,7 +24,8 @@ _STRINGS = ("length", "format", "units", "read_function_code", "write_function_c
 _DEFAULTED = ("length", "count", "format", "multiplier", "register_type", "byte_order", "word_order", "offset",
               "immutable", "system", "write_multiple")
 _CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
-_SPANNED = _CODE + _FLOATS  # the texts mdl.resolve may point at
+_NAMED = ("bits", "scale_exponent", "scale_by", "role")  # texts kept without the spaces around them
+_SPANNED = _CODE + _FLOATS + _NAMED + ("initial",)  # the texts mdl.resolve may point at
 _MAX_DIGITS = 18  # more than any address, count or key of MDL needs; int() refuses over 4300
 
 
@@ -154,6 +155,10 @@ class _Reader:
                 kw["precision"] = self.integer(text, child, "precision")
             elif tag == "fetch_group":
                 kw["fetch_group"] = text
+            elif tag in _NAMED:
+                kw[tag] = text.strip()
+            elif tag == "initial":
+                kw["initial"] = [int(w, 16) if w[:2] in ("0x", "0X") else int(w) for w in text.split()]
         fn = Function(**kw)
         self.spans(fn, spans)
         return fn

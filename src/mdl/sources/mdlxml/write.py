@@ -15,7 +15,7 @@ _ORDER = ("name", "description", "addresses", "length", "count", "format", "bloc
           "multiplier", "units", "read_function_code", "write_function_code", "register_type",
           "byte_order", "word_order", "offset", "access", "minimum", "maximum",
           "not_implemented", "values", "expression", "immutable", "system", "fetch_group",
-          "marker", "precision", "write_multiple")
+          "marker", "precision", "write_multiple", "bits", "scale_exponent", "scale_by", "role", "initial")
 
 
 # what XML 1.0 cannot carry, not even as a character reference (its production Char)
@@ -75,7 +75,7 @@ def device_to_xml(device: Device) -> str:
             elif attr == "block_labels":
                 for label in value:
                     _sub(el, "block_label", label)
-            elif attr in ("not_implemented", "marker"):
+            elif attr in ("not_implemented", "marker", "initial"):
                 _sub(el, attr, " ".join(str(v) for v in value))
             elif attr == "values":
                 values = _sub(el, "values", None)

@@ -93,6 +93,10 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
     lines: dict[str, list[_Line]] = {s.table: [] for s in AGENT_SECTIONS}
     taken: dict[tuple[str, int], str] = {}
     for rf in resolved.functions:
+        if rf.fn.bits is not None or rf.fn.factor is not None:  # issue 21: an entry carries neither yet
+            warn(f"function '{rf.name}': not written: the agent's entries cannot carry <bits> or a scale register "
+                 "(scale_exponent, scale_by) yet", line=rf.fn.line)
+            continue
         try:
             line = _line(rf)
         except _Skip as why:

@@ -57,6 +57,9 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
     taken: dict[tuple[str, int, str], str] = {}
     for rf in resolved.functions:
         fn = rf.fn
+        if fn.bits is not None or fn.factor is not None:  # issue 21: a row carries neither yet
+            warn(fn, "not exported: a .mod row cannot carry <bits> or a scale register (scale_exponent, scale_by) yet")
+            continue
         try:
             point = _datapoint(rf)
         except _Inexpressible as exc:

@@ -21,7 +21,7 @@ from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.cfrag.cemit import float_literal
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Run, Target, plan_rows, runs_at
+from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
 from mdl.targets.c import expressions
 from mdl.targets.templating import SharedRendering, ctext, environment, generation_macro
 from mdl.values import ir
@@ -367,6 +367,7 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
 
 
 def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
+    refuse_packed(rd, "C")
     ctx = context(rd, source_name)
     env = environment()
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name

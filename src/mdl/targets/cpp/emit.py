@@ -24,7 +24,7 @@ from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.fields import plain_type
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.targets.base import Run, Target, plan_rows, runs_at
+from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
 from mdl.targets.templating import SharedRendering, ctext, generation_macro
@@ -369,6 +369,7 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared:
 
 
 def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
+    refuse_packed(resolved, "C++")
     ctx = context(resolved, source_name)
     env = environment()
     ctx["shared"] = share(ctx["functions"], env)

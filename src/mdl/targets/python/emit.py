@@ -215,6 +215,7 @@ class FunctionCode:
     expression_body: list[str] = field(default_factory=list)  # an expression's Python lines
     decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
     encode_body: str = ""  # the body of _encode_<ident>, if writable
+    merge: ir.Merge | None = None  # a function with bits: how its registers are written (read-modify-write or FC22)
 
 
 def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str],
@@ -223,6 +224,8 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
     deps = f.deps
     if fn.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
+    elif deps:  # scaled by another function's value
+        params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
     else:
         params = "r: list[int]"
     read_fragment = ir.find_step(codec.decode, ir.Fragment)
@@ -241,6 +244,7 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
         fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
         fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
         expression_body=expr_body(expression.lowered) if expression else [],
+        merge=ir.find_step(codec.encode, ir.Merge),
     )
 
 
@@ -325,6 +329,7 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "helpers": helpers, "uses": used, "plain": [f for f in readable if f.fn.compiled is None],
         "exports": sorted(exports), "writes": any(f.encode_body for f in functions),
         "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only
+        "mask_writes": any(f.encode_body and f.merge and f.merge.mask_write for f in functions),  # FC22
         "module_doc": docstring(f"Driver for {device.name}: {device.description}"),
     }
 
