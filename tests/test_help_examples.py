@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import os
 import shlex
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import click
 import pytest
 from click.testing import CliRunner
-from conftest import ROOT, Sim, run_mdl
+from conftest import ROOT, Sim, run_mdl, skip_or_fail
 
 from mdl.cli import main
 
@@ -59,3 +63,17 @@ def test_examples_run_from_a_checkout(tmp_path, monkeypatch):
 @pytest.mark.parametrize("args", [args for args in _examples(_help()) if args[0] != "sim"], ids=" ".join)
 def test_overview_examples_name_real_files(args):
     assert (ROOT / args[1]).exists(), args
+
+
+def test_the_shell_completion_mdl_help_gives_completes_commands():
+    """The line `mdl --help` gives for bash is a working completion script, and completion answers."""
+    assert 'eval "$(_MDL_COMPLETE=bash_source mdl)"' in _help()
+    mdl = Path(sys.executable).parent / "mdl"  # the console script: completion goes by the program's name
+    if not mdl.exists():
+        skip_or_fail(f"no console script {mdl} (mdl is not installed in this Python's environment)")
+    script = subprocess.run([mdl], env={**os.environ, "_MDL_COMPLETE": "bash_source"}, capture_output=True,
+                            text=True, timeout=60)
+    assert script.returncode == 0 and "complete -o nosort -F _mdl_completion" in script.stdout, script.stdout
+    answer = subprocess.run([mdl], env={**os.environ, "_MDL_COMPLETE": "bash_complete", "COMP_WORDS": "mdl va",
+                                            "COMP_CWORD": "1"}, capture_output=True, text=True, timeout=60)
+    assert answer.stdout.split() == ["plain,validate"], answer.stdout

@@ -20,16 +20,18 @@ if TYPE_CHECKING:
     from mdl.model import Device, Function
     from mdl.resolve import ResolvedDevice
 
-SCHEMAS = click.Choice(["0.9b", "1.0"])
+SCHEMAS = click.Choice(["0.9b", "1.0"], case_sensitive=False)
 STDOUT = Path(STDIO_ARG)
 T = TypeVar("T")
 
 
 class InputFile(click.Path):
-    """An input file; `-` is standard input, named `<stdin>` in messages."""
+    """An input file; `-` is standard input, named `<stdin>` in messages. click checks nothing (no
+    `exists`, no `readable`): the reader says what is wrong as `FILE: error: ...`, exit 1 (SPEC 1),
+    a missing file and an unreadable one alike."""
 
     def __init__(self) -> None:
-        super().__init__(path_type=Path, allow_dash=True)
+        super().__init__(path_type=Path, allow_dash=True, readable=False)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path:
         return input_path(os.fsdecode(super().convert(value, param, ctx)))
@@ -131,6 +133,12 @@ def main() -> None:
       mdl gen examples/temco_tstat/temco_tstat.xml --lang python -o out/
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 &
       mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020
+
+    \b
+    Shell completion of commands, options and file names: add your shell's line to its startup file.
+      bash (~/.bashrc):                    eval "$(_MDL_COMPLETE=bash_source mdl)"
+      zsh (~/.zshrc):                      eval "$(_MDL_COMPLETE=zsh_source mdl)"
+      fish (~/.config/fish/config.fish):   _MDL_COMPLETE=fish_source mdl | source
     """
 
 
@@ -212,7 +220,8 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 
 @main.command()
 @click.argument("file", type=INPUT)
-@click.option("--lang", type=click.Choice([*targets.names(), "all"]), default="all", show_default=True,
+@click.option("--lang", type=click.Choice([*targets.names(), "all"], case_sensitive=False), default="all",
+              show_default=True,
               help="A registered target (" + "; ".join(targets.summaries()) + "), or all of them.")
 @click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
               show_default=True, help="Directory for the generated files.")
@@ -234,6 +243,8 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
     if str(outdir) == STDIO_ARG:
         raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
     resolved = _resolved(file)
+    for note in targets.notes(resolved, file):
+        click.echo(str(note), err=True)
     with all_or_none():
         changed = generate(resolved, file, lang, outdir, check)
     for path in changed:
@@ -335,7 +346,7 @@ unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, sho
 
 @main.command(name="import")
 @click.argument("file", type=INPUT)
-@click.option("--from", "fmt", type=click.Choice(["xif", "wise", "schema"]),
+@click.option("--from", "fmt", type=click.Choice(["xif", "wise", "schema"], case_sensitive=False),
               help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
                    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
@@ -350,14 +361,11 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
       mdl import examples/xif_meter/meter.mod -o meter.xml
       mdl import examples/wise_4012e/Modbus.ini --from wise -o wise_4012e.xml
     """
-    from mdl.diagnostics import error
-    from mdl.sources.loading import guess_format
+    from mdl.sources.loading import import_format
     from mdl.sources.mdlxml import device_to_xml
     from mdl.sources.toolkit import with_registers
 
-    fmt = fmt or guess_format(file)
-    if fmt is None:
-        raise error("cannot tell the format from the file; give --from xif, wise or schema", file)
+    fmt = fmt or import_format(file)
     resolved = _resolved(file, fmt)
     xml = device_to_xml(with_registers(resolved) if fmt == "schema" else resolved.device)
     _emit_text(xml, output)
@@ -376,7 +384,7 @@ def _emit_text(text: str, output: Path | None) -> None:
 @main.command(name="export")
 @click.argument("file", type=INPUT)
 @click.option("--to", "fmt", required=True,
-              type=click.Choice(exports.names()),
+              type=click.Choice(exports.names(), case_sensitive=False),
               help="Output format: " + "; ".join(f"{k}: {v}" for k, v in exports.summaries().items()) + ".")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
               help="Output file (default: stdout); a folder for volttron.")
@@ -390,8 +398,8 @@ def export_(file: Path, fmt: str, output: Path | None, connection: Connection | 
             interval: float | None, force: bool) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
-    What the format cannot express is reported as a warning naming the function (exit 1 with
-    --fail-on-warning, before anything is written). Output is deterministic.
+    What the format cannot express is reported as one warning per kind of loss naming the functions
+    it concerns (exit 1 with --fail-on-warning, before anything is written). Output is deterministic.
 
     \b
     Examples:
@@ -428,7 +436,8 @@ def export_(file: Path, fmt: str, output: Path | None, connection: Connection | 
 @connection_options(timeout=0.5, retries=0)
 @click.option("--units", default="1-247", show_default=True, metavar="LIST",
               help="Unit ids to ask: numbers and ranges, e.g. 1-10,17.")
-@click.option("--format", "fmt", type=click.Choice(["table", "json"]), default="table", show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table",
+              show_default=True)
 @fail_on_warning_option
 def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: str) -> None:
     """Find which description answers at each unit id, by the marker values of its functions.
@@ -436,7 +445,8 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     A description matches a unit when every function with a marker reads one of its marker values
     there; one without markers never matches. Where a unit answers Read Device Identification
     (function 43 / MEI 14), its vendor, product code and revision are shown too. A unit that does
-    not answer costs one --timeout. Progress goes to stderr. Exit 0 when some unit matched, else 1.
+    not answer costs one --timeout. Progress goes to stderr. Exit 0 when some unit matched, else 1;
+    3 when no unit answered at all.
 
     Units that answer are listed (matched or not); units that do not are left out. Unit ids are
     0-255. See docs/discovery.md.
@@ -478,6 +488,7 @@ def test_(files: tuple[Path, ...]) -> None:
     Example:
       mdl test examples/toolkit_heat_pump/heat_pump.yaml heat_pump.xml
     """
+    from mdl.device.evaluate import Evaluator
     from mdl.device.scenarios import run_scenario
 
     _stdin_once(files)
@@ -485,8 +496,9 @@ def test_(files: tuple[Path, ...]) -> None:
     loaded = [(path, _resolved(path)) for path in files]  # every file checked before any scenario runs
     for path, resolved in loaded:
         device = resolved.device
+        evaluator = Evaluator(resolved)  # compiled once for all of the file's scenarios
         for sc in device.tests:
-            failures = run_scenario(device, sc)
+            failures = run_scenario(evaluator, sc)
             for failure in failures:
                 click.echo(f"{path}: {failure}")
             if failures:
@@ -519,8 +531,8 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 @click.argument("names", nargs=-1)
 @connection_options()
 @unit_option
-@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"]), default="table",
-              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"], case_sensitive=False),
+              default="table", show_default=True)
 @click.option("--interval", type=click.FloatRange(0.1, 86400), metavar="S",
               help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.")
 @click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")

@@ -31,6 +31,38 @@ Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
 SERIAL_OPTIONS = ("baud", "parity", "stopbits", "bytesize")
 OPTION_NAMES = ("host", "port", "serial", *SERIAL_OPTIONS, "framer", "timeout", "retries")
 SIM_HOST, SIM_PORT, DEVICE_PORT = "127.0.0.1", 5020, 502
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+PORT_HELP = (f"TCP port (default {DEVICE_PORT}, the Modbus TCP port; mdl sim listens on {SIM_PORT} by default). "
+             "--host HOST:PORT gives both.")
+
+
+def host_port(host: str, port: int) -> str:
+    """`host:port` as messages and `--host` write it: an IPv6 address in brackets, `[::1]:502`."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def split_host(text: str) -> tuple[str, int | None]:
+    """`--host` as users write it: `HOST`, `HOST:PORT`, `[IPV6]` or `[IPV6]:PORT` -> (host, port or None).
+    An address with more than one colon and no brackets is an IPv6 address without a port.
+    ValueError saying what is wrong."""
+    if text.startswith("["):
+        host, bracket, rest = text[1:].partition("]")
+        if not bracket:
+            raise ValueError("an IPv6 address in brackets needs its ']': [::1]:5020")
+        if rest and not rest.startswith(":"):
+            raise ValueError(f"{rest!r} after ']': write [IPV6]:PORT")
+        port_text: str | None = rest[1:] if rest else None
+    elif text.count(":") == 1:
+        host, _, port_text = text.partition(":")
+    else:
+        host, port_text = text, None
+    if not host.strip():
+        raise ValueError("no host: write HOST or HOST:PORT, e.g. 127.0.0.1:5020")
+    if port_text is None:
+        return host, None
+    if not port_text.isascii() or not port_text.isdigit():
+        raise ValueError(f"the port {port_text!r} is not a number: write HOST:PORT, e.g. 127.0.0.1:5020")
+    return host, int(port_text)
 
 
 @dataclass(frozen=True)
@@ -53,7 +85,7 @@ class Connection:
         """The connection as messages name it: `/dev/ttyUSB0 (19200 8N1)`, `host:port`, `host:port (RTU over TCP)`."""
         if self.serial is not None:
             return f"{self.serial} ({self.baud} {self.bytesize}{self.parity}{self.stopbits})"
-        return f"{self.host}:{self.port}{' (RTU over TCP)' if self.rtu else ''}"
+        return f"{host_port(self.host, self.port)}{' (RTU over TCP)' if self.rtu else ''}"
 
     @property
     def framer(self) -> FramerType:
@@ -85,7 +117,7 @@ class Connection:
 
     def serving_at(self, bound_port: int) -> str:
         """Where a server listens, for `mdl sim`'s ready line: the serial device, or host:port."""
-        return self.serial if self.serial is not None else f"{self.host}:{bound_port}"
+        return self.serial if self.serial is not None else host_port(self.host, bound_port)
 
     def open_error(self) -> str | None:
         """Why the serial device cannot be opened as pyserial opens it (read-write, an exclusive lock, a
@@ -122,8 +154,19 @@ class Connection:
                           bytesize=self.bytesize).close()
         except (serial.SerialException, ValueError, OSError, termios.error) as exc:
             reason = exc.args[-1] if isinstance(exc, (OSError, termios.error)) and exc.args else exc
-            return f"it refuses {self.baud} {self.bytesize}{self.parity}{self.stopbits} ({reason})"
+            return self.settings_refusal(reason)
         return None
+
+    def settings_refusal(self, reason: object) -> str:
+        """The serial device refused this line's settings, for `reason` (the system's words)."""
+        return f"it refuses {self.baud} {self.bytesize}{self.parity}{self.stopbits} ({reason})"
+
+    def refused_hint(self) -> str:
+        """What to check when no TCP connection could be made; empty where there is nothing to add. The
+        default --port of a client (502) is not the sim's (5020): a sim on this machine is the likely one."""
+        if self.serial is None and self.port == DEVICE_PORT and self.host.lower() in LOOPBACK:
+            return f"is `mdl sim` running? it listens on {SIM_PORT} unless --port says otherwise"
+        return ""
 
     def silence_hint(self) -> str:
         """What to check when an RTU line gives no answer at all; empty on Modbus TCP."""
@@ -162,22 +205,24 @@ def connection_options(serving: bool = False, optional: bool = False, timeout: f
 def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Decorator]:
     """The click options, in the order --help lists them."""
     if serving:
-        address = [click.option("--host", default=SIM_HOST, show_default=True, help="Address to listen on (TCP)."),
+        address = [click.option("--host", default=SIM_HOST, show_default=True, metavar="HOST[:PORT]",
+                                help="Address to listen on (TCP); HOST:PORT ([IPV6]:PORT) gives the port too."),
                    click.option("--port", type=click.IntRange(0, 65535), default=SIM_PORT, show_default=True,
                                 help="TCP port; 0 picks a free port.")]
     else:
-        address = [click.option("--host", help="Device address (Modbus TCP); or give --serial."),
-                   click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, show_default=True)]
+        address = [click.option("--host", metavar="HOST[:PORT]",
+                                help="Device address (Modbus TCP): HOST, HOST:PORT or [IPV6]:PORT; or give --serial."),
+                   click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, help=PORT_HELP)]
     line = [
         click.option("--serial", metavar="DEVICE", help="Serial device for Modbus RTU, e.g. /dev/ttyUSB0."),
         click.option("--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True,
                      help="Serial line speed."),
-        click.option("--parity", type=click.Choice(["N", "E", "O"]), default="N",
+        click.option("--parity", type=click.Choice(["N", "E", "O"], case_sensitive=False), default="N",
                      show_default=True, help="Serial parity: none, even, odd."),
         click.option("--stopbits", type=click.IntRange(1, 2), default=1, show_default=True),
         click.option("--bytesize", type=click.IntRange(7, 8), default=8, show_default=True,
                      help="Data bits (Modbus RTU uses 8)."),
-        click.option("--framer", type=click.Choice(["tcp", "rtu"]),
+        click.option("--framer", type=click.Choice(["tcp", "rtu"], case_sensitive=False),
                      help="Framing on TCP: tcp (Modbus TCP, the default) or rtu (RTU frames, as serial-to-Ethernet "
                           "converters carry them). A serial line always carries RTU."),
     ]
@@ -213,5 +258,26 @@ def _build(given: dict[str, Any], serving: bool, optional: bool = False) -> Conn
                     raise click.UsageError(f"--{given_too[0]} needs a connection: give --host HOST or --serial DEVICE")
                 return None
             raise click.UsageError("no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)")
+    if given.get("host") is not None:
+        given["host"], given["port"] = _host_and_port(given["host"], given.get("port"), "port" in explicit, serving)
     values = {name: value for name, value in given.items() if name != "framer" and value is not None}
     return Connection(rtu=serial is not None or framer == "rtu", **values)
+
+
+def _host_and_port(text: str, port: int | None, port_given: bool, serving: bool) -> tuple[str, int | None]:
+    """--host HOST[:PORT] and --port as one address: the port in --host wins over --port's default, and
+    one given both ways must agree (a usage error naming both otherwise)."""
+    try:
+        host, in_host = split_host(text)
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r}: {exc}", param_hint="'--host'") from None
+    if in_host is None:
+        return host, port
+    low = 0 if serving else 1
+    if not low <= in_host <= 65535:
+        raise click.BadParameter(f"{text!r}: the port {in_host} is not in the range {low} to 65535",
+                                 param_hint="'--host'")
+    if port_given and port != in_host:
+        raise click.UsageError(f"--host {text} and --port {port} disagree: give the port once "
+                               "(--host HOST:PORT or --port PORT)")
+    return host, in_host

@@ -82,8 +82,12 @@ def _refuse_time_clash(functions: list[Function], fmt: str) -> None:
 
 
 def poll(session: Session, functions: list[Function], fmt: str, interval: float, count: int | None,
-         out: TextIO = sys.stdout, err: TextIO = sys.stderr) -> int:
-    """Poll until `count` polls have ended (None: until a stop signal); the exit status of the last poll."""
+         out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Poll until `count` polls have ended (None: until a stop signal); the exit status of the last poll.
+    Records go to `out`, failures to `err`: by default the sys.stdout and sys.stderr of the moment of the
+    call (not of the import: a test runner that captures output replaces them)."""
+    out = sys.stdout if out is None else out
+    err = sys.stderr if err is None else err
     _refuse_time_clash(functions, fmt)
     stopper = Stopper()
     status, polls = 0, 0
