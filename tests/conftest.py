@@ -125,22 +125,45 @@ def mdl_cmd(*args) -> list[str]:
     return [sys.executable, "-m", "mdl", *map(str, args)]
 
 
+# Commands run_mdl runs as a process of their own: a server waits for signals, and the rest are cheaper
+# in process (a process costs ~0.3 s of imports). MDL_TESTS_SUBPROCESS=1 runs every command as a process.
+OWN_PROCESS = {"sim"}
+
+
 def run_mdl(*args, input=None, cwd=None, timeout=60) -> subprocess.CompletedProcess:
+    """`mdl ARGS` as a user runs it: exit status, stdout, stderr (text). In process (`cli`) unless the
+    command serves or MDL_TESTS_SUBPROCESS=1; either way a run past `timeout` fails the test."""
+    if str(args[0]) not in OWN_PROCESS and os.environ.get("MDL_TESTS_SUBPROCESS") != "1":
+        return cli(*args, input=input, cwd=cwd, timeout=timeout)
     return subprocess.run(mdl_cmd(*args), input=input, capture_output=True, text=True, cwd=cwd,
                           timeout=timeout, env={**os.environ, "PYTHONWARNINGS": "ignore"})
 
 
-def cli(*args, input=None) -> subprocess.CompletedProcess:
+def cli(*args, input=None, cwd=None, timeout: float = 60) -> subprocess.CompletedProcess:
     """`mdl ARGS` run in-process by click's CliRunner, as run_mdl reports it: returncode, stdout, stderr.
 
-    Much faster than a subprocess; for commands that neither serve nor need signals or a real stdin.
-    An exception the CLI does not turn into an exit status is raised, never mistaken for exit 1."""
+    Much faster than a subprocess; for commands that neither serve nor need signals. An exception the CLI
+    does not turn into an exit status is raised, never mistaken for exit 1. A run past `timeout` (a hang)
+    ends the worker with every thread's traceback (faulthandler), which fails the test."""
+    import faulthandler
+    import warnings
+
     from click.testing import CliRunner
 
     from mdl.cli import main
 
     argv = [str(arg) for arg in args]
-    result = CliRunner().invoke(main, argv, input=input)
+    before = os.getcwd()
+    faulthandler.dump_traceback_later(timeout, exit=True)
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # as PYTHONWARNINGS=ignore does for a process
+            result = CliRunner().invoke(main, argv, input=input, prog_name="mdl")
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+        os.chdir(before)
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         raise result.exception
     return subprocess.CompletedProcess(["mdl", *argv], result.exit_code, result.stdout, result.stderr)

@@ -370,6 +370,7 @@ def test_cpp_functions_compile_without_a_warning(compiler, tmp_path):
     assert proc.returncode == 0, proc.stderr[-3000:]
 
 
+@pytest.mark.compile  # builds generated C++/C (tests/conftest.py TIERS)
 def test_cpp_functions_pass_the_drivers_clang_tidy_checks(tmp_path):
     source = tmp_path / "fragments.cc"
     source.write_text(_all_cpp())

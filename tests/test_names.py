@@ -93,6 +93,7 @@ def test_a_device_named_like_a_standard_header_gets_an_underscore_in_its_stem():
 HEADER_DEVICES = {"String": "string_", "Stdint": "stdint_", "Time": "time_", "Math": "math_", "Vector": "vector_"}
 
 
+@pytest.mark.compile  # builds generated C++/C (tests/conftest.py TIERS)
 def test_drivers_of_devices_named_like_headers_compile_beside_each_other(tmp_path, write_device):
     """With the output directory on the include path, no generated header stands in for a standard one."""
     out = tmp_path / "out"

@@ -86,6 +86,7 @@ def _python_device(device, workdir: Path):
                 and not n.endswith("Error"))
 
 
+@pytest.mark.compile  # builds generated C++/C (tests/conftest.py TIERS)
 @pytest.mark.parametrize("yaml_file", [*(pytest.param(f, marks=reference) for f in FILES), HEAT_PUMP],
                          ids=lambda p: p.stem)
 def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
