@@ -149,12 +149,13 @@ def test_a_refused_group_is_read_as_smaller_requests_on_every_poll(write_device)
 
 
 def test_a_float32_prints_as_the_shortest_decimal_that_is_the_same_float32(sim_factory):
-    """230.1 stored as a float32 is 230.10000610351562 as a double; every format shows 230.1, as mbpoll does."""
+    """230.1 stored as a float32 is 230.10000610351562 as a double; the table, csv and senml show 230.1, as
+    mbpoll does."""
     sim = sim_factory(ALL, "--set", "power=230.1")
     conn = ["--host", sim.host, "--port", sim.port]
     assert cli("read", ALL, *conn, "power").stdout.split() == ["power", "230.1", "W"]
-    assert json.loads(cli("read", ALL, *conn, "power", "--format", "json").stdout) == {"power": 230.1}
-    assert "230.1" in cli("read", ALL, *conn, "power", "--format", "json").stdout
+    # json carries the double the drivers return (docs/user-guide.md): programs compare it exactly
+    assert json.loads(cli("read", ALL, *conn, "power", "--format", "json").stdout) == {"power": 230.10000610351562}
     assert list(csv.reader(io.StringIO(cli("read", ALL, *conn, "power", "--format", "csv").stdout)))[1] == [
         "power", "230.1", "W"]
     senml = json.loads(cli("read", ALL, *conn, "power", "--format", "senml").stdout)

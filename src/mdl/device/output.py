@@ -3,8 +3,9 @@
 without a device (`mdl export --to senml`). The SenML shape has this one home.
 
 The table shows a number with the function's `precision` (decimal places; negative rounds left of the
-point: 1234 with -1 shows 1230); json, csv and senml print values as read, a FLOAT32 as the shortest decimal
-that reads back as the same float32 (`shortest_float32`). A NaN or an infinity is `nan`,
+point: 1234 with -1 shows 1230); csv and senml print values as read; the table, csv and senml show a FLOAT32
+as the shortest decimal that reads back as the same float32 (`shortest_float32`), json the exact double the
+drivers return (programs compare it with a driver's value). A NaN or an infinity is `nan`,
 `inf`, `-inf` in the table and csv, those strings in json (which has no number for them), and no `v` in senml.
 """
 
@@ -31,13 +32,14 @@ class Block(TypedDict):
     e: list[dict[str, Value]]
 
 
-def shown(fn: Function, value: Value) -> Value:
+def shown(fn: Function, value: Value, exact: bool = False) -> Value:
     """The value as users see it: enumeration text where `values` names it; a FLOAT32 read as it is as
-    the shortest decimal that reads back as the same float32 (230.1, not 230.10000610351562)."""
+    the shortest decimal that reads back as the same float32 (230.1, not 230.10000610351562), unless
+    `exact` (json: the double the drivers return, for programs that compare)."""
     if fn.values and isinstance(value, (int, float)) and not isinstance(value, bool):
         if float(value).is_integer() and int(value) in fn.values:
             return fn.values[int(value)]
-    if isinstance(value, float) and _plain_float32(fn):
+    if not exact and isinstance(value, float) and _plain_float32(fn):
         return shortest_float32(value)
     return value
 
@@ -82,7 +84,7 @@ def _json_value(value: Value) -> Value:
 
 
 def _json_values(functions: list[Function], values: dict[str, Value]) -> dict[str, Value]:
-    return {fn.name: _json_value(shown(fn, values[fn.name])) for fn in functions}
+    return {fn.name: _json_value(shown(fn, values[fn.name], exact=True)) for fn in functions}
 
 
 def _csv_line(cells: list[str]) -> str:
