@@ -479,7 +479,10 @@ def test_descriptions_reach_comments_as_utf8(tmp_path, write_device):
 # ---- what users' compilers and linters say about the drivers ----
 
 GOLDEN_DRIVERS = [ROOT / "tests" / "golden" / "all_tables" / "all_tables.cc", EXAMPLE / "temco_tstat.cc"]
-TEST_DEVICES = sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml"))
+# the C and C++ drivers refuse bits and scale registers until they carry them (issue 21; the refusal is
+# tested in tests/test_bits_scale.py): that device is read through mdl read and Python only, for now
+NOT_YET = {"flags_and_scale.xml"}
+TEST_DEVICES = [p for p in sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml")) if p.name not in NOT_YET]
 QUICK_TEST_DEVICE = REFERENCE / "QuickTestDevice.yaml"
 
 
