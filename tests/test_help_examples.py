@@ -1,10 +1,13 @@
-"""Every example line in `mdl --help` and each command's `--help` runs from a checkout, in order."""
+"""Every example line in `mdl --help` and each command's `--help` runs, in a fresh folder, in order.
+
+The convention is docs/testing.md's ("Documented examples"): a line starting with `mdl ` runs (a sim in
+the background, on a free port), `$ mdl ...` is shown only; tests/test_doc_examples.py's Runner runs them.
+"""
 
 from __future__ import annotations
 
 import os
 import shlex
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -12,12 +15,13 @@ from pathlib import Path
 import click
 import pytest
 from click.testing import CliRunner
-from conftest import ROOT, Sim, run_mdl, skip_or_fail
+from conftest import ROOT, skip_or_fail
+from test_doc_examples import Command, Runner, command, scratch
 
 from mdl.cli import main
 
-# the order a user would follow: what one example writes, a later one reads
 ORDER = ["csv2xml", "validate", "gen", "import", "export", "test", "sim", "read", "write", "discover"]
+SERVED = ["sim", "read", "write", "discover"]  # read, write and discover use the sims mdl sim --help starts
 
 
 def _examples(help_text: str) -> list[list[str]]:
@@ -39,25 +43,39 @@ def test_every_command_has_an_example():
     assert {args[0] for args in _examples(_help())} >= {"csv2xml", "validate", "gen", "sim", "read"}
 
 
-def test_examples_run_from_a_checkout(tmp_path, monkeypatch):
-    shutil.copytree(ROOT / "examples", tmp_path / "examples")
-    monkeypatch.chdir(tmp_path)
-    sims: dict[str, Sim] = {}
-    try:
-        for name in ORDER:
-            for args in _examples(_help(name)):
-                if name == "sim":  # serve it on a free port instead of the one printed
-                    i = args.index("--port")
-                    sims[args[i + 1]] = Sim(args[1], *args[2:i], *args[i + 2:])
-                    continue
-                if "--port" in args:
-                    i = args.index("--port") + 1
-                    args[i] = str(sims[args[i]].port)
-                proc = run_mdl(*args, input="\n" * 40, cwd=tmp_path)
-                assert proc.returncode == 0, (args, proc.stdout, proc.stderr)
-    finally:
-        for sim in sims.values():
-            sim.stop()
+def _commands(*names: str) -> list[Command]:
+    """The runnable example lines of `mdl NAME --help`, in order, for each name (none: `mdl --help`)."""
+    found = []
+    for name in names or ("",):
+        where = f"mdl {name} --help".replace("  ", " ")
+        found += [cmd for line in _help(*filter(None, [name])).splitlines() if line.strip().startswith("mdl ")
+                  and (cmd := command(line, where)) is not None]
+    return found
+
+
+def _run(commands: list[Command], folder) -> int:
+    with Runner(scratch(folder)) as runner:
+        for cmd in commands:
+            runner.run(cmd)
+    return runner.ran
+
+
+@pytest.mark.device
+def test_overview_examples_run(tmp_path):
+    assert _run(_commands(), tmp_path) == len(_examples(_help())) >= 5
+
+
+@pytest.mark.parametrize("name", [name for name in ORDER if name not in SERVED])
+def test_each_commands_examples_run_on_their_own(name, tmp_path):
+    assert _run(_commands(name), tmp_path) >= 1
+
+
+@pytest.mark.device
+def test_the_served_examples_run(tmp_path):
+    """mdl sim --help's sims (TCP, RTU over TCP, a pseudo terminal), then read, write and discover them."""
+    commands = _commands(*SERVED)
+    assert any("/dev/pts/" in cmd.code for cmd in commands)
+    assert _run(commands, tmp_path) == len(commands)
 
 
 @pytest.mark.parametrize("args", [args for args in _examples(_help()) if args[0] != "sim"], ids=" ".join)
