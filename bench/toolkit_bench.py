@@ -68,7 +68,7 @@ def cli(*args) -> None:
 
 
 def main() -> int:
-    from mdl.sources.toolkit import import_schema
+    from mdl.formats.schema.read import import_schema
     from mdl.targets import render
 
     with tempfile.TemporaryDirectory() as d:

@@ -1,6 +1,6 @@
 """The layout shows the pipeline (docs/architecture.md): stage packages import only the stages
-below them, every package is drawn in the document, and every registered target is a folder
-with its emitter and templates."""
+below them (no exemption), a registry's members never import it back, every package is drawn in
+the document, and every registered target is a folder with its emitter and templates."""
 
 from __future__ import annotations
 
@@ -58,24 +58,53 @@ def test_no_import_cycles_between_stages():
             visit(node, [])
 
 
+# The pipeline's stages, lowest first: each imports only stages before it (no exemption). The helpers
+# serve every stage and import none.
+STAGES = ["model", "plan", "lang", "values", "resolve", "exchange", "formats", "sources", "targets", "device",
+          "engines", "cli", "__main__"]
+HELPERS = {"diagnostics", "fileio", "resources"}
+
+
 def test_the_graph_sees_known_edges():
-    """A control: the check would see a cycle if there were one, because it sees these edges."""
+    """A control: the checks below would see a wrong edge if there were one, because they see these."""
     graph = import_graph()
     assert {"model", "lang", "values"} <= graph["resolve"]
     assert "resolve" in graph["targets"] and "model" in graph["lang"]
+    assert {"exchange", "resolve"} <= graph["formats"] and "formats" in graph["sources"]
+    assert {"device", "formats", "exchange"} <= graph["engines"] and "exchange" in graph["device"]
 
 
 def test_the_stages_keep_their_order():
-    """Lower stages never import higher ones: model < lang < values < resolve < sources/targets/device/
-    exports < cli (the XIF and WISE writers in sources/ return the exports' types)."""
-    order = ["model", "lang", "values", "resolve", "sources", "targets", "device", "exports", "cli"]
-    peers = {"sources", "targets", "device", "exports"}
+    """Lower stages never import higher ones: model < plan < lang < values < resolve < exchange (the
+    values the writers and the device share) < formats < sources < targets < device < engines < cli."""
     graph = import_graph()
-    for low, unit in enumerate(order):
-        for dep in graph.get(unit, ()):
-            if dep in order:
-                assert order.index(dep) <= low or {unit, dep} <= peers, (unit, dep)
-    assert "sources" not in graph.get("targets", set()) | graph.get("device", set())
+    for unit, deps in graph.items():
+        if unit in HELPERS:
+            assert deps <= HELPERS, (unit, deps - HELPERS)
+            continue
+        for dep in deps - HELPERS:
+            assert STAGES.index(dep) < STAGES.index(unit), f"{unit} imports {dep}, a later stage"
+
+
+def test_every_unit_has_its_place():
+    """A new package or module of src/mdl is placed in STAGES (or HELPERS) before the order can check it."""
+    units = {p.stem if p.is_file() else p.name for p in SRC.iterdir()
+             if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()}
+    assert units == set(STAGES) | HELPERS, units ^ (set(STAGES) | HELPERS)
+
+
+def test_registries_and_their_members_do_not_import_each_other():
+    """A registry (`formats/__init__.py`, `engines/__init__.py`) names its members; a member imports the
+    shared types below both (mdl.exchange), never its registry back."""
+    for registry in ("formats", "engines"):
+        for path in (SRC / registry).rglob("*.py"):
+            if path == SRC / registry / "__init__.py":
+                continue
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ImportFrom) and node.module is not None:
+                    back = node.module == f"mdl.{registry}" or (
+                        node.module == "mdl" and registry in {a.name for a in node.names})
+                    assert not back, f"{path.relative_to(SRC)} imports its registry mdl.{registry}"
 
 
 def test_every_package_is_drawn_in_architecture_md():

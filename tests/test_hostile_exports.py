@@ -21,9 +21,9 @@ import yaml
 from conftest import MDL_NS, assert_clean_error, cli
 
 from mdl.device.output import capability
-from mdl.exports.ha_units import ha_unit
+from mdl.engines.ha_units import ha_unit
+from mdl.formats.wise.read import read_wise
 from mdl.sources.loading import load_resolved
-from mdl.sources.wise.read import read_wise
 
 tomllib = pytest.importorskip("tomllib" if __import__("sys").version_info >= (3, 11) else "tomli")
 

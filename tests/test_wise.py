@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mdl.diagnostics import MdlError
-from mdl.sources.wise.read import read_wise
+from mdl.formats.wise.read import read_wise
 
 WISE = DATA / "wise"
 SEED = ROOT / "examples" / "wise_4012e" / "Modbus.ini"
@@ -442,7 +442,7 @@ def test_lua_holding_the_note_itself_is_not_guessed(tmp_path):
 def test_fuzz_kept_lua(name, lua, extra):
     """The Lua text kept in a description comes back exactly unless the note's opening is there twice (then
     none is taken); any description gives a text, None or 'twice', never another exception."""
-    from mdl.sources.wise.lua import kept_in_description, kept_lua, kept_twice
+    from mdl.formats.wise.lua import kept_in_description, kept_lua, kept_twice
 
     description = kept_in_description(name + extra, lua)
     if kept_twice(description):

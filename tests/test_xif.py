@@ -17,14 +17,15 @@ from hypothesis import strategies as st
 from lxml import etree
 
 from mdl.diagnostics import MdlError
-from mdl.exports import Settings
+from mdl.exchange.export import Settings
+from mdl.formats import guess_format
+from mdl.formats.xif.read import read_xif
+from mdl.formats.xif.write import export_xif
 from mdl.model import Device
 from mdl.resolve import resolve
-from mdl.sources.loading import guess_format, load_any
+from mdl.sources.loading import load_any
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser
-from mdl.sources.xif.read import read_xif
-from mdl.sources.xif.write import export_xif
 
 XIF = DATA / "xif"
 METER = ROOT / "examples" / "xif_meter" / "meter.mod"

@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 from conftest import DATA, ROOT, cli, run_mdl
 
-from mdl.exports import Settings
+from mdl.exchange.export import Settings
+from mdl.formats.xif.read import read_xif
+from mdl.formats.xif.write import export_xif
 from mdl.model import Device
 from mdl.resolve import ResolvedDevice, resolve
 from mdl.sources.loading import load_any
-from mdl.sources.xif.read import read_xif
-from mdl.sources.xif.write import export_xif
 
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
 DESCRIPTIONS = sorted((ROOT / "examples").glob("**/*.xml")) + sorted(DATA.glob("*.xml")) + [HEAT_PUMP]

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import mdl.sources.toolkit as toolkit
+import mdl.formats.schema.read as toolkit
 from mdl.device.evaluate import Evaluator
 from mdl.device.scenarios import run_scenario
 from mdl.diagnostics import MdlError

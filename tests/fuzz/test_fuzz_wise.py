@@ -16,8 +16,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mdl.diagnostics import MdlError
-from mdl.sources.wise.read import read_wise
-from mdl.sources.wise.sections import DATA_TYPES
+from mdl.formats.wise.read import read_wise
+from mdl.formats.wise.sections import DATA_TYPES
 
 NAMES = ["Temp", 'Temp "a', '"quoted"', 'a"b"c', ' spaced ', '"', "x'y", "T\\1"]
 NUMBERS = ["0", "5", "100", "-3", "0.1", "1e2", " 7 ", "0.001", " "]

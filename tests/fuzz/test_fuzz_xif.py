@@ -20,11 +20,11 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from lxml import etree
 
+from mdl.formats.xif import columns as C
+from mdl.formats.xif.report import MAX_ERRORS, SHOWN_EACH
 from mdl.model import Device
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser
-from mdl.sources.xif import columns as C
-from mdl.sources.xif.report import MAX_ERRORS, SHOWN_EACH
 
 SEEDS = [(ROOT / "examples" / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),
          *(p.read_text(encoding="utf-8") for p in sorted((DATA / "xif").glob("*.mod")))]

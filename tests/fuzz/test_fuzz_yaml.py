@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from mdl.device.scenarios import run_scenario
 from mdl.diagnostics import MdlError
-from mdl.sources.toolkit import MAX_YAML_DEPTH, import_schema
+from mdl.formats.schema.read import MAX_YAML_DEPTH, import_schema
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / "examples" / "toolkit_heat_pump" / "heat_pump.yaml").read_text()
 MINIMAL = """description: 'x'

@@ -4,7 +4,8 @@ pymodbus clients and servers.
 Three kinds: Modbus TCP (`--host H --port P`), Modbus RTU on a serial line (`--serial DEVICE` with
 `--baud --parity --stopbits --bytesize`), and RTU frames over TCP (`--host H --port P --framer rtu`,
 as serial-to-Ethernet converters carry them). `connection_options` is the click decorator that
-`mdl read`, `mdl write` and `mdl sim` share: it turns the options into one `Connection` argument.
+`mdl read`, `mdl write` and `mdl sim` share: it turns the options into one `Connection` argument, the
+plain mdl.exchange.connection.Endpoint with what opens it (a pymodbus client or server, the serial device).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 import click
 from click.core import ParameterSource
 
+from mdl.exchange.connection import DEVICE_PORT, SIM_HOST, Endpoint, host_port
+
 if TYPE_CHECKING:
     from pymodbus.client import ModbusBaseSyncClient
     from pymodbus.datastore import ModbusServerContext
@@ -30,15 +33,10 @@ Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
 
 SERIAL_OPTIONS = ("baud", "parity", "stopbits", "bytesize")
 OPTION_NAMES = ("host", "port", "serial", *SERIAL_OPTIONS, "framer", "timeout", "retries")
-SIM_HOST, SIM_PORT, DEVICE_PORT = "127.0.0.1", 5020, 502
+SIM_PORT = 5020
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 PORT_HELP = (f"TCP port (default {DEVICE_PORT}, the Modbus TCP port; mdl sim listens on {SIM_PORT} by default). "
              "--host HOST:PORT gives both.")
-
-
-def host_port(host: str, port: int) -> str:
-    """`host:port` as messages and `--host` write it: an IPv6 address in brackets, `[::1]:502`."""
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
 def split_host(text: str) -> tuple[str, int | None]:
@@ -66,26 +64,9 @@ def split_host(text: str) -> tuple[str, int | None]:
 
 
 @dataclass(frozen=True)
-class Connection:
-    """Where a device is and how frames travel there. `serial` set: RTU on that serial device;
-    otherwise TCP to host:port, with RTU frames when `rtu` is true."""
-
-    host: str = SIM_HOST
-    port: int = DEVICE_PORT
-    serial: str | None = None
-    baud: int = 19200
-    parity: str = "N"
-    stopbits: int = 1
-    bytesize: int = 8
-    rtu: bool = False
-    timeout: float = 3.0
-    retries: int = 1
-
-    def __str__(self) -> str:
-        """The connection as messages name it: `/dev/ttyUSB0 (19200 8N1)`, `host:port`, `host:port (RTU over TCP)`."""
-        if self.serial is not None:
-            return f"{self.serial} ({self.baud} {self.bytesize}{self.parity}{self.stopbits})"
-        return f"{host_port(self.host, self.port)}{' (RTU over TCP)' if self.rtu else ''}"
+class Connection(Endpoint):
+    """An Endpoint the device commands open: its pymodbus client or server, its serial device checked
+    as pyserial opens it, and what their messages say about it."""
 
     @property
     def framer(self) -> FramerType:

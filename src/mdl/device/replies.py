@@ -12,7 +12,7 @@ from typing import Any
 from pymodbus.constants import DeviceInformation
 from pymodbus.framer import FramerRTU
 
-from mdl.device.runtime import MBAP, Wire, frames, rtu_frames
+from mdl.device.frames import MBAP, Wire, frames, rtu_frames
 from mdl.device.sim import IDENTIFICATION
 from mdl.diagnostics import DeviceError
 

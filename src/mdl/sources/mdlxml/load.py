@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 from lxml import etree
 
-from mdl.diagnostics import Diagnostic, MdlError, TextSpan, defer_spans, record_span
+from mdl.diagnostics import Collector, Diagnostic, MdlError, TextSpan, defer_spans, record_span
 from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
 from mdl.sources.mdlxml.parse import NS, StartTag, decoded, element_tags, parse_source, schema_errors
 
@@ -45,7 +45,7 @@ def _float(text: str) -> float:
 
 class _Reader:
     """Elements -> model objects; MdlError at the element for an integer too long to be one MDL can
-    use, and `problems` for a number that is not finite. Where each function's texts start in the
+    use, and an error in `problems` for each number that is not finite. Where each function's texts start in the
     file (for the messages of mdl.resolve) is found only when a message asks for it (`record_spans`):
     scanning every start tag of a large file costs more than reading it."""
 
@@ -55,7 +55,7 @@ class _Reader:
         self.data = data
         self.text = ""
         self._tags: dict[etree._Element, StartTag] | None = None if data is not None else {}
-        self.problems: list[Diagnostic] = []
+        self.problems = Collector(source)
         self.pending: list[tuple[etree._Element, object, str]] = []  # (element, owner, key) to record
 
     @property
@@ -111,8 +111,7 @@ class _Reader:
                 lead = len(text) - len(text.lstrip())
                 line, col = TextSpan(line or 1, col, text).at(lead)
             subject = f"function '{owner}': " if owner is not None else ""
-            self.problems.append(Diagnostic(self.source, line, col,
-                                            f"{subject}<{tag}> {text.strip()[:40]} is not a finite number"))
+            self.problems.error(f"{subject}<{tag}> {text.strip()[:40]} is not a finite number", line, col)
         return value
 
     def function(self, el: etree._Element) -> Function:
@@ -194,8 +193,8 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
     scenarios = [read.scenario(t) for t in tests.findall(_q("test"))] if tests is not None else []
     limit = root.get("max_registers")
     max_registers = read.integer(limit, root, "max_registers", False) if limit else None
-    if read.problems:
-        raise MdlError(read.problems)
+    if read.problems.failed:
+        raise MdlError(read.problems.diagnostics())
     device = Device(_text(name), _text(desc), functions, root.get("version"), max_registers, scenarios, source)
     for tag in IDENTITY_FIELDS:
         el = root.find(_q(tag))

@@ -68,8 +68,8 @@ def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
 
 
 def _importable(path: StrPath) -> str | None:
-    """What `mdl import` would read this file as (its own guess: mdl.sources.loading.guess_format)."""
-    from mdl.sources.loading import guess_format
+    """What `mdl import` would read this file as (its own guess: mdl.formats.guess_format)."""
+    from mdl.formats import guess_format
 
     return {"xif": "an XIF file (SmartServer .mod)", "schema": "a Modbus Schema Toolkit YAML file",
             "wise": "a WISE-Agent Modbus.ini"}.get(guess_format(path) or "")

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import math
-import re
 
 from lxml import etree
 
 from mdl.diagnostics import error
+from mdl.exchange.text import unwritable
 from mdl.model import IDENTITY_FIELDS, Device
 from mdl.sources.mdlxml.parse import NS
 
@@ -16,16 +16,6 @@ _ORDER = ("name", "description", "addresses", "length", "count", "format", "bloc
           "byte_order", "word_order", "offset", "access", "minimum", "maximum",
           "not_implemented", "values", "expression", "immutable", "system", "fetch_group",
           "marker", "precision", "write_multiple", "bits", "scale_exponent", "scale_by", "role", "initial")
-
-
-# what XML 1.0 cannot carry, not even as a character reference (its production Char)
-_NOT_XML = re.compile("[^\t\n\r\x20-\ud7ff\ue000-\ufffd\U00010000-\U0010ffff]")
-
-
-def unwritable(text: str) -> str | None:
-    """The first character of `text` that no MDL (XML 1.0) document can hold, as `U+001B`; None if none."""
-    m = _NOT_XML.search(text)
-    return f"U+{ord(m.group(0)):04X}" if m else None
 
 
 def format_float(x: float) -> str:

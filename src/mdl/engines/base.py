@@ -9,25 +9,24 @@ engine can read as mdl does (an expression, a fragment, registers that are not o
 value built from bytes of several registers) is left out with such a warning (`left_out_unreadable`).
 An export that would hold nothing at all is an error (`nothing_left`).
 
-How every export writes text (docs/fleet.md, "Text in exports"): the encoders at the end of this module
-(`comment_text`, `toml_string`, `json_text`, `spreadsheet_cell`; YAML's in homeassistant.py), so that no name, unit or
-description can end a comment, a string or a cell early and become configuration of its own.
+How every export writes text (docs/fleet.md, "Text in exports"): the encoders of mdl.exchange.text
+(`comment_text`, `toml_string`, `json_text`, `spreadsheet_cell`; YAML's in homeassistant.py), so that no name,
+unit or description can end a comment, a string or a cell early and become configuration of its own.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from decimal import Decimal
 from typing import TYPE_CHECKING
 
-from mdl.device.connection import Connection
-from mdl.diagnostics import Diagnostic, MdlError, error, one_line
+from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.exchange.connection import Endpoint
 from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, find_step
 
 if TYPE_CHECKING:
-    from mdl.exports import Settings
+    from mdl.exchange.export import Settings
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 
 
@@ -174,11 +173,11 @@ def decimals(x: float) -> int:
     return len(text.split(".", 1)[1]) if "." in text else 0
 
 
-def connection_of(settings: Settings, notes: Notes) -> Connection:
+def connection_of(settings: Settings, notes: Notes) -> Endpoint:
     """The connection the command line gave, or the default one (said in a note)."""
     if settings.connection is not None:
         return settings.connection
-    conn = Connection()
+    conn = Endpoint()
     notes.note(f"no connection given: the configuration names {conn.host}:{conn.port}; give --host/--port or "
                "--serial for the device's own")
     return conn
@@ -198,69 +197,3 @@ def nothing_left(resolved: ResolvedDevice, engine: str, notes: Notes) -> MdlErro
     why = "; ".join(d.message for d in reasons[:5]) or "it has no functions"
     more = f" (and {len(reasons) - 5} more)" if len(reasons) > 5 else ""
     return error(f"{engine} can hold none of this description's functions: {why}{more}", resolved.device.source)
-
-
-# --- text in exports ---------------------------------------------------------------------------------------
-# Printable: what str.isprintable() says (every character but the Unicode "Other" and "Separator" ones,
-# space excepted): so control characters (C0, DEL, C1 with NEL U+0085), the line and paragraph separators
-# U+2028/U+2029, format characters (bidi overrides, U+FEFF) and unassigned code points are escaped.
-
-
-def _escaped(ch: str) -> str:
-    return repr(ch)[1:-1]  # \x85, \u2028, \U000e0001: Python's escape of a character that does not print
-
-
-def comment_text(text: str) -> str:
-    """`text` for a comment line of a configuration file (`# ...`, `; ...`): one line that nothing ends
-    early. Control characters and line breaks of every kind (one_line's) and anything else that does not
-    print are written as Python escapes (`\\n`, `\\x85`, `\\u2028`); the rest as it is."""
-    text = one_line(text)
-    return text if text.isprintable() else "".join(ch if ch.isprintable() else _escaped(ch) for ch in text)
-
-
-_TOML_SHORT = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f", "\r": "\\r"}
-
-
-def _toml_char(ch: str) -> str:
-    short = _TOML_SHORT.get(ch)
-    if short is not None:
-        return short
-    if ch.isprintable():
-        return ch
-    return f"\\u{ord(ch):04X}" if ord(ch) < 0x10000 else f"\\U{ord(ch):08X}"
-
-
-def toml_string(text: str) -> str:
-    """`text` as a TOML basic string ("..."): quotes, backslashes, control characters and every character
-    that does not print (NEL, U+2028, ...) escaped, so that the string ends where it should and reads back
-    as `text` exactly."""
-    return '"' + "".join(map(_toml_char, text)) + '"'
-
-
-def _json_char(ch: str) -> str:
-    if ch.isprintable() or ch == "\n":  # "\n": json.dumps escapes it in strings; a raw one is indentation
-        return ch
-    code = ord(ch)
-    if code < 0x10000:
-        return f"\\u{code:04x}"
-    code -= 0x10000
-    return f"\\u{0xD800 + (code >> 10):04x}\\u{0xDC00 + (code & 0x3FF):04x}"
-
-
-def json_text(value: object, indent: int) -> str:
-    """`value` as JSON (a last line break included): text as it is, except what does not print (U+2028 and
-    U+2029, which end a line in JavaScript, NEL, other controls), which is escaped like the controls
-    json.dumps escapes itself."""
-    text = json.dumps(value, indent=indent, ensure_ascii=False)
-    if not text.replace("\n", "").isprintable():
-        text = "".join(map(_json_char, text))
-    return text + "\n"
-
-
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")  # what a spreadsheet reads as a formula (OWASP, CSV injection)
-
-
-def spreadsheet_cell(text: str) -> str:
-    """A CSV cell that a spreadsheet shows as text: one starting with a formula character (FORMULA_STARTS)
-    gets a single quote in front, as OWASP says (the caller warns: the cell has changed)."""
-    return "'" + text if text.startswith(FORMULA_STARTS) else text

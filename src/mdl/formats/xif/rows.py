@@ -9,14 +9,14 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from mdl.diagnostics import TextSpan, record_span
+from mdl.exchange.text import unwritable
+from mdl.formats.xif import columns as C
+from mdl.formats.xif.records import Cell, Record
+from mdl.formats.xif.report import Reporter
+from mdl.formats.xif.scaling import ScalingError, abc, linear, number, to_float, two_point
 from mdl.model import BIT_TABLES, READ_ONLY_TABLES, Function
 from mdl.model.addressing import MODICON_TABLE, AddressError, parse_address, whole_number
 from mdl.model.layout import MAX_ADDRESS
-from mdl.sources.mdlxml.write import unwritable
-from mdl.sources.xif import columns as C
-from mdl.sources.xif.records import Cell, Record
-from mdl.sources.xif.report import Reporter
-from mdl.sources.xif.scaling import ScalingError, abc, linear, number, to_float, two_point
 
 _WHOLE = re.compile(r"[+-]?[0-9]{1,12}")
 _FUNCTION_CODE = re.compile(r"(?i)(?:fc)?\s*0*([0-9]{1,3})")

@@ -27,7 +27,8 @@ function 6; true otherwise, with one warning naming the functions then written w
 
 The CSVs are written by Python's csv module (a cell holding a comma, a quote or a line break is quoted);
 a cell of free text (Units, Description, Volttron Point Name) that starts with a formula character
-(`=` `+` `-` `@`, tab, carriage return) gets a single quote in front, with a warning (engines.spreadsheet_cell).
+(`=` `+` `-` `@`, tab, carriage return) gets a single quote in front, with a warning (spreadsheet_cell in
+mdl.exchange.text).
 """
 
 from __future__ import annotations
@@ -37,26 +38,25 @@ import io
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import error
-from mdl.exports import Export
-from mdl.exports.engines import (
+from mdl.engines.base import (
     Notes,
     bit_in_register,
     connection_of,
     decimals,
     hex_pattern,
-    json_text,
     left_out_unreadable,
     nothing_left,
     patterns_of,
     plain_number,
     scale_of,
-    spreadsheet_cell,
     write_code,
     written_by_fragment,
 )
+from mdl.exchange.export import Export
+from mdl.exchange.text import json_text, spreadsheet_cell
 
 if TYPE_CHECKING:
-    from mdl.exports import Settings
+    from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 

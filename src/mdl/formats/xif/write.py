@@ -22,12 +22,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.exports import Export, Settings
+from mdl.exchange.export import Export, Settings
+from mdl.formats.xif import columns as C
+from mdl.formats.xif.scaling import decimal_text, points
 from mdl.model import Function
 from mdl.model.layout import Layout
 from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.sources.xif import columns as C
-from mdl.sources.xif.scaling import decimal_text, points
 
 
 class _Inexpressible(ValueError):

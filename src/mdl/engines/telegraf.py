@@ -27,11 +27,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mdl.exports import Export
-from mdl.exports.engines import (
+from mdl.engines.base import (
     Notes,
     bit_in_register,
-    comment_text,
     connection_of,
     hex_pattern,
     left_out_unreadable,
@@ -39,11 +37,12 @@ from mdl.exports.engines import (
     patterns_of,
     plain_number,
     scale_of,
-    toml_string,
 )
+from mdl.exchange.export import Export
+from mdl.exchange.text import comment_text, toml_string
 
 if TYPE_CHECKING:
-    from mdl.exports import Settings
+    from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 

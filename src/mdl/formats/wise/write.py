@@ -16,7 +16,7 @@ at commas (strtok), so a name or unit has its commas, quotes, control characters
 kind (NEL, U+2028, U+2029 too) written as `_`, the Lua column its quotes and line breaks refused, and the
 device's name (`[Platform] Name`) its line breaks written as spaces: each change said in a warning. `=`, `[`,
 `;` and `#` inside a value are kept: a key ends at the line's first `=`, and only a line's first character
-makes a section or a comment. The header comments escape what does not print (engines.comment_text).
+makes a section or a comment. The header comments escape what does not print (mdl.exchange.text.comment_text).
 """
 
 from __future__ import annotations
@@ -28,13 +28,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
 from mdl import __version__
-from mdl.device.connection import Connection
 from mdl.diagnostics import Diagnostic
-from mdl.exports import Export, Settings
-from mdl.exports.engines import comment_text
-from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
-from mdl.sources.wise.lua import KEPT, kept_lua, kept_twice
-from mdl.sources.wise.sections import (
+from mdl.exchange.connection import Endpoint
+from mdl.exchange.export import Export, Settings
+from mdl.exchange.text import comment_text
+from mdl.formats.wise.lua import KEPT, kept_lua, kept_twice
+from mdl.formats.wise.sections import (
     AGENT_SECTIONS,
     DATA_TYPES,
     LUA_VARIABLE,
@@ -42,6 +41,7 @@ from mdl.sources.wise.sections import (
     agent_section,
     data_type_of,
 )
+from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
 
 if TYPE_CHECKING:
     from mdl.model.layout import Layout
@@ -82,7 +82,7 @@ def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
     return Export(text, warnings=warnings)
 
 
-def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
+def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
              interval: float) -> tuple[str, list[Diagnostic]]:
     warnings: list[Diagnostic] = []
     source = resolved.device.source
@@ -132,11 +132,11 @@ def wise_ini(resolved: ResolvedDevice, connection: Connection | None, unit: int,
     return "\n".join(out) + "\n", warnings
 
 
-def _platform(name: str, connection: Connection | None, unit: int, interval: float,
+def _platform(name: str, connection: Endpoint | None, unit: int, interval: float,
               warn: _Warn) -> list[str]:
     out = ["[Platform]", f"Name={_value(name, 'the device name', warn)}"]
     if connection is None:
-        connection = Connection()
+        connection = Endpoint()
         warn(f"no --host or --serial: the agent is set to ClientIP={connection.host} "
              f"ClientPort={connection.port}", "note")
     if connection.serial is not None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from mdl.device.output import capability
 from mdl.diagnostics import Diagnostic
-from mdl.exports import Export, Settings
-from mdl.exports.engines import json_text
+from mdl.exchange.export import Export, Settings
+from mdl.exchange.text import json_text
 from mdl.resolve import ResolvedDevice
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import re
 
-from mdl.sources.wise.sections import LUA_VARIABLE
+from mdl.formats.wise.sections import LUA_VARIABLE
 
 MAX_LENGTH = 200  # longer columns are not plain arithmetic as far as the reader is concerned
 MAX_DEPTH = 32  # parentheses and unary minus, nested

@@ -33,16 +33,16 @@ from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
 from mdl.fileio import is_stdin, read_bytes
-from mdl.model import Device, Function
-from mdl.model.layout import MAX_ADDRESS
-from mdl.sources.wise.lua import Affine, affine, kept_in_description
-from mdl.sources.wise.sections import (
+from mdl.formats.wise.lua import Affine, affine, kept_in_description
+from mdl.formats.wise.sections import (
     DATA_TYPES,
     DEFAULT_DATA_TYPE,
     PLATFORM,
     Section,
     section_named,
 )
+from mdl.model import Device, Function
+from mdl.model.layout import MAX_ADDRESS
 
 if TYPE_CHECKING:
     from _typeshed import StrPath

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from mdl.exchange.text import FORMULA_STARTS
+
 FILETYPE = "Modbus_xif"
 
 # product line key (lowercase, after the '#') -> the Device attribute it fills
@@ -138,10 +140,10 @@ IAP_COUNT, IAP_SIGNED, IAP_FLOAT, IAP_TEXT = "SNVT_count", "SNVT_count_inc", "SN
 
 
 # Text cells (names, descriptions, block names, product line values) and a spreadsheet. A cell starting
-# with one of these is a formula to Excel or LibreOffice (OWASP's CSV injection list): export writes
-# such a text behind a `'` (as a spreadsheet marks text), and import takes that `'` away again. A text
-# already starting with `'` and one of these or another `'` gets one too, so every text comes back.
-FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+# with one of FORMULA_STARTS (OWASP's CSV injection list, as every export has it) is a formula to Excel or
+# LibreOffice: export writes such a text behind a `'` (as a spreadsheet marks text), and import takes that
+# `'` away again. A text already starting with `'` and one of these or another `'` gets one too, so every
+# text comes back.
 TEXT_MARK = "'"
 # what ends a line to someone: `str.splitlines` splits at each (a cell holding one would start a row)
 LINE_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"

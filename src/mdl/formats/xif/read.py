@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import decode_text, is_stdin, read_bytes
+from mdl.formats.xif import columns as C
+from mdl.formats.xif.records import Cell, Record, RecordError, records
+from mdl.formats.xif.report import Reporter
+from mdl.formats.xif.rows import Columns, Point, RowReader, text_cell
 from mdl.model import Device
-from mdl.sources.xif import columns as C
-from mdl.sources.xif.records import Cell, Record, RecordError, records
-from mdl.sources.xif.report import Reporter
-from mdl.sources.xif.rows import Columns, Point, RowReader, text_cell
 
 if TYPE_CHECKING:
     from _typeshed import StrPath

@@ -36,11 +36,9 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from mdl.exports import Export
-from mdl.exports.engines import (
+from mdl.engines.base import (
     Notes,
     bit_in_register,
-    comment_text,
     connection_of,
     decimals,
     hex_pattern,
@@ -52,10 +50,12 @@ from mdl.exports.engines import (
     write_code,
     written_by_fragment,
 )
-from mdl.exports.ha_units import ha_unit
+from mdl.engines.ha_units import ha_unit
+from mdl.exchange.export import Export
+from mdl.exchange.text import comment_text
 
 if TYPE_CHECKING:
-    from mdl.exports import Settings
+    from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 

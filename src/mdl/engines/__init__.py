@@ -1,0 +1,52 @@
+"""The configurations of the engines that poll fleets (SPEC 11: VOLTTRON, Home Assistant, Telegraf) and
+the WISE guide's SenML capability document, made from a resolved description (`mdl export`).
+
+ENGINES is their registry; `outputs()` is every `mdl export --to` choice: the formats that write
+themselves back (mdl.formats), then the engines. Each writer takes the resolved device and the command
+line's mdl.exchange.export.Settings and returns an Export, with one warning per kind of loss
+(`base.Notes`); it is imported when first called, so that commands start fast.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from mdl.formats import FORMATS, lazy
+
+if TYPE_CHECKING:
+    from mdl.exchange.export import Export, Settings, Writer
+    from mdl.resolve import ResolvedDevice
+
+
+@dataclass(frozen=True)
+class Output:
+    """One `mdl export --to` choice: its name, the line `--help` gives it, its writer, and whether it
+    writes a folder of files (which needs -o DIR)."""
+
+    name: str
+    summary: str
+    write: Writer
+    folder: bool = False
+
+
+ENGINES = (
+    Output("senml", "the WISE guide's SenML capability document", lazy("mdl.engines.senml", "export_capability")),
+    Output("volttron", "VOLTTRON Modbus-TK driver files (a folder)", lazy("mdl.engines.volttron", "export_volttron"),
+           folder=True),
+    Output("homeassistant", "Home Assistant modbus: YAML",
+           lazy("mdl.engines.homeassistant", "export_homeassistant")),
+    Output("telegraf", "Telegraf [[inputs.modbus]] TOML", lazy("mdl.engines.telegraf", "export_telegraf")),
+)
+
+
+def outputs() -> dict[str, Output]:
+    """Every `mdl export --to` choice by name, in the order `--help` lists them: the formats that write, then
+    the engines."""
+    written = [Output(f.name, f.summary, f.write) for f in FORMATS if f.write is not None]
+    return {out.name: out for out in (*written, *ENGINES)}
+
+
+def export(resolved: ResolvedDevice, name: str, settings: Settings) -> Export:
+    """The description as `mdl export --to NAME` writes it (`name`: one of `outputs()`)."""
+    return outputs()[name].write(resolved, settings)
