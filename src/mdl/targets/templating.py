@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -16,6 +18,7 @@ import jinja2.bccache
 from mdl import __version__
 from mdl.diagnostics import error
 from mdl.fileio import remove_leftovers, would_change, write_atomic
+from mdl.lang.cfrag.cemit import float_literal, literal
 
 # each target's templates are under <target>/templates/ here
 TARGETS_DIR = Path(__file__).resolve().parent
@@ -117,6 +120,16 @@ def c_int64(value: int) -> str:
     return f"INT64_C({value})" if value >= 0 else f"(-INT64_C({-value}))"
 
 
+def double_literal(x: float, parenthesized: bool = False) -> str:
+    """A C, C++ or Python literal of a finite double: the shortest digits that read back as it
+    (Python's repr, mdl.lang.cfrag.cemit.float_literal), an int with all its digits and `.0`; a
+    negative one as `(-d)` where `parenthesized`. ValueError for an infinity or NaN, which no literal
+    spells (resolve refuses non-finite numbers before a target prints one)."""
+    if not math.isfinite(x):
+        raise ValueError(f"{x} cannot be a literal")
+    return literal(x, "double") if parenthesized else float_literal(x, "double")
+
+
 # A generation stamp (docs/cpp-api.md): each C or C++ header defines `generation_macro(stem)` as the
 # stamp of its run of mdl gen, each source refuses (#error) to compile with any other. The templates
 # print GENERATION where the stamp goes; stamp() puts the hash of the run's files there. No input
@@ -216,6 +229,31 @@ def environment() -> jinja2.Environment:
     env.filters["each"] = each
     env.globals["generation"] = GENERATION
     return env
+
+
+@dataclass(frozen=True)
+class RuntimePart:
+    """A piece of a runtime file a driver carries only if its code calls it: the names it defines,
+    its source, the names it uses (of other parts, or none) and the headers it needs."""
+
+    names: tuple[str, ...]
+    source: str
+    uses: frozenset[str]
+    includes: tuple[str, ...] = ()
+
+
+def pick(parts: Sequence[RuntimePart], names: Iterable[str]) -> list[RuntimePart]:
+    """The parts defining `names`, and those they use in turn, in `parts`' order (a part after those
+    it uses, as the runtime files put them): every runtime a target carries is picked here."""
+    by_name = {name: i for i, part in enumerate(parts) for name in part.names}
+    wanted: set[int] = set()
+    todo = [by_name[name] for name in names if name in by_name]
+    while todo:
+        i = todo.pop()
+        if i not in wanted:
+            wanted.add(i)
+            todo += [by_name[name] for name in parts[i].uses if name in by_name]
+    return [parts[i] for i in sorted(wanted)]
 
 
 class SharedRendering:

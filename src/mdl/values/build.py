@@ -5,7 +5,7 @@ formats, byte and word orders, "not implemented", scaling, fragments and express
 from __future__ import annotations
 
 from mdl.lang.cfrag import compile_fragment
-from mdl.model import Function
+from mdl.model import CompiledExpression, Function
 from mdl.model.layout import Layout, int_type_bits
 from mdl.values.ir import (
     Bits,
@@ -98,10 +98,10 @@ def bit_fields(fn: Function, lay: Layout) -> tuple[int, int] | None:
     return span[0], span[1] - span[0] + 1
 
 
-def value_type(fn: Function, lay: Layout) -> ValueType:
+def value_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> ValueType:
     nullable = bool(fn.not_implemented)
-    if fn.compiled is not None:
-        return ValueType("expr", nullable=True, expr_type=fn.compiled.type)
+    if compiled is not None:
+        return ValueType("expr", nullable=True, expr_type=compiled.type)
     if fn.factor is not None:
         return ValueType("float", 64, True, nullable=True)  # null where the factor has no value
     field = bit_fields(fn, lay)
@@ -122,7 +122,7 @@ def value_type(fn: Function, lay: Layout) -> ValueType:
     return ValueType("bool", nullable=nullable)
 
 
-def write_type(fn: Function, lay: Layout) -> ValueType:
+def write_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> ValueType:
     if fn.factor is not None:
         return ValueType("float", 64, True)
     if fn.write_function_code and not fn.mask_write:
@@ -131,12 +131,12 @@ def write_type(fn: Function, lay: Layout) -> ValueType:
         return value_type(fn, lay)
     if ((lay.kind in ("int", "float")) and fn.scales):
         return ValueType("float", 64, True)
-    return value_type(fn, lay)
+    return value_type(fn, lay, compiled)
 
 
-def decode_steps(fn: Function, lay: Layout) -> tuple[DecodeStep, ...]:
-    if fn.compiled is not None:
-        return (Expression(fn.compiled.lowered, tuple(fn.compiled.deps)),)
+def decode_steps(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> tuple[DecodeStep, ...]:
+    if compiled is not None:
+        return (Expression(compiled.lowered, tuple(compiled.deps)),)
     n = len(lay.addresses)
     steps: list[DecodeStep] = []
     if fn.not_implemented:
@@ -204,13 +204,14 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
     return (*steps, Split(units(lay)))
 
 
-def build(fn: Function, lay: Layout) -> Codec:
-    """The function's IR; `lay` is its layout (mdl.model.layout), computed once by the caller."""
+def build(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> Codec:
+    """The function's IR; `lay` is its layout (mdl.model.layout), computed once by the caller, and
+    `compiled` its compiled expression, if it has one (mdl.resolve keeps it)."""
     return Codec(
         table=lay.table,
         addresses=lay.addresses,
-        value_type=value_type(fn, lay),
-        write_type=write_type(fn, lay),
-        decode=decode_steps(fn, lay) if fn.readable else None,
+        value_type=value_type(fn, lay, compiled),
+        write_type=write_type(fn, lay, compiled),
+        decode=decode_steps(fn, lay, compiled) if fn.readable else None,
         encode=encode_steps(fn, lay) if fn.writable else None,
     )

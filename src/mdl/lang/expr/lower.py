@@ -4,16 +4,18 @@ Types: long (64-bit signed), double, string, bool, list (of strings, from bitset
 values, only as function arguments). Every value may be null: a "not implemented" value, a
 missing register, or a null operand make an operation null; concat prints a null as ''.
 
-An operation is Op(tmp, kind, type, args, data); args name earlier temps or parameters.
+An operation is Op(tmp, kind, type, args, data) (mdl.lang.expr.ops: what each kind computes); args
+name earlier temps or parameters.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, TypedDict
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+from mdl.lang.expr.ops import Op, OpData, OpKind
 from mdl.model import BIT_TABLES
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 
@@ -26,30 +28,6 @@ RESULT = {"int16": "long", "uint16": "long", "int32": "long", "uint32": "long", 
           "uint64": "long", "ieee754_32": "double", "ieee754_64": "double", "utf8": "string",
           "hexstring": "string", "eui48": "string", "ipv4addr": "string", "ipv6addr": "string",
           "enum": "string", "bitset": "list", "bitsetbit": "bool"}
-
-
-class OpData(TypedDict, total=False):
-    """What an operation needs besides its arguments; which keys depend on its kind."""
-
-    value: int | float | str | bool  # lit
-    count: int  # regs, const, swaps, register functions: the number of registers
-    index: list[int]  # regs: positions in the function's registers
-    words: list[int]  # const
-    op: str  # arith, div, pow: the operator
-    types: list[str]  # concat: the type of each part
-    labels: tuple[str, str]  # label: (false text, true text)
-    ni: list[list[int]]  # register functions: the "not implemented" register values
-    mapping: dict[int, str]  # enum, bitset
-    bit: int | None  # bitsetbit
-
-
-@dataclass
-class Op:
-    tmp: str
-    kind: str
-    type: str
-    args: list[str] = field(default_factory=list)
-    data: OpData = field(default_factory=OpData)
 
 
 @dataclass
@@ -101,7 +79,7 @@ class Lowerer:
     def tmp(self) -> str:
         return f"t{len(self.ops)}"
 
-    def emit(self, kind: str, type_: str, args: Iterable[str] = (), **data: Unpack[OpData]) -> tuple[str, str]:
+    def emit(self, kind: OpKind, type_: str, args: Iterable[str] = (), **data: Unpack[OpData]) -> tuple[str, str]:
         op = Op(self.tmp(), kind, type_, list(args), data)
         self.ops.append(op)
         return op.tmp, type_
@@ -130,18 +108,18 @@ class Lowerer:
     # -- values
     def value(self, node: Node) -> tuple[str, str]:
         if isinstance(node, Num):
-            return self.emit("lit", "double" if isinstance(node.value, float) else "long", value=node.value)
+            return self.emit(OpKind.LIT, "double" if isinstance(node.value, float) else "long", value=node.value)
         if isinstance(node, Str):
-            return self.emit("lit", "string", value=node.value)
+            return self.emit(OpKind.LIT, "string", value=node.value)
         if isinstance(node, Bool):
-            return self.emit("lit", "bool", value=node.value)
+            return self.emit(OpKind.LIT, "bool", value=node.value)
         if isinstance(node, Ref):
             return f"p{self.refs.index(node.name)}", self.ref_types[node.name]
         if isinstance(node, (Registers, Constant, Swap)):
             return self.regs(node)
         if isinstance(node, Unary):
             arg, t = self.number(node.arg)
-            return self.emit("neg", t, [arg])
+            return self.emit(OpKind.NEG, t, [arg])
         if isinstance(node, Binary):
             return self.binary(node)
         assert isinstance(node, Call), node  # the one kind of node left
@@ -158,11 +136,11 @@ class Lowerer:
         b, tb = self.number(node.right)
         if node.op in ("/", "^") or "double" in (ta, tb):
             if ta == "long":
-                a, ta = self.emit("todouble", "double", [a])
+                a, ta = self.emit(OpKind.TODOUBLE, "double", [a])
             if tb == "long":
-                b, tb = self.emit("todouble", "double", [b])
-        kind = {"/": "div", "^": "pow"}.get(node.op, "arith")
-        return self.emit(kind, "double" if kind != "arith" else ta, [a, b], op=node.op)
+                b, tb = self.emit(OpKind.TODOUBLE, "double", [b])
+        kind = {"/": OpKind.DIV, "^": OpKind.POW}.get(node.op, OpKind.ARITH)
+        return self.emit(kind, "double" if kind is not OpKind.ARITH else ta, [a, b], op=node.op)
 
     def regs(self, node: Node, bits_ok: bool = False) -> tuple[str, str]:
         if isinstance(node, Registers):
@@ -171,12 +149,12 @@ class Lowerer:
             if node.table not in BIT_TABLES and bits_ok:
                 raise ExprError("boolean(...) reads a coil or discrete input (c:N, di:N)", node.col)
             idx = [self.addresses.index(a) for a in node.addresses]
-            return self.emit("regs", "regs", count=len(idx), index=idx)
+            return self.emit(OpKind.REGS, "regs", count=len(idx), index=idx)
         if isinstance(node, Constant):
-            return self.emit("const", "regs", count=len(node.words), words=node.words)
+            return self.emit(OpKind.CONST, "regs", count=len(node.words), words=node.words)
         if isinstance(node, Swap):
             inner, _ = self.regs(node.arg)
-            return self.emit(node.kind, "regs", [inner], count=self.ops[-1].data["count"])
+            return self.emit(OpKind[node.kind.upper()], "regs", [inner], count=self.ops[-1].data["count"])
         raise ExprError("expected registers (hr:N#count, \"0x1234\", swapbytes(...))", node.col)
 
     def call(self, node: Call) -> tuple[str, str]:
@@ -188,21 +166,21 @@ class Lowerer:
                 if t == "regs":
                     raise ExprError("registers need a function such as utf8(...) inside concat", arg.col)
                 parts.append((tmp, t))
-            return self.emit("concat", "string", [p for p, _ in parts], types=[t for _, t in parts])
+            return self.emit(OpKind.CONCAT, "string", [p for p, _ in parts], types=[t for _, t in parts])
         if name == "boolean":
             arg = node.args[0]
             if isinstance(arg, Registers):
                 if len(arg.addresses) != 1:
                     raise ExprError("boolean(...) reads exactly one coil or discrete input", arg.col)
                 regs, _ = self.regs(arg, bits_ok=True)
-                value, _ = self.emit("bit", "bool", [regs])
+                value, _ = self.emit(OpKind.BIT, "bool", [regs])
             else:
                 value, t = self.value(arg)
                 if t != "bool":
                     raise ExprError(f"boolean(...) needs a boolean or a discrete, not a {t}", arg.col)
             if node.labels is None:
                 return value, "bool"
-            return self.emit("label", "string", [value], labels=node.labels)
+            return self.emit(OpKind.LABEL, "string", [value], labels=node.labels)
         regs, _ = self.regs(node.args[0])
         count = self.ops[-1].data["count"]
         want = REGISTER_COUNT.get(name)
@@ -224,7 +202,8 @@ class Lowerer:
         if node.mapping and name not in ("enum", "bitset"):
             raise ExprError(f"{name} takes no mapping", node.col)
         ni = [list(g) for g in node.not_implemented]
-        return self.emit(name, RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping), bit=node.bit)
+        return self.emit(OpKind[name.upper()], RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping),
+                         bit=node.bit)
 
 
 def lower(node: Node, ref_types: dict[str, str], max_registers: int = MAX_REGISTERS) -> Lowered:

@@ -9,7 +9,7 @@ allocates at run time: every buffer is an array of a size known when the driver 
 
 from __future__ import annotations
 
-import math
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,11 +19,13 @@ import jinja2
 from mdl import __version__
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
-from mdl.lang.cfrag.cemit import float_literal
+from mdl.lang.expr.ops import OpKind
 from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.targets import clike
 from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
 from mdl.targets.c import expressions
-from mdl.targets.templating import SharedRendering, ctext, environment, generation_macro
+from mdl.targets.clike import Printing, Shared, int_bounds
+from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
 from mdl.values import ir
 
 RUNTIME = Path(__file__).resolve().parent / "runtime"
@@ -32,11 +34,8 @@ BASE_INCLUDES = ("errno.h", "math.h", "stdbool.h", "stddef.h", "stdint.h", "stri
 
 
 def c_double(x: float) -> str:
-    """A C literal of a finite double (the generator refuses non-finite numbers before this)."""
-    if not math.isfinite(x):
-        raise ValueError(f"{x} cannot be a C literal")
-    text = float_literal(abs(x), "double")
-    return f"(-{text})" if math.copysign(1.0, x) < 0 else text
+    """A C literal of a finite double, a negative one in parentheses (templating.double_literal)."""
+    return double_literal(x, parenthesized=True)
 
 
 def c_type(vt: ir.ValueType, stem: str) -> str:
@@ -130,15 +129,6 @@ class CFunction:
         return self.read_fragment is not None
 
 
-def _int_limits(t: str) -> tuple[int, int] | None:
-    if t == "bool":
-        return 0, 1
-    if not t.endswith("_t"):
-        return None
-    bits = int(t.rstrip("_t").lstrip("uint"))
-    return (0, (1 << bits) - 1) if t.startswith("u") else (-(1 << (bits - 1)), (1 << (bits - 1)) - 1)
-
-
 def int_literal(value: int, t: str) -> str:
     """A C literal of an integer in a comparison with a value of type t."""
     if t in ("int64_t", "uint64_t") or not -(1 << 31) <= value < (1 << 31):
@@ -152,21 +142,13 @@ def int_literal(value: int, t: str) -> str:
 
 def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
     """A CheckRange for a value of C type t: an integer is compared with the integers nearest inside the
-    bounds, and a test no value of its type can fail is left out (-Wtype-limits)."""
-    limits = _int_limits(t)
-    out = RangeCheck()
-    for bound, side in ((step.minimum, "low"), (step.maximum, "high")):
-        if bound is None:
-            continue
-        if limits is None:
-            setattr(out, side, c_double(bound))
-            continue
-        edge = math.ceil(bound) if side == "low" else math.floor(bound)
-        if (edge > limits[1]) if side == "low" else (edge < limits[0]):
-            out.never = True
-        elif (edge > limits[0]) if side == "low" else (edge < limits[1]):
-            setattr(out, side, int_literal(edge, t))
-    return out
+    bounds, and a test no value of its type can fail is left out (-Wtype-limits; clike.int_bounds)."""
+    bounds = int_bounds(step.minimum, step.maximum, t)
+    if bounds is None:
+        return RangeCheck(None if step.minimum is None else c_double(step.minimum),
+                          None if step.maximum is None else c_double(step.maximum))
+    return RangeCheck(None if bounds.low is None else int_literal(bounds.low, t),
+                      None if bounds.high is None else int_literal(bounds.high, t), bounds.never)
 
 
 def _functions(rd: ResolvedDevice) -> list[CFunction]:
@@ -254,7 +236,8 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     if exprs:
         runtime.append(expressions.runtime(exprs))
         includes |= {"stdio.h", "stdlib.h"}
-    list_bits = max([16 * op.data["count"] for e in exprs for op in e.lowered.ops if op.kind == "bitset"], default=0)
+    list_bits = max([16 * op.data["count"] for e in exprs for op in e.lowered.ops if op.kind is OpKind.BITSET],
+                    default=0)
     return {
         "device": rd.device, "version": __version__, "source": source_name, "stem": file_stem,
         "generation_macro": generation_macro(file_stem),
@@ -267,103 +250,38 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     }
 
 
-@dataclass
-class SharedCode:
-    """`decode_<k>` or `encode_<k>`: the decoder or encoder of every function of the same IR (shape,
-    type, registers and, to write, bounds); `reads`: a function whose one run `read_<k>` reads, if
-    several do."""
-
-    k: int
-    t: str
-    text: str  # its body (templates/steps.j2)
-    first: str  # the name of the first function it serves
-    uses: int
-    reads: CFunction | None = None
-    proto: CFunction | None = None  # an expression's: its first function, whose parameters it takes
-
-
-@dataclass
-class SharedWriter:
-    """`write_<j>`: encodes a value and writes one run of registers, as `first` does."""
-
-    j: int
-    first: CFunction
-
-
-@dataclass
-class Shared:
-    decoders: list[SharedCode] = field(default_factory=list)
-    encoders: list[SharedCode] = field(default_factory=list)
-    writers: list[SharedWriter] = field(default_factory=list)
-
-
 def _check_key(check: RangeCheck | None) -> tuple[str | None, str | None, bool] | None:
     return None if check is None else (check.low, check.high, check.never)
 
 
-def share(functions: list[CFunction], env: jinja2.Environment) -> Shared:
-    """Each function's decoder and encoder, printed by steps.j2 from its IR. Functions of the same IR
-    share one decoder and one encoder (and those that read or write one run of registers, one
-    function doing it), so that each <stem>_read_<name> and <stem>_write_<name> of a device of
-    10,000 functions is one call; a function whose IR no other has (a fragment) has its own,
-    named after it, and an expression is printed by mdl.targets.c.expressions."""
+def _decode_key(f: CFunction) -> Hashable | None:
+    if f.decode is None:
+        return None
+    if f.expr is not None:  # its statements name its registers and parameters by position only
+        return "expression", tuple(f.expr.body()), f.n, f.t, tuple(d.param_type for d in f.deps)
+    return (f.rf.decode_shape, f.t, f.n, f.text_size, f.nullable) if f.rf.decode_shape is not None else f.ident
+
+
+def _encode_key(f: CFunction) -> Hashable | None:
+    if f.encode is None:
+        return None
+    if f.rf.encode_shape is None:
+        return f.ident
+    return f.rf.encode_shape, f.wt, _check_key(f.range_check), _check_key(f.round_check), f.n
+
+
+def share(functions: list[CFunction], env: jinja2.Environment) -> Shared[CFunction]:
+    """Each function's decoder and encoder, printed by steps.j2 from its IR and shared by the functions
+    of the same IR (clike.share); a function whose IR no other has (a fragment) has its own, named
+    after it, and an expression's decoder is printed by the template from mdl.targets.c.expressions."""
     steps = env.get_template("c/templates/steps.j2").module
     decoder = SharedRendering(steps.decoder)  # type: ignore[attr-defined]
     encoder = SharedRendering(steps.encoder)  # type: ignore[attr-defined]
-    decoding: dict[object, list[CFunction]] = {}
-    encoding: dict[object, list[CFunction]] = {}
-    for f in functions:
-        rf = f.rf
-        key: object
-        if f.decode is not None:
-            f.decoder = f.ident
-            if f.expr is None:
-                key = (rf.decode_shape, f.t, f.n, f.text_size, f.nullable) if rf.decode_shape is not None else f.ident
-            else:  # its statements name its registers and parameters by position only
-                key = ("expression", tuple(f.expr.body()), f.n, f.t, tuple(d.param_type for d in f.deps))
-            decoding.setdefault(key, []).append(f)
-        if f.encode is not None:
-            f.encoder = f.ident
-            key = (rf.encode_shape, f.wt, _check_key(f.range_check), _check_key(f.round_check), f.n) \
-                if rf.encode_shape is not None else f.ident
-            encoding.setdefault(key, []).append(f)
-    for group in decoding.values():  # printed once per group: its first function's
-        f = group[0]
-        if f.expr is None:  # an expression's is printed by the template from its statements
-            f.decode_text = decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment)
-    for group in encoding.values():
-        f = group[0]
-        f.encode_text = encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment)
-    out = Shared()
-    for group in decoding.values():
-        if len(group) > 1:
-            first = group[0]
-            d = SharedCode(len(out.decoders), first.t, first.decode_text, first.fn.name, len(group),
-                           proto=first if first.expr is not None else None)
-            out.decoders.append(d)
-            one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
-            d.reads = one_run[0] if len(one_run) > 1 else None
-            for f in group:
-                f.decoder, f.decode_text = str(d.k), ""
-            for f in one_run if d.reads is not None else ():
-                f.reader = d.k
-    writers: dict[tuple[int, bool], list[CFunction]] = {}
-    for group in encoding.values():
-        if len(group) > 1:
-            first = group[0]
-            e = SharedCode(len(out.encoders), first.wt, first.encode_text, first.fn.name, len(group))
-            out.encoders.append(e)
-            for f in group:
-                f.encoder, f.encode_text = str(e.k), ""
-                if len(f.runs) == 1:
-                    writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
-    for group in writers.values():
-        if len(group) > 1:
-            w = SharedWriter(len(out.writers), group[0])
-            out.writers.append(w)
-            for f in group:
-                f.writer = w.j
-    return out
+    return clike.share(functions, Printing(
+        _decode_key, _encode_key,
+        lambda f: decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment) if f.expr is None else "",
+        lambda f: encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment),
+        lambda f: f.expr is not None))
 
 
 def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:

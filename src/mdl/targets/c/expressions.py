@@ -13,28 +13,24 @@ known when the driver is generated).
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from functools import cache
 from pathlib import Path
 
-from mdl.lang.cfrag.cemit import float_literal
-from mdl.lang.expr.lower import Lowered, Op
+from mdl.lang.expr.lower import Lowered
+from mdl.lang.expr.ops import Op, OpKind, printer
 from mdl.model.layout import MAX_REGISTERS
-from mdl.targets.templating import c_int64, ctext
+from mdl.targets.templating import RuntimePart, c_int64, ctext, double_literal, pick
 
 RUNTIME_SOURCE = Path(__file__).resolve().parent / "runtime" / "expr.c"
+_NAME = re.compile(r"\bx_\w+\b")
 C_TYPES = {"long": "int64_t", "double": "double", "string": "char", "bool": "bool", "list": "struct {stem}_list"}
 LONG_TEXT = 20  # -9223372036854775808
 DOUBLE_TEXT = 26  # Java's Double.toString, at most -1.2345678901234567E-308
 MAX_LIST_BITS = 16 * MAX_REGISTERS
-_REGISTER_TEXT: dict[str, Callable[[int], int]] = {
-    "hexstring": lambda n: 10 * n - 1, "utf8": lambda n: 6 * n, "eui48": lambda n: 17, "ipv4addr": lambda n: 15,
-    "ipv6addr": lambda n: 5 * n - 1}
-_INTS = {"int16": True, "uint16": False, "int32": True, "uint32": False, "int64": True, "uint64": False}
-
-
-def _double(value: float) -> str:
-    return float_literal(float(value), "double") if value >= 0 else f"(-{float_literal(-float(value), 'double')})"
+_REGISTER_TEXT: dict[OpKind, Callable[[int], int]] = {
+    OpKind.HEXSTRING: lambda n: 10 * n - 1, OpKind.UTF8: lambda n: 6 * n, OpKind.EUI48: lambda n: 17,
+    OpKind.IPV4ADDR: lambda n: 15, OpKind.IPV6ADDR: lambda n: 5 * n - 1}
 
 
 def _texts(labels: list[str], tmp: str) -> tuple[list[str], str]:
@@ -87,13 +83,13 @@ class CExpression:
             return 2 + sum(len(label.encode()) + 2 for label in _labels(d.get("mapping", {}), 16 * d["count"]))
         if op.type != "string":
             return 0
-        if op.kind == "lit":
+        if op.kind is OpKind.LIT:
             return len(str(d["value"]).encode("utf-8"))
-        if op.kind == "label":
+        if op.kind is OpKind.LABEL:
             return max(len(x.encode("utf-8")) for x in d["labels"])
-        if op.kind == "enum":
+        if op.kind is OpKind.ENUM:
             return max([len(v.encode("utf-8")) for v in d["mapping"].values()] + [21 + 10 * d["count"] - 1])
-        if op.kind == "concat":
+        if op.kind is OpKind.CONCAT:
             sizes = {"long": LONG_TEXT, "double": DOUBLE_TEXT, "bool": 5}
             return sum(caps[a] if t in ("string", "list") else sizes[t]
                        for a, t in zip(op.args, d["types"], strict=True))
@@ -120,66 +116,10 @@ class CExpression:
                         "*has = true;", "return 0;"]
 
     def _lines(self, op: Op, caps: dict[str, int]) -> list[str]:
-        t, d = op.tmp, op.data
-        a = op.args[0] if op.args else ""
-        b = op.args[1] if len(op.args) > 1 else ""
-        if op.kind == "lit":
-            v = d["value"]
-            if op.type == "string":
-                decl, text = ctext(str(v), f"{t}_text", "c")
-                return [*decl, f"char {t}[{caps[t] + 1}];", f"const bool {t}_has = true;",
-                        f"memcpy({t}, {text}, {caps[t] + 1}U);"]
-            text = ("true" if v else "false") if op.type == "bool" else c_int64(int(v)) if op.type == "long" \
-                else _double(float(v))
-            return [f"const {C_TYPES[op.type]} {t} = {text};", f"const bool {t}_has = true;"]
-        if op.kind == "regs":
-            present = " && ".join(f"present[{i}]" for i in d["index"])
-            return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
-                    f"const bool {t}_has = {present};"]
-        if op.kind == "const":
-            return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"0x{w:04X}U" for w in d["words"]) + "};",
-                    f"const bool {t}_has = true;"]
-        if op.kind in ("swapbytes", "swapendian"):
-            return [f"uint16_t {t}[{d['count']}];", f"const bool {t}_has = {a}_has;",
-                    f"x_{op.kind}({a}, {t}, {d['count']}U);"]
-        decl = self._declare(op, caps)
-        if op.kind == "concat":
-            lines = [*decl, f"{t}_has = true;", "{", "    size_t len = 0;"]
-            for x, pt in zip(op.args, d["types"], strict=True):
-                if pt == "string":
-                    lines.append(f"    if ({x}_has) {{ x_cat({t}, &len, {x}); }}")
-                elif pt == "list":
-                    sel = "->" if x.startswith("p") else "."
-                    lines.append(f"    if ({x}_has) {{ x_cat_list({t}, &len, {x}{sel}items, {x}{sel}count); }}")
-                else:
-                    lines.append(f"    if ({x}_has) {{ x_cat_{pt}({t}, &len, {x}); }}")
-            return lines + ["}"]
-        if op.kind == "bit":
-            return [*decl, f"if ({a}_has) {{ {t} = {a}[0] != 0U; {t}_has = true; }}"]
-        if op.kind == "label":
-            false_text, true_text = d["labels"]
-            (f_decl, f), (tr_decl, tr) = ctext(false_text, f"{t}_f", "c"), ctext(true_text, f"{t}_t", "c")
-            return [*decl, *f_decl, *tr_decl, f"if ({a}_has) {{ x_copy({t}, {a} ? {tr} : {f}); {t}_has = true; }}"]
-        if op.kind == "todouble":
-            return [*decl, f"if ({a}_has) {{ {t} = (double){a}; {t}_has = true; }}"]
-        if op.kind == "neg":
-            expr = f"x_sub(0, {a})" if op.type == "long" else f"-{a}"
-            return [*decl, f"if ({a}_has) {{ {t} = {expr}; {t}_has = true; }}"]
-        if op.kind in ("arith", "div", "pow"):
-            if op.kind == "div":
-                expr = f"{a} / {b}"
-            elif op.kind == "pow":
-                expr = f"pow({a}, {b})"
-            elif op.type == "long":
-                expr = f"x_{ {'+': 'add', '-': 'sub', '*': 'mul'}[d['op']]}({a}, {b})"
-            else:
-                expr = f"{a} {d['op']} {b}"
-            return [*decl, f"if ({a}_has && {b}_has) {{ {t} = {expr}; {t}_has = true; }}"]
-        guard = f"{a}_has" + "".join(
-            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"])
-        return [*decl, f"if ({guard}) {{", *("    " + line for line in self._register_function(op)), "}"]
+        return PRINTER[op.kind](self, op, caps)
 
-    def _declare(self, op: Op, caps: dict[str, int]) -> list[str]:
+    def declare(self, op: Op, caps: dict[str, int]) -> list[str]:
+        """`tN` and `tN_has` (false) declared, for an operation that sets them where its operands are there."""
         t = op.tmp
         if op.type == "string":
             return [f"char {t}[{caps[t] + 1}] = {{0}};", f"bool {t}_has = false;"]
@@ -188,51 +128,171 @@ class CExpression:
         init = {"long": "0", "double": "0.0", "bool": "false"}[op.type]
         return [f"{C_TYPES[op.type]} {t} = {init};", f"bool {t}_has = false;"]
 
-    @staticmethod
-    def _register_function(op: Op) -> list[str]:
+
+Print = Callable[[CExpression, Op, dict[str, int]], list[str]]
+
+
+def _lit(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t, v = op.tmp, op.data["value"]
+    if op.type == "string":
+        decl, text = ctext(str(v), f"{t}_text", "c")
+        return [*decl, f"char {t}[{caps[t] + 1}];", f"const bool {t}_has = true;",
+                f"memcpy({t}, {text}, {caps[t] + 1}U);"]
+    text = ("true" if v else "false") if op.type == "bool" else c_int64(int(v)) if op.type == "long" \
+        else double_literal(float(v), parenthesized=True)
+    return [f"const {C_TYPES[op.type]} {t} = {text};", f"const bool {t}_has = true;"]
+
+
+def _regs(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t, d = op.tmp, op.data
+    present = " && ".join(f"present[{i}]" for i in d["index"])
+    return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
+            f"const bool {t}_has = {present};"]
+
+
+def _const(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t, d = op.tmp, op.data
+    return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"0x{w:04X}U" for w in d["words"]) + "};",
+            f"const bool {t}_has = true;"]
+
+
+def _swap(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t, a, n = op.tmp, op.args[0], op.data["count"]
+    return [f"uint16_t {t}[{n}];", f"const bool {t}_has = {a}_has;", f"x_{op.kind.value}({a}, {t}, {n}U);"]
+
+
+def _concat(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t = op.tmp
+    lines = [*e.declare(op, caps), f"{t}_has = true;", "{", "    size_t len = 0;"]
+    for x, pt in zip(op.args, op.data["types"], strict=True):
+        if pt == "string":
+            lines.append(f"    if ({x}_has) {{ x_cat({t}, &len, {x}); }}")
+        elif pt == "list":
+            sel = "->" if x.startswith("p") else "."
+            lines.append(f"    if ({x}_has) {{ x_cat_list({t}, &len, {x}{sel}items, {x}{sel}count); }}")
+        else:
+            lines.append(f"    if ({x}_has) {{ x_cat_{pt}({t}, &len, {x}); }}")
+    return lines + ["}"]
+
+
+def _label(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+    t, a = op.tmp, op.args[0]
+    false_text, true_text = op.data["labels"]
+    (f_decl, f), (tr_decl, tr) = ctext(false_text, f"{t}_f", "c"), ctext(true_text, f"{t}_t", "c")
+    return [*e.declare(op, caps), *f_decl, *tr_decl,
+            f"if ({a}_has) {{ x_copy({t}, {a} ? {tr} : {f}); {t}_has = true; }}"]
+
+
+def _unary(value: Callable[[Op, str], str]) -> Print:
+    """An operation of one argument `a`: `value(op, a)` where `a` is there."""
+    def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+        t, a = op.tmp, op.args[0]
+        return [*e.declare(op, caps), f"if ({a}_has) {{ {t} = {value(op, a)}; {t}_has = true; }}"]
+
+    return lines
+
+
+def _binary(value: Callable[[Op, str, str], str]) -> Print:
+    """An operation of two arguments: `value(op, a, b)` where both are there."""
+    def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
+        t, (a, b) = op.tmp, op.args
+        return [*e.declare(op, caps), f"if ({a}_has && {b}_has) {{ {t} = {value(op, a, b)}; {t}_has = true; }}"]
+
+    return lines
+
+
+def _arith(op: Op, a: str, b: str) -> str:
+    if op.type == "long":
+        return f"x_{ {'+': 'add', '-': 'sub', '*': 'mul'}[op.data['op']]}({a}, {b})"
+    return f"{a} {op.data['op']} {b}"
+
+
+def _register(body: Callable[[Op, str, str, int], list[str]]) -> Print:
+    """A register function: `body(op, t, a, count)` where its registers are there and none of its "not
+    implemented" values; it sets `t` (and `t_has`)."""
+    def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, a, d = op.tmp, op.args[0], op.data
-        n = d["count"]
-        if op.kind in _INTS:
-            return [f"{t}_has = x_int({a}, {n}U, {'true' if _INTS[op.kind] else 'false'}, &{t});"]
-        if op.kind in ("ieee754_32", "ieee754_64"):
-            return [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]
-        if op.kind == "bitsetbit":
-            return [f"{t} = x_bit({a}, {n}U, {d['bit']}U);", f"{t}_has = true;"]
-        if op.kind == "enum":
-            items = sorted(d["mapping"].items())
-            keys = ", ".join(c_int64(k) for k, _ in items) or "0"
-            decls, labels = _texts([v for _, v in items], t)
-            return [*decls, f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
-                    f"static const char *const labels[{max(len(items), 1)}] = {{{labels}}};",
-                    f"x_enum({a}, {n}U, keys, labels, {len(items)}U, {t});", f"{t}_has = true;"]
-        if op.kind == "bitset":
-            decls, labels = _texts(_labels(d["mapping"], 16 * n), t)
-            return [*decls, f"static const char *const labels[{16 * n}] = {{{labels}}};",
-                    f"x_bitset({a}, {n}U, labels, {t}.items, &{t}.count);", f"{t}_has = true;"]
-        return [f"x_{op.kind}({a}, {n}U, {t});", f"{t}_has = true;"]
+        guard = f"{a}_has" + "".join(
+            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"])
+        return [*e.declare(op, caps), f"if ({guard}) {{",
+                *("    " + line for line in body(op, t, a, d["count"])), "}"]
+
+    return lines
+
+
+def _int(signed: bool) -> Print:
+    return _register(lambda op, t, a, n: [f"{t}_has = x_int({a}, {n}U, {'true' if signed else 'false'}, &{t});"])
+
+
+def _call(op: Op, t: str, a: str, n: int) -> list[str]:
+    """x_<kind>(registers, count, out): a text."""
+    return [f"x_{op.kind.value}({a}, {n}U, {t});", f"{t}_has = true;"]
+
+
+def _enum(op: Op, t: str, a: str, n: int) -> list[str]:
+    items = sorted(op.data["mapping"].items())
+    keys = ", ".join(c_int64(k) for k, _ in items) or "0"
+    decls, labels = _texts([v for _, v in items], t)
+    return [*decls, f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
+            f"static const char *const labels[{max(len(items), 1)}] = {{{labels}}};",
+            f"x_enum({a}, {n}U, keys, labels, {len(items)}U, {t});", f"{t}_has = true;"]
+
+
+def _bitset(op: Op, t: str, a: str, n: int) -> list[str]:
+    decls, labels = _texts(_labels(op.data["mapping"], 16 * n), t)
+    return [*decls, f"static const char *const labels[{16 * n}] = {{{labels}}};",
+            f"x_bitset({a}, {n}U, labels, {t}.items, &{t}.count);", f"{t}_has = true;"]
+
+
+# the statements of each operation kind (mdl.lang.expr.ops says what each computes)
+PRINTER: Mapping[OpKind, Print] = printer({
+    OpKind.LIT: _lit,
+    OpKind.REGS: _regs,
+    OpKind.CONST: _const,
+    OpKind.SWAPBYTES: _swap,
+    OpKind.SWAPENDIAN: _swap,
+    OpKind.CONCAT: _concat,
+    OpKind.BIT: _unary(lambda op, a: f"{a}[0] != 0U"),
+    OpKind.LABEL: _label,
+    OpKind.TODOUBLE: _unary(lambda op, a: f"(double){a}"),
+    OpKind.NEG: _unary(lambda op, a: f"x_sub(0, {a})" if op.type == "long" else f"-{a}"),
+    OpKind.ARITH: _binary(_arith),
+    OpKind.DIV: _binary(lambda op, a, b: f"{a} / {b}"),
+    OpKind.POW: _binary(lambda op, a, b: f"pow({a}, {b})"),
+    OpKind.INT16: _int(True),
+    OpKind.UINT16: _int(False),
+    OpKind.INT32: _int(True),
+    OpKind.UINT32: _int(False),
+    OpKind.INT64: _int(True),
+    OpKind.UINT64: _int(False),
+    OpKind.IEEE754_32: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
+    OpKind.IEEE754_64: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
+    OpKind.UTF8: _register(_call),
+    OpKind.HEXSTRING: _register(_call),
+    OpKind.EUI48: _register(_call),
+    OpKind.IPV4ADDR: _register(_call),
+    OpKind.IPV6ADDR: _register(_call),
+    OpKind.ENUM: _register(_enum),
+    OpKind.BITSET: _register(_bitset),
+    OpKind.BITSETBIT: _register(lambda op, t, a, n: [f"{t} = x_bit({a}, {n}U, {op.data['bit']}U);",
+                                                     f"{t}_has = true;"]),
+})
 
 
 @cache
-def _parts() -> dict[str, str]:
-    """Runtime function (or type) name -> its source, in expr.c's order."""
+def _parts() -> list[RuntimePart]:
+    """The runtime's functions (and types), in expr.c's order: each block between blank lines."""
     text = RUNTIME_SOURCE.read_text(encoding="utf-8")
-    out: dict[str, str] = {}
+    out = []
     for block in text.split("\n\n")[1:]:
         m = re.search(r"^static [\w ]+?\b(x_\w+)\(", block, re.M)
         assert m is not None, block
-        out[m.group(1)] = block.strip() + "\n"
+        out.append(RuntimePart((m.group(1),), block.strip() + "\n", frozenset(_NAME.findall(block))))
     return out
 
 
 def runtime(exprs: list[CExpression]) -> str:
-    """The runtime parts the expressions call, and those they call in turn, in expr.c's order."""
-    parts = _parts()
+    """The runtime parts the expressions call, and those they call in turn, in expr.c's order
+    (templating.pick)."""
     code = "\n".join({line for e in exprs for line in e.body()})  # each distinct line scanned once
-    wanted: set[str] = set()
-    todo = [code]
-    while todo:
-        for name in re.findall(r"\bx_\w+\b", todo.pop()):
-            if name in parts and name not in wanted:
-                wanted.add(name)
-                todo.append(parts[name])
-    return "\n".join(src for name, src in parts.items() if name in wanted)
+    return "\n".join(part.source for part in pick(_parts(), _NAME.findall(code)))

@@ -11,8 +11,7 @@ drivers get them), expressions by mdl.targets.cpp.expressions; text from the inp
 
 from __future__ import annotations
 
-import math
-import re
+from collections.abc import Hashable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,10 +23,12 @@ from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.fields import plain_type
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.targets import clike
 from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
+from mdl.targets.clike import Printing, Shared, int_bounds
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
-from mdl.targets.templating import SharedRendering, ctext, generation_macro
+from mdl.targets.templating import SharedRendering, ctext, double_literal, generation_macro
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
@@ -52,46 +53,25 @@ def value_type(vt: ValueType) -> str:
     return {"string": "std::string", "bool": "bool"}[vt.kind]
 
 
-def cpp_number(x: float) -> str:
-    text = repr(float(x))
-    if "inf" in text or "nan" in text:
-        raise ValueError(f"{x} cannot be a C++ literal")  # resolve refuses non-finite numbers before this
-    return text if any(c in text for c in ".e") else text + ".0"
-
-
-def _int_type_range(t: str) -> tuple[int, int] | None:
-    """The values of an integer (or bool) value type, or None for any other type."""
-    if t == "bool":
-        return 0, 1
-    m = re.fullmatch(r"(u?)int(\d+)_t", t)
-    if m is None:
-        return None
-    bits = int(m.group(2))
-    return (0, (1 << bits) - 1) if m.group(1) else (-(1 << (bits - 1)), (1 << (bits - 1)) - 1)
-
-
 def range_tests(step: ir.CheckRange | None, t: str) -> list[str] | None:
     """The conditions that refuse a value: NaN, below minimum, above maximum; None if no value is
     within minimum..maximum. An integer is compared with the integers nearest inside the bounds,
-    and a check that no value of its type can fail is left out."""
+    and a check that no value of its type can fail is left out (clike.int_bounds)."""
     if step is None:
         return []  # without bounds NaN is written as the float it is, as every target does
     tests = ["std::isnan(value)"] if t in ("double", "float") else []
-    values = _int_type_range(t)
-    for bound, op in ((step.minimum, "<"), (step.maximum, ">")):
-        if bound is None or t == "std::string":
-            continue
-        if values is None:
-            tests.append(f"value {op} {cpp_number(bound)}")
-            continue
-        edge = math.ceil(bound) if op == "<" else math.floor(bound)
-        if edge > values[1] if op == "<" else edge < values[0]:
-            return None
-        if edge > values[0] if op == "<" else edge < values[1]:
-            value = "static_cast<int>(value)" if t == "bool" else "value"
-            literal = {"int64_t": f"INT64_C({edge})", "uint64_t": f"UINT64_C({edge})", "uint32_t": f"{edge}U"}
-            tests.append(f"{value} {op} {literal.get(t, str(edge))}")
-    return tests
+    if t == "std::string":
+        return tests
+    bounds = int_bounds(step.minimum, step.maximum, t)
+    if bounds is None:
+        return tests + [f"value {op} {double_literal(float(bound))}"
+                        for bound, op in ((step.minimum, "<"), (step.maximum, ">")) if bound is not None]
+    if bounds.never:
+        return None
+    value = "static_cast<int>(value)" if t == "bool" else "value"
+    literal = {"int64_t": "INT64_C({})", "uint64_t": "UINT64_C({})", "uint32_t": "{}U"}.get(t, "{}")
+    return tests + [f"{value} {op} {literal.format(edge)}"
+                    for edge, op in ((bounds.low, "<"), (bounds.high, ">")) if edge is not None]
 
 
 # ---- the template's view of the device ----
@@ -252,120 +232,41 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
 
 def environment() -> jinja2.Environment:
     env = render_environment()
-    env.filters["cppfloat"] = cpp_number
+    env.filters["cppfloat"] = lambda x: double_literal(float(x))  # an int bound too in its shortest digits
     return env
 
 
-@dataclass
-class SharedDecoder:
-    """`decode_<k>`: the decoder of every function of the same IR (decode shape, registers, type),
-    or of the same expression (the same statements, registers, parameter and value types)."""
-
-    k: int
-    rt: str
-    n: int
-    text: str  # its body (templates/ops.j2)
-    first: str  # the name of the first function it decodes
-    uses: int
-    reads: bool = False  # whether `read_<k>_` reads one run of registers into it
-    proto: CppFunction | None = None  # an expression's: its first function, whose parameters it takes
+def _decode_key(f: CppFunction) -> Hashable | None:
+    if not f.readable:
+        return None
+    if f.resolved.decode_shape is not None:
+        return f.resolved.decode_shape, f.n, f.rt
+    if f.expr:  # its statements name its registers and parameters by position only
+        return "expression", tuple(f.decode_lines), f.n, f.t, f.rt, tuple(f.dep_types)
+    return f.ident
 
 
-@dataclass
-class SharedEncoder:
-    """`encode_<k>`: the encoder of every function of the same IR (encode shape, bounds, registers, type)."""
-
-    k: int
-    t: str
-    n: int
-    text: str
-    first: str
-    uses: int
+def _encode_key(f: CppFunction) -> Hashable | None:
+    if not f.writable:
+        return None
+    if f.resolved.encode_shape is None:
+        return f.ident
+    return f.resolved.encode_shape, tuple(f.range_tests) if f.range_tests is not None else None, f.int_bits, f.t, f.n
 
 
-@dataclass
-class SharedWriter:
-    """`write_<j>_`: encodes a value with `encode_<encoder>` and writes one run of registers."""
-
-    j: int
-    encoder: int
-    t: str
-    n: int
-    multiple: bool  # with write_multiple_ (function 15/16 only)
-
-
-@dataclass
-class Shared:
-    decoders: list[SharedDecoder] = field(default_factory=list)
-    encoders: list[SharedEncoder] = field(default_factory=list)
-    writers: list[SharedWriter] = field(default_factory=list)
-
-
-def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared:
-    """Each function's decoder and encoder, printed by ops.j2 from its IR. Functions of the same IR
-    share one decoder and one encoder (and those that read or write one run of registers, one
-    member doing it), so that a device of 10,000 functions compiles some ten of each and every
-    read_<name> and write_<name> is one call; a function whose IR no other has (a fragment, an
-    expression) has its own, named after it."""
+def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared[CppFunction]:
+    """Each function's decoder and encoder, printed by ops.j2 from its IR and shared by the functions
+    of the same IR (clike.share); a function whose IR no other has (a fragment, an expression) has
+    its own, named after it."""
     ops = env.get_template("cpp/templates/ops.j2").module
     decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
     encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
-    decoding: dict[object, list[CppFunction]] = {}
-    encoding: dict[object, list[CppFunction]] = {}
-    for f in functions:
-        rf = f.resolved
-        key: object
-        if f.readable:
-            if rf.decode_shape is not None:
-                key = (rf.decode_shape, f.n, f.rt)
-            elif f.expr:  # its statements name its registers and parameters by position only
-                key = ("expression", tuple(f.decode_lines), f.n, f.t, f.rt, tuple(f.dep_types))
-            else:
-                key = f.ident
-            decoding.setdefault(key, []).append(f)
-            f.decoder = f.ident
-        if f.writable:
-            tests = tuple(f.range_tests) if f.range_tests is not None else None
-            key = (rf.encode_shape, tests, f.int_bits, f.t, f.n) if rf.encode_shape is not None else f.ident
-            encoding.setdefault(key, []).append(f)
-            f.encoder = f.ident
-    for group in decoding.values():  # printed once per group: its first function's
-        f = group[0]
-        f.decode_text = decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip()
-    for group in encoding.values():
-        f = group[0]
-        f.encode_text = encode_body(f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines,
-                                    f.int_bits).rstrip()
-    out = Shared()
-    for group in decoding.values():
-        if len(group) > 1:
-            first = group[0]
-            d = SharedDecoder(len(out.decoders), first.rt, first.n, first.decode_text, first.fn.name, len(group),
-                              proto=first if first.expr else None)
-            out.decoders.append(d)
-            one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
-            d.reads = len(one_run) > 1
-            for f in group:
-                f.decoder, f.decode_text = str(d.k), ""
-            for f in one_run if d.reads else ():
-                f.reader = d.k
-    writers: dict[tuple[int, bool], list[CppFunction]] = {}
-    for group in encoding.values():
-        if len(group) > 1:
-            first = group[0]
-            e = SharedEncoder(len(out.encoders), first.t, first.n, first.encode_text, first.fn.name, len(group))
-            out.encoders.append(e)
-            for f in group:
-                f.encoder, f.encode_text = str(e.k), ""
-                if len(f.runs) == 1:
-                    writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
-    for (k, multiple), group in writers.items():
-        if len(group) > 1:
-            w = SharedWriter(len(out.writers), k, group[0].t, group[0].n, multiple)
-            out.writers.append(w)
-            for f in group:
-                f.writer = w.j
-    return out
+    return clike.share(functions, Printing(
+        _decode_key, _encode_key,
+        lambda f: decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip(),
+        lambda f: encode_body(f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines,
+                              f.int_bits).rstrip(),
+        lambda f: f.expr))
 
 
 def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:

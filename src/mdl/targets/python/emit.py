@@ -10,7 +10,6 @@ imports the module gets.
 from __future__ import annotations
 
 import ast
-import math
 import re
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -26,7 +25,7 @@ from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
-from mdl.targets.templating import SharedRendering, pycomment, pyrepr
+from mdl.targets.templating import RuntimePart, SharedRendering, double_literal, pick, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
@@ -71,29 +70,22 @@ def _loaded(lines: list[str]) -> set[str]:
 
 
 @lru_cache(maxsize=1)
-def runtime_helpers() -> dict[str, tuple[str, frozenset[str]]]:
-    """Fragments' and expressions' helper name -> (its source, the names it uses), in file order."""
-    out = {}
+def runtime_helpers() -> list[RuntimePart]:
+    """Fragments' and expressions' helpers (each with the names it uses), in file order."""
+    out = []
     lines = RUNTIME_SOURCE.splitlines(keepends=True)
     for node in ast.parse(RUNTIME_SOURCE).body:
         if isinstance(node, ast.FunctionDef):  # top-level: whole lines, from its `def` (helpers have no decorators)
             source = "".join(lines[node.lineno - 1:node.end_lineno]).rstrip("\n")
             names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
-            out[node.name] = (source, frozenset(names))
+            out.append(RuntimePart((node.name,), source, frozenset(names)))
     return out
 
 
 def helpers_for(names: set[str]) -> list[str]:
-    """Sources of the runtime helpers `names` call, and of those they call in turn, in file order."""
-    helpers = runtime_helpers()
-    wanted: set[str] = set()
-    todo = [name for name in names if name in helpers]
-    while todo:
-        name = todo.pop()
-        if name not in wanted:
-            wanted.add(name)
-            todo += [n for n in helpers[name][1] if n in helpers]
-    return [source for name, (source, _) in helpers.items() if name in wanted]
+    """Sources of the runtime helpers `names` call, and of those they call in turn, in file order
+    (templating.pick)."""
+    return [part.source for part in pick(runtime_helpers(), names)]
 
 
 def import_lines(names: set[str]) -> list[str]:
@@ -222,7 +214,7 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
                   idents: dict[str, str]) -> FunctionCode:
     fn, codec = f.fn, f.codec
     deps = f.deps
-    if fn.compiled is not None:
+    if f.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
     elif deps:  # scaled by another function's value
         params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
@@ -279,13 +271,6 @@ def print_bodies(functions: list[FunctionCode], env: jinja2.Environment) -> None
             code.encode_body = body
 
 
-def _pyfloat(x: float) -> str:
-    """A float literal that reads back as the same double."""
-    if not math.isfinite(x):
-        raise ValueError(f"{x} cannot be a literal")  # resolve refuses non-finite numbers before this
-    return repr(float(x))
-
-
 def _tuple(items: list[str]) -> str:
     """A Python tuple literal of the items (a one-item tuple with its comma)."""
     return "(" + ", ".join(items) + ("," if len(items) == 1 else "") + ")"
@@ -298,7 +283,7 @@ def _hexpatterns(patterns: tuple[tuple[int, ...], ...]) -> str:
 
 def environment() -> jinja2.Environment:
     env = render_environment()
-    env.filters["pyfloat"] = _pyfloat
+    env.filters["pyfloat"] = lambda x: double_literal(float(x))  # reads back as the same double
     env.filters["hexpatterns"] = _hexpatterns
     return env
 
@@ -326,7 +311,7 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "functions": functions, "infos": infos, "readable": readable, "class_name": class_name,
         "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.name for f in readable]),
         "groups": _read_plan(resolved), "buffer_size": resolved.buffer_size, "imports": import_lines(used),
-        "helpers": helpers, "uses": used, "plain": [f for f in readable if f.fn.compiled is None],
+        "helpers": helpers, "uses": used, "plain": [f for f in readable if f.resolved.compiled is None],
         "exports": sorted(exports), "writes": any(f.encode_body for f in functions),
         "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "mask_writes": any(f.encode_body and f.merge and f.merge.mask_write for f in functions),  # FC22
