@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 
-from mdl import __version__, exports, targets
+from mdl import __version__, engines, formats, targets
 from mdl.device.connection import Connection, connection_options
 from mdl.diagnostics import EXIT_INVALID, Diagnostic, MdlError
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
@@ -175,7 +175,7 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
       mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
-    from mdl.sources.csvmap.convert import run_csv2xml
+    from mdl.sources.csvmap.command import run_csv2xml
     from mdl.sources.csvmap.target import output_target
 
     _stdin_once([source] + ([ini] if ini else []))
@@ -195,8 +195,8 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 
     \b
     Example:
-      mdl validate examples/temco_tstat/temco_tstat.xml tstat.xml
-      mdl validate tstat.xml --schema 1.0
+      mdl validate examples/temco_tstat/temco_tstat.xml examples/discovery/em100.xml
+      mdl validate examples/temco_tstat/temco_tstat.xml --schema 1.0
     """
     from mdl.sources.mdlxml import validate_file
 
@@ -290,7 +290,7 @@ def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...],
 
     \b
     On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
-      $ mdl sim examples/temco_tstat/temco_tstat.xml --serial /dev/pts/3 --baud 9600 --parity E
+      mdl sim examples/temco_tstat/temco_tstat.xml --serial /dev/pts/3 --baud 9600
     """
     from mdl.device import sim as simulator
     from mdl.device.scenarios import find_scenario
@@ -300,7 +300,7 @@ def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...],
     raw_files = _by_position("--registers", registers, len(files))
     scenario_ids = _by_position("--scenario", scenarios, len(files))
     loaded = {path: _resolved(path) for path in dict.fromkeys(files)}
-    devices = [simulator.Registers(loaded[path].device, permissive) for path in files]
+    devices = [simulator.Registers(loaded[path], permissive) for path in files]
     for regs, raw, scenario in zip(devices, raw_files, scenario_ids, strict=True):
         if scenario is not None:
             regs.load_scenario(find_scenario(regs.device, scenario))
@@ -346,7 +346,7 @@ unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, sho
 
 @main.command(name="import")
 @click.argument("file", type=INPUT)
-@click.option("--from", "fmt", type=click.Choice(["xif", "wise", "schema"], case_sensitive=False),
+@click.option("--from", "fmt", type=click.Choice(formats.names(), case_sensitive=False),
               help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
                    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
@@ -363,11 +363,9 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """
     from mdl.sources.loading import import_format
     from mdl.sources.mdlxml import device_to_xml
-    from mdl.sources.toolkit import with_registers
 
     fmt = fmt or import_format(file)
-    resolved = _resolved(file, fmt)
-    xml = device_to_xml(with_registers(resolved) if fmt == "schema" else resolved.device)
+    xml = device_to_xml(formats.by_name(fmt).to_mdl(_resolved(file, fmt)))
     _emit_text(xml, output)
 
 
@@ -384,8 +382,8 @@ def _emit_text(text: str, output: Path | None) -> None:
 @main.command(name="export")
 @click.argument("file", type=INPUT)
 @click.option("--to", "fmt", required=True,
-              type=click.Choice(exports.names(), case_sensitive=False),
-              help="Output format: " + "; ".join(f"{k}: {v}" for k, v in exports.summaries().items()) + ".")
+              type=click.Choice(list(engines.outputs()), case_sensitive=False),
+              help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in engines.outputs().items()) + ".")
 @click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
               help="Output file (default: stdout); a folder for volttron.")
 @connection_options(optional=True)
@@ -410,12 +408,13 @@ def export_(file: Path, fmt: str, output: Path | None, connection: Connection | 
       mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
     """
     from mdl.diagnostics import error
+    from mdl.exchange.export import DEFAULT_INTERVAL, Settings
     from mdl.fileio import all_or_none, write_atomic
 
-    if fmt in exports.FOLDER_FORMATS and (output is None or str(output) == STDIO_ARG):
+    if engines.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
-    settings = exports.Settings(connection, unit, interval or exports.DEFAULT_INTERVAL, interval is not None)
-    result = exports.export(_resolved(file), fmt, settings)
+    settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None)
+    result = engines.export(_resolved(file), fmt, settings)
     _report_warnings(result.warnings, file)
     if result.text is not None:
         _emit_text(result.text, output)
@@ -486,7 +485,7 @@ def test_(files: tuple[Path, ...]) -> None:
 
     \b
     Example:
-      mdl test examples/toolkit_heat_pump/heat_pump.yaml heat_pump.xml
+      mdl test examples/toolkit_heat_pump/heat_pump.yaml examples/toolkit_inverter/inverter.yaml
     """
     from mdl.device.evaluate import Evaluator
     from mdl.device.scenarios import run_scenario
@@ -554,7 +553,11 @@ def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, 
       mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5023 --framer rtu room_temperature
 
     \b
-    On a serial line, and as a logger to stop with Ctrl-C:
+    The sim on a pseudo terminal pair (mdl sim --help), from the pair's other end:
+      mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/pts/4 --baud 9600 room_temperature
+
+    \b
+    On a real serial line, and as a logger to stop with Ctrl-C:
       $ mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --baud 9600 --parity E --unit 3
       $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 1 --format csv > log.csv
     """
@@ -564,11 +567,12 @@ def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, 
 
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
-    device = _resolved(file).device
+    resolved = _resolved(file)  # the one resolve: the session reads this
+    device = resolved.device
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
     if interval is not None:
-        sys.exit(poll(Session(device, connection, unit), functions, fmt, interval, count))
-    with Session(device, connection, unit) as session:
+        sys.exit(poll(Session(resolved, connection, unit), functions, fmt, interval, count))
+    with Session(resolved, connection, unit) as session:
         values = session.read(functions)
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
@@ -595,7 +599,8 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     from mdl.diagnostics import error
     from mdl.values import codec
 
-    device = _resolved(file).device
+    resolved = _resolved(file)
+    device = resolved.device
     todo = []
     for item in assignments:
         name, sep, text = item.partition("=")
@@ -608,6 +613,6 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
         except (codec.CodecError, ValueError, ZeroDivisionError) as exc:
             raise error(f"{fn.name}={text}: {exc}") from None
         todo.append((fn, value))
-    with Session(device, connection, unit) as session:
+    with Session(resolved, connection, unit) as session:
         for fn, value in todo:
             session.write(fn, value)

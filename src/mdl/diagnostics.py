@@ -8,8 +8,9 @@ from __future__ import annotations
 import re
 import unicodedata
 import weakref
+from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import partial
 from typing import TYPE_CHECKING, Literal
 
@@ -70,6 +71,163 @@ class DeviceError(MdlError):
     def __init__(self, message: str, code: int | None = None):
         super().__init__(message, exit_code=EXIT_DEVICE)
         self.code = code
+
+
+SHOWN_EACH = 3  # messages of one kind said in full before the rest are summed up
+SHOWN_LINES = 3  # lines a summary names
+_VARYING = re.compile(r"'[^']*'|[0-9]+")  # what differs between two messages of one kind
+
+
+def message_kind(message: str) -> str:
+    """A message's kind when its reader gives none: the text with each quoted word and each number as
+    `#` (`[AI] 'x' on line 7` and `[AI] 'y' on line 9` are one kind)."""
+    return _VARYING.sub("#", message)
+
+
+def _line_order(d: Diagnostic) -> tuple[int, int]:
+    return d.line or 0, d.col or 0
+
+
+@dataclass
+class _Kind:
+    """Where one kind of message was seen: those said in full, how many in all, on how many rows (one
+    line twice in a row counts once) and lines for the summary (see Collector)."""
+
+    said: list[Diagnostic] = field(default_factory=list)
+    times: int = 0
+    rows: int = 0
+    lines: list[int | None] = field(default_factory=list)
+    last_line: int | None = None
+
+    def add_row(self, line: int | None, shown_lines: int) -> None:
+        self.times += 1
+        if self.rows and line == self.last_line:
+            return  # the same row again (two cells of one row count once)
+        self.rows += 1
+        self.last_line = line
+        if line is not None and len(self.lines) < shown_lines:
+            self.lines.append(line)
+
+    def where(self) -> str:
+        more = ", ..." if self.rows > len(self.lines) else ""
+        return f"line{'s' * (len(self.lines) > 1)} {', '.join(map(str, self.lines))}{more}"
+
+
+class Collector:
+    """The diagnostics of reading one input, bounded whatever the input holds: `error`, `warn` and
+    `note` (or `add` for a Diagnostic made elsewhere), then `diagnostics()` in file order.
+
+    A message may have a kind (a fixed text saying what happened, without the input's own words; or,
+    with `kind_of`, one derived from every message). Messages of one kind and severity seen up to
+    `shown_each` times are said each time; past that, either (the default) the kind is one message
+    `KIND on N rows (first at lines a, b, c, ...)` at its first place, or (`fold`) the first
+    `shown_each` are said and the next one ends with `; and N more like it (lines a, b, ...)`. Errors
+    past `max_errors` (None: no cap) are counted in one last error; one given `always` (why a reader
+    stopped) is said even then. With `notes_once`, a note whose text was said is not said again."""
+
+    def __init__(self, file: StrPath | None = None, *, shown_each: int = SHOWN_EACH, shown_lines: int = SHOWN_LINES,
+                 fold: bool = False, max_errors: int | None = None, kind_of: Callable[[str], str] | None = None,
+                 notes_once: bool = False) -> None:
+        self.file = str(file) if file else None
+        self.shown_each, self.shown_lines, self.fold = shown_each, shown_lines, fold
+        self.max_errors, self.kind_of, self.notes_once = max_errors, kind_of, notes_once
+        self.counts: Counter[str] = Counter()  # severity -> how many were reported (said or summed up)
+        self._said: list[tuple[tuple[str, str] | None, Diagnostic]] = []  # in order, with their kind
+        self._kinds: dict[tuple[str, str], _Kind] = {}  # (severity, kind) -> where it was seen
+        self._folded: list[tuple[str, str]] = []  # with fold: kinds in the order their last said one came
+        self._errors_said = 0
+        self._more_errors: _Kind | None = None  # the errors past max_errors
+        self._noted: set[str] = set()
+
+    @property
+    def failed(self) -> bool:
+        return self.counts["error"] > 0
+
+    def error(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
+              always: bool = False, file: str | None = None) -> None:
+        self.add(Diagnostic(file or self.file, line, col, message), kind=kind, always=always)
+
+    def warn(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
+             file: str | None = None) -> None:
+        self.add(Diagnostic(file or self.file, line, col, message, "warning"), kind=kind)
+
+    def note(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
+             file: str | None = None) -> None:
+        self.add(Diagnostic(file or self.file, line, col, message, "note"), kind=kind)
+
+    def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
+        """Record `diag`; whether it is, so far, one said in full (not dropped, capped or summed up)."""
+        if self.notes_once and diag.severity == "note":
+            if diag.message in self._noted:
+                return False
+            self._noted.add(diag.message)
+        self.counts[diag.severity] += 1
+        if diag.severity == "error" and not always and self.max_errors is not None \
+                and self._errors_said >= self.max_errors:
+            if self._more_errors is None:
+                self._more_errors = _Kind([diag])
+            self._more_errors.add_row(diag.line, self.shown_lines)
+            return False
+        self._errors_said += diag.severity == "error"
+        if kind is None and self.kind_of is not None:
+            kind = self.kind_of(diag.message)
+        if kind is None:
+            self._said.append((None, diag))
+            return True
+        key = (diag.severity, kind)
+        seen = self._kinds.setdefault(key, _Kind())
+        if not self.fold:
+            if len(seen.said) < self.shown_each:
+                seen.said.append(diag)
+            seen.add_row(diag.line, self.shown_lines)
+            return seen.times <= self.shown_each
+        seen.times += 1
+        if len(seen.said) < self.shown_each:
+            seen.said.append(diag)
+            self._said.append((key, diag))
+        elif len(seen.said) == self.shown_each:  # said, with the count of those after it if there are any
+            seen.said.append(diag)
+            self._folded.append(key)
+        else:
+            if len(seen.lines) < self.shown_lines:
+                seen.lines.append(diag.line)
+            return False
+        return True
+
+    def diagnostics(self, severity: str | None = None) -> list[Diagnostic]:
+        """Every message (of `severity`, if given) in file order, repeated kinds summed up as the class says."""
+        if self.fold:
+            out = [d for _, d in self._said] + [self._folded_one(self._kinds[key]) for key in self._folded]
+        else:
+            out = [d for key, d in self._said if key is None]
+            for (_, kind), seen in self._kinds.items():
+                out += seen.said if seen.times <= self.shown_each else [self._summary(kind, seen)]
+        out.sort(key=_line_order)
+        more = self._more_errors
+        if more is not None:
+            first, n = more.said[0], more.times
+            out.append(Diagnostic(first.file, first.line, first.col,
+                                  f"{n:,} more error{'s' * (n > 1)} not shown (first at {more.where()}): "
+                                  f"only the first {self.max_errors} are"))
+        return out if severity is None else [d for d in out if d.severity == severity]
+
+    @staticmethod
+    def _summary(kind: str, seen: _Kind) -> Diagnostic:
+        first = seen.said[0]
+        rows = f"{seen.rows:,} row{'s' * (seen.rows > 1)}"
+        return Diagnostic(first.file, first.line, first.col, f"{kind} on {rows} (first at {seen.where()})",
+                          first.severity)
+
+    def _folded_one(self, seen: _Kind) -> Diagnostic:
+        last = seen.said[-1]
+        more = seen.times - len(seen.said)
+        if not more:
+            return last
+        lines = ", ".join(str(line) for line in seen.lines if line)
+        etc = ", ..." if more > self.shown_lines else ""
+        where = f" (lines {lines}{etc})" if lines else ""
+        return Diagnostic(last.file, last.line, last.col, f"{last.message}; and {more:,} more like it{where}",
+                          last.severity)
 
 
 TextStyle = Literal["xml", "plain", "single", "double"]  # how raw source text maps to the parsed text

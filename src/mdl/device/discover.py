@@ -367,8 +367,7 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
     if connection.serial is not None and 0 in units:
         _say("unit 0 is the broadcast address on a serial line, which no device answers: not asked")
         units = [u for u in units if u != 0]
-    device = library[0][1] if library else Device("discover", "")
-    session = Session(device, connection)
+    session = Session(library[0][1] if library else ResolvedDevice(Device("discover", ""), (), ()), connection)
     session.client.set_max_no_responses(len(units) + 3)  # silent units are the rule here, not a broken line
     results: list[UnitResult] = []
     with session:

@@ -27,8 +27,8 @@ class Evaluator:
     def __init__(self, resolved: ResolvedDevice):
         self.resolved = resolved
         self._compiled: dict[str, Compiled] = {f.name: compile_codec(f.name, f.codec) for f in resolved.functions}
-        self._expressions = {f.name: python_function(f.fn.compiled) for f in resolved.functions
-                             if f.fn.compiled is not None}
+        self._expressions = {f.name: python_function(f.compiled) for f in resolved.functions
+                             if f.compiled is not None}
         self._orders: dict[tuple[str, ...], list[str]] = {}
 
     def order(self, names: Iterable[str]) -> list[str]:

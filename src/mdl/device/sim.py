@@ -38,8 +38,8 @@ from mdl.device.connection import Connection
 from mdl.diagnostics import error, one_line
 from mdl.fileio import read_text
 from mdl.model import Device, Function, Scenario, Value
-from mdl.model.layout import layout
 from mdl.plan import TABLE_ORDER, defined_addresses
+from mdl.resolve import ResolvedDevice
 from mdl.values import codec, ir
 from mdl.values.build import encode_steps
 
@@ -83,29 +83,31 @@ def identification(device: Device) -> tuple[dict[int, bytes], list[str]]:
 
 
 class Registers:
-    """The four tables of a simulated device: address -> value for defined addresses only."""
+    """The four tables of a simulated device: address -> value for defined addresses only (the layouts
+    are the resolved device's: an expression's registers are known only there)."""
 
-    def __init__(self, device: Device, permissive: bool = False):
-        self.device = device
+    def __init__(self, resolved: ResolvedDevice, permissive: bool = False):
+        self.device = device = resolved.device
+        self.layouts = layouts = {f.name: f.layout for f in resolved.functions}
         self.permissive = permissive
         objects, self.identity_warnings = identification(device)
         # None: the device answers function 43 with exception 1, as one without identification does
         identity: Callable[..., ModbusDeviceIdentification] = ModbusDeviceIdentification  # pymodbus leaves it untyped
         self.identity = identity(info=objects) if objects else None
         self.missing: set[tuple[str, int]] = set()  # no value in a scenario: answer exception 2
-        self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device).items()}
+        self.tables = {t: dict.fromkeys(sorted(addrs), 0) for t, addrs in defined_addresses(device, layouts).items()}
         self.read_only: dict[str, set[int]] = {t: set() for t in TABLE_ORDER}
         for fn in device.functions:
             if not fn.writable:
-                lay = layout(fn)
+                lay = layouts[fn.name]
                 self.read_only[lay.table].update(lay.addresses)
         for fn in device.functions:  # an address shared with a writable function stays writable
             if fn.writable:
-                lay = layout(fn)
+                lay = layouts[fn.name]
                 self.read_only[lay.table].difference_update(lay.addresses)
         for fn in device.functions:  # the raw values the device starts with (SPEC 2.2 initial)
             if fn.initial is not None and fn.expression is None:
-                lay = layout(fn)
+                lay = layouts[fn.name]
                 self.put_each(lay.table, lay.addresses, fn.initial)
 
     def defined(self, table: str, address: int, count: int) -> bool:
@@ -170,11 +172,11 @@ class Registers:
         if fn.expression is not None:  # its registers are another function's, or none
             raise error(f"--set {fn.name}={text}: '{fn.name}' is an expression, computed from registers: "
                         "set the functions or registers it reads instead")
-        lay = layout(fn)
+        lay = self.layouts[fn.name]
         factor: tuple[Value, ...] = ()
         if fn.factor is not None:  # encoded with the factor the device holds now (as a driver reads it)
             found = next(f for f in self.device.functions if f.name == fn.factor)
-            at = layout(found)
+            at = self.layouts[found.name]
             factor = (codec.decode(found, self.get_each(at.table, at.addresses)),)
         try:
             regs = codec.encode(fn, codec.parse_value(fn, text), *factor)

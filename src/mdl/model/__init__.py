@@ -28,8 +28,9 @@ Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bi
 
 
 class CompiledExpression(Protocol):
-    """What the resolve step attaches to a function with an expression (mdl.lang.expr.fields.Compiled:
-    the model names only what it reads, so it does not depend on the expression language)."""
+    """A function's expression as the resolve step compiles it (mdl.lang.expr.fields.Compiled, kept on
+    mdl.resolve.ResolvedFunction, never on the model): the model names only what its layout reads,
+    so it does not depend on the expression language."""
 
     @property
     def lowered(self) -> Any: ...  # mdl.lang.expr.lower.Lowered
@@ -119,7 +120,6 @@ class Function:
     initial: list[int] | None = None  # raw register (or bit) values `mdl sim` starts with
     line: int | None = field(default=None, compare=False, repr=False)
     expression_line: int | None = field(default=None, compare=False, repr=False)
-    compiled: CompiledExpression | None = field(default=None, compare=False, repr=False)
 
     @property
     def eff_length(self) -> str:

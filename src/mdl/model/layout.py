@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
-from mdl.model import BIT_TABLES, Function
+from mdl.model import BIT_TABLES, CompiledExpression, Function
 
 MAX_REGISTERS = 125
 MAX_BITS = 2000
@@ -57,11 +57,13 @@ class Layout:
         return {"word": 16, "low": 8, "high": 8, "bit": 1}[self.unit]
 
 
-def layout(fn: Function) -> Layout:
+def layout(fn: Function, compiled: CompiledExpression | None = None) -> Layout:
+    """The function's layout; a function with an expression reads the registers of its `compiled`
+    expression (LayoutError without one: the expression has errors, or was not compiled)."""
     if fn.expression is not None:
-        if fn.compiled is None:
+        if compiled is None:
             raise LayoutError("the expression has errors")
-        lowered = fn.compiled.lowered
+        lowered = compiled.lowered
         table = lowered.table or "holding"
         unit: Unit = "bit" if table in BIT_TABLES else "word"
         return Layout(table, tuple(lowered.addresses), unit, "expr", 0, False, "big", "big")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 from mdl.diagnostics import Diagnostic, MdlError
+from mdl.lang.expr.fields import Compiled
 from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
@@ -28,6 +29,7 @@ class ResolvedFunction:
     ident: str  # its identifier in generated code (SPEC 3)
     layout: Layout
     codec: Codec
+    compiled: Compiled | None = None  # its expression, compiled (None: it has none)
 
     @cached_property
     def name(self) -> str:
@@ -42,8 +44,8 @@ class ResolvedFunction:
     def deps(self) -> tuple[str, ...]:
         """The functions its decoder takes the values of, in parameter order: those its expression
         names, or the one whose value scales it (scale_exponent, scale_by)."""
-        if self.fn.compiled is not None:
-            return tuple(self.fn.compiled.deps)
+        if self.compiled is not None:
+            return tuple(self.compiled.deps)
         return (self.fn.factor,) if self.fn.factor is not None else ()
 
     @cached_property
@@ -184,15 +186,18 @@ class ResolvedDevice:
 
 def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
     """The resolved device, or MdlError with every problem found, errors and warnings in file order
-    (warnings are kept on the result when there is no error)."""
+    (warnings are kept on the result when there is no error). The model is read, never written:
+    what resolving derives (layouts, compiled expressions, the IR) lives on the result."""
     layouts: dict[str, Layout] = {}
-    found = check_device(device, path, layouts)
+    compiled: dict[str, Compiled] = {}
+    found = check_device(device, path, layouts, compiled)
     if any(d.severity == "error" for d in found):
         raise MdlError(found)
     names = [fn.name for fn in device.functions]
     functions = []
     for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):
-        lay = layouts[fn.name] if fn.name in layouts else layout(fn)  # an expression's: from its registers
-        functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay)))
+        expression = compiled.get(fn.name)
+        lay = layouts[fn.name] if fn.name in layouts else layout(fn, expression)  # an expression's: its registers
+        functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay, expression), expression))
     warnings = [*device.notes, *(d for d in found if d.severity != "error")]
     return ResolvedDevice(device, tuple(functions), tuple(warnings))

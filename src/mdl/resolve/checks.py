@@ -12,7 +12,7 @@ from typing import Protocol
 
 from mdl.diagnostics import Diagnostic, span_of
 from mdl.lang.cfrag import FragmentError, check
-from mdl.lang.expr.fields import compile_device
+from mdl.lang.expr.fields import Compiled, compile_device
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
 from mdl.resolve.packing import mask_write, packing_problems
@@ -40,10 +40,13 @@ def position(owner: object, key: str = "", offset: int = 0, line: int | None = N
     return line, None
 
 
-def check_device(device: Device, path: str | None = None, layouts: dict[str, Layout] | None = None) -> list[Diagnostic]:
-    """Every problem of the device, in file order. `layouts`, when given, receives the layout of
-    each function without an expression that has one (the resolve step keeps them)."""
+def check_device(device: Device, path: str | None = None, layouts: dict[str, Layout] | None = None,
+                 compiled: dict[str, Compiled] | None = None) -> list[Diagnostic]:
+    """Every problem of the device, in file order; the device is left as it is. `layouts`, when given,
+    receives the layout of each function without an expression that has one, and `compiled` each
+    expression that compiles (the resolve step keeps them)."""
     out: list[Diagnostic] = []
+    compiled = {} if compiled is None else compiled
 
     def err(fn: Function, message: str, severity: str = "error", key: str = "", offset: int = 0) -> None:
         line, col = position(fn, key, offset, fn.line)
@@ -59,11 +62,11 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
         else:
             seen[fn.name] = fn.line
     by_name = {fn.name: fn for fn in device.functions}
-    for problem in compile_device(device):
+    for problem in compile_device(device, compiled):
         out.append(_expression_problem(problem.function, problem.message, problem.col, path))
     for fn in device.functions:
         if fn.expression is not None:
-            _check_expression_function(fn, err)
+            _check_expression_function(fn, compiled.get(fn.name), err)
             continue
         try:
             lay = layout(fn)
@@ -163,10 +166,10 @@ def marker_problems(fn: Function, lay: Layout) -> list[tuple[str, str]]:
     return out
 
 
-def _check_expression_function(fn: Function, err: Report) -> None:
-    if fn.compiled is None:
+def _check_expression_function(fn: Function, compiled: Compiled | None, err: Report) -> None:
+    if compiled is None:
         return
-    lay = fn.compiled.lowered
+    lay = compiled.lowered
     if fn.register_type and lay.table and fn.register_type != lay.table:
         err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
     if fn.access in ("write", "read_write"):

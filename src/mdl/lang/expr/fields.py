@@ -3,7 +3,7 @@ fields so that every field comes after those it names, type-check and lower each
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
@@ -78,8 +78,9 @@ def _plain_uint64(fn: Function) -> bool:
     return lay.bits == 64 and not lay.signed
 
 
-def compile_device(device: Device) -> list[FieldError]:
-    """Attach fn.compiled to every expression function; return the problems found."""
+def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError]:
+    """Compile every expression function into `into` (its name -> Compiled; the model is left as it
+    is); return the problems found."""
     errors: list[FieldError] = []
     blocks: dict[str, dict[str, Function]] = {}
     for fn in device.functions:
@@ -87,7 +88,6 @@ def compile_device(device: Device) -> list[FieldError]:
     parsed: dict[str, Node] = {}
     indexes: dict[str, FieldIndex] = {}
     for fn in device.functions:
-        fn.compiled = None
         if fn.expression is None:
             continue
         index = indexes.get(fn.block)
@@ -98,7 +98,7 @@ def compile_device(device: Device) -> list[FieldError]:
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
     done: dict[str, str] = {}  # name -> type, for compiled or plain functions
-    chain: dict[str, int] = {}  # name -> how many fields deep its references go (evaluation_order recurses that deep)
+    chain: dict[str, int] = {}  # name -> how many fields deep its references go
     too_deep: set[str] = set()
     visiting: set[str] = set()
     erred: set[str] = set()  # names with an error, of errors[:seen]
@@ -158,7 +158,7 @@ def compile_device(device: Device) -> list[FieldError]:
             errors.append(FieldError(fn, str(exc), exc.col))
             return None
         lowered.wide = tuple(i for i, r in enumerate(lowered.refs) if _plain_uint64(block[r]))
-        fn.compiled = Compiled(lowered, [block[r].name for r in lowered.refs])
+        into[fn.name] = Compiled(lowered, [block[r].name for r in lowered.refs])
         done[fn.name] = lowered.type
         return lowered.type
 
@@ -166,34 +166,6 @@ def compile_device(device: Device) -> list[FieldError]:
         if fn.expression is not None:
             visit(fn)
     return errors
-
-
-def evaluation_order(
-    device: Device, names: Iterable[str], by_name: Mapping[str, Function] | None = None
-) -> list[Function]:
-    """The named functions and every function they depend on, dependencies first. A caller that
-    asks once per function passes `by_name` (name -> function, as the resolved device keeps it),
-    so that the device's names are not mapped again on every call."""
-    out: list[Function] = []
-    seen: set[str] = set()
-    found = by_name if by_name is not None else {fn.name: fn for fn in device.functions}
-
-    def find(name: str) -> Function:
-        return found[name]
-
-    def add(name: str) -> None:
-        if name in seen:
-            return
-        seen.add(name)
-        fn = find(name)
-        if fn.compiled is not None:
-            for dep in fn.compiled.deps:
-                add(dep)
-        out.append(fn)
-
-    for name in names:
-        add(name)
-    return out
 
 
 def python_source(lowered: Lowered, func_name: str = "_field") -> str:

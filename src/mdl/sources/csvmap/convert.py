@@ -1,19 +1,18 @@
-"""`mdl csv2xml`: read the INI and the table, match functions to rows, write MDL.
+"""`mdl csv2xml`'s conversion: the table (and its INI) -> the device, each function matched to its row.
 
-Every guess is said as a note on stderr naming the INI key that overrides it; every row that cannot
-be read is a warning with its CSV line; a summary line ends the run. Notes print once the table has
-been read and matched (an error ends the run with errors only)."""
+Every guess is a note naming the INI key that overrides it; every row that cannot be read is a
+warning with its CSV line; a summary note ends the conversion. All of them go to the Report given
+(mdl.sources.csvmap.report, which prints them). Nothing here asks the user (the interactive choice
+is a `Chooser` given in Options: mdl.sources.csvmap.interactive) or writes a file (the command that
+writes is mdl.sources.csvmap.command; where it may write, mdl.sources.csvmap.target)."""
 
 from __future__ import annotations
 
-import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import click
-
-from mdl.diagnostics import Diagnostic, MdlError, error
-from mdl.fileio import write_atomic
+from mdl.diagnostics import error
 from mdl.model import Device, Function
 from mdl.model.names import unique_identifiers
 from mdl.sources.csvmap.address_base import guess_address_base
@@ -21,17 +20,17 @@ from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
 from mdl.sources.csvmap.count_unit import count_unit
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
-from mdl.sources.csvmap.ini import DeviceIni, is_ini, read_ini
-from mdl.sources.csvmap.match import Candidate, Index, assign, best, candidates
+from mdl.sources.csvmap.ini import DeviceIni
+from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
 from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import COMMA, NATIVE, UNIT_ALONE, WIDTHLESS, ParsedRow, RowSettings, parse_row, row_texts
 from mdl.sources.csvmap.scoring import FUZZY, TIER_NAMES, FunctionName
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
 from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
-from mdl.sources.mdlxml.parse import schema_errors, secure_parser
-from mdl.sources.mdlxml.write import device_to_xml
 
 DEFAULT_THRESHOLD = 0.6
+# functions (name -> phrases), the index of the rows, the rows -> the row chosen for each function
+Chooser = Callable[[dict[str, list[str]], Index, list[ParsedRow]], dict[str, Candidate]]
 LONG_TABLE = 2000  # rows from which the row reading shows progress on a terminal
 
 
@@ -89,22 +88,22 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
                                    cols.index.get("register_type"))
         base = guess.base
         if guess.note:
-            report.note(where, guess.note)
+            report.note(guess.note, file=where)
     unit, unit_note = count_unit(cols, data, dev.get("count_unit"))
     if unit_note:
-        report.note(where, unit_note)
+        report.note(unit_note, file=where)
     w_alone = "write"
     if "access" in cols.index:
         cells = [r.cell(cols.index["access"]) for r in data if r.cell(cols.index["access"])]
         w_alone = access_words(cells)
         if w_alone == "read_write" and any(c.strip().lower() == "w" for c in cells):
-            report.note(where, f"{cols.describe(cols.index['access'])} holds only the letters R and W: W is read as "
-                               "writable (read and write); a table that also writes R/W would make W write-only")
+            report.note(f"{cols.describe(cols.index['access'])} holds only the letters R and W: W is read as "
+                        "writable (read and write); a table that also writes R/W would make W write-only", file=where)
     if "word_order" in cols.index:
-        report.note(where, f"{cols.describe(cols.index['word_order'])} gives each row's word order: TRUE reverses the "
-                           "registers of a value from its type's order (big; little for a '<' struct type), FALSE "
-                           "keeps it, big/little or ABCD/CDAB/BADC/DCBA name it; it wins over [Modbus Device] "
-                           "word_order; set word_order = (blank) in [Column/Field Indices] to ignore it")
+        report.note(f"{cols.describe(cols.index['word_order'])} gives each row's word order: TRUE reverses the "
+                    "registers of a value from its type's order (big; little for a '<' struct type), FALSE "
+                    "keeps it, big/little or ABCD/CDAB/BADC/DCBA name it; it wins over [Modbus Device] "
+                    "word_order; set word_order = (blank) in [Column/Field Indices] to ignore it", file=where)
     decimal = (ini.decimal if ini else None) or "auto"
     return RowSettings(base, unit, dev.get("register_type"), dev.get("byte_order"), dev.get("word_order"),
                        decimal, w_alone, guessed_base)
@@ -145,7 +144,7 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
         except CellError as exc:
             read += 1
             skipped.append(Skipped(row, row_texts(row, cols), str(exc)))
-            report.warn(Diagnostic(where, row.line, None, f"row skipped: {exc}", "warning"))
+            report.warn(f"row skipped: {exc}", row.line, file=where)
             continue
         if parsed:
             read += 1
@@ -153,7 +152,7 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
             for kind, cell in parsed.guesses.items():
                 if kind not in said:
                     said.add(kind)
-                    report.note(where, notes[kind].format(cell=cell, line=row.line))
+                    report.note(notes[kind].format(cell=cell, line=row.line), file=where)
     if progress:
         progress.close()
     report.progress = None
@@ -170,44 +169,26 @@ def _functions(ini: DeviceIni | None) -> dict[str, list[str]]:
     return {name: words + [FunctionName(name.replace("_", " "))] for name, words in functions.items()}
 
 
-def _choose_interactive(functions: dict[str, list[str]], index: Index, rows: list[ParsedRow]) -> dict[str, Candidate]:
-    chosen: dict[str, Candidate] = {}
-    used: set[int] = set(range(len(rows), index.rows))  # the skipped rows: not to be chosen
-    for name, phrases in functions.items():
-        options = best(name, phrases, index, used, 9)
-        click.echo(f"\nfunction '{name}': which row?", err=True)
-        for n, c in enumerate(options, 1):
-            pr = rows[c.row_index]
-            text = " ".join(pr.function.description.split())[:70]
-            click.echo(f"  {n}. [{c.score}] line {pr.row.line}: {text}", err=True)
-        click.echo("  0. skip this function", err=True)
-        pick = click.prompt("choice", type=click.IntRange(0, len(options)), default=1 if options else 0, err=True)
-        if pick:
-            chosen[name] = options[pick - 1]
-            used.add(options[pick - 1].row_index)
-    return chosen
-
-
 def _table_notes(table: Table, ini: DeviceIni | None, report: Report) -> None:
     where = str(table.path)
     if table.encoding_guess:
-        report.note(where, table.encoding_guess.note(ini is not None))
+        report.note(table.encoding_guess.note(ini is not None), file=where)
     if table.markdown:
-        report.note(where, "a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
-                           "set delimiter = pipe in [Input/Output] to read every | as a cell boundary")
+        report.note("a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
+                    "set delimiter = pipe in [Input/Output] to read every | as a cell boundary", file=where)
     elif table.delimiter_guessed and table.delimiter != ",":
         name = DELIMITER_NAMES[table.delimiter]
-        report.note(where, f"cells separated by {name}s (the character that splits the first lines most evenly); "
-                           f"set delimiter = comma, semicolon, tab or pipe in [Input/Output] to override")
+        report.note(f"cells separated by {name}s (the character that splits the first lines most evenly); "
+                    f"set delimiter = comma, semicolon, tab or pipe in [Input/Output] to override", file=where)
 
 
-def _count(n: int, what: str) -> str:
+def counted(n: int, what: str) -> str:
     return f"{n} {what}{'s' * (n != 1)}"
 
 
 @dataclass
 class Options:
-    interactive: bool = False
+    choose: Chooser | None = None  # the user picks each function's row (--interactive)
     threshold: float | None = None
     emit_all: bool = False
     explain: tuple[str, ...] = ()
@@ -263,9 +244,9 @@ def _say_matches(where: str, functions: dict[str, list[str]], index: Index, pars
         message = (f"{name}: line {skipped.row.line} names it ({TIER_NAMES[c.score.tier]} {c.score}: "
                    f"'{_row_text(index, c.row_index)}') but was skipped ({skipped.reason}){instead}")
         if own:
-            report.warn(Diagnostic(where, skipped.row.line, None, message, "warning"))
+            report.warn(message, skipped.row.line, file=where)
         else:
-            report.note(where, message, skipped.row.line)
+            report.note(message, skipped.row.line, file=where)
     for name, c in matched.chosen.items():
         if c.score.tier != FUZZY:
             continue
@@ -274,9 +255,9 @@ def _say_matches(where: str, functions: dict[str, list[str]], index: Index, pars
                    f"(score {c.score}; none of its synonyms stands there as a phrase); if that is not its row, "
                    f"add the right row's words as a synonym (--explain {name} lists its nearest rows)")
         if opts.strict:
-            report.warn(Diagnostic(where, line, None, message + "; --strict refuses it", "warning"))
+            report.warn(message + "; --strict refuses it", line, file=where)
         else:
-            report.note(where, message, line)
+            report.note(message, line, file=where)
 
 
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
@@ -289,7 +270,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
                     "or give it a header such as 'Address' or 'Register'", csv_path, header.line if header else None)
     _table_notes(table, ini, report)
     for message in cols.notes:
-        report.note(str(csv_path), message)
+        report.note(message, file=str(csv_path))
     parsed = _read_rows(table, cols, data, _settings(table, cols, data, ini, report), report)
     if not parsed.rows:
         col = cols.describe(cols.index["addresses"])
@@ -310,11 +291,11 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         skipped = {readable + i: s.reason for i, s in enumerate(parsed.skipped)}
         explain(opts.explain, functions, index, lines, matched.chosen, limit, skipped, matched.lost)
         return None
-    if opts.interactive:
+    if opts.choose is not None:
         report.flush_notes()
-        matched = Matched(_choose_interactive(functions, index, parsed.rows), {})
+        matched = Matched(opts.choose(functions, index, parsed.rows), {})
     else:
-        progress = (Progress(f"mdl csv2xml: matching {_count(len(functions), 'function')}", 2 * len(functions),
+        progress = (Progress(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions),
                              percent=True) if len(lines) >= LONG_TABLE else None)
         matched = _match(functions, index, readable, limit, progress)
         if progress:
@@ -323,16 +304,15 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     chosen = matched.chosen
     missing = [n for n in functions if n not in chosen]
     unreached = [n for n in missing if n not in matched.lost]
-    if unreached and own and not opts.interactive:
+    if unreached and own and opts.choose is None:
         details = ", ".join(nearest(n, functions[n], index, lines, chosen) for n in unreached)
-        report.warn(Diagnostic(str(ini.path if ini else csv_path), None, None,
-                               f"no row reached the threshold {limit:g} for: {details}; "
-                               "--explain NAME lists a function's nearest rows", "warning"))
+        report.warn(f"no row reached the threshold {limit:g} for: {details}; "
+                    "--explain NAME lists a function's nearest rows", file=str(ini.path if ini else csv_path))
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
-    summary = (f"summary: {_count(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
+    summary = (f"summary: {counted(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
                f"matched, {len(missing)} {'unmatched' if own else 'not found'}")
-    report.note(str(csv_path), summary + (f"; {_count(extra, 'more row')} emitted (--all)" if extra else ""))
+    report.note(summary + (f"; {counted(extra, 'more row')} emitted (--all)" if extra else ""), file=str(csv_path))
     if not out and matched.lost:
         raise error(f"no function matched a row that could be read: the best row of {', '.join(matched.lost)} was "
                     "skipped (see the warnings above); fix that row, or add synonyms to the INI", csv_path)
@@ -364,61 +344,3 @@ def _functions_out(rows: list[ParsedRow], chosen: dict[str, Candidate], emit_all
         pr.function.name = name
         out.append(pr.function)
     return out, len(rest)
-
-
-def _self_check(xml: str, device: Device) -> None:
-    from lxml import etree
-
-    tree = etree.fromstring(xml.encode("ascii"), secure_parser()).getroottree()
-    problems = schema_errors(tree, "<csv2xml output>", device.schema_version)
-    if problems:
-        raise MdlError([Diagnostic(None, None, None, f"internal error, output does not validate: {p}")
-                        for p in problems])
-
-
-def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, interactive: bool,
-                threshold: float | None, emit_all: bool, *, fail_on_warning: bool = False, strict: bool = False,
-                explain: tuple[str, ...] = ()) -> None:
-    """Convert and write; with fail_on_warning (--strict, --fail-on-warning), a warning (a skipped row,
-    an unmatched function, an unknown INI key) is an error: nothing is written, exit 1. With `explain`,
-    print each named function's nearest rows to stdout instead of writing MDL."""
-    from mdl.resolve import resolve as resolve_device
-
-    report = Report()
-    ini = None
-    csv_given: Path | None = source
-    if ini_path is None and is_ini(source):
-        ini_path, csv_given = source, None
-    if ini_path is not None:
-        ini = read_ini(ini_path)
-        for w in ini.warnings:
-            report.warn(w)
-        for said in ini.notes:
-            report.note(said.file, said.message)
-    csv_path = csv_given or (ini.csv_file if ini else None)
-    if csv_path is None:
-        raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",
-                    ini_path)
-    if ini is not None and csv_given is None and not csv_path.exists():
-        raise error(f"address_map_csv_file names {csv_path}: no such file", ini.path,
-                    ini.line("io", "address_map_csv_file"))
-    device = convert(csv_path, ini, Options(interactive, threshold, emit_all, explain, strict), report)
-    if device is None:
-        return
-    for diag in resolve_device(device, str(csv_path)).warnings:  # the checks every description passes
-        report.warn(diag)
-    report.flush_notes()
-    if (fail_on_warning or strict) and report.warnings:
-        n = len(report.warnings)
-        flag = "--strict" if strict else "--fail-on-warning"
-        raise error(f"{n} warning{'s' * (n != 1)} and {flag}: nothing written", ini_path or csv_path)
-    xml = device_to_xml(device)
-    _self_check(xml, device)
-    target = output  # chosen and checked by the caller (csvmap/target.py)
-    if target is None or str(target) == "-":
-        sys.stdout.write(xml)
-        sys.stdout.flush()
-    else:
-        write_atomic(target, xml)
-        click.echo(f"wrote {target}: {_count(len(device.functions), 'function')}, MDL {device.schema_version}",
-                   err=True)

@@ -9,9 +9,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mdl.diagnostics import Diagnostic, MdlError
+from mdl.exchange.text import unwritable
 from mdl.fileio import read_bytes
 from mdl.sources.csvmap.table import decode_table
-from mdl.sources.mdlxml.write import unwritable
 
 COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
                "multiplier", "divisor", "units", "read_function_code", "write_function_code", "register_type",

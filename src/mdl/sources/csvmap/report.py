@@ -10,32 +10,32 @@ from typing import TextIO
 
 import click
 
-from mdl.diagnostics import Diagnostic
+from mdl.diagnostics import Collector, Diagnostic
 
 
-class Report:
+class Report(Collector):
+    """csv2xml's diagnostics (a Collector): a warning is printed as it comes (a progress bar on the
+    screen cleared first); a note is said once, and printed by `flush_notes` when the run gets that far."""
+
     def __init__(self) -> None:
-        self.warnings: list[Diagnostic] = []
-        self.notes: list[Diagnostic] = []
-        self._noted: set[str] = set()
+        super().__init__(notes_once=True)
         self.progress: Progress | None = None  # a bar on the screen, cleared before a warning prints
+        self._notes: list[Diagnostic] = []  # said, not printed yet
 
-    def warn(self, diag: Diagnostic) -> None:
-        self.warnings.append(diag)
-        if self.progress:
-            self.progress.close()
-        click.echo(str(diag), err=True)
-
-    def note(self, file: str | None, message: str, line: int | None = None) -> None:
-        """A note, said once (printed by flush_notes, when the run gets that far)."""
-        if message not in self._noted:
-            self._noted.add(message)
-            self.notes.append(Diagnostic(file, line, None, message, "note"))
+    def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
+        said = super().add(diag, kind=kind, always=always)
+        if said and diag.severity == "note":
+            self._notes.append(diag)
+        elif said:
+            if self.progress:
+                self.progress.close()
+            click.echo(str(diag), err=True)
+        return said
 
     def flush_notes(self) -> None:
-        for diag in self.notes:
+        for diag in self._notes:
             click.echo(str(diag), err=True)
-        self.notes.clear()
+        self._notes.clear()
 
 
 class Progress:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from mdl.exchange.text import unwritable
 from mdl.lang.cfrag import FragmentError, check
 from mdl.model import BIT_TABLES, Function
 from mdl.model.layout import LayoutError, layout
@@ -24,7 +25,6 @@ from mdl.sources.csvmap.cells import (
 from mdl.sources.csvmap.columns import Columns
 from mdl.sources.csvmap.numbers import NO_VALUE, Number, parse_int, parse_number, unit_alone
 from mdl.sources.csvmap.table import Row
-from mdl.sources.mdlxml.write import unwritable
 
 
 @dataclass
