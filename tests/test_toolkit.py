@@ -135,11 +135,11 @@ def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
 
 @reference
 def test_max_registers_per_request_is_honoured(tmp_path):
-    device = load_resolved(REFERENCE / "QuickTestDevice.yaml").device
-    assert device.max_registers == 42
+    resolved = load_resolved(REFERENCE / "QuickTestDevice.yaml")
+    assert resolved.device.max_registers == 42
     from mdl.plan import plan_reads
 
-    assert all(r.count <= 42 for r in plan_reads(device))
+    assert all(r.count <= 42 for r in plan_reads(resolved.device, layouts=resolved.layouts))
     assert 'max_registers="42"' in cli("import", REFERENCE / "QuickTestDevice.yaml").stdout
 
 

@@ -18,6 +18,7 @@ from lxml import etree
 
 from mdl.diagnostics import Diagnostic
 from mdl.plan import plan_reads, split_request
+from mdl.resolve import resolve
 from mdl.sources.mdlxml import device_to_xml, load_device, validate_file
 
 BASE = (DATA / "all_tables.xml").read_bytes()
@@ -150,11 +151,12 @@ def check(folder: Path, data: bytes) -> None:
         return
     event("valid")
     device = load_device(path)
-    for request in plan_reads(device):
-        split_request(device, request)
+    layouts = resolve(device, str(path)).layouts  # an expression's layout needs its compiled expression
+    for request in plan_reads(device, layouts=layouts):
+        split_request(device, request, layouts)
     for fn in device.functions:
         if fn.readable:
-            plan_reads(device, [fn])
+            plan_reads(device, [fn], layouts=layouts)
     again = folder / "again.xml"
     again.write_text(device_to_xml(device), encoding="ascii")
     again_device, again_diagnostics = validate_file(again)

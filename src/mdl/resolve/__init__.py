@@ -88,6 +88,11 @@ class ResolvedDevice:
     def by_name(self) -> dict[str, ResolvedFunction]:
         return {f.name: f for f in self.functions}
 
+    @cached_property
+    def layouts(self) -> dict[str, Layout]:
+        """name -> layout of every function (an expression's too), as mdl.plan takes them."""
+        return {f.name: f.layout for f in self.functions}
+
     @property
     def name(self) -> str:
         return self.device.name
