@@ -40,16 +40,68 @@ NS = "{http://www.ornl.gov/ModbusXMLSchema}"
 DIAGONAL = [(1000, 50), (5000, 200), (10000, 500)]
 GRID = [(r, f) for r in (1000, 5000, 10000) for f in (50, 200, 500)]
 
-PLACES = ["phase A", "phase B", "phase C", "L1", "L2", "L3", "total", "average", "neutral", "inlet", "outlet",
-          "zone", "channel", "pump", "fan", "string", "battery", "grid", "load", "generator", "PV"]
-QUANTITIES = ["voltage", "current", "real power", "reactive power", "apparent power", "power factor",
-              "frequency", "import energy", "export energy", "temperature", "pressure", "flow rate",
-              "setpoint", "speed", "state of charge", "alarm status", "run hours", "counter", "THD"]
+PLACES = [
+    "phase A",
+    "phase B",
+    "phase C",
+    "L1",
+    "L2",
+    "L3",
+    "total",
+    "average",
+    "neutral",
+    "inlet",
+    "outlet",
+    "zone",
+    "channel",
+    "pump",
+    "fan",
+    "string",
+    "battery",
+    "grid",
+    "load",
+    "generator",
+    "PV",
+]
+QUANTITIES = [
+    "voltage",
+    "current",
+    "real power",
+    "reactive power",
+    "apparent power",
+    "power factor",
+    "frequency",
+    "import energy",
+    "export energy",
+    "temperature",
+    "pressure",
+    "flow rate",
+    "setpoint",
+    "speed",
+    "state of charge",
+    "alarm status",
+    "run hours",
+    "counter",
+    "THD",
+]
 QUALIFIERS = ["", "", "instantaneous", "max demand", "min", "average", "peak", "last hour", "daily", "total"]
 FORMATS = [("uint16", ""), ("int16", "0.1"), ("uint32", "0.01"), ("float", ""), ("int32", "0.001")]
-UNITS = {"voltage": "V", "current": "A", "real power": "W", "reactive power": "var", "apparent power": "VA",
-         "frequency": "Hz", "import energy": "kWh", "export energy": "kWh", "temperature": "degC",
-         "pressure": "bar", "flow rate": "m3/h", "speed": "rpm", "state of charge": "%", "run hours": "h"}
+UNITS = {
+    "voltage": "V",
+    "current": "A",
+    "real power": "W",
+    "reactive power": "var",
+    "apparent power": "VA",
+    "frequency": "Hz",
+    "import energy": "kWh",
+    "export energy": "kWh",
+    "temperature": "degC",
+    "pressure": "bar",
+    "flow rate": "m3/h",
+    "speed": "rpm",
+    "state of charge": "%",
+    "run hours": "h",
+}
 
 
 @dataclass
@@ -82,11 +134,12 @@ def identifier(text: str) -> str:
 def typo(text: str, rng: random.Random) -> str:
     """The text with one letter of a longer word left out: no exact or whole-phrase match, only a fuzzy one."""
     words = text.lower().split(" ")
-    long = [i for i, w in enumerate(words) if len(w) >= 5 and w.isalpha()] or [max(range(len(words)),
-                                                                                   key=lambda i: len(words[i]))]
+    long = [i for i, w in enumerate(words) if len(w) >= 5 and w.isalpha()] or [
+        max(range(len(words)), key=lambda i: len(words[i]))
+    ]
     i = rng.choice(long)
     j = rng.randrange(1, max(2, len(words[i]) - 1))
-    words[i] = words[i][:j] + words[i][j + 1:]
+    words[i] = words[i][:j] + words[i][j + 1 :]
     return " ".join(words)
 
 
@@ -100,7 +153,7 @@ def generate(rows: int, functions: int, folder: Path, seed: int = 12, typos: boo
         fmt, scale = rng.choice(FORMATS)
         unit = next((u for q, u in UNITS.items() if q in text.lower()), "")
         access = rng.choice(["R", "R", "R/W"])
-        lines.append(f"{address},\"{text}\",{fmt},{scale},{unit},{access}")
+        lines.append(f'{address},"{text}",{fmt},{scale},{unit},{access}')
         addresses.append(str(address))
         address += 2
     targets = sorted(rng.sample(range(rows), functions))
@@ -114,7 +167,8 @@ def generate(rows: int, functions: int, folder: Path, seed: int = 12, typos: boo
             synonyms.append(f"{name} = {texts[t]}, {'  '.join(texts[t].lower().split(' '))}")
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "map.csv").write_text("\n".join(lines) + "\n")
-    (folder / "device.ini").write_text(f"""[Modbus Device]
+    (folder / "device.ini").write_text(
+        f"""[Modbus Device]
 device_name        = Bench {rows}x{functions}
 device_description = Generated register table
 
@@ -139,7 +193,10 @@ write_function_code =
 operation_info      = 5
 
 [Function Name Search Synonyms]
-""" + "\n".join(synonyms) + "\n")
+"""
+        + "\n".join(synonyms)
+        + "\n"
+    )
     return Case(rows, functions, folder, expected)
 
 
@@ -170,8 +227,10 @@ def right_rows(xml: Path, expected: dict[str, str]) -> int:
     if not xml.exists():
         return 0
     root = etree.parse(str(xml), etree.XMLParser(resolve_entities=False, no_network=True)).getroot()
-    got = {(fn.findtext(f"{NS}name") or "").strip(): (fn.findtext(f"{NS}addresses") or "").strip()
-           for fn in root.iter(f"{NS}function")}
+    got = {
+        (fn.findtext(f"{NS}name") or "").strip(): (fn.findtext(f"{NS}addresses") or "").strip()
+        for fn in root.iter(f"{NS}function")
+    }
     return sum(got.get(name) == address for name, address in expected.items())
 
 
@@ -204,8 +263,9 @@ def main() -> None:
     parser.add_argument("--sizes", type=parse_sizes, help="ROWSxFUNCTIONS,... (default 1000x50,5000x200,10000x500)")
     parser.add_argument("--grid", action="store_true", help="every combination of 1,000/5,000/10,000 x 50/200/500")
     parser.add_argument("--keep", type=Path, help="write the tables here instead of a temporary folder")
-    parser.add_argument("--typos", action="store_true",
-                        help="also measure synonyms with a letter left out (fuzzy matches only)")
+    parser.add_argument(
+        "--typos", action="store_true", help="also measure synonyms with a letter left out (fuzzy matches only)"
+    )
     args = parser.parse_args()
     sizes = args.sizes or (GRID if args.grid else DIAGONAL)
     ornl = args.ornl if args.ornl and args.ornl.is_file() else None
@@ -222,14 +282,18 @@ def main() -> None:
     for rows, functions, typos in runs:
         case = generate(rows, functions, base / f"{rows}x{functions}{'-typos' * typos}", typos=typos)
         mine = run_mdl(case)
-        line = (f"{'typos' if typos else 'exact':>8} {rows:>8,} x {functions:>6} | {mine.seconds:7.2f} "
-                f"{mine.peak_mb:6.0f} {mine.right:>4}/{functions:<4} {1e6 * mine.seconds / (rows * functions):8.2f}")
+        line = (
+            f"{'typos' if typos else 'exact':>8} {rows:>8,} x {functions:>6} | {mine.seconds:7.2f} "
+            f"{mine.peak_mb:6.0f} {mine.right:>4}/{functions:<4} {1e6 * mine.seconds / (rows * functions):8.2f}"
+        )
         if not mine.ok:
             line += f"  mdl failed: {mine.note}"
         if ornl:
             theirs = run_ornl(case, ornl)
-            line += (f" | {theirs.seconds:7.2f} {theirs.peak_mb:6.0f} {theirs.right:>4}/{functions:<4} | "
-                     f"{theirs.seconds / mine.seconds:7.1f}x")
+            line += (
+                f" | {theirs.seconds:7.2f} {theirs.peak_mb:6.0f} {theirs.right:>4}/{functions:<4} | "
+                f"{theirs.seconds / mine.seconds:7.1f}x"
+            )
             if not theirs.ok:
                 line += f"  ORNL failed: {theirs.note}"
         print(line, flush=True)

@@ -65,21 +65,27 @@ def device_functions() -> list[tuple[str, str, int, int, str]]:
 
 
 def device_xml() -> str:
-    out = ["<?xml version='1.0' encoding='US-ASCII'?>",
-           '<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0">',
-           "  <name>Poll bench device</name>", "  <description>500 holding registers</description>"]
+    out = [
+        "<?xml version='1.0' encoding='US-ASCII'?>",
+        '<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0">',
+        "  <name>Poll bench device</name>",
+        "  <description>500 holding registers</description>",
+    ]
     for name, fmt, address, _, extra in device_functions():
         mult = re.search(r"<multiplier>.*?</multiplier>", extra)
         offset = re.search(r"<offset>.*?</offset>", extra)
-        out.append(f"  <function><name>{name}</name><description>{name}</description><addresses>{address}"
-                   f"</addresses><format>{fmt}</format>{mult.group(0) if mult else ''}"
-                   f"{offset.group(0) if offset else ''}<access>read</access></function>")
+        out.append(
+            f"  <function><name>{name}</name><description>{name}</description><addresses>{address}"
+            f"</addresses><format>{fmt}</format>{mult.group(0) if mult else ''}"
+            f"{offset.group(0) if offset else ''}<access>read</access></function>"
+        )
     out.append("</device>")
     return "\n".join(out) + "\n"
 
 
 # ---------------------------------------------------------------------------------------------
 # the clients (each runs in its own process: `poll_bench.py --client KIND ...`)
+
 
 def hand_client(host: str, port: int) -> object:
     from pymodbus.client import ModbusTcpClient
@@ -246,18 +252,37 @@ def build_cpp(gen_dir: Path) -> Path | None:
     main = gen_dir / "main.cc"
     main.write_text(CPP_MAIN)
     exe = gen_dir / "cpp_client"
-    subprocess.run([gxx, "-std=c++17", "-O2", "-I", str(gen_dir), str(main), str(gen_dir / "poll_bench_device.cc"),
-                    "-o", str(exe), *flags], check=True)
+    subprocess.run(
+        [
+            gxx,
+            "-std=c++17",
+            "-O2",
+            "-I",
+            str(gen_dir),
+            str(main),
+            str(gen_dir / "poll_bench_device.cc"),
+            "-o",
+            str(exe),
+            *flags,
+        ],
+        check=True,
+    )
     return exe
 
 
 # ---------------------------------------------------------------------------------------------
 # the driver: start the sim, generate, run each client, print the table
 
+
 def start_sim(xml: Path) -> tuple[subprocess.Popen[str], str, int]:
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
-    proc = subprocess.Popen([sys.executable, "-m", "mdl", "sim", str(xml), "--port", "0"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mdl", "sim", str(xml), "--port", "0"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     assert proc.stdout is not None
     line = proc.stdout.readline()
     if not line.startswith("mdl sim: serving"):
@@ -268,8 +293,9 @@ def start_sim(xml: Path) -> tuple[subprocess.Popen[str], str, int]:
 
 
 def callgrind_instructions(cmd: list[str], env: dict[str, str], out: Path) -> int:
-    proc = subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *cmd],
-                          capture_output=True, text=True, env=env)
+    proc = subprocess.run(
+        ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}", *cmd], capture_output=True, text=True, env=env
+    )
     if proc.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed under callgrind: {proc.stderr[-400:]}")
     found = re.search(r"Collected : (\d+)", proc.stderr)
@@ -282,8 +308,9 @@ def measure(kind: str, cmd: list[str], env: dict[str, str], wall: bool, tmp: Pat
     """Instructions (millions) or microseconds per poll."""
     warm, short, long = 3, 2, 12
     if wall:
-        out = subprocess.run(cmd + ["--warm", str(warm), "--polls", "20", "--timed"], capture_output=True, text=True,
-                             env=env, check=True).stdout
+        out = subprocess.run(
+            cmd + ["--warm", str(warm), "--polls", "20", "--timed"], capture_output=True, text=True, env=env, check=True
+        ).stdout
         return float(out.split()[-1])
     a = callgrind_instructions(cmd + ["--warm", str(warm), "--polls", str(short)], env, tmp / f"{kind}.a")
     b = callgrind_instructions(cmd + ["--warm", str(warm), "--polls", str(long)], env, tmp / f"{kind}.b")
@@ -292,8 +319,12 @@ def measure(kind: str, cmd: list[str], env: dict[str, str], wall: bool, tmp: Pat
 
 def generate(src: Path, xml: Path, dest: Path, lang: str) -> None:
     env = dict(os.environ, PYTHONPATH=str(src))
-    subprocess.run([sys.executable, "-m", "mdl", "gen", str(xml), "--lang", lang, "-o", str(dest)], env=env,
-                   check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "mdl", "gen", str(xml), "--lang", lang, "-o", str(dest)],
+        env=env,
+        check=True,
+        capture_output=True,
+    )
 
 
 def main() -> int:
@@ -301,8 +332,7 @@ def main() -> int:
     parser.add_argument("--wall", action="store_true", help="wall time per poll even where valgrind is present")
     parser.add_argument("--clients", default=",".join(CLIENTS), help="which clients (comma separated)")
     parser.add_argument("--compare", metavar="REV", help="also the Python clients of git revision REV")
-    parser.add_argument("--worktree", type=Path,
-                        help="where REV is exported (default /tmp/bench_REV)")
+    parser.add_argument("--worktree", type=Path, help="where REV is exported (default /tmp/bench_REV)")
     # the client side (internal)
     parser.add_argument("--client", choices=CLIENTS, help=argparse.SUPPRESS)
     parser.add_argument("--host", default="127.0.0.1", help=argparse.SUPPRESS)
@@ -351,8 +381,9 @@ def main() -> int:
                             results[(label, kind)] = "no g++/libmodbus"
                             continue
                         if wall:
-                            out = subprocess.run([str(exe), str(port), "200", "1"], capture_output=True, text=True,
-                                                 check=True).stdout
+                            out = subprocess.run(
+                                [str(exe), str(port), "200", "1"], capture_output=True, text=True, check=True
+                            ).stdout
                             results[(label, kind)] = float(out.split()[-1])
                         else:
                             a = callgrind_instructions([str(exe), str(port), "5", "0"], env, d / "cpp.a")
@@ -361,8 +392,20 @@ def main() -> int:
                     else:
                         if label != "after" and kind in ("hand", "naive"):
                             continue  # the same code either way
-                        cmd = [sys.executable, str(Path(__file__).resolve()), "--client", kind, "--host", host,
-                               "--port", str(port), "--gen-dir", str(gen_dir), "--xml", str(xml)]
+                        cmd = [
+                            sys.executable,
+                            str(Path(__file__).resolve()),
+                            "--client",
+                            kind,
+                            "--host",
+                            host,
+                            "--port",
+                            str(port),
+                            "--gen-dir",
+                            str(gen_dir),
+                            "--xml",
+                            str(xml),
+                        ]
                         try:
                             results[(label, kind)] = measure(kind, cmd, env, wall, d)
                         except (RuntimeError, subprocess.CalledProcessError) as exc:

@@ -67,8 +67,10 @@ SPEC_GAP_ABOVE_19200 = 1.75e-3  # the Modbus serial line spec's fixed t3.5 above
 # ---------------------------------------------------------------------------------------------
 # processes: the socat pair and the sim
 
-def _lines(proc: subprocess.Popen[bytes], stream: Any, wanted: Callable[[list[str]], bool],
-           timeout: float) -> list[str]:
+
+def _lines(
+    proc: subprocess.Popen[bytes], stream: Any, wanted: Callable[[list[str]], bool], timeout: float
+) -> list[str]:
     """Whole lines of `stream` until `wanted(lines)`, the process ends, or `timeout` seconds pass."""
     fd = stream.fileno()
     decoder = codecs.getincrementaldecoder("utf-8")(errors="replace")
@@ -101,8 +103,9 @@ def stop(proc: subprocess.Popen[bytes]) -> None:
 
 def socat_pair() -> tuple[subprocess.Popen[bytes], list[str]]:
     """A pseudo-terminal pair wired together by socat: the process and the two device names."""
-    proc = subprocess.Popen(["socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        ["socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     lines = _lines(proc, proc.stderr, lambda got: sum(" PTY is " in line for line in got) == 2, 10)
     ends = [line.split(" PTY is ", 1)[1].strip() for line in lines if " PTY is " in line]
     if len(ends) != 2:
@@ -114,8 +117,9 @@ def socat_pair() -> tuple[subprocess.Popen[bytes], list[str]]:
 def start_sim(xml: Path, where: list[str]) -> tuple[subprocess.Popen[bytes], str]:
     """`mdl sim XML WHERE...` once it is serving, and where it serves (host:port or the serial device)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), PYTHONWARNINGS="ignore")
-    proc = subprocess.Popen([sys.executable, "-m", "mdl", "sim", str(xml), *where], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, env=env)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "mdl", "sim", str(xml), *where], stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env
+    )
     lines = _lines(proc, proc.stdout, bool, 60)
     if not lines or not lines[0].startswith("mdl sim: serving"):
         stop(proc)
@@ -126,6 +130,7 @@ def start_sim(xml: Path, where: list[str]) -> tuple[subprocess.Popen[bytes], str
 
 # ---------------------------------------------------------------------------------------------
 # the wire time of the plan
+
 
 @dataclass(frozen=True)
 class Wire:
@@ -143,19 +148,22 @@ def wire_time(xml: Path, baud: int, bytesize: int, parity: str, stopbits: int) -
     resolved = load_resolved(xml)
     requests = [group.request for group in resolved.plan]
     request_bytes = 8 * len(requests)  # unit, function, address, count, CRC
-    reply_bytes = sum(5 + (2 * r.count if r.table in ("holding", "input") else (r.count + 7) // 8)
-                      for r in requests)  # unit, function, byte count, data, CRC
+    reply_bytes = sum(
+        5 + (2 * r.count if r.table in ("holding", "input") else (r.count + 7) // 8) for r in requests
+    )  # unit, function, byte count, data, CRC
     bits = 1 + bytesize + (parity != "N") + stopbits
     char = bits / baud
     frames = 2 * len(requests)
     chars = request_bytes + reply_bytes
     gap = SPEC_GAP_ABOVE_19200 if baud > 19200 else 3.5 * char
-    return Wire(len(requests), request_bytes, reply_bytes, bits, chars * char + frames * 3.5 * char,
-                chars * char + frames * gap)
+    return Wire(
+        len(requests), request_bytes, reply_bytes, bits, chars * char + frames * 3.5 * char, chars * char + frames * gap
+    )
 
 
 # ---------------------------------------------------------------------------------------------
 # the client: mdl read --interval, in this process, each poll timed
+
 
 @dataclass
 class Result:
@@ -223,6 +231,7 @@ def measure(xml: Path, connection: Any, polls: int, interval: float, fmt: str) -
 
 # ---------------------------------------------------------------------------------------------
 
+
 def percentile(values: list[float], p: float) -> float:
     ordered = sorted(values)
     return ordered[min(len(ordered) - 1, int(p * (len(ordered) - 1) + 0.5))]
@@ -273,8 +282,9 @@ def main() -> int:
                     line = ["--baud", str(args.baud), "--parity", args.parity, "--stopbits", str(args.stopbits)]
                     sim, _ = start_sim(xml, ["--serial", ends[0], *line])
                     procs.insert(0, sim)  # the sim stops before the line goes
-                    connection = Connection(serial=ends[1], baud=args.baud, parity=args.parity,
-                                            stopbits=args.stopbits, rtu=True)
+                    connection = Connection(
+                        serial=ends[1], baud=args.baud, parity=args.parity, stopbits=args.stopbits, rtu=True
+                    )
                 else:
                     parser.error(f"unknown link {link!r}: tcp, rtu-over-tcp, rtu")
                 results[link] = measure(xml, connection, args.polls, args.interval, args.fmt)
@@ -285,35 +295,45 @@ def main() -> int:
 
     ms = 1e3
     print()
-    print(f"mdl read --interval {args.interval:g} --format {args.fmt}: {REGISTERS} holding registers, "
-          f"{wire.reads} reads per poll; {args.polls} polls per link, the first apart")
+    print(
+        f"mdl read --interval {args.interval:g} --format {args.fmt}: {REGISTERS} holding registers, "
+        f"{wire.reads} reads per poll; {args.polls} polls per link, the first apart"
+    )
     print(f"per poll, without the wait between polls (ms); wire: the same frames on a real line at {framing}")
-    print(f"{'link':14} {'first':>7} {'median':>7} {'p10':>7} {'p90':>7} {'in requests':>12} {'client CPU':>11} "
-          f"{'wire':>7} {'measured/wire':>14}")
+    print(
+        f"{'link':14} {'first':>7} {'median':>7} {'p10':>7} {'p90':>7} {'in requests':>12} {'client CPU':>11} "
+        f"{'wire':>7} {'measured/wire':>14}"
+    )
     for link in links:
         result = results.get(link)
         if isinstance(result, str) or result is None:
             print(f"{link:14} {result or '-'}")
             continue
         median = statistics.median(result.wall)
-        print(f"{link:14} {result.first * ms:7.2f} {median * ms:7.2f} {percentile(result.wall, 0.1) * ms:7.2f} "
-              f"{percentile(result.wall, 0.9) * ms:7.2f} {statistics.median(result.requests) * ms:12.2f} "
-              f"{statistics.median(result.cpu) * ms:11.2f} {wire.seconds * ms:7.2f} {median / wire.seconds:14.3f}")
+        print(
+            f"{link:14} {result.first * ms:7.2f} {median * ms:7.2f} {percentile(result.wall, 0.1) * ms:7.2f} "
+            f"{percentile(result.wall, 0.9) * ms:7.2f} {statistics.median(result.requests) * ms:12.2f} "
+            f"{statistics.median(result.cpu) * ms:11.2f} {wire.seconds * ms:7.2f} {median / wire.seconds:14.3f}"
+        )
         for failure in result.failures[:3]:
             print(f"{'':14} failed poll: {failure}")
         if len(result.failures) > 3:
             print(f"{'':14} ... {len(result.failures) - 3} more failed polls")
     print()
-    print(f"wire: {wire.reads} x (8-byte request + reply) = {wire.request_bytes} + {wire.reply_bytes} bytes at "
-          f"{wire.bits_per_char} bits per character, and a 3.5-character gap per frame: {wire.seconds * ms:.2f} ms")
+    print(
+        f"wire: {wire.reads} x (8-byte request + reply) = {wire.request_bytes} + {wire.reply_bytes} bytes at "
+        f"{wire.bits_per_char} bits per character, and a 3.5-character gap per frame: {wire.seconds * ms:.2f} ms"
+    )
     if args.baud > 19200:
         print(f"      with the spec's fixed 1.75 ms gap above 19200 baud instead: {wire.seconds_spec_gap * ms:.2f} ms")
     if wire.bits_per_char != 11:
         chars = wire.request_bytes + wire.reply_bytes
         spec = (chars + 2 * wire.reads * 3.5) * 11 / args.baud
         print(f"      at 11 bits per character (8E1, the spec's framing): {spec * ms:.2f} ms")
-    print("a pty passes bytes at memory speed whatever its baud rate: on a real line a poll takes about the wire "
-          "time plus the measured time")
+    print(
+        "a pty passes bytes at memory speed whatever its baud rate: on a real line a poll takes about the wire "
+        "time plus the measured time"
+    )
     print("the machine was shared while this ran (figures vary with its load)")
     return 0
 

@@ -50,8 +50,18 @@ PLAIN_KINDS: list[tuple[str, str, int, str]] = [
     ("coil", "BIT", 1, ""),
 ]
 # the order the schema wants these elements in
-ORDER = ("length", "count", "format", "multiplier", "register_type", "byte_order", "word_order", "offset",
-         "access", "not_implemented")
+ORDER = (
+    "length",
+    "count",
+    "format",
+    "multiplier",
+    "register_type",
+    "byte_order",
+    "word_order",
+    "offset",
+    "access",
+    "not_implemented",
+)
 
 
 def _element(extra: str, tag: str) -> str:
@@ -65,9 +75,12 @@ def _element(extra: str, tag: str) -> str:
 def plain_xml(n: int) -> str:
     """An MDL 1.0 document of n functions (see the module docstring)."""
     next_address = {"holding": 0, "input": 0, "coil": 0}
-    out = ["<?xml version='1.0' encoding='US-ASCII'?>",
-           '<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0">',
-           f"  <name>Scale {n}</name>", f"  <description>{n} synthetic functions</description>"]
+    out = [
+        "<?xml version='1.0' encoding='US-ASCII'?>",
+        '<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0">',
+        f"  <name>Scale {n}</name>",
+        f"  <description>{n} synthetic functions</description>",
+    ]
     for i in range(n):
         table, fmt, size, extra = PLAIN_KINDS[i % len(PLAIN_KINDS)]
         if i % 37 == 36:  # a hole now and then: the read plan has more than one group per table
@@ -82,8 +95,10 @@ def plain_xml(n: int) -> str:
             if found:
                 elements[tag] = found
         body = "".join(elements[tag] for tag in ORDER if tag in elements)
-        out.append(f"  <function><name>f{i}_{fmt.lower()}</name><description>function {i}</description>"
-                   f"<addresses>{address}</addresses>{body}</function>")
+        out.append(
+            f"  <function><name>f{i}_{fmt.lower()}</name><description>function {i}</description>"
+            f"<addresses>{address}</addresses>{body}</function>"
+        )
     assert max(next_address.values()) <= 65536, next_address
     out.append("</device>")
     return "\n".join(out) + "\n"
@@ -97,9 +112,14 @@ def expr_yaml(n: int) -> str:
     made = 0
     block = 0
     while made < n:
-        lines += [f"  - id: 'B{block}'", f"    description: 'Block {block}'", "    fields:",
-                  "      - id: 'SF'", f"        expression: 'int16(hr:{address['hr']}; 0x8000)'",
-                  "        system: true"]
+        lines += [
+            f"  - id: 'B{block}'",
+            f"    description: 'Block {block}'",
+            "    fields:",
+            "      - id: 'SF'",
+            f"        expression: 'int16(hr:{address['hr']}; 0x8000)'",
+            "        system: true",
+        ]
         address["hr"] += 1
         made += 1
         i = 0
@@ -149,8 +169,13 @@ def measure(cmd: list[str], env: dict[str, str] | None = None, cwd: Path | None 
     seconds = time.perf_counter() - start
     proc.returncode = os.waitstatus_to_exitcode(status)
     proc.stderr.close()
-    note = "" if proc.returncode == 0 else err.decode(errors="replace").strip().splitlines()[-1:][0][:80] \
-        if err.strip() else f"exit {proc.returncode}"
+    note = (
+        ""
+        if proc.returncode == 0
+        else err.decode(errors="replace").strip().splitlines()[-1:][0][:80]
+        if err.strip()
+        else f"exit {proc.returncode}"
+    )
     return Run(seconds, usage.ru_maxrss / 1024, proc.returncode == 0, note, usage.ru_utime + usage.ru_stime)
 
 
@@ -173,26 +198,29 @@ def mdl_env(src: Path) -> dict[str, str]:
 
 def langs_of(src: Path) -> list[str]:
     """The --lang choices of that mdl (its registry), `all` last."""
-    out = subprocess.run([sys.executable, "-m", "mdl", "gen", "--help"], env=mdl_env(src),
-                         capture_output=True, text=True, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "mdl", "gen", "--help"], env=mdl_env(src), capture_output=True, text=True, check=True
+    ).stdout
     start = out.index("--lang [") + len("--lang [")
-    choices = out[start:out.index("]", start)].split("|")
+    choices = out[start : out.index("]", start)].split("|")
     return [c for c in choices if c != "all"] + ["all"]
 
 
 def worktree(rev: str, where: Path) -> Path:
     """The tree of `rev` at `where`, exported once with `git archive` (read-only for the repository:
     no worktree, no checkout); `where/.rev` records the commit it holds."""
-    want = subprocess.run(["git", "-C", str(ROOT), "rev-parse", rev], capture_output=True, text=True,
-                          check=True).stdout.strip()
+    want = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", rev], capture_output=True, text=True, check=True
+    ).stdout.strip()
     marker = where / ".rev"
     if where.exists():
         if marker.is_file() and marker.read_text().strip() == want:
             return where
         raise SystemExit(f"{where} exists and is not an export of {rev}; remove it or pass --worktree")
     where.mkdir(parents=True)
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", want], capture_output=True,
-                             check=True).stdout
+    archive = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", "--format=tar", want], capture_output=True, check=True
+    ).stdout
     subprocess.run(["tar", "-x", "-C", str(where)], input=archive, check=True)
     marker.write_text(want + "\n")
     return where
@@ -202,15 +230,25 @@ def to_mdl(yaml_path: Path, xml_path: Path, sources: list[Path]) -> None:
     """`mdl import` the Toolkit YAML to MDL 1.0 (with the first mdl that can), so that gen and validate
     time mdl itself, not the YAML parser."""
     for src in reversed(sources):
-        done = subprocess.run([sys.executable, "-m", "mdl", "import", str(yaml_path), "-o", str(xml_path)],
-                              env=mdl_env(src), capture_output=True)
+        done = subprocess.run(
+            [sys.executable, "-m", "mdl", "import", str(yaml_path), "-o", str(xml_path)],
+            env=mdl_env(src),
+            capture_output=True,
+        )
         if done.returncode == 0:
             return
     raise SystemExit(f"cannot import {yaml_path}: {done.stderr.decode(errors='replace')[-300:]}")
 
 
-def bench_one(label: str, src: Path, files: dict[tuple[str, int], Path], sizes: list[int], langs: list[str],
-              out_dir: Path, repeat: int = 1) -> dict[tuple[str, int, str], Run]:
+def bench_one(
+    label: str,
+    src: Path,
+    files: dict[tuple[str, int], Path],
+    sizes: list[int],
+    langs: list[str],
+    out_dir: Path,
+    repeat: int = 1,
+) -> dict[tuple[str, int, str], Run]:
     """(kind, size, command) -> Run for one mdl source tree."""
     env = mdl_env(src)
     results: dict[tuple[str, int, str], Run] = {}
@@ -219,15 +257,24 @@ def bench_one(label: str, src: Path, files: dict[tuple[str, int], Path], sizes: 
             path = files[(kind, size)]
             for lang in langs:
                 dest = out_dir / f"{label}-{kind}-{size}-{lang}"
-                run = best([sys.executable, "-m", "mdl", "gen", str(path), "--lang", lang, "-o", str(dest)], env,
-                           repeat)
+                run = best(
+                    [sys.executable, "-m", "mdl", "gen", str(path), "--lang", lang, "-o", str(dest)], env, repeat
+                )
                 results[(kind, size, f"gen {lang}")] = run
-                print(f"  [{label}] {kind:5} {size:>6} gen --lang {lang:6} {fmt(run)}"
-                      + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
+                print(
+                    f"  [{label}] {kind:5} {size:>6} gen --lang {lang:6} {fmt(run)}"
+                    + ("" if run.ok else f"  FAILED: {run.note}"),
+                    file=sys.stderr,
+                    flush=True,
+                )
             run = best([sys.executable, "-m", "mdl", "validate", str(path)], env, repeat)
             results[(kind, size, "validate")] = run
-            print(f"  [{label}] {kind:5} {size:>6} validate        {fmt(run)}"
-                  + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
+            print(
+                f"  [{label}] {kind:5} {size:>6} validate        {fmt(run)}"
+                + ("" if run.ok else f"  FAILED: {run.note}"),
+                file=sys.stderr,
+                flush=True,
+            )
     return results
 
 
@@ -238,25 +285,32 @@ def modbus_cflags() -> list[str]:
     return subprocess.run([pkg, "--cflags", "libmodbus"], capture_output=True, text=True).stdout.split()
 
 
-def cpp_compile(label: str, src: Path, files: dict[tuple[str, int], Path], sizes: list[int],
-                out_dir: Path) -> dict[int, Run]:
+def cpp_compile(
+    label: str, src: Path, files: dict[tuple[str, int], Path], sizes: list[int], out_dir: Path
+) -> dict[int, Run]:
     gxx = shutil.which("g++")
     out: dict[int, Run] = {}
     if gxx is None:
         return out
     for size in sizes:
         dest = out_dir / f"{label}-cc-{size}"
-        gen = measure([sys.executable, "-m", "mdl", "gen", str(files[("plain", size)]), "--lang", "cpp", "-o",
-                       str(dest)], mdl_env(src))
+        gen = measure(
+            [sys.executable, "-m", "mdl", "gen", str(files[("plain", size)]), "--lang", "cpp", "-o", str(dest)],
+            mdl_env(src),
+        )
         ccs = sorted(dest.glob("*.cc"))
         if not gen.ok or not ccs:
             out[size] = Run(0, 0, False, gen.note or "no .cc")
             continue
-        run = measure([gxx, "-std=c++17", "-O2", "-c", "-I", str(dest), *modbus_cflags(), str(ccs[0]), "-o",
-                       str(dest / "out.o")])
+        run = measure(
+            [gxx, "-std=c++17", "-O2", "-c", "-I", str(dest), *modbus_cflags(), str(ccs[0]), "-o", str(dest / "out.o")]
+        )
         out[size] = run
-        print(f"  [{label}] g++ -O2 -c {size:>6}       {fmt(run)}"
-              + ("" if run.ok else f"  FAILED: {run.note}"), file=sys.stderr, flush=True)
+        print(
+            f"  [{label}] g++ -O2 -c {size:>6}       {fmt(run)}" + ("" if run.ok else f"  FAILED: {run.note}"),
+            file=sys.stderr,
+            flush=True,
+        )
     return out
 
 
@@ -277,15 +331,27 @@ def main() -> int:
     parser.add_argument("--sizes", default="1000,10000,30000", help="function counts (comma separated)")
     parser.add_argument("--langs", help="--lang values to time (default: every registered one, and all)")
     parser.add_argument("--compare", metavar="REV", help="also run the mdl of git revision REV, side by side")
-    parser.add_argument("--worktree", type=Path,
-                        help="where REV is exported (default /tmp/bench_REV)")
-    parser.add_argument("--src", type=Path, default=ROOT / "src",
-                        help="the mdl source tree measured as 'after' (default: this checkout's src/)")
-    parser.add_argument("--cpp-compile", dest="cpp", action=argparse.BooleanOptionalAction, default=None,
-                        help="time g++ -O2 -c on the generated .cc (default: on, at 1,000 and 3,000 functions)")
+    parser.add_argument("--worktree", type=Path, help="where REV is exported (default /tmp/bench_REV)")
+    parser.add_argument(
+        "--src",
+        type=Path,
+        default=ROOT / "src",
+        help="the mdl source tree measured as 'after' (default: this checkout's src/)",
+    )
+    parser.add_argument(
+        "--cpp-compile",
+        dest="cpp",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="time g++ -O2 -c on the generated .cc (default: on, at 1,000 and 3,000 functions)",
+    )
     parser.add_argument("--cpp-sizes", default="1000,3000", help="sizes for --cpp-compile")
-    parser.add_argument("--repeat", type=int, default=1,
-                        help="run each mdl command N times and keep the run of least CPU time (default 1)")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="run each mdl command N times and keep the run of least CPU time (default 1)",
+    )
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     cpp_sizes = [int(s) for s in args.cpp_sizes.split(",")] if args.cpp is not False else []
@@ -317,8 +383,11 @@ def main() -> int:
     labels = [label for label, _ in trees]
     print()
     print("wall time (CPU time: user + system) and peak memory; speed-up in CPU time")
-    print(f"{'device':6} {'functions':>9} {'command':14} " + " ".join(f"{label:>{WIDTH}}" for label in labels)
-          + ("   speed-up" if len(labels) == 2 else ""))
+    print(
+        f"{'device':6} {'functions':>9} {'command':14} "
+        + " ".join(f"{label:>{WIDTH}}" for label in labels)
+        + ("   speed-up" if len(labels) == 2 else "")
+    )
     keys = sorted({k for r in results.values() for k in r}, key=lambda k: (k[0] != "plain", k[1], k[2]))
     for kind, size, command in keys:
         runs = [results[label].get((kind, size, command)) for label in labels]

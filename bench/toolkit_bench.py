@@ -27,15 +27,26 @@ def sunspec_like(fields: int = 700) -> str:
     address = 40000
     per_block = 70
     kinds = [
-        "uint16(hr:{a})", "int16(hr:{a})", "uint32(hr:{a}#2)", "int32(hr:{a}#2)", "ieee754_32(hr:{a}#2)",
-        "utf8(hr:{a}#8)", "enum(hr:{a} ; 0xFFFF ; 1 -> 'Off'; 2 -> 'Sleeping'; 3 -> 'Starting'; 4 -> 'MPPT')",
+        "uint16(hr:{a})",
+        "int16(hr:{a})",
+        "uint32(hr:{a}#2)",
+        "int32(hr:{a}#2)",
+        "ieee754_32(hr:{a}#2)",
+        "utf8(hr:{a}#8)",
+        "enum(hr:{a} ; 0xFFFF ; 1 -> 'Off'; 2 -> 'Sleeping'; 3 -> 'Starting'; 4 -> 'MPPT')",
         "bitset(hr:{a}#2 ; 0xFFFF 0xFFFF ; 0 -> 'Ground fault'; 1 -> 'DC over voltage'; 2 -> 'AC disconnect')",
     ]
     sizes = [1, 1, 2, 2, 2, 8, 1, 2]
     n = 0
     for b in range(fields // per_block):
-        lines += [f"  - id: 'Model{b}'", f"    description: 'Block {b}'", "    fields:",
-                  "      - id: 'SF'", f"        expression: 'int16(hr:{address}; 0x8000)'", "        system: true"]
+        lines += [
+            f"  - id: 'Model{b}'",
+            f"    description: 'Block {b}'",
+            "    fields:",
+            "      - id: 'SF'",
+            f"        expression: 'int16(hr:{address}; 0x8000)'",
+            "        system: true",
+        ]
         address += 1
         n += 1
         for i in range(per_block - 1):
@@ -43,13 +54,25 @@ def sunspec_like(fields: int = 700) -> str:
             expr = kinds[k].format(a=address)
             if k in (0, 1):
                 expr = f"{expr} * 10^SF"
-            lines += [f"      - id: 'F{i}'", f"        description: 'Field {i} of block {b}'",
-                      f'        expression: "{expr}"', "        unit: 'W'"]
+            lines += [
+                f"      - id: 'F{i}'",
+                f"        description: 'Field {i} of block {b}'",
+                f'        expression: "{expr}"',
+                "        unit: 'W'",
+            ]
             address += sizes[k]
             n += 1
-    lines += ["tests:", "  - id: 'zeros'", "    input:", "      - firstAddress: 'hr:40000'",
-              "        rawValues: " + " ".join(["0000"] * 40), "    blocks:", "      - id: 'Model0'",
-              "        expected:", "          F0: [ 0 ]"]
+    lines += [
+        "tests:",
+        "  - id: 'zeros'",
+        "    input:",
+        "      - firstAddress: 'hr:40000'",
+        "        rawValues: " + " ".join(["0000"] * 40),
+        "    blocks:",
+        "      - id: 'Model0'",
+        "        expected:",
+        "          F0: [ 0 ]",
+    ]
     assert n == fields
     return "\n".join(lines) + "\n"
 

@@ -48,10 +48,20 @@ def skip_or_fail(reason: str) -> None:
 # or dials a simulated device (the sim_factory or serial_line fixture).
 TIERS = {
     "compile": {  # generated C and C++ built with g++, clang++, gcc (and clang-tidy), run against mdl sim
-        "test_c_all_header.py", "test_c_driver.py", "test_c_expression_sizes.py", "test_c_hostile.py",
-        "test_c_serial.py", "test_cpp_driver.py", "test_cpp_expression_params.py", "test_cpp_hostile.py",
-        "test_cpp_serial.py", "test_hostile_gen.py", "test_perf_shared_code.py", "test_write_multiple.py",
-        "test_generated_python_lint.py", "test_wheel.py",
+        "test_c_all_header.py",
+        "test_c_driver.py",
+        "test_c_expression_sizes.py",
+        "test_c_hostile.py",
+        "test_c_serial.py",
+        "test_cpp_driver.py",
+        "test_cpp_expression_params.py",
+        "test_cpp_hostile.py",
+        "test_cpp_serial.py",
+        "test_hostile_gen.py",
+        "test_perf_shared_code.py",
+        "test_write_multiple.py",
+        "test_generated_python_lint.py",
+        "test_wheel.py",
     },
     "engines": {"test_export_homeassistant.py", "test_export_volttron.py"},  # engines in cached venvs
 }
@@ -82,8 +92,9 @@ def pytest_configure(config):
 
 
 def pytest_addoption(parser):
-    parser.addoption("--exhaustive", action="store_true",
-                     help="also run the tests marked exhaustive (always on when CI=true)")
+    parser.addoption(
+        "--exhaustive", action="store_true", help="also run the tests marked exhaustive (always on when CI=true)"
+    )
 
 
 def _exhaustive(config) -> bool:
@@ -117,8 +128,10 @@ def pytest_runtest_setup(item):
     for mark in item.iter_markers("conformance"):
         folder = CONFORMANCE / mark.args[0]
         if not folder.is_dir():
-            skip_or_fail(f"conformance data {folder} is absent: set MDL_CONFORMANCE_DIR to the folder holding "
-                         f"{mark.args[0]}/, or check out shared/ beside the repository")
+            skip_or_fail(
+                f"conformance data {folder} is absent: set MDL_CONFORMANCE_DIR to the folder holding "
+                f"{mark.args[0]}/, or check out shared/ beside the repository"
+            )
 
 
 def mdl_cmd(*args) -> list[str]:
@@ -135,8 +148,15 @@ def run_mdl(*args, input=None, cwd=None, timeout=60) -> subprocess.CompletedProc
     command serves or MDL_TESTS_SUBPROCESS=1; either way a run past `timeout` fails the test."""
     if str(args[0]) not in OWN_PROCESS and os.environ.get("MDL_TESTS_SUBPROCESS") != "1":
         return cli(*args, input=input, cwd=cwd, timeout=timeout)
-    return subprocess.run(mdl_cmd(*args), input=input, capture_output=True, text=True, cwd=cwd,
-                          timeout=timeout, env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    return subprocess.run(
+        mdl_cmd(*args),
+        input=input,
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=timeout,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
 
 
 def cli(*args, input=None, cwd=None, timeout: float = 60) -> subprocess.CompletedProcess:
@@ -179,16 +199,40 @@ def assert_clean_error(proc, code: int, *fragments: str) -> None:
 
 def device_xml(functions: str, name: str = "Test Device", version: str | None = "1.0") -> str:
     attr = f' version="{version}"' if version else ""
-    return (f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}"{attr}>\n'
-            f"  <name>{name}</name>\n  <description>test</description>\n{functions}</device>\n")
+    return (
+        f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}"{attr}>\n'
+        f"  <name>{name}</name>\n  <description>test</description>\n{functions}</device>\n"
+    )
 
 
 def fn_xml(name: str, addresses, **fields) -> str:
     """A <function> with the given fields in schema order."""
-    order = ["length", "count", "format", "block_label", "multiplier", "units", "read_function_code",
-             "write_function_code", "register_type", "byte_order", "word_order", "offset", "access",
-             "minimum", "maximum", "not_implemented", "values", "expression", "immutable", "system",
-             "fetch_group", "marker", "precision", "write_multiple"]
+    order = [
+        "length",
+        "count",
+        "format",
+        "block_label",
+        "multiplier",
+        "units",
+        "read_function_code",
+        "write_function_code",
+        "register_type",
+        "byte_order",
+        "word_order",
+        "offset",
+        "access",
+        "minimum",
+        "maximum",
+        "not_implemented",
+        "values",
+        "expression",
+        "immutable",
+        "system",
+        "fetch_group",
+        "marker",
+        "precision",
+        "write_multiple",
+    ]
     body = f"    <name>{name}</name>\n    <description>{name}</description>\n    <addresses>{addresses}</addresses>\n"
     for key in order:
         if key in fields:
@@ -234,8 +278,9 @@ class Sim:
     def __init__(self, path, *extra, timeout: float = 30, serial: str | None = None, port: int = 0):
         paths = list(path) if isinstance(path, (list, tuple)) else [path]
         where = ["--serial", serial] if serial else ["--port", str(port)]
-        self.proc = subprocess.Popen(mdl_cmd("sim", *paths, *where, *extra), stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True)
+        self.proc = subprocess.Popen(
+            mdl_cmd("sim", *paths, *where, *extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
         lines = _read_lines(self.proc.stdout, lambda got: len(got) >= len(paths), self.proc, timeout)
         if len(lines) < len(paths) or not all(line.startswith("mdl sim: serving") for line in lines):
             self.proc.kill()
@@ -278,12 +323,23 @@ class SerialLine:
 
     def __init__(self, timeout: float = 10):
         if shutil.which("socat") is None:
-            skip_or_fail("socat is not installed: the serial tests wire two pseudo terminals with it "
-                         "(apt-get install socat)")
-        self.proc = subprocess.Popen(["socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        lines = _read_lines(self.proc.stderr, lambda got: sum(" PTY is " in line for line in got) == 2 or any(
-            "starting data transfer" in line for line in got), self.proc, timeout)
+            skip_or_fail(
+                "socat is not installed: the serial tests wire two pseudo terminals with it (apt-get install socat)"
+            )
+        self.proc = subprocess.Popen(
+            ["socat", "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        lines = _read_lines(
+            self.proc.stderr,
+            lambda got: (
+                sum(" PTY is " in line for line in got) == 2 or any("starting data transfer" in line for line in got)
+            ),
+            self.proc,
+            timeout,
+        )
         self.ends = [line.split(" PTY is ", 1)[1].strip() for line in lines if " PTY is " in line]
         if len(self.ends) != 2:
             self.close()

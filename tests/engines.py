@@ -47,8 +47,13 @@ class Engine:
 VOLTTRON = Engine(
     "volttron-modbustk",
     # six: the driver's client imports it without declaring it; the rest pinned as pip resolved them
-    ("volttron-lib-modbustk-driver==0.1.2rc0", "volttron-lib-base-driver==0.2.1rc2", "volttron==10.0.5rc4",
-     "modbus-tk==1.1.5", "six==1.17.0"),
+    (
+        "volttron-lib-modbustk-driver==0.1.2rc0",
+        "volttron-lib-base-driver==0.2.1rc2",
+        "volttron==10.0.5rc4",
+        "modbus-tk==1.1.5",
+        "six==1.17.0",
+    ),
     pre=True,
     probe="import volttron.driver.interfaces.modbus_tk.modbus_tk",
 )
@@ -85,8 +90,16 @@ def engine_python(engine: Engine, *, timeout: float = 1800) -> Path:
         shutil.rmtree(final, ignore_errors=True)
         venv.EnvBuilder(with_pip=True, clear=True).create(final)
         python = python_of(final)
-        command = [str(python), "-m", "pip", "install", "--no-input", "--disable-pip-version-check",
-                   *(["--pre"] if engine.pre else []), *engine.requirements]
+        command = [
+            str(python),
+            "-m",
+            "pip",
+            "install",
+            "--no-input",
+            "--disable-pip-version-check",
+            *(["--pre"] if engine.pre else []),
+            *engine.requirements,
+        ]
         try:
             proc = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -105,8 +118,12 @@ def engine_python(engine: Engine, *, timeout: float = 1800) -> Path:
 
 
 def installed_version(python: Path, distribution: str) -> str:
-    out = subprocess.run([str(python), "-c", f"import importlib.metadata as m; print(m.version({distribution!r}))"],
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [str(python), "-c", f"import importlib.metadata as m; print(m.version({distribution!r}))"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return out.stdout.strip()
 
 

@@ -86,7 +86,7 @@ def _read_data(request: bytes, extra: int = 0) -> bytes:
         return b"".join(struct.pack(">H", (address + i) & 0xFFFF) for i in range(max(count, 0)))
     nbytes = max((_count(request) + 7) // 8 + extra, 0)
     bits = [(address + i) % 2 for i in range(nbytes * 8)]
-    return bytes(sum(bit << j for j, bit in enumerate(bits[k:k + 8])) for k in range(0, len(bits), 8))
+    return bytes(sum(bit << j for j, bit in enumerate(bits[k : k + 8])) for k in range(0, len(bits), 8))
 
 
 def _honest(request: bytes) -> bytes:
@@ -122,12 +122,13 @@ def _resized(extra_registers: int) -> Callable[[bytes], bytes]:
             return bytes([request[0], len(data)]) + data
         echo = _honest(request)
         return echo + b"\x00\x00" if extra_registers > 0 else echo[:-2]
+
     return lie
 
 
 def _bad_byte_count(request: bytes) -> bytes:
     if request[0] in READS:
-        return _honest(request) + _read_data(request)[:2 if request[0] in (3, 4) else 1]
+        return _honest(request) + _read_data(request)[: 2 if request[0] in (3, 4) else 1]
     return _changed_last_field(_honest(request))
 
 
@@ -156,15 +157,28 @@ def _objects(objects: list[tuple[int, bytes]]) -> bytes:
     return b"".join(bytes([oid, len(data)]) + data for oid, data in objects)
 
 
-def identification(request: bytes, more: int = 0, next_object: int = 0, count: int | None = None,
-                   objects: bytes | None = None) -> bytes:
+def identification(
+    request: bytes, more: int = 0, next_object: int = 0, count: int | None = None, objects: bytes | None = None
+) -> bytes:
     """A Read Device Identification reply to `request` (2b 0e CODE OBJECT): the IDENTITY objects from the one
     asked, or what the arguments say instead."""
     first = request[3] if len(request) > 3 else 0
     chosen = [(oid, data) for oid, data in enumerate(IDENTITY) if oid >= first]
     body = _objects(chosen) if objects is None else objects
-    return bytes([IDENTIFY, 0x0E, request[2] if len(request) > 2 else 1, 0x01, more, next_object,
-                  len(chosen) if count is None else count]) + body
+    return (
+        bytes(
+            [
+                IDENTIFY,
+                0x0E,
+                request[2] if len(request) > 2 else 1,
+                0x01,
+                more,
+                next_object,
+                len(chosen) if count is None else count,
+            ]
+        )
+        + body
+    )
 
 
 def _honest_identification(request: bytes) -> bytes:
@@ -182,10 +196,12 @@ ID_LIES: dict[str, Callable[[bytes], bytes]] = {
     "id_long_length": lambda r: identification(r, count=1, objects=bytes([0, 200]) + b"abc"),
     "id_extra_count": lambda r: identification(r, count=5),
     "id_huge": _huge,
-    "id_more_forever": lambda r: identification(r, more=0xFF, next_object=(r[3] + 1) & 0xFF, count=1,
-                                                objects=_objects([(r[3], b"x")])),
-    "id_more_stuck": lambda r: identification(r, more=0xFF, next_object=r[3], count=1,
-                                              objects=_objects([(r[3], b"x")])),
+    "id_more_forever": lambda r: identification(
+        r, more=0xFF, next_object=(r[3] + 1) & 0xFF, count=1, objects=_objects([(r[3], b"x")])
+    ),
+    "id_more_stuck": lambda r: identification(
+        r, more=0xFF, next_object=r[3], count=1, objects=_objects([(r[3], b"x")])
+    ),
     "id_dribble": _honest_identification,
     "id_stream": _honest_identification,
 }
@@ -229,8 +245,15 @@ def rtu_frame(unit: int, pdu: bytes) -> bytes:
 
 
 class _Server:
-    def __init__(self, mode: str, lifetime: float, framing: str = "tcp", units: Collection[int] | None = None,
-                 liar: int | None = None, gap: float = 0.4):
+    def __init__(
+        self,
+        mode: str,
+        lifetime: float,
+        framing: str = "tcp",
+        units: Collection[int] | None = None,
+        liar: int | None = None,
+        gap: float = 0.4,
+    ):
         if mode not in ALL_MODES:
             raise ValueError(f"unknown mode {mode!r}; modes: {', '.join(ALL_MODES)}")
         if framing not in ("tcp", "rtu"):
@@ -346,8 +369,14 @@ class _Server:
 
 
 @contextmanager
-def hostile_server(mode: str, lifetime: float = 60.0, framing: str = "tcp", units: Collection[int] | None = None,
-                   liar: int | None = None, gap: float = 0.4) -> Iterator[tuple[str, int]]:
+def hostile_server(
+    mode: str,
+    lifetime: float = 60.0,
+    framing: str = "tcp",
+    units: Collection[int] | None = None,
+    liar: int | None = None,
+    gap: float = 0.4,
+) -> Iterator[tuple[str, int]]:
     """Serve `mode` (see the module's docstring) on 127.0.0.1; yields (host, port)."""
     server = _Server(mode, lifetime, framing, units, liar, gap)
     try:
@@ -364,8 +393,12 @@ def serial_bridge(port: int, timeout: float = 10) -> Iterator[str]:
 
     if shutil.which("socat") is None:
         raise RuntimeError("socat is not installed")
-    proc = subprocess.Popen(["socat", "-d", "-d", "pty,raw,echo=0", f"tcp:127.0.0.1:{port}"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        ["socat", "-d", "-d", "pty,raw,echo=0", f"tcp:127.0.0.1:{port}"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         lines = _read_lines(proc.stderr, lambda got: any(" PTY is " in line for line in got), proc, timeout)
         ends = [line.split(" PTY is ", 1)[1].strip() for line in lines if " PTY is " in line]

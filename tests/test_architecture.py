@@ -60,8 +60,21 @@ def test_no_import_cycles_between_stages():
 
 # The pipeline's stages, lowest first: each imports only stages before it (no exemption). The helpers
 # serve every stage and import none.
-STAGES = ["model", "plan", "lang", "values", "resolve", "exchange", "formats", "sources", "targets", "device",
-          "engines", "cli", "__main__"]
+STAGES = [
+    "model",
+    "plan",
+    "lang",
+    "values",
+    "resolve",
+    "exchange",
+    "formats",
+    "sources",
+    "targets",
+    "device",
+    "engines",
+    "cli",
+    "__main__",
+]
 HELPERS = {"diagnostics", "fileio", "resources"}
 
 
@@ -88,8 +101,11 @@ def test_the_stages_keep_their_order():
 
 def test_every_unit_has_its_place():
     """A new package or module of src/mdl is placed in STAGES (or HELPERS) before the order can check it."""
-    units = {p.stem if p.is_file() else p.name for p in SRC.iterdir()
-             if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()}
+    units = {
+        p.stem if p.is_file() else p.name
+        for p in SRC.iterdir()
+        if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()
+    }
     assert units == set(STAGES) | HELPERS, units ^ (set(STAGES) | HELPERS)
 
 
@@ -103,7 +119,8 @@ def test_registries_and_their_members_do_not_import_each_other():
             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
                 if isinstance(node, ast.ImportFrom) and node.module is not None:
                     back = node.module == f"mdl.{registry}" or (
-                        node.module == "mdl" and registry in {a.name for a in node.names})
+                        node.module == "mdl" and registry in {a.name for a in node.names}
+                    )
                     assert not back, f"{path.relative_to(SRC)} imports its registry mdl.{registry}"
 
 

@@ -87,8 +87,23 @@ int main(int argc, char **argv) {{
 
 def link(compiler: str, strict: list[str], program: Path, driver_obj: Path, exe: Path) -> Path:
     cflags, libs = modbus_flags()
-    proc = subprocess.run([tool(compiler), *strict, "-O0", *cflags, f"-I{program.parent}", "-o", str(exe),
-                           str(program), str(driver_obj), *libs, "-lm"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            tool(compiler),
+            *strict,
+            "-O0",
+            *cflags,
+            f"-I{program.parent}",
+            "-o",
+            str(exe),
+            str(program),
+            str(driver_obj),
+            *libs,
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, f"{compiler} {program.name}:\n{proc.stderr}"
     return exe
 
@@ -104,10 +119,14 @@ def test_lang_all_compiles_both_drivers_against_one_header(source, name, value, 
     rd = resolve(load_device(source))
     (tmp_path / "user.c").write_text(C_PROGRAM.format(stem=stem, name=name, macro=f"{stem.upper()}_DEVICE_NAME"))
     (tmp_path / "user.cc").write_text(CXX_PROGRAM.format(stem=stem, name=name, cls=rd.class_name))
-    programs = [link(compiler, C_STRICT, tmp_path / "user.c", objects[compiler], tmp_path / f"user_{compiler}")
-                for compiler in ("gcc", "clang")]
-    programs += [link(compiler, CXX_STRICT, tmp_path / "user.cc", objects[compiler], tmp_path / f"user_{compiler}")
-                 for compiler in ("g++", "clang++")]
+    programs = [
+        link(compiler, C_STRICT, tmp_path / "user.c", objects[compiler], tmp_path / f"user_{compiler}")
+        for compiler in ("gcc", "clang")
+    ]
+    programs += [
+        link(compiler, CXX_STRICT, tmp_path / "user.cc", objects[compiler], tmp_path / f"user_{compiler}")
+        for compiler in ("g++", "clang++")
+    ]
     sim = sim_factory(source, "--set", f"{name}={value}")
     for exe in programs:
         run = subprocess.run([str(exe), str(sim.port)], capture_output=True, text=True, timeout=30)
@@ -121,11 +140,15 @@ def test_the_c_program_sees_no_cxx_and_the_cxx_program_no_c(tmp_path):
     header, _, _ = generate_all(ALL, tmp_path)
     cflags, _ = modbus_flags()
     (tmp_path / "c_uses_class.c").write_text('#include "all_tables.h"\nAllTables *p;\n')
-    (tmp_path / "cxx_uses_c.cc").write_text('#include "all_tables.h"\n'
-                                                 'void f() { all_tables_init(nullptr, nullptr); }\n')
+    (tmp_path / "cxx_uses_c.cc").write_text(
+        '#include "all_tables.h"\nvoid f() { all_tables_init(nullptr, nullptr); }\n'
+    )
     for compiler, strict, program in (("gcc", C_STRICT, "c_uses_class.c"), ("g++", CXX_STRICT, "cxx_uses_c.cc")):
-        proc = subprocess.run([tool(compiler), *strict, "-fsyntax-only", *cflags, f"-I{header.parent}",
-                               str(tmp_path / program)], capture_output=True, text=True)
+        proc = subprocess.run(
+            [tool(compiler), *strict, "-fsyntax-only", *cflags, f"-I{header.parent}", str(tmp_path / program)],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode != 0, (compiler, program)
 
 
@@ -135,14 +158,21 @@ CONTROL = "a\x00b\x01c\x1b[0m\x7f\x85\u2028\u2029 \u00e9\u4e2d\U0001f600 */ ??/\
 
 
 def hostile_device(write_device, control: bool):
-    path = write_device(fn_xml("t", "1", format="UINT16", units=NASTY).replace(
-        "<description>t</description>", f"<description>{NASTY}</description>")
-        + fn_xml("splice ??/", "2", format="UINT16") + fn_xml("splice \\", "3", format="UINT16")
-        + fn_xml("#define evil_name", "4", format="STRING", count="2"), name=f"Dev {NASTY} &#176;")
+    path = write_device(
+        fn_xml("t", "1", format="UINT16", units=NASTY).replace(
+            "<description>t</description>", f"<description>{NASTY}</description>"
+        )
+        + fn_xml("splice ??/", "2", format="UINT16")
+        + fn_xml("splice \\", "3", format="UINT16")
+        + fn_xml("#define evil_name", "4", format="STRING", count="2"),
+        name=f"Dev {NASTY} &#176;",
+    )
     device = load_device(path)
     if control:
-        functions = [dataclasses.replace(f, description=f.description + CONTROL, units=(f.units or "") + CONTROL)
-                     for f in device.functions]
+        functions = [
+            dataclasses.replace(f, description=f.description + CONTROL, units=(f.units or "") + CONTROL)
+            for f in device.functions
+        ]
         device = dataclasses.replace(device, name=device.name + CONTROL, description=CONTROL, functions=functions)
     return device
 
@@ -196,9 +226,12 @@ def test_hostile_text_in_the_merged_header_compiles_as_c_and_cxx(control, tmp_pa
     (out / "name.cc").write_text(NAME_PROGRAM_CXX.format(stem=rd.stem, cls=rd.class_name))
     # the name's bytes, whole in the C string literal (sizeof), up to its first NUL through a const char *
     name = device.name.encode("utf-8")
-    for compiler, strict, program, want in (("gcc", C_STRICT, "name.c", name), ("clang", C_STRICT, "name.c", name),
-                                            ("g++", CXX_STRICT, "name.cc", name.split(b"\0")[0]),
-                                            ("clang++", CXX_STRICT, "name.cc", name.split(b"\0")[0])):
+    for compiler, strict, program, want in (
+        ("gcc", C_STRICT, "name.c", name),
+        ("clang", C_STRICT, "name.c", name),
+        ("g++", CXX_STRICT, "name.cc", name.split(b"\0")[0]),
+        ("clang++", CXX_STRICT, "name.cc", name.split(b"\0")[0]),
+    ):
         exe = link(compiler, [*strict, "-trigraphs"], out / program, objects[compiler], out / f"name_{compiler}")
         run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=30)
         assert run.returncode == 0 and run.stdout == want.hex() + "\n", (compiler, run.stdout, want)

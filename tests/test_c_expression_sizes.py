@@ -31,49 +31,78 @@ def _fn(name: str, expression: str, addresses: str = "0") -> str:
 
 # Each expression is declared BEFORE the functions it names (bug C), so that a capacity computed in
 # declaration order would see 0 for them.
-SIZES = "".join([
-    # B: a bitset given to concat, directly, returned as is, and nested in another concat
-    _fn("ll1", "concat(lx1)", "1"),
-    _fn("ll2", "concat(lr, '/', lx1, '/', lxm)", "1 2"),
-    _fn("ll3", "concat(ll2, ll2)", "1 2"),
-    _fn("lr", "lx1", "1"),  # a list returned as is
-    _fn("lx1", "bitset(hr:1)", "1"),  # default labels: Bit 0 .. Bit 15
-    _fn("lxm", f"bitset(hr:2; 0 -> '{LONG}0'; 7 -> '{LONG}7'; 15 -> '{LONG}15')", "2"),
-    # C: a text declared later, returned as is, in concat of concat
-    _fn("x", "concat(y, 'a')"),
-    _fn("c1", "concat(c2, '!', c2)"),
-    _fn("c2", "concat(c3, c3, x)"),
-    _fn("c3", "y"),  # a text returned as is
-    _fn("y", "enum(hr:0; 0 -> 'zero'; 1 -> 'one')"),  # unmapped: No mapping for value 0x.. 0x..
-    _fn("ym", f"enum(hr:0; 0 -> '{LONG}')"),
-    _fn("cm", "concat(ym, ym)"),
-    # a boolean's labels, a utf8 text, a STRING function (a parameter of its own text size)
-    _fn("cb", "concat(bl, '+', bl)", "1"),
-    _fn("bl", f"boolean(bb; 'f'; '{LONG}')", "1"),
-    _fn("bb", "bitsetbit(hr:1; 3)", "1"),
-    _fn("cu", "concat(u, u, 1.5, 2, true)", "6 7"),
-    _fn("u", "utf8(hr:6#2)", "6 7"),
-    _fn("cs", "concat(s, '|', sr)", "3 4 5"),
-    _fn("sr", "s", "3 4 5"),  # a STRING function returned as is
-    fn_xml("s", "3 4 5", format="STRING", count="3"),
-    _fn("tiny", "'ab'"),  # a text shorter than the harness's poison
-    _fn("big", "concat(ll3, c1, cm, cb, cu, cs)", "1 2 3 4 5 6 7"),
-])
+SIZES = "".join(
+    [
+        # B: a bitset given to concat, directly, returned as is, and nested in another concat
+        _fn("ll1", "concat(lx1)", "1"),
+        _fn("ll2", "concat(lr, '/', lx1, '/', lxm)", "1 2"),
+        _fn("ll3", "concat(ll2, ll2)", "1 2"),
+        _fn("lr", "lx1", "1"),  # a list returned as is
+        _fn("lx1", "bitset(hr:1)", "1"),  # default labels: Bit 0 .. Bit 15
+        _fn("lxm", f"bitset(hr:2; 0 -> '{LONG}0'; 7 -> '{LONG}7'; 15 -> '{LONG}15')", "2"),
+        # C: a text declared later, returned as is, in concat of concat
+        _fn("x", "concat(y, 'a')"),
+        _fn("c1", "concat(c2, '!', c2)"),
+        _fn("c2", "concat(c3, c3, x)"),
+        _fn("c3", "y"),  # a text returned as is
+        _fn("y", "enum(hr:0; 0 -> 'zero'; 1 -> 'one')"),  # unmapped: No mapping for value 0x.. 0x..
+        _fn("ym", f"enum(hr:0; 0 -> '{LONG}')"),
+        _fn("cm", "concat(ym, ym)"),
+        # a boolean's labels, a utf8 text, a STRING function (a parameter of its own text size)
+        _fn("cb", "concat(bl, '+', bl)", "1"),
+        _fn("bl", f"boolean(bb; 'f'; '{LONG}')", "1"),
+        _fn("bb", "bitsetbit(hr:1; 3)", "1"),
+        _fn("cu", "concat(u, u, 1.5, 2, true)", "6 7"),
+        _fn("u", "utf8(hr:6#2)", "6 7"),
+        _fn("cs", "concat(s, '|', sr)", "3 4 5"),
+        _fn("sr", "s", "3 4 5"),  # a STRING function returned as is
+        fn_xml("s", "3 4 5", format="STRING", count="3"),
+        _fn("tiny", "'ab'"),  # a text shorter than the harness's poison
+        _fn("big", "concat(ll3, c1, cm, cb, cu, cs)", "1 2 3 4 5 6 7"),
+    ]
+)
 SIZE_REGISTERS = 8
 # plain functions over the same registers, so that the test can write them (expressions are read-only)
 RAW = "".join(fn_xml(f"raw{i}", str(i), format="UINT16") for i in range(SIZE_REGISTERS))
 # the longest values: an unmapped enum value, every bit set, invalid UTF-8 (U+FFFD for each byte)
 LONGEST = [0xFFFF, 0xFFFF, 0xFFFF, 0x4142, 0x4344, 0x4546, 0xFFFF, 0xFFFF]
-NAMES = ("ll1", "ll2", "ll3", "lr", "lx1", "lxm", "x", "c1", "c2", "c3", "y", "ym", "cm", "cb", "bl", "bb",
-         "cu", "u", "cs", "sr", "s", "tiny", "big")
+NAMES = (
+    "ll1",
+    "ll2",
+    "ll3",
+    "lr",
+    "lx1",
+    "lxm",
+    "x",
+    "c1",
+    "c2",
+    "c3",
+    "y",
+    "ym",
+    "cm",
+    "cb",
+    "bl",
+    "bb",
+    "cu",
+    "u",
+    "cs",
+    "sr",
+    "s",
+    "tiny",
+    "big",
+)
 
 
 def _register_sets() -> list[list[int]]:
     """The longest values first, then each enum mapped, no bit set, and random ones (the STRING's
     registers without NUL bytes: C text ends at the first)."""
     rng = random.Random(11)
-    out = [LONGEST, [0, 0, 0, 0x6162, 0x6364, 0x6566, 0x4142, 0x4344], [1, 0x0008, 0x8081, *LONGEST[3:]],
-           [0x8000, 0x8001, 0x7FFF, 0x7A7A, 0x7A7A, 0x7A7A, 0xC3A9, 0xE282]]
+    out = [
+        LONGEST,
+        [0, 0, 0, 0x6162, 0x6364, 0x6566, 0x4142, 0x4344],
+        [1, 0x0008, 0x8081, *LONGEST[3:]],
+        [0x8000, 0x8001, 0x7FFF, 0x7A7A, 0x7A7A, 0x7A7A, 0xC3A9, 0xE282],
+    ]
     for _ in range(4):
         regs = [rng.choice([0, 1, 0xFFFF, 0x8000, rng.randrange(65536)]) for _ in range(SIZE_REGISTERS)]
         regs[3:6] = [rng.randrange(0x21, 0x7F) << 8 | rng.randrange(0x21, 0x7F) for _ in range(3)]
@@ -112,8 +141,6 @@ def test_expressions_on_later_functions_and_lists_read_as_the_python_driver(size
         assert_exactly(h.values(), dev.read_all())
         for name in NAMES:
             assert_exactly(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
-
-
 
 
 def test_no_read_writes_past_a_buffer_under_address_sanitizer(sizes_setup, tmp_path):

@@ -52,12 +52,18 @@ def build_sanitized(workdir: Path, path: Path = DATA / "all_tables.xml") -> Path
         (workdir / name).write_text(text, encoding="utf-8")
     (workdir / "c_harness.c").write_text(harness_source(device, stem), encoding="utf-8")
     driver = workdir / f"{stem}.o"
-    proc = subprocess.run([gcc, *STRICT, *SANITIZE, *cflags, "-c", str(workdir / f"{stem}.c"), "-o", str(driver)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [gcc, *STRICT, *SANITIZE, *cflags, "-c", str(workdir / f"{stem}.c"), "-o", str(driver)],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     exe = workdir / "c_harness_san"
-    proc = subprocess.run([gcc, "-std=c99", *SANITIZE, *cflags, "-o", str(exe), str(workdir / "c_harness.c"),
-                           str(driver), *libs, "-lm"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [gcc, "-std=c99", *SANITIZE, *cflags, "-o", str(exe), str(workdir / "c_harness.c"), str(driver), *libs, "-lm"],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     return exe
 

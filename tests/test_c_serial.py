@@ -49,7 +49,13 @@ def test_read_all_and_writes_agree_with_mdl_read_on_the_line(all_tables_c, seria
         for write in ("setpoint 19.5", f"label {b'Den'.hex()}", "fan 1", "big 7", "low_byte -7", "serial 4000000000"):
             assert h.ask(f"write {write}") == ["ok"], write
     assert mdl_read(ALL, client_end, "setpoint", "label", "fan", "big", "low_byte", "serial") == {
-        "setpoint": 19.5, "label": "Den", "fan": True, "big": 7, "low_byte": -7, "serial": 4000000000}
+        "setpoint": 19.5,
+        "label": "Den",
+        "fan": True,
+        "big": 7,
+        "low_byte": -7,
+        "serial": 4000000000,
+    }
     assert_exactly(read_all(all_tables_c, ALL, client_end), mdl_read(ALL, client_end))
 
 

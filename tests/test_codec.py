@@ -23,8 +23,17 @@ LENGTHS = ["Full word", "Lower byte", "Upper byte"]
 
 
 def make(fmt, length="Full word", byte_order="big", word_order="big", count=None, **kw) -> Function:
-    return Function(name="f", description="f", addresses=[100], length=length, format=fmt, count=count,
-                    byte_order=byte_order, word_order=word_order, **kw)
+    return Function(
+        name="f",
+        description="f",
+        addresses=[100],
+        length=length,
+        format=fmt,
+        count=count,
+        byte_order=byte_order,
+        word_order=word_order,
+        **kw,
+    )
 
 
 def _int_strategy(fn):
@@ -33,8 +42,14 @@ def _int_strategy(fn):
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(data=st.data(), fmt=st.sampled_from(INT_FORMATS), length=st.sampled_from(LENGTHS),
-       bo=st.sampled_from(ORDERS), wo=st.sampled_from(ORDERS), extra=st.integers(0, 2))
+@given(
+    data=st.data(),
+    fmt=st.sampled_from(INT_FORMATS),
+    length=st.sampled_from(LENGTHS),
+    bo=st.sampled_from(ORDERS),
+    wo=st.sampled_from(ORDERS),
+    extra=st.integers(0, 2),
+)
 def test_integer_round_trip(data, fmt, length, bo, wo, extra):
     base = make(fmt, length, bo, wo)
     fn = make(fmt, length, bo, wo, count=len(layout(base).addresses) + extra)
@@ -50,24 +65,34 @@ def test_integer_round_trip(data, fmt, length, bo, wo, extra):
 
 
 @settings(max_examples=60, deadline=None)
-@given(fmt=st.sampled_from(["FLOAT32", "FLOAT64"]), bo=st.sampled_from(ORDERS), wo=st.sampled_from(ORDERS),
-       value=st.floats(allow_nan=False, width=32))
+@given(
+    fmt=st.sampled_from(["FLOAT32", "FLOAT64"]),
+    bo=st.sampled_from(ORDERS),
+    wo=st.sampled_from(ORDERS),
+    value=st.floats(allow_nan=False, width=32),
+)
 def test_float_round_trip(fmt, bo, wo, value):
     fn = make(fmt, byte_order=bo, word_order=wo)
     assert codec.decode(fn, codec.encode(fn, value)) == value
 
 
 @settings(max_examples=40, deadline=None)
-@given(text=st.text(st.characters(min_codepoint=0x21, max_codepoint=0x2FFF), max_size=8),
-       length=st.sampled_from(["Full word", "Lower byte"]), bo=st.sampled_from(ORDERS))
+@given(
+    text=st.text(st.characters(min_codepoint=0x21, max_codepoint=0x2FFF), max_size=8),
+    length=st.sampled_from(["Full word", "Lower byte"]),
+    bo=st.sampled_from(ORDERS),
+)
 def test_string_round_trip(text, length, bo):
     fn = make("STRING", length, bo, count=24)
     assert codec.decode(fn, codec.encode(fn, text)) == text
 
 
 @settings(max_examples=60, deadline=None)
-@given(raw=st.integers(-32768, 32767), mult=st.sampled_from([0.1, 0.01, 2.0, 0.5, 10.0]),
-       off=st.sampled_from([0.0, -40.0, 273.15]))
+@given(
+    raw=st.integers(-32768, 32767),
+    mult=st.sampled_from([0.1, 0.01, 2.0, 0.5, 10.0]),
+    off=st.sampled_from([0.0, -40.0, 273.15]),
+)
 def test_scaled_round_trip(raw, mult, off):
     fn = make("INT16", multiplier=mult, offset=off)
     regs = [raw & 0xFFFF]
@@ -112,18 +137,24 @@ def test_encode_refuses_what_does_not_fit():
     assert codec.encode(make("UINT16", write_function_code="r1 = (uint16_t)(arg * 10);"), 2.5) == [25]
 
 
-GEN_CASES = [
-    make(f, ln, bo, wo) for f in INT_FORMATS for ln in LENGTHS for bo in ORDERS for wo in ORDERS
-] + [make(f, "Full word", bo, wo) for f in ("FLOAT32", "FLOAT64") for bo in ORDERS for wo in ORDERS] + [
-    make("STRING", "Full word", "big", "big", count=4), make("STRING", "Lower byte", count=5),
-    make("STRING", "Full word", "little", "little", count=3),
-    make("INT16", multiplier=0.1), make("UINT32", multiplier=0.01, offset=-100.0, word_order="little"),
-    make("INT16", read_function_code="arg = (int16_t)r1 / 10.0f;", write_function_code="r1 = (int16_t)(arg * 10);"),
-    make("UINT16", count=3, read_function_code="arg = r1 * 65536.0 + r2 + r3 / 1000.0;"),
-    make("INT32", not_implemented=["0x8000", "0x7FFFFFFF"]),
-    make("BIT", register_type="coil"), make("BIT", register_type="discrete"), make("BIT"),
-    make("UINT16", minimum=0.0, maximum=100.0),
-]
+GEN_CASES = (
+    [make(f, ln, bo, wo) for f in INT_FORMATS for ln in LENGTHS for bo in ORDERS for wo in ORDERS]
+    + [make(f, "Full word", bo, wo) for f in ("FLOAT32", "FLOAT64") for bo in ORDERS for wo in ORDERS]
+    + [
+        make("STRING", "Full word", "big", "big", count=4),
+        make("STRING", "Lower byte", count=5),
+        make("STRING", "Full word", "little", "little", count=3),
+        make("INT16", multiplier=0.1),
+        make("UINT32", multiplier=0.01, offset=-100.0, word_order="little"),
+        make("INT16", read_function_code="arg = (int16_t)r1 / 10.0f;", write_function_code="r1 = (int16_t)(arg * 10);"),
+        make("UINT16", count=3, read_function_code="arg = r1 * 65536.0 + r2 + r3 / 1000.0;"),
+        make("INT32", not_implemented=["0x8000", "0x7FFFFFFF"]),
+        make("BIT", register_type="coil"),
+        make("BIT", register_type="discrete"),
+        make("BIT"),
+        make("UINT16", minimum=0.0, maximum=100.0),
+    ]
+)
 
 
 @pytest.fixture(scope="module")

@@ -37,8 +37,16 @@ PLAIN = [
 ]
 NUMBERS = [name for name, _, fields in PLAIN if fields["format"] != "STRING"]
 # on every number: each operator, unary minus, ^ (a double), concat and the value as it is
-OPERATIONS = {"add": "{} + 1", "mul": "{} * 2", "div": "{} / 3", "sub": "7 - {}", "neg": "-{}", "pow": "{} ^ 2",
-              "cat": "concat({}, '|')", "id": "{}"}
+OPERATIONS = {
+    "add": "{} + 1",
+    "mul": "{} * 2",
+    "div": "{} / 3",
+    "sub": "7 - {}",
+    "neg": "-{}",
+    "pow": "{} ^ 2",
+    "cat": "concat({}, '|')",
+    "id": "{}",
+}
 MIXED = [
     ("m_sum", "i8 + u8 + i16 + u16 + i32 + u32 + i64 + u64"),
     ("m_mix", "u64 * f32 - sc + fr / i16"),
@@ -70,8 +78,9 @@ FUNCTIONS, REGISTERS = _device()
 
 @pytest.fixture(scope="module", params=["cpp", "c"])
 def setup(tmp_path_factory, request):
-    with served_device(tmp_path_factory, FUNCTIONS, "Param Device", None if request.param == "cpp" else build_c) \
-            as served:
+    with served_device(
+        tmp_path_factory, FUNCTIONS, "Param Device", None if request.param == "cpp" else build_c
+    ) as served:
         yield request.param, served
 
 
@@ -96,17 +105,29 @@ def test_expressions_over_every_format_compile_and_read_as_the_python_driver(set
     dev = module.ParamDevice(client)
     rng = random.Random(11)
     edges = [[0] * REGISTERS, [0xFFFF] * REGISTERS, [0x8000] * REGISTERS, [0x7FFF] * REGISTERS]
-    u64, st = (sum(size for _, size, _ in PLAIN[:[p[0] for p in PLAIN].index(name)]) for name in ("u64", "st"))
+    u64, st = (sum(size for _, size, _ in PLAIN[: [p[0] for p in PLAIN].index(name)]) for name in ("u64", "st"))
     for regs in edges + [_registers(rng) for _ in range(12)]:
         if rng.random() < 0.5:  # a UINT64 above 2^63
-            regs[u64:u64 + 4] = [0x8000 | rng.randrange(0x8000), rng.randrange(65536), rng.randrange(65536), 0xFFFF]
+            regs[u64 : u64 + 4] = [0x8000 | rng.randrange(0x8000), rng.randrange(65536), rng.randrange(65536), 0xFFFF]
         # a C text ends at its first NUL (docs/c-api.md): the STRING's bytes hold none, so that its
         # value is the same text in every target
-        regs[st:st + 2] = [w if w & 0xFF and w >> 8 else 0x4142 for w in regs[st:st + 2]]
+        regs[st : st + 2] = [w if w & 0xFF and w >> 8 else 0x4142 for w in regs[st : st + 2]]
         load_registers(client, regs, [rng.random() < 0.5])
         same(h.values(), dev.read_all())
-        for name in ("u64_div", "u64_cat", "u64_add", "u16_add", "f32_mul", "ni_neg", "fr_pow", "m_mix", "m_cat",
-                     "b_cat", "m_label", "u64_id"):
+        for name in (
+            "u64_div",
+            "u64_cat",
+            "u64_add",
+            "u16_add",
+            "f32_mul",
+            "ni_neg",
+            "fr_pow",
+            "m_mix",
+            "m_cat",
+            "b_cat",
+            "m_label",
+            "u64_id",
+        ):
             same(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
 
 

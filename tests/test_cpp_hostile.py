@@ -32,8 +32,15 @@ DISCONNECTED = {errno.ECONNRESET, errno.EPIPE}
 OK = "ok"
 
 # command -> what it sends (all_tables.xml); `all` is read_all, one request per group of every table
-READS = {"read pump": "FC01", "read door_open": "FC02", "read setpoint": "FC03", "read label": "FC03",
-         "read energy": "FC04", "read flow": "FC03", "all": "all"}
+READS = {
+    "read pump": "FC01",
+    "read door_open": "FC02",
+    "read setpoint": "FC03",
+    "read label": "FC03",
+    "read energy": "FC04",
+    "read flow": "FC03",
+    "all": "all",
+}
 WRITES = {"write pump 1": "FC05", "write setpoint 5": "FC06", "write big 7": "FC16", "write label 41": "FC16"}
 
 

@@ -72,7 +72,13 @@ def test_read_all_and_writes_agree_with_mdl_read_on_the_line(all_tables_cpp, ser
             assert h.ask(f"write {write}") == ["ok"], write
         assert h.values("read label") == {"label": "Den"}
     assert mdl_read(ALL, client_end, "setpoint", "label", "fan", "big", "low_byte", "serial") == {
-        "setpoint": 19.5, "label": "Den", "fan": True, "big": 7, "low_byte": -7, "serial": 4000000000}
+        "setpoint": 19.5,
+        "label": "Den",
+        "fan": True,
+        "big": 7,
+        "low_byte": -7,
+        "serial": 4000000000,
+    }
     proc = run_mdl("write", ALL, "--serial", client_end, "setpoint=23", "mode=Heat", timeout=RUN)
     assert proc.returncode == 0, proc.stderr
     after = read_all(all_tables_cpp, ALL, client_end)
@@ -82,8 +88,16 @@ def test_read_all_and_writes_agree_with_mdl_read_on_the_line(all_tables_cpp, ser
 
 def test_two_devices_on_one_line_at_their_unit_ids(all_tables_cpp, tstat_cpp, serial_line, sim_factory):
     device, client_end = serial_line.ends
-    sim = sim_factory([ALL, TSTAT], "--set", "setpoint=19.5", "--set", "occupied_setpoint=22",
-                      "--set", "room_temperature=21.5", serial=device)
+    sim = sim_factory(
+        [ALL, TSTAT],
+        "--set",
+        "setpoint=19.5",
+        "--set",
+        "occupied_setpoint=22",
+        "--set",
+        "room_temperature=21.5",
+        serial=device,
+    )
     assert sim.units == [1, 2]
     table = read_all(all_tables_cpp, ALL, client_end, unit=1)
     tstat = read_all(tstat_cpp, TSTAT, client_end, unit=2)
@@ -108,8 +122,9 @@ def test_a_unit_that_does_not_answer_times_out(tstat_cpp, serial_line, sim_facto
 
 def test_a_serial_device_that_cannot_be_opened(all_tables_cpp, tmp_path):
     missing = tmp_path / "ttyUSB9"
-    proc = subprocess.run([str(all_tables_cpp), rtu(str(missing))], input="", capture_output=True, text=True,
-                          timeout=RUN)
+    proc = subprocess.run(
+        [str(all_tables_cpp), rtu(str(missing))], input="", capture_output=True, text=True, timeout=RUN
+    )
     assert (proc.returncode, proc.stdout) == (1, "connect failed: No such file or directory\n")
 
 
@@ -139,16 +154,18 @@ def lying_device(device: str, answer):
         os.close(fd)
 
 
-RTU_ERRNO = {"other_unit": MODBUS_ENOBASE + 17, "short": MODBUS_ENOBASE + 13,  # EMBBADSLAVE, EMBBADDATA
-             "bad_crc": MODBUS_ENOBASE + 12}  # EMBBADCRC
+RTU_ERRNO = {
+    "other_unit": MODBUS_ENOBASE + 17,
+    "short": MODBUS_ENOBASE + 13,  # EMBBADSLAVE, EMBBADDATA
+    "bad_crc": MODBUS_ENOBASE + 12,
+}  # EMBBADCRC
 
 
 @pytest.mark.parametrize("lie", sorted(RTU_ERRNO))
 def test_rtu_replies_are_checked_before_they_are_trusted(all_tables_cpp, serial_line, lie):
     """The harness aborts when a failed read stores a value: -1 with errno, and nothing read."""
     device, client_end = serial_line.ends
-    with lying_device(device, LIES[lie][0]), Harness(all_tables_cpp, rtu(client_end), TIMEOUT_MS,
-                                                     ask_timeout=RUN) as h:
+    with lying_device(device, LIES[lie][0]), Harness(all_tables_cpp, rtu(client_end), TIMEOUT_MS, ask_timeout=RUN) as h:
         started = time.monotonic()
         assert h.values("read setpoint") == {"error": RTU_ERRNO[lie]}
         assert time.monotonic() - started < SILENT_BOUND

@@ -33,12 +33,24 @@ def test_ornl_example_unchanged(ornl_copy):
     out = ornl_copy / "mdl_map.xml"  # the INI names the output, relative to itself
     text = out.read_text()
     fns = functions(text)
-    assert list(fns) == ["temperature", "fan_relay_on", "cooling_stage1_relay_on", "cooling_stage2_relay_on",
-                         "heating_stage1_relay_on", "heating_stage2_relay_on", "temperature_set_point"]
+    assert list(fns) == [
+        "temperature",
+        "fan_relay_on",
+        "cooling_stage1_relay_on",
+        "cooling_stage2_relay_on",
+        "heating_stage1_relay_on",
+        "heating_stage2_relay_on",
+        "temperature_set_point",
+    ]
     assert {name: f["addresses"] for name, f in fns.items()} == {
-        "temperature": "121", "fan_relay_on": "255", "cooling_stage1_relay_on": "256",
-        "cooling_stage2_relay_on": "257", "heating_stage1_relay_on": "258", "heating_stage2_relay_on": "259",
-        "temperature_set_point": "345"}
+        "temperature": "121",
+        "fan_relay_on": "255",
+        "cooling_stage1_relay_on": "256",
+        "cooling_stage2_relay_on": "257",
+        "heating_stage1_relay_on": "258",
+        "heating_stage2_relay_on": "259",
+        "temperature_set_point": "345",
+    }
     # the table's own words: bytes in "Bytes", "0.1(?)" multipliers, "Low byte"
     assert fns["temperature"]["format"] == "INT16" and fns["temperature"]["multiplier"] == "0.1"
     assert "count" not in fns["temperature"]  # 2 bytes = one full word
@@ -65,16 +77,22 @@ def test_meter_with_title_rows_modicon_input_registers_and_floats():
     proc = run_mdl("csv2xml", DATA / "meter.csv", "--ini", DATA / "meter.ini")
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
-    assert fns["voltage_l1"] == {**fns["voltage_l1"], "addresses": "0", "format": "FLOAT32", "register_type": "input",
-                                 "units": "V"}
+    assert fns["voltage_l1"] == {
+        **fns["voltage_l1"],
+        "addresses": "0",
+        "format": "FLOAT32",
+        "register_type": "input",
+        "units": "V",
+    }
     assert fns["total_power"]["addresses"] == "52"  # not the "Total system power factor" row above it
     assert fns["total_energy"]["addresses"] == "342" and fns["frequency"]["units"] == "Hz"
     assert 'version="1.0"' in proc.stdout
 
 
 def test_european_export_bom_semicolons_decimal_commas_degree_sign(tmp_path):
-    proc = run_mdl("csv2xml", DATA / "room_controller.csv", "--ini", DATA / "room_controller.ini",
-                   "-o", tmp_path / "rc.xml")
+    proc = run_mdl(
+        "csv2xml", DATA / "room_controller.csv", "--ini", DATA / "room_controller.ini", "-o", tmp_path / "rc.xml"
+    )
     assert proc.returncode == 0, proc.stderr
     text = (tmp_path / "rc.xml").read_text(encoding="ascii")
     fns = functions(text)
@@ -109,8 +127,10 @@ def test_address_forms_and_all():
     proc = run_mdl("csv2xml", DATA / "address_forms.csv", "--all", "--threshold", "1")
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
-    got = {name: (f["addresses"], f.get("register_type", "holding"), f.get("format"), f.get("count"))
-           for name, f in fns.items()}
+    got = {
+        name: (f["addresses"], f.get("register_type", "holding"), f.get("format"), f.get("count"))
+        for name, f in fns.items()
+    }
     assert got == {
         "hex_address": ("16", "holding", "UINT16", None),
         "range_with_to": ("20 21", "holding", "UINT32", "2"),
@@ -129,8 +149,9 @@ def test_address_forms_and_all():
 
 def test_interactive_mode_is_driven_by_its_prompt():
     # occupied_heating_setpoint: pick the 2nd candidate; occupied_cooling_setpoint: skip; fan_speed: default (1st)
-    proc = run_mdl("csv2xml", DATA / "thermostat_setpoints.csv", "--ini", DATA / "thermostat_setpoints.ini", "-i",
-                   input="2\n0\n\n")
+    proc = run_mdl(
+        "csv2xml", DATA / "thermostat_setpoints.csv", "--ini", DATA / "thermostat_setpoints.ini", "-i", input="2\n0\n\n"
+    )
     assert proc.returncode == 0, proc.stderr
     assert "function 'occupied_heating_setpoint': which row?" in proc.stderr
     assert "1. [0.94] line 4: Occupied heating setpoint, used while the room is occupied" in proc.stderr
@@ -140,8 +161,14 @@ def test_interactive_mode_is_driven_by_its_prompt():
 
 
 def test_interactive_refuses_out_of_range_choice():
-    proc = run_mdl("csv2xml", DATA / "thermostat_setpoints.csv", "--ini", DATA / "thermostat_setpoints.ini", "-i",
-                   input="42\n1\n1\n1\n")
+    proc = run_mdl(
+        "csv2xml",
+        DATA / "thermostat_setpoints.csv",
+        "--ini",
+        DATA / "thermostat_setpoints.ini",
+        "-i",
+        input="42\n1\n1\n1\n",
+    )
     assert proc.returncode == 0
     assert "42 is not in the range" in proc.stderr
 
@@ -162,16 +189,21 @@ def test_options_win_over_the_ini(tmp_path):
     assert (tmp_path / "o.xml").exists() and not (tmp_path / "temco_tstat.xml").exists()
 
 
-@pytest.mark.parametrize("ini_text, fragments", [
-    ("[Modbus Device]\ndevice_name = x\nthreshold = abc\n", [":3: error: threshold must be a number"]),
-    ("[Modbus Device]\nbyte_order = middle\n", [":2: error: byte_order must be one of big, little"]),
-    ("[Input/Output]\nlines_to_skip = two\n", [":2: error: lines_to_skip must be a whole number"]),
-    ("device_name = x\n", ["error: a key before any [section]"]),
-    ("[Modbus Device]\ndevice_name = a\ndevice_name = b\n", [":3: error: key 'device_name' appears twice"]),
-    ("[Column/Field Indices]\naddresses = No Such Header\n", ["no row holds the header texts 'No Such Header'"]),
-    ("[Column/Field Indices]\naddresses = Register\nunits = Unit Name\n",
-     ["units = Unit Name: no such column in the header row (line 4)"]),
-])
+@pytest.mark.parametrize(
+    "ini_text, fragments",
+    [
+        ("[Modbus Device]\ndevice_name = x\nthreshold = abc\n", [":3: error: threshold must be a number"]),
+        ("[Modbus Device]\nbyte_order = middle\n", [":2: error: byte_order must be one of big, little"]),
+        ("[Input/Output]\nlines_to_skip = two\n", [":2: error: lines_to_skip must be a whole number"]),
+        ("device_name = x\n", ["error: a key before any [section]"]),
+        ("[Modbus Device]\ndevice_name = a\ndevice_name = b\n", [":3: error: key 'device_name' appears twice"]),
+        ("[Column/Field Indices]\naddresses = No Such Header\n", ["no row holds the header texts 'No Such Header'"]),
+        (
+            "[Column/Field Indices]\naddresses = Register\nunits = Unit Name\n",
+            ["units = Unit Name: no such column in the header row (line 4)"],
+        ),
+    ],
+)
 def test_bad_ini_values_are_errors(tmp_path, ini_text, fragments):
     ini = tmp_path / "bad.ini"
     ini.write_text(ini_text)
@@ -183,8 +215,11 @@ def test_bad_ini_values_are_errors(tmp_path, ini_text, fragments):
 
 
 def test_unknown_ini_sections_and_keys_warn(tmp_path):
-    text = (EXAMPLE / "temco_tstat.ini").read_text().replace(
-        "[Input/Output]", "[Extras]\ncolour = red\n\n[Input/Output]\nspeed = 3")
+    text = (
+        (EXAMPLE / "temco_tstat.ini")
+        .read_text()
+        .replace("[Input/Output]", "[Extras]\ncolour = red\n\n[Input/Output]\nspeed = 3")
+    )
     ini = tmp_path / "temco_tstat.ini"
     ini.write_text(text)
     shutil.copy(EXAMPLE / "temco_tstat.csv", tmp_path)

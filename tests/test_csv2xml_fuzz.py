@@ -23,20 +23,96 @@ from mdl.sources.csvmap.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PH
 from mdl.sources.csvmap.table import Row
 from mdl.sources.mdlxml import validate_file
 
-SCALES = ["0.1", "0,1V", "0.01 Hz", "-1W", "scale(0.1)", "mod10k(True)", "x10", "×10", "1/10", "1/0", "10^-2",
-          "10^999", "0.1(?)", "1.234,5", "1,000", "1.000.000", "1e999", "-", "n/a", "10k", "1e-400", "0x10",
-          "9" * 400, "1," + "0" * 50, ".5", "5.", "\u22125", "scale()", "x", "%", "°C", "1 2", "1/-0", "+-1"]
-TABLES = ["holding", "3", "FC03", "0x04", "03/06/16", "1/3", "fc99", "analog_output_holding_registers",
-          "discrete_input_contacts", "Read Input Registers (FC04)", "(0x01)", "FC 5", "17", "", "4x", "c"]
+SCALES = [
+    "0.1",
+    "0,1V",
+    "0.01 Hz",
+    "-1W",
+    "scale(0.1)",
+    "mod10k(True)",
+    "x10",
+    "×10",
+    "1/10",
+    "1/0",
+    "10^-2",
+    "10^999",
+    "0.1(?)",
+    "1.234,5",
+    "1,000",
+    "1.000.000",
+    "1e999",
+    "-",
+    "n/a",
+    "10k",
+    "1e-400",
+    "0x10",
+    "9" * 400,
+    "1," + "0" * 50,
+    ".5",
+    "5.",
+    "\u22125",
+    "scale()",
+    "x",
+    "%",
+    "°C",
+    "1 2",
+    "1/-0",
+    "+-1",
+]
+TABLES = [
+    "holding",
+    "3",
+    "FC03",
+    "0x04",
+    "03/06/16",
+    "1/3",
+    "fc99",
+    "analog_output_holding_registers",
+    "discrete_input_contacts",
+    "Read Input Registers (FC04)",
+    "(0x01)",
+    "FC 5",
+    "17",
+    "",
+    "4x",
+    "c",
+]
 ACCESS = ["R", "W", "R/W", "RW", "WO", "TRUE", "false", "yes", "W/R(Reboot)", "r & w", "x", "", "RD", "RD/WR", "R/O"]
-TYPES = [">I", "<h", ">f", ">d", "<H", ">q", "!Q", "=i", ">xB", ">Bx", "<xb", ">B", ">Ix", ">e", "<", ">xBx", "INT",
-         "uint", "unsigned int", "int16", "float", "string[8]", "char(4)", "?"]
+TYPES = [
+    ">I",
+    "<h",
+    ">f",
+    ">d",
+    "<H",
+    ">q",
+    "!Q",
+    "=i",
+    ">xB",
+    ">Bx",
+    "<xb",
+    ">B",
+    ">Ix",
+    ">e",
+    "<",
+    ">xBx",
+    "INT",
+    "uint",
+    "unsigned int",
+    "int16",
+    "float",
+    "string[8]",
+    "char(4)",
+    "?",
+]
 WORD_ORDERS = ["TRUE", "False", "1", "0", "swapped", "big", "little", "CDAB", "badc", "3412", "lsw first", "-", "x"]
 
 
 def cells(pool: list[str]) -> st.SearchStrategy[str]:
-    return st.sampled_from(pool) | st.text(max_size=12) | st.builds(
-        lambda a, b: a + b, st.sampled_from(pool), st.text(max_size=4))
+    return (
+        st.sampled_from(pool)
+        | st.text(max_size=12)
+        | st.builds(lambda a, b: a + b, st.sampled_from(pool), st.text(max_size=4))
+    )
 
 
 @settings(max_examples=400, deadline=None)
@@ -102,8 +178,24 @@ def test_scores_stay_in_their_tier(synonym, text, named):
     assert score.tier not in (EXACT, NAME_EXACT) or score.value == 1.0
 
 
-ADDRESS_CELLS = ["30001", "40001", "400001", "1", "0", "3000", "33000", "30000", "20001", "65535", "99999",
-                 "1 to 3", "0x10", "hr:1", "40001-40002", ""]
+ADDRESS_CELLS = [
+    "30001",
+    "40001",
+    "400001",
+    "1",
+    "0",
+    "3000",
+    "33000",
+    "30000",
+    "20001",
+    "65535",
+    "99999",
+    "1 to 3",
+    "0x10",
+    "hr:1",
+    "40001-40002",
+    "",
+]
 
 
 @settings(max_examples=300, deadline=None)
@@ -114,18 +206,82 @@ def test_address_base_guess(rows, header, with_types):
     assert guess.base in ("0", "modicon", "hex")
 
 
-HEADERS = ["Address", "Register", "Description", "Name", "Register Name", "Type", "Function", "Table", "Units",
-           "unit", "Scale", "Scalefactor", "Divisor", "Transform", "Writable", "R/W", "Count", "Length", "Bytes",
-           "Mixed Endian", "Word Order"]
-POOL = SCALES + TABLES + ACCESS + ADDRESS_CELLS + TYPES + WORD_ORDERS + [
-    "Room temperature", "TOTAL REAL POWER", "uint16", "float", "U32", "int16", "string[8]", "bool", "V", "kWh",
-    "W", "10V DC", "None", "Battery State of Charge (System)"]
-INI_LINES = ["divisor = Divisor", "divisor = Scalefactor", "multiplier = Scale", "multiplier = Divisor",
-             "units = unit", "multiplier = unit", "name = Name", "name = Register Name", "access = R/W",
-             "register_type = Table", "addresses = Register", "divisor = 9", "name = 1", "divisor = unit",
-             "word_order = Mixed Endian", "word_order =", "format = Type"]
-IO_LINES = ["delimiter = semicolon", "delimiter = pipe", "delimiter = tab", "delimiter = comma", "delimiter = ;",
-            "decimal_separator = comma", "decimal_separator = point", "decimal_separator = x"]
+HEADERS = [
+    "Address",
+    "Register",
+    "Description",
+    "Name",
+    "Register Name",
+    "Type",
+    "Function",
+    "Table",
+    "Units",
+    "unit",
+    "Scale",
+    "Scalefactor",
+    "Divisor",
+    "Transform",
+    "Writable",
+    "R/W",
+    "Count",
+    "Length",
+    "Bytes",
+    "Mixed Endian",
+    "Word Order",
+]
+POOL = (
+    SCALES
+    + TABLES
+    + ACCESS
+    + ADDRESS_CELLS
+    + TYPES
+    + WORD_ORDERS
+    + [
+        "Room temperature",
+        "TOTAL REAL POWER",
+        "uint16",
+        "float",
+        "U32",
+        "int16",
+        "string[8]",
+        "bool",
+        "V",
+        "kWh",
+        "W",
+        "10V DC",
+        "None",
+        "Battery State of Charge (System)",
+    ]
+)
+INI_LINES = [
+    "divisor = Divisor",
+    "divisor = Scalefactor",
+    "multiplier = Scale",
+    "multiplier = Divisor",
+    "units = unit",
+    "multiplier = unit",
+    "name = Name",
+    "name = Register Name",
+    "access = R/W",
+    "register_type = Table",
+    "addresses = Register",
+    "divisor = 9",
+    "name = 1",
+    "divisor = unit",
+    "word_order = Mixed Endian",
+    "word_order =",
+    "format = Type",
+]
+IO_LINES = [
+    "delimiter = semicolon",
+    "delimiter = pipe",
+    "delimiter = tab",
+    "delimiter = comma",
+    "delimiter = ;",
+    "decimal_separator = comma",
+    "decimal_separator = point",
+    "decimal_separator = x",
+]
 
 
 @st.composite
@@ -139,12 +295,14 @@ def published_tables(draw: st.DrawFn) -> tuple[str, str]:
         text = "\n".join("| " + " | ".join(line) + " |" for line in [header, ["---"] * len(header), *rows])
     else:
         text = "\n".join(delimiter.join(c.replace(delimiter, " ").replace('"', "") for c in line) for line in lines)
-    ini = ("[Column/Field Indices]\n" + "\n".join(draw(st.lists(st.sampled_from(INI_LINES), max_size=3,
-                                                                 unique_by=lambda x: x.split("=")[0])))
-           + "\n[Input/Output]\n" + "\n".join(draw(st.lists(st.sampled_from(IO_LINES), max_size=2,
-                                                               unique_by=lambda x: x.split("=")[0])))
-           + "\n[Function Name Search Synonyms]\nroom_temperature = room temperature\n"
-             "total_power = total real power\nsoc = Battery State of Charge (System)\n")
+    ini = (
+        "[Column/Field Indices]\n"
+        + "\n".join(draw(st.lists(st.sampled_from(INI_LINES), max_size=3, unique_by=lambda x: x.split("=")[0])))
+        + "\n[Input/Output]\n"
+        + "\n".join(draw(st.lists(st.sampled_from(IO_LINES), max_size=2, unique_by=lambda x: x.split("=")[0])))
+        + "\n[Function Name Search Synonyms]\nroom_temperature = room temperature\n"
+        "total_power = total real power\nsoc = Battery State of Charge (System)\n"
+    )
     return text + "\n", ini
 
 

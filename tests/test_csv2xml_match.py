@@ -25,9 +25,34 @@ bench = importlib.util.module_from_spec(_spec)
 sys.modules["csv2xml_bench"] = bench  # dataclasses look their module up
 _spec.loader.exec_module(bench)
 
-WORDS = ["total", "real", "power", "phase", "a", "voltage", "max.", "demand", "import", "current", "energy",
-         "setpoint", "occupied", "unoccupied", "heating", "(sum)", "L1", "-", "instantaneous", "Power,", "factor",
-         "1", "_", "volts", "Volt", "re al"]
+WORDS = [
+    "total",
+    "real",
+    "power",
+    "phase",
+    "a",
+    "voltage",
+    "max.",
+    "demand",
+    "import",
+    "current",
+    "energy",
+    "setpoint",
+    "occupied",
+    "unoccupied",
+    "heating",
+    "(sum)",
+    "L1",
+    "-",
+    "instantaneous",
+    "Power,",
+    "factor",
+    "1",
+    "_",
+    "volts",
+    "Volt",
+    "re al",
+]
 texts = st.lists(st.sampled_from(WORDS), max_size=6).map(" ".join)
 
 
@@ -36,8 +61,10 @@ def brute_force(functions_: dict[str, list[str]], rows: list[list[str]], thresho
     order = {name: i for i, name in enumerate(functions_)}
     ranked, pairs = {}, []
     for name, synonyms in functions_.items():
-        scored = sorted(((score_row(synonyms, texts_), i) for i, texts_ in enumerate(rows)),
-                        key=lambda c: (-c[0].tier, -c[0].value, c[1]))
+        scored = sorted(
+            ((score_row(synonyms, texts_), i) for i, texts_ in enumerate(rows)),
+            key=lambda c: (-c[0].tier, -c[0].value, c[1]),
+        )
         ranked[name] = scored
         pairs += [(score, name, i) for score, i in scored if score.value >= threshold]
     pairs.sort(key=lambda p: (-p[0].tier, -p[0].value, order[p[1]], p[2]))
@@ -50,14 +77,19 @@ def brute_force(functions_: dict[str, list[str]], rows: list[list[str]], thresho
 
 
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.lists(st.lists(texts, min_size=1, max_size=2), min_size=1, max_size=25),
-       st.lists(st.lists(texts, min_size=1, max_size=3), min_size=1, max_size=6),
-       st.sampled_from([0.0, 0.3, 0.6, 0.9, 0.95, 1.0]), st.lists(st.none() | texts, min_size=6, max_size=6))
+@given(
+    st.lists(st.lists(texts, min_size=1, max_size=2), min_size=1, max_size=25),
+    st.lists(st.lists(texts, min_size=1, max_size=3), min_size=1, max_size=6),
+    st.sampled_from([0.0, 0.3, 0.6, 0.9, 0.95, 1.0]),
+    st.lists(st.none() | texts, min_size=6, max_size=6),
+)
 def test_the_search_equals_scoring_every_pair(rows, synonym_lists, threshold, names):
     """With the functions' own names among their synonyms (ranked below the synonyms' exact and phrase
     matches) as convert.py adds them."""
-    functions_ = {f"f{i}": synonyms + ([FunctionName(names[i])] if names[i] is not None else [])
-                  for i, synonyms in enumerate(synonym_lists)}
+    functions_ = {
+        f"f{i}": synonyms + ([FunctionName(names[i])] if names[i] is not None else [])
+        for i, synonyms in enumerate(synonym_lists)
+    }
     ranked, chosen = brute_force(functions_, rows, threshold)
     index = Index(rows)
     got = assign(functions_, index, threshold)
@@ -67,15 +99,30 @@ def test_the_search_equals_scoring_every_pair(rows, synonym_lists, threshold, na
 
 
 def test_the_tiers():
-    index = Index([["TOTAL REAL POWER MAX. DEMAND IMPORT"], ["TOTAL INSTANTANEOUS REAL POWER"], ["Total real power"],
-                   ["Real power total"]])
+    index = Index(
+        [
+            ["TOTAL REAL POWER MAX. DEMAND IMPORT"],
+            ["TOTAL INSTANTANEOUS REAL POWER"],
+            ["Total real power"],
+            ["Real power total"],
+        ]
+    )
     got = [(c.row_index, c.score.tier) for c in candidates("p", ["total real power"], index, 0.0)]
     assert got == [(2, EXACT), (1, PHRASE), (0, PHRASE), (3, FUZZY)]
     # the function's own name: below every exact and phrase match of its synonyms, above fuzzy ones
-    index = Index([["SOC"], ["Battery State of Charge (System)"], ["Battery SOC"], ["state of chrge"],
-                   ["Battery State of Charge (System) estimate"]])
-    got = [(c.row_index, c.score.tier) for c in candidates("soc", ["battery state of charge (system)",
-                                                                   FunctionName("soc")], index, 0.0)]
+    index = Index(
+        [
+            ["SOC"],
+            ["Battery State of Charge (System)"],
+            ["Battery SOC"],
+            ["state of chrge"],
+            ["Battery State of Charge (System) estimate"],
+        ]
+    )
+    got = [
+        (c.row_index, c.score.tier)
+        for c in candidates("soc", ["battery state of charge (system)", FunctionName("soc")], index, 0.0)
+    ]
     assert got[:4] == [(1, EXACT), (4, PHRASE), (0, NAME_EXACT), (2, NAME_PHRASE)]
     assert {tier for _, tier in got[4:]} == {FUZZY}
 

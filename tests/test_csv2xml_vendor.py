@@ -34,6 +34,7 @@ def read_values(sim_factory, xml, registers: dict, *names: str) -> dict:
 
 # ---- scales -----------------------------------------------------------------------------------
 
+
 def test_a_divisor_column_divides(tmp_path, sim_factory):
     """Victron's "Scalefactor 10" means tenths: named as divisor, 2305 reads 230.5, not 23050."""
     proc, fns = convert(tmp_path, "victron_gx.csv", ini="victron_gx.ini")
@@ -43,13 +44,21 @@ def test_a_divisor_column_divides(tmp_path, sim_factory):
     assert fns["ac_input_voltage"]["access"] == "read" and "access" not in fns["current_limit"]  # writable: yes
     # a divisor that is not a number: the row is reported with its line, and its function with it
     assert f"{TABLES / 'victron_gx.csv'}:8: warning: row skipped: divisor 'x' is not a scale" in proc.stderr
-    assert (f"{TABLES / 'victron_gx.csv'}:8: warning: state_of_charge: line 8 names it (exact 1.00: 'State of charge') "
-            "but was skipped (divisor 'x' is not a scale") in proc.stderr
+    assert (
+        f"{TABLES / 'victron_gx.csv'}:8: warning: state_of_charge: line 8 names it (exact 1.00: 'State of charge') "
+        "but was skipped (divisor 'x' is not a scale"
+    ) in proc.stderr
     xml = tmp_path / "out.xml"
-    values = read_values(sim_factory, xml, {"holding": {"3": 2305, "9": 5000, "22": 160, "26": 2654}},
-                         "ac_input_voltage", "ac_frequency", "current_limit", "battery_voltage")
-    assert values == {"ac_input_voltage": 230.5, "ac_frequency": 50.0, "current_limit": 16.0,
-                      "battery_voltage": 26.54}
+    values = read_values(
+        sim_factory,
+        xml,
+        {"holding": {"3": 2305, "9": 5000, "22": 160, "26": 2654}},
+        "ac_input_voltage",
+        "ac_frequency",
+        "current_limit",
+        "battery_voltage",
+    )
+    assert values == {"ac_input_voltage": 230.5, "ac_frequency": 50.0, "current_limit": 16.0, "battery_voltage": 26.54}
 
 
 def test_scales_written_before_their_unit_and_function_codes(tmp_path, sim_factory):
@@ -71,15 +80,24 @@ def test_scales_written_before_their_unit_and_function_codes(tmp_path, sim_facto
     assert "set address_base = modicon in [Modbus Device]" in err
     assert "decimal comma: '0,1V' on line 2" in err and "decimal_separator = point" in err
     assert "warning" not in err
-    values = read_values(sim_factory, tmp_path / "out.xml", {"input": {"33049": 3456, "33094": 5001}},
-                         "pv_voltage_1", "grid_frequency")
+    values = read_values(
+        sim_factory, tmp_path / "out.xml", {"input": {"33049": 3456, "33094": 5001}}, "pv_voltage_1", "grid_frequency"
+    )
     assert values == {"pv_voltage_1": 345.6, "grid_frequency": 50.01}
 
 
 SCALE_CELLS = [  # cell, multiplier written, units written
-    ("0.1V", "0.1", "V"), ('"0,01Hz"', "0.01", "Hz"), ("-1W", "-1", "W"), ("scale(0.001)", "0.001", None),
-    ("x10", "10", None), ("1/10", "0.1", None), ("0.1(?)", "0.1", None), ("10^-2", "0.01", None),
-    ("0.5 %RH", "0.5", "%RH"), ("1", None, None), ("-", None, None),
+    ("0.1V", "0.1", "V"),
+    ('"0,01Hz"', "0.01", "Hz"),
+    ("-1W", "-1", "W"),
+    ("scale(0.001)", "0.001", None),
+    ("x10", "10", None),
+    ("1/10", "0.1", None),
+    ("0.1(?)", "0.1", None),
+    ("10^-2", "0.01", None),
+    ("0.5 %RH", "0.5", "%RH"),
+    ("1", None, None),
+    ("-", None, None),
 ]
 
 
@@ -121,8 +139,9 @@ def test_bad_divisors_and_two_scales_are_reported_row_by_row(tmp_path):
 def test_multiplier_and_divisor_naming_one_column_is_an_error(tmp_path):
     ini = tmp_path / "d.ini"
     ini.write_text("[Column/Field Indices]\nmultiplier = Scalefactor\ndivisor = Scalefactor\n")
-    assert_clean_error(cli("csv2xml", TABLES / "victron_gx.csv", "--ini", ini), 1,
-                       "multiplier and divisor name the same column")
+    assert_clean_error(
+        cli("csv2xml", TABLES / "victron_gx.csv", "--ini", ini), 1, "multiplier and divisor name the same column"
+    )
 
 
 def test_a_header_guessed_whole_number_scale_says_it_could_divide(tmp_path):
@@ -135,6 +154,7 @@ def test_a_header_guessed_whole_number_scale_says_it_could_divide(tmp_path):
 
 
 # ---- access letters ---------------------------------------------------------------------------
+
 
 def test_w_in_a_column_of_r_and_w_means_writable(tmp_path, sim_factory):
     proc, fns = convert(tmp_path, "rw_letters.csv", ini="rw.ini")
@@ -155,9 +175,13 @@ def test_w_beside_r_w_means_write_only(tmp_path):
 
 
 ACCESS_COLUMNS = [  # the cells of one access column -> the <access> each row gets (None: read and write)
-    (("R", "W"), ("read", None)), (("R", "W", "R/W"), ("read", "write", None)),
-    (("RO", "RW", "W"), ("read", None, "write")), (("FALSE", "TRUE"), ("read", None)), (("no", "yes"), ("read", None)),
-    (("W/R(Reboot after write)", "R"), (None, "read")), (("WO", "R"), ("write", "read")),
+    (("R", "W"), ("read", None)),
+    (("R", "W", "R/W"), ("read", "write", None)),
+    (("RO", "RW", "W"), ("read", None, "write")),
+    (("FALSE", "TRUE"), ("read", None)),
+    (("no", "yes"), ("read", None)),
+    (("W/R(Reboot after write)", "R"), (None, "read")),
+    (("WO", "R"), ("write", "read")),
 ]
 
 
@@ -173,12 +197,17 @@ def test_access_cells(tmp_path, cells, access):
 
 # ---- addresses --------------------------------------------------------------------------------
 
+
 def test_a_stray_row_in_a_modicon_column_is_reported_not_obeyed(tmp_path):
     proc, fns = convert(tmp_path, "meter_modicon.csv", ini="meter_modicon.ini")
     assert proc.returncode == 0, proc.stderr
     assert {n: (f["addresses"], f["register_type"]) for n, f in fns.items()} == {
-        "voltage_l1": ("0", "input"), "current_l1": ("6", "input"), "total_power": ("52", "input"),
-        "frequency": ("70", "input"), "total_energy": ("342", "input")}
+        "voltage_l1": ("0", "input"),
+        "current_l1": ("6", "input"),
+        "total_power": ("52", "input"),
+        "frequency": ("70", "input"),
+        "total_energy": ("342", "input"),
+    }
     assert fns["total_energy"]["description"] == "Total kwh"  # the stray row could not serve it
     path = TABLES / "meter_modicon.csv"
     assert f"{path}:8: warning: row skipped: '342' is not a Modicon 5- or 6-digit register number" in proc.stderr
@@ -199,8 +228,9 @@ def test_strict_and_fail_on_warning_refuse_a_table_with_skipped_rows(tmp_path):
 
 def test_address_base_in_the_ini_is_obeyed_and_silences_the_guess(tmp_path):
     ini = tmp_path / "m.ini"
-    ini.write_text((TABLES / "meter_modicon.ini").read_text().replace("[Modbus Device]",
-                                                                      "[Modbus Device]\naddress_base = 0"))
+    ini.write_text(
+        (TABLES / "meter_modicon.ini").read_text().replace("[Modbus Device]", "[Modbus Device]\naddress_base = 0")
+    )
     proc = cli("csv2xml", TABLES / "meter_modicon.csv", "--ini", ini)
     assert proc.returncode == 0, proc.stderr
     assert functions(proc.stdout)["voltage_l1"]["addresses"] == "30001"
@@ -224,8 +254,16 @@ def test_volttron_register_map(tmp_path):
 
 
 def test_explain_shows_the_tie_break(tmp_path):
-    proc = cli("csv2xml", TABLES / "volttron_meter.csv", "--ini", TABLES / "volttron_meter.ini",
-               "-o", tmp_path / "out.xml", "--explain", "total_power")
+    proc = cli(
+        "csv2xml",
+        TABLES / "volttron_meter.csv",
+        "--ini",
+        TABLES / "volttron_meter.ini",
+        "-o",
+        tmp_path / "out.xml",
+        "--explain",
+        "total_power",
+    )
     assert proc.returncode == 0, proc.stderr
     assert not (tmp_path / "out.xml").exists()  # --explain writes no MDL
     lines = proc.stdout.splitlines()
@@ -238,8 +276,16 @@ def test_explain_shows_the_tie_break(tmp_path):
 
 
 def test_explain_an_unmatched_function_and_a_free_phrase(tmp_path):
-    proc = cli("csv2xml", TABLES / "volttron_meter.csv", "--ini", TABLES / "volttron_meter.ini",
-               "--explain", "energy", "--explain", "relay status")
+    proc = cli(
+        "csv2xml",
+        TABLES / "volttron_meter.csv",
+        "--ini",
+        TABLES / "volttron_meter.ini",
+        "--explain",
+        "energy",
+        "--explain",
+        "relay status",
+    )
     assert proc.returncode == 0, proc.stderr
     out = proc.stdout
     assert "function 'energy': synonyms 'energy delivered', 'energy' (its name); threshold 0.6" in out
@@ -251,18 +297,22 @@ def test_explain_an_unmatched_function_and_a_free_phrase(tmp_path):
 
 # ---- columns ----------------------------------------------------------------------------------
 
+
 def test_a_function_column_of_function_codes_is_the_register_type(tmp_path):
     table = tmp_path / "t.csv"
-    table.write_text("Function,Address,Name,Type\n4,0,Grid voltage,U16\n3,10,Battery setpoint,U16\n"
-                     "FC01,5,Relay,bool\n")
+    table.write_text("Function,Address,Name,Type\n4,0,Grid voltage,U16\n3,10,Battery setpoint,U16\nFC01,5,Relay,bool\n")
     proc = cli("csv2xml", table, "--all", "--threshold", "1")
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
     assert {n: (f.get("register_type"), f["description"]) for n, f in fns.items()} == {
-        "grid_voltage": ("input", "Grid voltage"), "battery_setpoint": (None, "Battery setpoint"),
-        "relay": ("coil", "Relay")}
-    assert "column 0 'Function' has a header like description but its cells are not ('4' on line 2): " \
-           "read as register_type" in proc.stderr
+        "grid_voltage": ("input", "Grid voltage"),
+        "battery_setpoint": (None, "Battery setpoint"),
+        "relay": ("coil", "Relay"),
+    }
+    assert (
+        "column 0 'Function' has a header like description but its cells are not ('4' on line 2): "
+        "read as register_type" in proc.stderr
+    )
 
 
 def test_a_guessed_column_whose_cells_do_not_fit_is_not_used(tmp_path):
@@ -270,16 +320,21 @@ def test_a_guessed_column_whose_cells_do_not_fit_is_not_used(tmp_path):
     table.write_text("Address,Description,Type\n0,Room temperature,see page 4\n1,Humidity,see page 5\n")
     proc = cli("csv2xml", table, "--all")
     assert proc.returncode == 0, proc.stderr
-    assert "column 2 'Type' has a header like format but its cells are not ('see page 4' on line 2): ignored" \
+    assert (
+        "column 2 'Type' has a header like format but its cells are not ('see page 4' on line 2): ignored"
         in proc.stderr
+    )
     assert functions(proc.stdout)["room_temperature"]["format"] == "UINT16"
 
 
 def test_a_name_column_named_in_the_ini_is_matched(tmp_path):
     proc, fns = convert(tmp_path, "named.csv", ini="named.ini")
     assert proc.returncode == 0, proc.stderr
-    assert {n: f["addresses"] for n, f in fns.items()} == {"room_temperature": "0", "occupied_setpoint": "1",
-                                                           "fan_speed": "2"}
+    assert {n: f["addresses"] for n, f in fns.items()} == {
+        "room_temperature": "0",
+        "occupied_setpoint": "1",
+        "fan_speed": "2",
+    }
     assert fns["room_temperature"]["description"] == "Measured value (see note 1)"  # the vendor's text kept
 
 
@@ -287,8 +342,9 @@ def test_markdown_inventory(tmp_path):
     table = tmp_path / "inventory.md"
     shutil.copy(TABLES / "meter_inventory.md", table)
     ini = tmp_path / "inventory.ini"
-    ini.write_text("[Function Name Search Synonyms]\nvoltage = voltage\npower = active power\n"
-                   "address = meter address\n")
+    ini.write_text(
+        "[Function Name Search Synonyms]\nvoltage = voltage\npower = active power\naddress = meter address\n"
+    )
     proc = cli("csv2xml", table, "--ini", ini)
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
@@ -301,24 +357,30 @@ def test_markdown_inventory(tmp_path):
 
 # ---- notes, overrides and the summary -----------------------------------------------------------
 
+
 def test_every_guess_is_a_note_naming_its_ini_key(tmp_path):
     table = tmp_path / "t.csv"
-    table.write_text("Adresse;Bezeichnung;Datentyp;Faktor;Anzahl\n0;Raumtemperatur;S16;0,1;1\n"
-                     "1;Zähler;U32;1;2\n")
+    table.write_text("Adresse;Bezeichnung;Datentyp;Faktor;Anzahl\n0;Raumtemperatur;S16;0,1;1\n1;Zähler;U32;1;2\n")
     ini = tmp_path / "t.ini"
     ini.write_text("[Function Name Search Synonyms]\nroom_temperature = raumtemperatur\ncounter = zähler\n")
     proc = cli("csv2xml", table, "--ini", ini)
     assert proc.returncode == 0, proc.stderr
     notes = [line for line in proc.stderr.splitlines() if ": note: " in line]
-    for key in ("delimiter = comma, semicolon, tab or pipe in [Input/Output]", "[Column/Field Indices]",
-                "address_base = 1 in [Modbus Device]", "decimal_separator = point in [Input/Output]",
-                "count_unit = bytes in [Modbus Device]"):
+    for key in (
+        "delimiter = comma, semicolon, tab or pipe in [Input/Output]",
+        "[Column/Field Indices]",
+        "address_base = 1 in [Modbus Device]",
+        "decimal_separator = point in [Input/Output]",
+        "count_unit = bytes in [Modbus Device]",
+    ):
         assert any(key in line for line in notes), (key, notes)
     assert notes[-1] == f"{table}: note: summary: 2 rows read, 0 skipped; 2 functions matched, 0 unmatched"
     # the same table with each setting in the INI: nothing left to guess but the columns
-    ini.write_text("[Modbus Device]\naddress_base = 0\ncount_unit = words\n[Input/Output]\ndelimiter = semicolon\n"
-                   "decimal_separator = comma\n[Column/Field Indices]\naddresses = Adresse\ndescription = Bezeichnung\n"
-                   "format = Datentyp\nmultiplier = Faktor\ncount = Anzahl\n" + ini.read_text())
+    ini.write_text(
+        "[Modbus Device]\naddress_base = 0\ncount_unit = words\n[Input/Output]\ndelimiter = semicolon\n"
+        "decimal_separator = comma\n[Column/Field Indices]\naddresses = Adresse\ndescription = Bezeichnung\n"
+        "format = Datentyp\nmultiplier = Faktor\ncount = Anzahl\n" + ini.read_text()
+    )
     proc = cli("csv2xml", table, "--ini", ini)
     assert proc.returncode == 0, proc.stderr
     assert [line for line in proc.stderr.splitlines() if ": note: " in line] == [notes[-1]]
@@ -328,9 +390,12 @@ def test_every_guess_is_a_note_naming_its_ini_key(tmp_path):
 def test_bad_new_ini_values_are_errors(tmp_path):
     ini = tmp_path / "t.ini"
     ini.write_text("[Input/Output]\ndelimiter = colon\ndecimal_separator = dot-ish\n")
-    assert_clean_error(cli("csv2xml", TABLES / "rw_letters.csv", "--ini", ini), 1,
-                       ":2: error: delimiter must be one of comma, semicolon, tab, pipe, not 'colon'",
-                       ":3: error: decimal_separator must be point or comma, not 'dot-ish'")
+    assert_clean_error(
+        cli("csv2xml", TABLES / "rw_letters.csv", "--ini", ini),
+        1,
+        ":2: error: delimiter must be one of comma, semicolon, tab, pipe, not 'colon'",
+        ":3: error: decimal_separator must be point or comma, not 'dot-ish'",
+    )
 
 
 def test_decimal_separator_point_reads_thousands(tmp_path):
@@ -345,5 +410,6 @@ def test_decimal_separator_point_reads_thousands(tmp_path):
 def test_the_summary_counts_rows_and_functions(tmp_path):
     proc = cli("csv2xml", TABLES / "victron_gx.csv", "--ini", TABLES / "victron_gx.ini")
     last = proc.stderr.splitlines()[-1]
-    assert last == f"{TABLES / 'victron_gx.csv'}: note: summary: 7 rows read, 1 skipped; 6 functions matched, " \
-                   "1 unmatched"
+    assert (
+        last == f"{TABLES / 'victron_gx.csv'}: note: summary: 7 rows read, 1 skipped; 6 functions matched, 1 unmatched"
+    )

@@ -26,14 +26,18 @@ RUN = 60
 
 
 def identity(manufacturer: str, product: str, version: str) -> str:
-    return (f"  <manufacturer>{manufacturer}</manufacturer>\n  <product>{product}</product>\n"
-            f"  <product_version>{version}</product_version>\n")
+    return (
+        f"  <manufacturer>{manufacturer}</manufacturer>\n  <product>{product}</product>\n"
+        f"  <product_version>{version}</product_version>\n"
+    )
 
 
 def model_functions(model: str, phases: str) -> str:
-    return (fn_xml("model", 0, format="UINT16", access="read", marker=model)
-            + fn_xml("phases", 1, format="UINT16", access="read", marker=phases)
-            + fn_xml("voltage", 2, format="UINT16", multiplier=0.1, access="read"))
+    return (
+        fn_xml("model", 0, format="UINT16", access="read", marker=model)
+        + fn_xml("phases", 1, format="UINT16", access="read", marker=phases)
+        + fn_xml("voltage", 2, format="UINT16", multiplier=0.1, access="read")
+    )
 
 
 @pytest.fixture
@@ -47,12 +51,21 @@ def library(tmp_path):
         "other": device_xml(identity("Other Co", "X1", "0.9") + model_functions("4242", "1 2 3"), "Other X1"),
         # raw values: before multiplier, fragment, with word order, signed, a bit, a float
         "sensor": device_xml(
-            fn_xml("device_type", "30 31", format="UINT32", multiplier=0.001, register_type="input",
-                   word_order="little", marker=70004)
+            fn_xml(
+                "device_type",
+                "30 31",
+                format="UINT32",
+                multiplier=0.001,
+                register_type="input",
+                word_order="little",
+                marker=70004,
+            )
             + fn_xml("status", 5, format="UINT16", read_function_code="arg = r1 &amp; 1;", marker=5)
             + fn_xml("calibration", 6, format="INT16", marker=-2)
             + fn_xml("ratio", 8, format="FLOAT32", marker=3)
-            + fn_xml("alarm", 2, format="BIT", register_type="coil", marker=1), "Sensor"),
+            + fn_xml("alarm", 2, format="BIT", register_type="coil", marker=1),
+            "Sensor",
+        ),
         "plain": device_xml(fn_xml("value", 0, format="UINT16"), "Plain"),
     }
     paths = {}
@@ -72,20 +85,36 @@ def meter(tmp_path, name: str, model: int, phases: int) -> str:
     return registers(tmp_path, name, {"holding": {"0": model, "1": phases, "2": 2304}})
 
 
-SENSOR_REGISTERS = {"input": {"30": 70004 & 0xFFFF, "31": 70004 >> 16}, "holding": {"5": 5, "6": 0xFFFE, "8": 0x4040},
-                    "coil": {"2": 1}}
+SENSOR_REGISTERS = {
+    "input": {"30": 70004 & 0xFFFF, "31": 70004 >> 16},
+    "holding": {"5": 5, "6": 0xFFFE, "8": 0x4040},
+    "coil": {"2": 1},
+}
 
 
 @pytest.fixture
 def bus(library, sim_factory, tmp_path):
     """Four devices behind one Modbus TCP port: an EM200 at 3, a single-phase EM at 4, the sensor at 7 and
     a two-phase meter (no family member) at 9."""
-    return sim_factory([library["em200"], library["family"], library["sensor"], library["family"]],
-                       "--unit", "3", "--unit", "4", "--unit", "7", "--unit", "9",
-                       "--registers", meter(tmp_path, "em200", 23855, 3),
-                       "--registers", meter(tmp_path, "em100", 23854, 1),
-                       "--registers", registers(tmp_path, "sensor", SENSOR_REGISTERS),
-                       "--registers", meter(tmp_path, "two", 23854, 2))
+    return sim_factory(
+        [library["em200"], library["family"], library["sensor"], library["family"]],
+        "--unit",
+        "3",
+        "--unit",
+        "4",
+        "--unit",
+        "7",
+        "--unit",
+        "9",
+        "--registers",
+        meter(tmp_path, "em200", 23855, 3),
+        "--registers",
+        meter(tmp_path, "em100", 23854, 1),
+        "--registers",
+        registers(tmp_path, "sensor", SENSOR_REGISTERS),
+        "--registers",
+        meter(tmp_path, "two", 23854, 2),
+    )
 
 
 EM = {"VendorName": "Acme Meters", "ProductCode": "EM", "MajorMinorRevision": "3"}
@@ -110,8 +139,10 @@ def test_units_behind_one_port_match_by_their_markers(library, bus):
     assert f"{library['plain']}: warning: no function has a marker" in proc.stderr
     assert proc.stderr.count("warning") == 1
     # not a terminal: a plain line per unit, then the counts
-    assert f"mdl discover: unit 3: {library['family']}, {library['em200']} (identification: Acme Meters EM200 1.0)" \
+    assert (
+        f"mdl discover: unit 3: {library['family']}, {library['em200']} (identification: Acme Meters EM200 1.0)"
         in proc.stderr
+    )
     assert "mdl discover: unit 1: no answer" in proc.stderr
     assert "mdl discover: unit 9: no description matches (identification: Acme Meters EM 3)" in proc.stderr
     assert proc.stderr.rstrip().endswith("mdl discover: 4 units answered, 3 matched a description")
@@ -149,8 +180,12 @@ def test_several_ports(library, bus, sim_factory, tmp_path):
         assert proc.returncode == 0, proc.stderr
         found[sim.port] = {r["unit"]: r["matches"] for r in json.loads(proc.stdout)}
     assert found[other.port] == {1: [str(library["other"])]}
-    assert found[bus.port] == {3: [str(library["family"]), str(library["em200"])], 4: [str(library["family"])],
-                               7: [], 9: []}
+    assert found[bus.port] == {
+        3: [str(library["family"]), str(library["em200"])],
+        4: [str(library["family"])],
+        7: [],
+        9: [],
+    }
 
 
 XIF = """#filetype,Modbus_xif
@@ -170,21 +205,27 @@ def test_a_xif_file_discovers_by_its_marker_value_and_serves_its_product_lines(t
     sim = sim_factory(mod, "--unit", "5", "--registers", registers(tmp_path, "em9", {"input": {"11": 341}}))
     proc = discover(library["family"], mod, *sim.connection, "--units", "4-6", "--format", "json")
     assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout) == [{"unit": 5, "matches": [str(mod)], "identification": {
-        "VendorName": "Example Metering", "ProductCode": "EM-9", "MajorMinorRevision": "1.2"}}]
+    assert json.loads(proc.stdout) == [
+        {
+            "unit": 5,
+            "matches": [str(mod)],
+            "identification": {"VendorName": "Example Metering", "ProductCode": "EM-9", "MajorMinorRevision": "1.2"},
+        }
+    ]
 
 
 def test_sim_answers_read_device_identification_per_unit(library, bus):
     client = ModbusTcpClient(bus.host, port=bus.port, timeout=5)
     assert client.connect()
     try:
-        assert client.read_device_information(device_id=3).information == {
-            0: b"Acme Meters", 1: b"EM200", 2: b"1.0"}
+        assert client.read_device_information(device_id=3).information == {0: b"Acme Meters", 1: b"EM200", 2: b"1.0"}
         assert client.read_device_information(device_id=4).information == {0: b"Acme Meters", 1: b"EM", 2: b"3"}
         assert client.read_device_information(device_id=4, read_code=4, object_id=1).information == {1: b"EM"}
-        for unit, read_code, object_id, code in [(7, 1, 0, 1),  # no identity elements: no such function
-                                                 (5, 1, 0, 11),  # no device at unit 5
-                                                 (4, 4, 5, 2)]:  # ModelName: not in MDL
+        for unit, read_code, object_id, code in [
+            (7, 1, 0, 1),  # no identity elements: no such function
+            (5, 1, 0, 11),  # no device at unit 5
+            (4, 4, 5, 2),
+        ]:  # ModelName: not in MDL
             reply = client.read_device_information(device_id=unit, read_code=read_code, object_id=object_id)
             assert reply.isError() and reply.exception_code == code, (unit, reply)
     finally:
@@ -214,26 +255,42 @@ def _free_port() -> int:
 
 def test_nothing_listening_is_exit_3_naming_the_connection(library):
     port = _free_port()
-    assert_clean_error(cli("discover", library["family"], "--host", "127.0.0.1", "--port", port), 3,
-                       f"cannot connect to 127.0.0.1:{port}: ")
-    assert_clean_error(cli("discover", library["family"], "--host", "127.0.0.1", "--port", port, "--framer", "rtu"),
-                       3, f"cannot connect to 127.0.0.1:{port} (RTU over TCP): ")
-    assert_clean_error(cli("discover", library["family"], "--serial", "/nonexistent/ttyX"), 3,
-                       "cannot open serial device /nonexistent/ttyX")
+    assert_clean_error(
+        cli("discover", library["family"], "--host", "127.0.0.1", "--port", port),
+        3,
+        f"cannot connect to 127.0.0.1:{port}: ",
+    )
+    assert_clean_error(
+        cli("discover", library["family"], "--host", "127.0.0.1", "--port", port, "--framer", "rtu"),
+        3,
+        f"cannot connect to 127.0.0.1:{port} (RTU over TCP): ",
+    )
+    assert_clean_error(
+        cli("discover", library["family"], "--serial", "/nonexistent/ttyX"),
+        3,
+        "cannot open serial device /nonexistent/ttyX",
+    )
 
 
 def test_a_description_without_markers_is_a_warning_that_fail_on_warning_refuses(library):
     port = _free_port()  # nothing listens: exit 1 shows it refused before connecting
-    proc = cli("discover", library["family"], library["plain"], "--host", "127.0.0.1", "--port", port,
-               "--fail-on-warning")
+    proc = cli(
+        "discover", library["family"], library["plain"], "--host", "127.0.0.1", "--port", port, "--fail-on-warning"
+    )
     assert_clean_error(proc, 1, f"{library['plain']}: warning: no function has a marker", "--fail-on-warning")
     assert "cannot connect" not in proc.stderr
 
 
 def test_bad_unit_lists_are_usage_errors_naming_every_bad_item(library):
     proc = cli("discover", library["family"], "--host", "127.0.0.1", "--units", "1-x,300,9-2,,5")
-    assert_clean_error(proc, 2, "'1-x' is not a unit id or a range FIRST-LAST", "300 is outside 0-255",
-                       "'9-2' runs backwards (write 2-9)", "an empty item")
+    assert_clean_error(
+        proc,
+        2,
+        "'1-x' is not a unit id or a range FIRST-LAST",
+        "300 is outside 0-255",
+        "'9-2' runs backwards (write 2-9)",
+        "an empty item",
+    )
 
 
 def test_parse_units():
@@ -264,32 +321,65 @@ def test_fuzz_parse_units_of_ranges_is_their_union(ranges):
 
 
 def test_rtu_over_tcp_skips_silent_units(library, sim_factory, tmp_path):
-    sim = sim_factory([library["sensor"], library["em200"]], "--framer", "rtu", "--unit", "2", "--unit", "4",
-                      "--registers", registers(tmp_path, "s", SENSOR_REGISTERS),
-                      "--registers", meter(tmp_path, "m", 23855, 3))
-    proc = discover(library["family"], library["sensor"], *sim.connection, "--framer", "rtu", "--units", "1-5",
-                    "--format", "json")
+    sim = sim_factory(
+        [library["sensor"], library["em200"]],
+        "--framer",
+        "rtu",
+        "--unit",
+        "2",
+        "--unit",
+        "4",
+        "--registers",
+        registers(tmp_path, "s", SENSOR_REGISTERS),
+        "--registers",
+        meter(tmp_path, "m", 23855, 3),
+    )
+    proc = discover(
+        library["family"], library["sensor"], *sim.connection, "--framer", "rtu", "--units", "1-5", "--format", "json"
+    )
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == [
         {"unit": 2, "matches": [str(library["sensor"])], "identification": None},
-        {"unit": 4, "matches": [str(library["family"])], "identification": EM200}]
+        {"unit": 4, "matches": [str(library["family"])], "identification": EM200},
+    ]
     assert "mdl discover: unit 5: no answer" in proc.stderr
 
 
 def test_serial_line_a_silent_unit_costs_one_timeout(library, serial_line, sim_factory, tmp_path):
     device, client_end = serial_line.ends
-    sim_factory([library["family"], library["sensor"]], "--unit", "2", "--unit", "6",
-                "--registers", meter(tmp_path, "m", 23854, 3),
-                "--registers", registers(tmp_path, "s", SENSOR_REGISTERS), serial=device)
+    sim_factory(
+        [library["family"], library["sensor"]],
+        "--unit",
+        "2",
+        "--unit",
+        "6",
+        "--registers",
+        meter(tmp_path, "m", 23854, 3),
+        "--registers",
+        registers(tmp_path, "s", SENSOR_REGISTERS),
+        serial=device,
+    )
     timeout = 1.5
     started = time.monotonic()
-    proc = discover(library["em200"], library["family"], library["sensor"], "--serial", client_end,
-                    "--units", "0-3,6", "--timeout", timeout, "--format", "json")
+    proc = discover(
+        library["em200"],
+        library["family"],
+        library["sensor"],
+        "--serial",
+        client_end,
+        "--units",
+        "0-3,6",
+        "--timeout",
+        timeout,
+        "--format",
+        "json",
+    )
     elapsed = time.monotonic() - started
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == [
         {"unit": 2, "matches": [str(library["family"])], "identification": EM},
-        {"unit": 6, "matches": [str(library["sensor"])], "identification": None}]
+        {"unit": 6, "matches": [str(library["sensor"])], "identification": None},
+    ]
     assert "unit 0 is the broadcast address on a serial line" in proc.stderr
     # units 1 and 3 are silent: one timeout each (two each would be 6 s), plus starting Python
     assert 2 * timeout <= elapsed < 2 * timeout + 3, elapsed
@@ -298,8 +388,12 @@ def test_serial_line_a_silent_unit_costs_one_timeout(library, serial_line, sim_f
 def test_progress_bar_on_a_terminal(library, bus):
     """stderr a terminal: a progress bar, no line per unit; stdout still the plain table."""
     main, child = pty.openpty()
-    proc = subprocess.Popen(mdl_cmd("discover", library["family"], *bus.connection, "--units", "1-5"),
-                            stdout=subprocess.PIPE, stderr=child, text=True)
+    proc = subprocess.Popen(
+        mdl_cmd("discover", library["family"], *bus.connection, "--units", "1-5"),
+        stdout=subprocess.PIPE,
+        stderr=child,
+        text=True,
+    )
     os.close(child)
     err = b""
     deadline = time.monotonic() + RUN
@@ -326,12 +420,31 @@ def test_progress_bar_on_a_terminal(library, bus):
 
 def test_the_help_examples_library(sim_factory):
     """examples/discovery: the sim line docs/discovery.md shows, and the discover examples of --help."""
-    sim = sim_factory([EXAMPLES / "em100.xml", EXAMPLES / "rs4.xml"], "--unit", "3", "--unit", "7",
-                      "--registers", EXAMPLES / "em100.json", "--registers", EXAMPLES / "rs4.json")
-    proc = discover(*(EXAMPLES / f"{n}.xml" for n in ("em100", "em200", "rs4")),
-                    *sim.connection, "--units", "1-10", "--format", "json")
+    sim = sim_factory(
+        [EXAMPLES / "em100.xml", EXAMPLES / "rs4.xml"],
+        "--unit",
+        "3",
+        "--unit",
+        "7",
+        "--registers",
+        EXAMPLES / "em100.json",
+        "--registers",
+        EXAMPLES / "rs4.json",
+    )
+    proc = discover(
+        *(EXAMPLES / f"{n}.xml" for n in ("em100", "em200", "rs4")),
+        *sim.connection,
+        "--units",
+        "1-10",
+        "--format",
+        "json",
+    )
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == [
-        {"unit": 3, "matches": [str(EXAMPLES / "em100.xml")],
-         "identification": {"VendorName": "Acme Meters", "ProductCode": "EM100", "MajorMinorRevision": "2.1"}},
-        {"unit": 7, "matches": [str(EXAMPLES / "rs4.xml")], "identification": None}]
+        {
+            "unit": 3,
+            "matches": [str(EXAMPLES / "em100.xml")],
+            "identification": {"VendorName": "Acme Meters", "ProductCode": "EM100", "MajorMinorRevision": "2.1"},
+        },
+        {"unit": 7, "matches": [str(EXAMPLES / "rs4.xml")], "identification": None},
+    ]

@@ -72,7 +72,7 @@ def split_comment(line: str) -> tuple[str, str]:
         elif ch in "'\"":
             quote = ch
         elif ch == "#" and (i == 0 or line[i - 1].isspace()):
-            return line[:i].rstrip(), line[i + 1:].strip()
+            return line[:i].rstrip(), line[i + 1 :].strip()
     return line.rstrip(), ""
 
 
@@ -113,8 +113,9 @@ def doc_commands(text: str, name: str) -> list[Command]:
     previous = ""
     for block in blocks(text):
         if block.lang == "output" and previous == "sh" and commands:
-            commands[-1] = replace(commands[-1], output=commands[-1].output + tuple(
-                line for line in block.lines if line.strip()))
+            commands[-1] = replace(
+                commands[-1], output=commands[-1].output + tuple(line for line in block.lines if line.strip())
+            )
         elif block.lang == "sh":
             joined, first = "", 0
             for offset, line in enumerate(block.lines):
@@ -132,8 +133,11 @@ def doc_commands(text: str, name: str) -> list[Command]:
 
 def unmarked_examples(text: str, name: str) -> list[str]:
     """Blocks without a language that show a command (`mdl ...`, `$ ...`): each must say whether it runs."""
-    return [f"{name}:{block.line}" for block in blocks(text) if not block.lang
-            and any(line.startswith(("mdl ", "$ ")) for line in block.lines)]
+    return [
+        f"{name}:{block.line}"
+        for block in blocks(text)
+        if not block.lang and any(line.startswith(("mdl ", "$ ")) for line in block.lines)
+    ]
 
 
 @contextmanager
@@ -230,10 +234,20 @@ class Runner:
     def _shell(self, cmd: Command, program: str) -> subprocess.CompletedProcess[str]:
         if "/" not in program and program != "mdl" and shutil.which(program) is None:
             skip_or_fail(f"{cmd.where}: {program} is not installed")
-        env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
-               "PYTHONWARNINGS": "ignore"}
-        return subprocess.run(["bash", "-c", cmd.code], cwd=self.cwd, env=env, stdin=subprocess.DEVNULL,
-                              capture_output=True, text=True, timeout=600)
+        env = {
+            **os.environ,
+            "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}",
+            "PYTHONWARNINGS": "ignore",
+        }
+        return subprocess.run(
+            ["bash", "-c", cmd.code],
+            cwd=self.cwd,
+            env=env,
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
 
     def _sim(self, cmd: Command, args: list[str]) -> None:
         """`mdl sim FILE... OPTIONS` on a free port (or the pseudo terminal named), until the Runner ends."""
@@ -293,22 +307,29 @@ def test_documented_examples_run(name, commands, tmp_path):
 
 def test_every_example_is_marked():
     """A block showing a command says whether it runs (sh) or is shown only (console, text)."""
-    unmarked = [where for path in DOCS
-                for where in unmarked_examples(path.read_text(encoding="utf-8"), _doc_name(path))]
+    unmarked = [
+        where for path in DOCS for where in unmarked_examples(path.read_text(encoding="utf-8"), _doc_name(path))
+    ]
     assert not unmarked, f"mark these blocks ```sh (runnable) or ```console/```text (not run): {unmarked}"
 
 
 def test_runnable_examples_start_sims_in_the_background():
     """A reader pasting a ```sh block gets the next lines run: a sim in it must not hold the shell."""
-    waiting = [cmd.where for _, commands in _documents() for cmd in commands
-               if cmd.words[:2] == ["mdl", "sim"] and not cmd.background]
+    waiting = [
+        cmd.where
+        for _, commands in _documents()
+        for cmd in commands
+        if cmd.words[:2] == ["mdl", "sim"] and not cmd.background
+    ]
     assert not waiting, f"end these `mdl sim` lines with &: {waiting}"
 
 
 def test_a_failing_example_fails(tmp_path):
     """The control: a wrong exit status and a missing output line are each caught."""
-    text = ("```sh\nmdl validate examples/temco_tstat/temco_tstat.xml   # exit 1\n```\n"
-            "```sh\nmdl validate examples/temco_tstat/temco_tstat.xml\n```\nprints:\n```output\nnot valid\n```\n")
+    text = (
+        "```sh\nmdl validate examples/temco_tstat/temco_tstat.xml   # exit 1\n```\n"
+        "```sh\nmdl validate examples/temco_tstat/temco_tstat.xml\n```\nprints:\n```output\nnot valid\n```\n"
+    )
     commands = doc_commands(text, "control.md")
     assert [cmd.status for cmd in commands] == [1, 0] and commands[1].output == ("not valid",)
     with Runner(scratch(tmp_path)) as runner:
@@ -324,8 +345,12 @@ _COMMENT = st.text(st.characters(blacklist_categories=("Cs", "Cc", "Zl", "Zp")),
 
 
 @settings(max_examples=int(os.environ.get("MDL_FUZZ_DOC_EXAMPLES", "150")), deadline=None)
-@given(args=st.lists(_WORD, min_size=1, max_size=6), comment=_COMMENT.filter(lambda c: "exit" not in c),
-       background=st.booleans(), status=st.none() | st.integers(0, 255))
+@given(
+    args=st.lists(_WORD, min_size=1, max_size=6),
+    comment=_COMMENT.filter(lambda c: "exit" not in c),
+    background=st.booleans(),
+    status=st.none() | st.integers(0, 255),
+)
 def test_a_line_parses_back(args, comment, background, status):
     """A shell line built from words, `&` and a comment gives back those words, `&` and the status."""
     comment = comment if status is None else f"{comment} exit {status}"

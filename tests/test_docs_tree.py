@@ -66,14 +66,18 @@ def documents() -> list[Path]:
 @cache
 def _folders(base: Path) -> frozenset[str]:
     """The entries a path may start with to be anchored at `base` (hidden ones only for .ci)."""
-    return frozenset(p.name for p in base.iterdir()
-                     if p.name != "__pycache__" and (not p.name.startswith(".") or p.name == ".ci"))
+    return frozenset(
+        p.name for p in base.iterdir() if p.name != "__pycache__" and (not p.name.startswith(".") or p.name == ".ci")
+    )
 
 
 def _is_reference(token: str, fenced: bool, whole_span: bool) -> bool:
     parts = token.rstrip("/").split("/")
-    if parts[0] == ".." or _PLACEHOLDER_FOLDER.fullmatch(parts[0]) or any(
-            _ALTERNATIVE.fullmatch(part) for part in parts[1:]):
+    if (
+        parts[0] == ".."
+        or _PLACEHOLDER_FOLDER.fullmatch(parts[0])
+        or any(_ALTERNATIVE.fullmatch(part) for part in parts[1:])
+    ):
         return False
     if parts[0] in _folders(ROOT):
         return True
@@ -128,8 +132,12 @@ def _top_level_names(module: Path) -> frozenset[str]:
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             names.update((alias.asname or alias.name).split(".")[0] for alias in node.names)
         elif isinstance(node, (ast.If, ast.Try, ast.With)):
-            body += [*node.body, *getattr(node, "orelse", []), *getattr(node, "finalbody", []),
-                     *(stmt for handler in getattr(node, "handlers", []) for stmt in handler.body)]
+            body += [
+                *node.body,
+                *getattr(node, "orelse", []),
+                *getattr(node, "finalbody", []),
+                *(stmt for handler in getattr(node, "handlers", []) for stmt in handler.body),
+            ]
     return frozenset(names)
 
 
@@ -158,8 +166,9 @@ def missing(doc: Path, text: str) -> list[str]:
             ok = _name_exists(ref.text)
         if not ok:
             where = "its folder" if ref.kind == "link" else "the repository or src/mdl/"
-            out.append(f"{doc.relative_to(ROOT)}:{ref.line}: {ref.kind} `{ref.text}` is not in the tree "
-                       f"(relative to {where})")
+            out.append(
+                f"{doc.relative_to(ROOT)}:{ref.line}: {ref.kind} `{ref.text}` is not in the tree (relative to {where})"
+            )
     return out
 
 
@@ -167,8 +176,9 @@ def missing(doc: Path, text: str) -> list[str]:
 def test_every_file_a_document_names_exists(doc):
     assert doc.is_file(), f"{doc.relative_to(ROOT)} is missing"
     stale = missing(doc, doc.read_text(encoding="utf-8"))
-    assert not stale, "stale references (fix the document, or list another project's file in ELSEWHERE):\n" + \
-        "\n".join(stale)
+    assert not stale, "stale references (fix the document, or list another project's file in ELSEWHERE):\n" + "\n".join(
+        stale
+    )
 
 
 def test_every_other_projects_file_is_still_cited():
@@ -179,18 +189,20 @@ def test_every_other_projects_file_is_still_cited():
 
 def test_the_rules_on_known_lines():
     """A control: what is a reference, what is not, and each kind of stale one is reported with its line."""
-    text = "\n".join([
-        "The IR is `values/ir.py`; the C steps are in targets/c/templates/steps.j2 and `lang/cfrag/`.",  # 1
-        "Read `formats/toolkit.py` and src/mdl/nothing/",  # 2
-        "```sh",  # 3
-        "mdl gen x.xml -o drivers/ && cc out/temco_tstat.cc && python3 scripts/regen_golden.py",  # 4
-        "python3 scripts/no_such_script.py",  # 5
-        "```",  # 6
-        "Writes <stem>.h/.cc; read/write and 0.9b/1.0; see [the guide](docs/user-guide.md), "
-        "[gone](docs/gone.md), https://example.com/a/b.py, `formats/<name>/read.py`.",  # 7
-        "mdl.targets.render, mdl.values.ir.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
-        "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, `.ssh/`",  # 9
-    ])
+    text = "\n".join(
+        [
+            "The IR is `values/ir.py`; the C steps are in targets/c/templates/steps.j2 and `lang/cfrag/`.",  # 1
+            "Read `formats/toolkit.py` and src/mdl/nothing/",  # 2
+            "```sh",  # 3
+            "mdl gen x.xml -o drivers/ && cc out/temco_tstat.cc && python3 scripts/regen_golden.py",  # 4
+            "python3 scripts/no_such_script.py",  # 5
+            "```",  # 6
+            "Writes <stem>.h/.cc; read/write and 0.9b/1.0; see [the guide](docs/user-guide.md), "
+            "[gone](docs/gone.md), https://example.com/a/b.py, `formats/<name>/read.py`.",  # 7
+            "mdl.targets.render, mdl.values.ir.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
+            "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, `.ssh/`",  # 9
+        ]
+    )
     assert missing(ROOT / "README.md", text) == [
         "README.md:2: path `formats/toolkit.py` is not in the tree (relative to the repository or src/mdl/)",
         "README.md:2: path `src/mdl/nothing/` is not in the tree (relative to the repository or src/mdl/)",
@@ -202,18 +214,24 @@ def test_the_rules_on_known_lines():
     ]
 
 
-_TREE_FILES = sorted(p.relative_to(ROOT).as_posix() for folder in ("src", "tests", "docs", "scripts")
-                     for p in (ROOT / folder).rglob("*")
-                     if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".md", ".j2"))
-_PROSE = st.text(st.characters(codec="utf-8", exclude_characters="`/()[].\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"),
-                 max_size=40)
+_TREE_FILES = sorted(
+    p.relative_to(ROOT).as_posix()
+    for folder in ("src", "tests", "docs", "scripts")
+    for p in (ROOT / folder).rglob("*")
+    if p.is_file() and "__pycache__" not in p.parts and p.suffix in (".py", ".md", ".j2")
+)
+_PROSE = st.text(
+    st.characters(codec="utf-8", exclude_characters="`/()[].\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"), max_size=40
+)
 _NAME = st.text(st.sampled_from("abcdefghijklmnopqrstuvwxyz_"), min_size=1, max_size=12)
 
 
 @settings(max_examples=int(os.environ.get("MDL_FUZZ_DOCS", "150")), deadline=None)
-@given(st.lists(st.tuples(_PROSE, st.sampled_from(_TREE_FILES), st.booleans(), st.integers(0, 2)),
-                min_size=1, max_size=8),
-       st.integers(0, 7), _NAME)
+@given(
+    st.lists(st.tuples(_PROSE, st.sampled_from(_TREE_FILES), st.booleans(), st.integers(0, 2)), min_size=1, max_size=8),
+    st.integers(0, 7),
+    _NAME,
+)
 def test_any_prose_keeps_references_and_finds_the_stale_one(lines, at, name):
     """Real files named in any text (in backticks or not, with sentence punctuation) are found and pass;
     one file that is not there, put on any line, is the one reported, at that line."""
@@ -227,4 +245,5 @@ def test_any_prose_keeps_references_and_finds_the_stale_one(lines, at, name):
     found = references("\n".join(text))
     assert {ref.text for ref in found if ref.kind == "path"} >= {path for _, path, _, _ in lines}
     assert missing(ROOT / "README.md", "\n".join(text)) == [
-        f"README.md:{line + 1}: path `{stale}` is not in the tree (relative to the repository or src/mdl/)"]
+        f"README.md:{line + 1}: path `{stale}` is not in the tree (relative to the repository or src/mdl/)"
+    ]

@@ -37,9 +37,11 @@ from mdl.sources.mdlxml.sniff import not_xml
 
 # --- a Latin-1 (cp1252) table -------------------------------------------------------------------------
 
-LATIN1_TABLE = ("Modbus Protocol Start Address Hex;Description;Data Type;Unit\n"
-                "0010;Température extérieure (outdoor temperature);INT16;°C\n"
-                "001A;Room temperature;INT16;°C\n").encode("cp1252")
+LATIN1_TABLE = (
+    "Modbus Protocol Start Address Hex;Description;Data Type;Unit\n"
+    "0010;Température extérieure (outdoor temperature);INT16;°C\n"
+    "001A;Room temperature;INT16;°C\n"
+).encode("cp1252")
 
 
 def test_a_latin1_table_is_read_and_the_guess_said(tmp_path):
@@ -48,10 +50,12 @@ def test_a_latin1_table_is_read_and_the_guess_said(tmp_path):
     proc = cli("csv2xml", table, "--all")
     assert proc.returncode == 0, proc.stderr
     notes = [line for line in proc.stderr.splitlines() if "Windows-1252" in line]
-    assert notes == [f"{table}: note: not UTF-8 (byte 0xe9 on line 2, column 10): read as Windows-1252 (cp1252, "
-                     "the Latin-1 of Windows exports), where that byte is 'é'; set encoding = cp1252 in "
-                     "[Input/Output] of a device INI (--ini) to say so, or encoding = NAME for another (latin-1, "
-                     "cp1250, utf-16 ...)"], proc.stderr
+    assert notes == [
+        f"{table}: note: not UTF-8 (byte 0xe9 on line 2, column 10): read as Windows-1252 (cp1252, "
+        "the Latin-1 of Windows exports), where that byte is 'é'; set encoding = cp1252 in "
+        "[Input/Output] of a device INI (--ini) to say so, or encoding = NAME for another (latin-1, "
+        "cp1250, utf-16 ...)"
+    ], proc.stderr
     fns = functions(proc.stdout)
     assert fns["outdoor_temperature"]["description"] == "Température extérieure (outdoor temperature)"
     assert fns["outdoor_temperature"]["units"] == "°C"
@@ -59,9 +63,12 @@ def test_a_latin1_table_is_read_and_the_guess_said(tmp_path):
 
 def _ini(folder: Path, io_lines: str = "") -> Path:
     ini = folder / "device.ini"
-    ini.write_text("[Modbus Device]\ndevice_name = Heat pump\n\n[Input/Output]\naddress_map_csv_file = map.csv\n"
-                   f"{io_lines}\n[Function Name Search Synonyms]\noutdoor_temperature = outdoor temperature\n"
-                   "room_temperature = room temperature\n", encoding="utf-8")
+    ini.write_text(
+        "[Modbus Device]\ndevice_name = Heat pump\n\n[Input/Output]\naddress_map_csv_file = map.csv\n"
+        f"{io_lines}\n[Function Name Search Synonyms]\noutdoor_temperature = outdoor temperature\n"
+        "room_temperature = room temperature\n",
+        encoding="utf-8",
+    )
     return ini
 
 
@@ -102,8 +109,12 @@ def test_a_table_neither_utf8_nor_cp1252_is_an_error_at_the_byte(tmp_path):
     table = tmp_path / "map.csv"
     table.write_bytes(b"Address,Description\n0,Temp\x81\n")  # 0x81: undefined in cp1252
     proc = cli("csv2xml", table)
-    assert_clean_error(proc, 1, f"{table}:2:7: error: cannot decode byte 0x81 as utf-8, nor as cp1252",
-                       "encoding = NAME in [Input/Output]")
+    assert_clean_error(
+        proc,
+        1,
+        f"{table}:2:7: error: cannot decode byte 0x81 as utf-8, nor as cp1252",
+        "encoding = NAME in [Input/Output]",
+    )
 
 
 def test_a_latin1_ini_is_read_and_said(tmp_path):
@@ -119,12 +130,17 @@ def test_a_latin1_ini_is_read_and_said(tmp_path):
 
 # --- headers that say more than the field ---------------------------------------------------------------
 
-@pytest.mark.parametrize("header", ["Modbus Protocol Start Address Hex", "Start Address (Hex)",
-                                    "Register Address [hex]", "Modbus Start Register HEX"])
+
+@pytest.mark.parametrize(
+    "header",
+    ["Modbus Protocol Start Address Hex", "Start Address (Hex)", "Register Address [hex]", "Modbus Start Register HEX"],
+)
 def test_an_address_header_with_qualifiers_is_the_address_column_read_as_hex(tmp_path, header):
     table = tmp_path / "map.csv"
-    table.write_text(f"{header},Description,Data Type\n0010,Outdoor temperature,INT16\n001A,Room temperature,"
-                     "INT16\n", encoding="utf-8")
+    table.write_text(
+        f"{header},Description,Data Type\n0010,Outdoor temperature,INT16\n001A,Room temperature,INT16\n",
+        encoding="utf-8",
+    )
     proc = cli("csv2xml", table)
     assert proc.returncode == 0, proc.stderr
     assert f"addresses = column 0 '{header}'" in proc.stderr
@@ -144,8 +160,10 @@ def test_a_plain_synonym_wins_over_a_qualified_one(tmp_path):
 
 
 @settings(max_examples=200, deadline=None)
-@given(st.lists(st.sampled_from(sorted(QUALIFIERS) + ["address", "register", "type", "x", "-", "(", ")"]),
-                max_size=6), st.text(max_size=20))
+@given(
+    st.lists(st.sampled_from(sorted(QUALIFIERS) + ["address", "register", "type", "x", "-", "(", ")"]), max_size=6),
+    st.text(max_size=20),
+)
 def test_fuzz_header_recognition(words, noise):
     """Any header text: a rank or None, never an exception; qualifiers alone name no column."""
     header = " ".join(words) + noise
@@ -159,6 +177,7 @@ def test_fuzz_header_recognition(words, noise):
 
 
 # --- an unreadable file is invalid input (exit 1), as a missing one ------------------------------------
+
 
 @pytest.fixture
 def unreadable(monkeypatch):
@@ -185,11 +204,11 @@ def unreadable(monkeypatch):
         for path in paths:
             path.chmod(0o000)
             denied.add(str(path))
+
     return deny
 
 
-@pytest.mark.parametrize("command", [["validate"], ["gen", "--check"], ["export", "--to", "senml"],
-                                     ["csv2xml"]])
+@pytest.mark.parametrize("command", [["validate"], ["gen", "--check"], ["export", "--to", "senml"], ["csv2xml"]])
 def test_permission_denied_is_exit_1_in_mdls_words_as_a_missing_file(tmp_path, unreadable, command):
     secret = tmp_path / "device.xml"
     shutil.copy(EXAMPLE / "temco_tstat.xml", secret)
@@ -248,7 +267,7 @@ def test_xsd_errors_give_the_column_of_the_element(tmp_path):
 
 
 def _tag_at(text: str, line: int, col: int) -> str:
-    return text.splitlines()[line - 1][col - 1:]
+    return text.splitlines()[line - 1][col - 1 :]
 
 
 BASE = (EXAMPLE / "temco_tstat.xml").read_text(encoding="ascii")
@@ -256,15 +275,19 @@ ELEMENTS = sorted(set(re.findall(r"<([a-z_]+)>[^<]*</\1>", BASE)))  # the elemen
 
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(st.sampled_from(ELEMENTS), st.integers(0, 40), st.sampled_from(["x", "", "-1", "INT99", "<bogus/>", "99999"]),
-       st.booleans())
+@given(
+    st.sampled_from(ELEMENTS),
+    st.integers(0, 40),
+    st.sampled_from(["x", "", "-1", "INT99", "<bogus/>", "99999"]),
+    st.booleans(),
+)
 def test_fuzz_xsd_errors_point_at_a_start_tag_or_libxml2s_column(tmp_path_factory, element, nth, text, split_tag):
     """An element's text replaced (its start tag perhaps split over two lines): every XSD error has a
     line and a column, and where libxml2 gave none, the column is that of a start tag."""
     found = list(re.finditer(rf"<{element}>[^<]*</{element}>", BASE))
     m = found[nth % len(found)]
     opening = f"<{element}\n  >" if split_tag else f"<{element}>"
-    source = BASE[:m.start()] + f"{opening}{text}</{element}>" + BASE[m.end():]
+    source = BASE[: m.start()] + f"{opening}{text}</{element}>" + BASE[m.end() :]
     try:
         tree, data = parse_source(_write(tmp_path_factory, source))
     except MdlError:
@@ -283,8 +306,13 @@ def _write(factory, text: str) -> Path:
 # --- an XML command given another kind of file ------------------------------------------------------------
 
 TABLE = "Address,Description,Format\n0,Room temperature,INT16\n"
-XML_COMMANDS = [["validate"], ["gen", "--check"], ["export", "--to", "senml"], ["test"],
-                ["read", "--host", "127.0.0.1", "--port", "1"]]
+XML_COMMANDS = [
+    ["validate"],
+    ["gen", "--check"],
+    ["export", "--to", "senml"],
+    ["test"],
+    ["read", "--host", "127.0.0.1", "--port", "1"],
+]
 
 
 @pytest.mark.parametrize("command", XML_COMMANDS)
@@ -292,9 +320,13 @@ def test_a_csv_given_to_an_xml_command_points_at_csv2xml(tmp_path, command):
     table = tmp_path / "map.csv"
     table.write_text(TABLE, encoding="utf-8")
     proc = cli(command[0], table, *command[1:])
-    assert_clean_error(proc, 1, f"{table}:1:1: error: not MDL XML (it does not start with '<'): this looks like a "
-                                f"register table (cells separated by commas); `mdl csv2xml {table} [--ini "
-                                "DEVICE.ini]` converts it to MDL")
+    assert_clean_error(
+        proc,
+        1,
+        f"{table}:1:1: error: not MDL XML (it does not start with '<'): this looks like a "
+        f"register table (cells separated by commas); `mdl csv2xml {table} [--ini "
+        "DEVICE.ini]` converts it to MDL",
+    )
     assert "Start tag expected" not in proc.stderr
 
 
@@ -305,36 +337,64 @@ def test_a_csv_given_to_sim_points_at_csv2xml(tmp_path):
     assert_clean_error(proc, 1, "register table (cells separated by semicolons); `mdl csv2xml")
 
 
-@pytest.mark.parametrize(("name", "content", "looks", "command"), [
-    ("meter.mod", (EXAMPLE.parent / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),
-     "an XIF file (SmartServer .mod)", "`mdl import {path}` converts it to MDL"),
-    ("heat_pump.yaml", (EXAMPLE.parent / "toolkit_heat_pump" / "heat_pump.yaml").read_text(encoding="utf-8"),
-     "a Modbus Schema Toolkit YAML file", "`mdl import {path}`"),
-    ("device.ini", "; my device\n[Modbus Device]\ndevice_name = x\n[Input/Output]\naddress_map_csv_file = m.csv\n",
-     "a device INI (csv2xml's)", "`mdl csv2xml {path}` converts the register table it names"),
-    ("notes.ini", "[General]\nx = 1\n", "an INI file", "`mdl import {path} --from wise`"),
-    ("table.md", "| Address | Description |\n|---|---|\n| 0 | Room temperature |\n",
-     "a register table (cells separated by pipes)", "`mdl csv2xml {path}"),
-    ("raw.json", '{"holding": {"0": 1}}', "a JSON document", "`mdl sim --registers`"),
-    ("empty.xml", "", "an empty file", "`mdl csv2xml` makes one"),
-    ("blank.xml", "\n  \n", "an empty file", "`mdl csv2xml` makes one"),
-    ("map.tsv", "Hello\n", "a register table", "`mdl csv2xml {path}"),
-    ("readme.txt", "Hello\n", "plain text", "`mdl csv2xml` makes one"),
-    ("readme", "Hello there\n", "plain text", "`mdl csv2xml` makes one"),
-])
+@pytest.mark.parametrize(
+    ("name", "content", "looks", "command"),
+    [
+        (
+            "meter.mod",
+            (EXAMPLE.parent / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),
+            "an XIF file (SmartServer .mod)",
+            "`mdl import {path}` converts it to MDL",
+        ),
+        (
+            "heat_pump.yaml",
+            (EXAMPLE.parent / "toolkit_heat_pump" / "heat_pump.yaml").read_text(encoding="utf-8"),
+            "a Modbus Schema Toolkit YAML file",
+            "`mdl import {path}`",
+        ),
+        (
+            "device.ini",
+            "; my device\n[Modbus Device]\ndevice_name = x\n[Input/Output]\naddress_map_csv_file = m.csv\n",
+            "a device INI (csv2xml's)",
+            "`mdl csv2xml {path}` converts the register table it names",
+        ),
+        ("notes.ini", "[General]\nx = 1\n", "an INI file", "`mdl import {path} --from wise`"),
+        (
+            "table.md",
+            "| Address | Description |\n|---|---|\n| 0 | Room temperature |\n",
+            "a register table (cells separated by pipes)",
+            "`mdl csv2xml {path}",
+        ),
+        ("raw.json", '{"holding": {"0": 1}}', "a JSON document", "`mdl sim --registers`"),
+        ("empty.xml", "", "an empty file", "`mdl csv2xml` makes one"),
+        ("blank.xml", "\n  \n", "an empty file", "`mdl csv2xml` makes one"),
+        ("map.tsv", "Hello\n", "a register table", "`mdl csv2xml {path}"),
+        ("readme.txt", "Hello\n", "plain text", "`mdl csv2xml` makes one"),
+        ("readme", "Hello there\n", "plain text", "`mdl csv2xml` makes one"),
+    ],
+)
 def test_validate_says_what_the_file_looks_like(tmp_path, name, content, looks, command):
     path = tmp_path / name
     path.write_text(content, encoding="utf-8")
     proc = cli("validate", path)
-    assert_clean_error(proc, 1, f"{path}:", "error: not MDL XML (it does not start with '<'): this looks like "
-                                            f"{looks};", command.format(path=path))
+    assert_clean_error(
+        proc,
+        1,
+        f"{path}:",
+        f"error: not MDL XML (it does not start with '<'): this looks like {looks};",
+        command.format(path=path),
+    )
 
 
 def test_a_workbook_and_binary_data_are_named(tmp_path):
     book = tmp_path / "map.xlsx"
     book.write_bytes(b"PK\x03\x04" + bytes(range(256)))
-    assert_clean_error(cli("validate", book), 1, "a zip archive (an Excel .xlsx workbook?); save the register "
-                                                 "table as CSV and convert it with `mdl csv2xml TABLE.csv`")
+    assert_clean_error(
+        cli("validate", book),
+        1,
+        "a zip archive (an Excel .xlsx workbook?); save the register "
+        "table as CSV and convert it with `mdl csv2xml TABLE.csv`",
+    )
     blob = tmp_path / "blob.xml"
     blob.write_bytes(b"\x01\x00\x02binary")
     assert_clean_error(cli("validate", blob), 1, "this looks like binary data")
@@ -373,9 +433,13 @@ def test_fuzz_any_bytes_as_mdl(tmp_path, data):
 
 # --- decoding a table ------------------------------------------------------------------------------------
 
+
 @settings(max_examples=300, deadline=None)
-@given(st.binary(max_size=200) | st.text(max_size=100).map(lambda t: t.encode("utf-8"))
-       | st.text(alphabet=st.characters(codec="cp1252"), max_size=100).map(lambda t: t.encode("cp1252")))
+@given(
+    st.binary(max_size=200)
+    | st.text(max_size=100).map(lambda t: t.encode("utf-8"))
+    | st.text(alphabet=st.characters(codec="cp1252"), max_size=100).map(lambda t: t.encode("cp1252"))
+)
 def test_fuzz_decode_table(data):
     """UTF-8 is read as it is and said nothing of; anything else is read as the guess says (and the guess
     loses no byte: it encodes back to the file), or refused with the line and column of the byte."""
@@ -399,6 +463,7 @@ def test_fuzz_decode_table(data):
 
 # --- progress on a terminal --------------------------------------------------------------------------------
 
+
 class Screen(io.StringIO):
     """A terminal for stderr that records, for each write, the (fake) time it was written at."""
 
@@ -416,8 +481,30 @@ class Screen(io.StringIO):
         return written
 
 
-WORDS = ["pump", "inlet", "outlet", "phase", "voltage", "current", "peak", "daily", "total", "reactive", "power",
-         "frequency", "setpoint", "flow", "rate", "energy", "status", "alarm", "counter", "level", "tank", "valve"]
+WORDS = [
+    "pump",
+    "inlet",
+    "outlet",
+    "phase",
+    "voltage",
+    "current",
+    "peak",
+    "daily",
+    "total",
+    "reactive",
+    "power",
+    "frequency",
+    "setpoint",
+    "flow",
+    "rate",
+    "energy",
+    "status",
+    "alarm",
+    "counter",
+    "level",
+    "tank",
+    "valve",
+]
 
 
 def _long_table(path: Path, rows: int) -> None:
@@ -471,12 +558,19 @@ def test_no_progress_when_stderr_is_not_a_terminal(tmp_path):
 
 # --- mdl import of a file whose format it cannot tell ------------------------------------------------
 
-@pytest.mark.parametrize("name, text, fragments", [
-    ("t.csv", "Register,Name\n40001,Temp\n", ["looks like a register table", "`mdl csv2xml ", "t.csv [--ini"]),
-    ("d.ini", "[Input/Output]\naddress_map_csv_file = t.csv\n", ["a device INI (csv2xml's)", "`mdl csv2xml ",
-                                                                 "d.ini` converts"]),
-    ("x.xml", "<device/>\n", ["looks like XML", "MDL needs no import"]),
-])
+
+@pytest.mark.parametrize(
+    "name, text, fragments",
+    [
+        ("t.csv", "Register,Name\n40001,Temp\n", ["looks like a register table", "`mdl csv2xml ", "t.csv [--ini"]),
+        (
+            "d.ini",
+            "[Input/Output]\naddress_map_csv_file = t.csv\n",
+            ["a device INI (csv2xml's)", "`mdl csv2xml ", "d.ini` converts"],
+        ),
+        ("x.xml", "<device/>\n", ["looks like XML", "MDL needs no import"]),
+    ],
+)
 def test_import_says_what_a_file_of_no_import_format_is(tmp_path, name, text, fragments):
     path = tmp_path / name
     path.write_text(text)

@@ -75,17 +75,29 @@ def _choice_params():
 
 def test_every_choice_option_of_every_command_ignores_case():
     found = dict(_choice_params())
-    assert {"read --format", "read --parity", "read --framer", "sim --parity", "discover --format",
-            "export --to", "import --from", "gen --lang", "validate --schema"} <= set(found), sorted(found)
+    assert {
+        "read --format",
+        "read --parity",
+        "read --framer",
+        "sim --parity",
+        "discover --format",
+        "export --to",
+        "import --from",
+        "gen --lang",
+        "validate --schema",
+    } <= set(found), sorted(found)
     assert [name for name, choice in found.items() if choice.case_sensitive] == []
 
 
-@pytest.mark.parametrize("args, expected", [
-    (["read", TSTAT, "room_temperature", "--format", "JSON"], '"room_temperature": 21.5'),
-    (["read", TSTAT, "room_temperature", "--format", "Csv"], "room_temperature,21.5,"),
-    (["read", TSTAT, "room_temperature", "--format", "SENML"], '"n": "room_temperature"'),
-    (["read", TSTAT, "room_temperature", "--format", "Table", "--framer", "TCP"], "room_temperature  21.5"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["read", TSTAT, "room_temperature", "--format", "JSON"], '"room_temperature": 21.5'),
+        (["read", TSTAT, "room_temperature", "--format", "Csv"], "room_temperature,21.5,"),
+        (["read", TSTAT, "room_temperature", "--format", "SENML"], '"n": "room_temperature"'),
+        (["read", TSTAT, "room_temperature", "--format", "Table", "--framer", "TCP"], "room_temperature  21.5"),
+    ],
+)
 def test_read_takes_choices_in_any_case(sim_factory, args, expected):
     sim = sim_factory(TSTAT, "--set", "room_temperature=21.5")
     proc = run_mdl(*args, *sim.connection)
@@ -110,16 +122,30 @@ def test_discover_format_in_capitals(sim_factory):
 def test_parity_in_lower_case_is_even_parity(serial_line):
     """The connection's name says 8E1 whether the pseudo terminal takes even parity (silence: nobody is at
     the other end) or refuses it (some kernels)."""
-    proc = run_mdl("read", TSTAT, "room_temperature", "--serial", serial_line.ends[0], "--parity", "e",
-                   "--timeout", "0.2", "--retries", "0")
+    proc = run_mdl(
+        "read",
+        TSTAT,
+        "room_temperature",
+        "--serial",
+        serial_line.ends[0],
+        "--parity",
+        "e",
+        "--timeout",
+        "0.2",
+        "--retries",
+        "0",
+    )
     assert_clean_error(proc, 3, "8E1")
 
 
-@pytest.mark.parametrize("args, expected", [
-    (["export", TSTAT, "--to", "WISE", "--serial", "/dev/ttyUSB0", "--parity", "o"], "Parity=Odd"),
-    (["export", TSTAT, "--to", "Telegraf", "--host", "192.0.2.10"], "tcp://192.0.2.10:502"),
-    (["import", ROOT / "examples" / "xif_meter" / "meter.mod", "--from", "XIF"], "<device"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["export", TSTAT, "--to", "WISE", "--serial", "/dev/ttyUSB0", "--parity", "o"], "Parity=Odd"),
+        (["export", TSTAT, "--to", "Telegraf", "--host", "192.0.2.10"], "tcp://192.0.2.10:502"),
+        (["import", ROOT / "examples" / "xif_meter" / "meter.mod", "--from", "XIF"], "<device"),
+    ],
+)
 def test_other_commands_take_choices_in_any_case(args, expected):
     proc = cli(*args)
     assert proc.returncode == 0, proc.stderr
@@ -185,8 +211,9 @@ def test_ipv6_in_brackets_with_port_and_bare_ipv6_as_host(sim_factory):
 
 def test_sim_listens_on_host_with_port():
     """The port in --host wins over the sim's default 5020 (0: a free port)."""
-    proc = subprocess.Popen(mdl_cmd("sim", TSTAT, "--host", "127.0.0.1:0"), stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        mdl_cmd("sim", TSTAT, "--host", "127.0.0.1:0"), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
     try:
         lines = _read_lines(proc.stdout, bool, proc, 30)
     finally:
@@ -208,16 +235,19 @@ def test_export_takes_host_with_port():
     assert 'controller = "tcp://192.0.2.10:1502"' in proc.stdout
 
 
-@pytest.mark.parametrize("host, words", [
-    ("127.0.0.1:", "the port '' is not a number"),
-    (":5020", "no host"),
-    ("127.0.0.1:abc", "the port 'abc' is not a number"),
-    ("127.0.0.1:0", "not in the range 1 to 65535"),
-    ("127.0.0.1:70000", "not in the range 1 to 65535"),
-    ("[::1", "needs its ']'"),
-    ("[::1]5020", "after ']'"),
-    ("[]:5020", "no host"),
-])
+@pytest.mark.parametrize(
+    "host, words",
+    [
+        ("127.0.0.1:", "the port '' is not a number"),
+        (":5020", "no host"),
+        ("127.0.0.1:abc", "the port 'abc' is not a number"),
+        ("127.0.0.1:0", "not in the range 1 to 65535"),
+        ("127.0.0.1:70000", "not in the range 1 to 65535"),
+        ("[::1", "needs its ']'"),
+        ("[::1]5020", "after ']'"),
+        ("[]:5020", "no host"),
+    ],
+)
 def test_a_malformed_host_is_a_usage_error(host, words):
     proc = cli("read", TSTAT, "--host", host)
     assert_clean_error(proc, 2, "--host", words)
@@ -328,13 +358,27 @@ def test_doc_quotes_permission_denied(tmp_path):
         device.chmod(0)
         proc = run_mdl(*args)
     elif shutil.which("setpriv"):  # root opens anything: ask as nobody
-        proc = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", sys.executable, "-m",
-                               "mdl", *map(str, args)], capture_output=True, text=True, timeout=60)
+        proc = subprocess.run(
+            [
+                "setpriv",
+                "--reuid=65534",
+                "--regid=65534",
+                "--clear-groups",
+                sys.executable,
+                "-m",
+                "mdl",
+                *map(str, args),
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
     else:
         pytest.skip("running as root without setpriv: every file opens")
     assert proc.returncode == 3, proc.stderr
-    _assert_quoted("cannot open serial device /dev/ttyUSB0: Permission denied", proc.stderr,
-                   {"/dev/ttyUSB0": str(device)})
+    _assert_quoted(
+        "cannot open serial device /dev/ttyUSB0: Permission denied", proc.stderr, {"/dev/ttyUSB0": str(device)}
+    )
     _assert_quoted("... Permission denied", proc.stderr)
 
 
@@ -353,20 +397,51 @@ def test_doc_quotes_another_program(serial_line):
 def test_doc_quotes_serial_silence_as_the_rehearsal_shows_it(serial_line, sim_factory):
     """The rehearsal of docs/connecting.md: a sim at unit 3 on one end, a read of unit 1 on the other."""
     sim_factory(TSTAT, "--baud", "9600", "--unit", "3", serial=serial_line.ends[0])
-    proc = run_mdl("read", TSTAT, "--serial", serial_line.ends[1], "--baud", "9600", "--unit", "1",
-                   "--timeout", "0.5", "room_temperature")
+    proc = run_mdl(
+        "read",
+        TSTAT,
+        "--serial",
+        serial_line.ends[1],
+        "--baud",
+        "9600",
+        "--unit",
+        "1",
+        "--timeout",
+        "0.5",
+        "room_temperature",
+    )
     assert proc.returncode == 3
-    assert ("mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/pts/4 --baud 9600 --unit 1 --timeout 0.5 "
-            "room_temperature") in CONNECTING
-    _assert_quoted("error: /dev/pts/4 (9600 8N1) unit 1: reading 1 holding from 121: no reply within 0.5 s "
-                   "(2 tries); check baud rate, parity and unit id", proc.stderr, {"/dev/pts/4": serial_line.ends[1]})
-    _assert_quoted("no reply within S s (N tries); check baud rate, parity and unit id", proc.stderr,
-                   {"S": "0.5", "N": "2"})
+    assert (
+        "mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/pts/4 --baud 9600 --unit 1 --timeout 0.5 "
+        "room_temperature"
+    ) in CONNECTING
+    _assert_quoted(
+        "error: /dev/pts/4 (9600 8N1) unit 1: reading 1 holding from 121: no reply within 0.5 s "
+        "(2 tries); check baud rate, parity and unit id",
+        proc.stderr,
+        {"/dev/pts/4": serial_line.ends[1]},
+    )
+    _assert_quoted(
+        "no reply within S s (N tries); check baud rate, parity and unit id", proc.stderr, {"S": "0.5", "N": "2"}
+    )
 
 
 def test_doc_quotes_parity_a_pseudo_terminal_refuses(serial_line):
-    proc = run_mdl("read", TSTAT, "--serial", serial_line.ends[0], "--baud", "9600", "--parity", "E",
-                   "--timeout", "0.2", "--retries", "0", "room_temperature")
+    proc = run_mdl(
+        "read",
+        TSTAT,
+        "--serial",
+        serial_line.ends[0],
+        "--baud",
+        "9600",
+        "--parity",
+        "E",
+        "--timeout",
+        "0.2",
+        "--retries",
+        "0",
+        "room_temperature",
+    )
     if "refuses" not in proc.stderr:
         pytest.skip("this kernel's pseudo terminals take even parity")
     assert proc.returncode == 3
@@ -375,21 +450,26 @@ def test_doc_quotes_parity_a_pseudo_terminal_refuses(serial_line):
 
 def test_doc_quotes_rtu_over_tcp_silence(sim_factory):
     sim = sim_factory(TSTAT, "--framer", "rtu")
-    proc = run_mdl("read", TSTAT, *sim.connection, "--framer", "rtu", "--unit", "5", "--timeout", "0.3",
-                   "room_temperature")
+    proc = run_mdl(
+        "read", TSTAT, *sim.connection, "--framer", "rtu", "--unit", "5", "--timeout", "0.3", "room_temperature"
+    )
     assert proc.returncode == 3
     _assert_quoted("check the unit id, and the converter's baud rate and parity", proc.stderr)
 
 
-@pytest.mark.parametrize("mode, framing, quote, fills", [
-    ("garbage", "rtu", "the reply is not a Modbus RTU frame (…)", {}),
-    ("wrong_unit", "tcp", "the reply comes from unit U", {"U": "2"}),
-    ("drop", "tcp", "the connection closed without a reply", {}),
-])
+@pytest.mark.parametrize(
+    "mode, framing, quote, fills",
+    [
+        ("garbage", "rtu", "the reply is not a Modbus RTU frame (…)", {}),
+        ("wrong_unit", "tcp", "the reply comes from unit U", {"U": "2"}),
+        ("drop", "tcp", "the connection closed without a reply", {}),
+    ],
+)
 def test_doc_quotes_a_misbehaving_device(mode, framing, quote, fills):
     with hostile_server(mode, framing=framing) as (host, port):
-        proc = run_mdl("read", TSTAT, "room_temperature", "--host", host, "--port", port, "--framer", framing,
-                       "--timeout", "0.5")
+        proc = run_mdl(
+            "read", TSTAT, "room_temperature", "--host", host, "--port", port, "--framer", framing, "--timeout", "0.5"
+        )
     assert proc.returncode == 3
     _assert_quoted(quote, proc.stderr, fills)
 
@@ -427,8 +507,11 @@ def test_doc_quotes_cannot_connect():
 def test_doc_quotes_the_sim_hint(nothing_on_502):
     proc = run_mdl("read", TSTAT, "room_temperature", "--host", "127.0.0.1")
     assert proc.returncode == 3
-    _assert_quoted("cannot connect to 127.0.0.1:502: no Modbus TCP device answers; is `mdl sim` running? it "
-                   "listens on 5020 unless --port says otherwise", proc.stderr)
+    _assert_quoted(
+        "cannot connect to 127.0.0.1:502: no Modbus TCP device answers; is `mdl sim` running? it "
+        "listens on 5020 unless --port says otherwise",
+        proc.stderr,
+    )
 
 
 def test_doc_quotes_what_the_sim_logs(sim_factory):
@@ -451,8 +534,11 @@ def test_doc_quotes_what_the_sim_logs(sim_factory):
     _assert_quoted("mdl sim: CLIENT: MESSAGE", logged, {"CLIENT": client.group(1), "MESSAGE": client.group(2)})
     counted = re.search(r"mdl sim: (\d+) more messages suppressed \(from (\d+) clients\)", logged)
     assert counted, logged
-    _assert_quoted("mdl sim: 1052 more messages suppressed (from 658 clients)", logged,
-                   {"1052": counted.group(1), "658": counted.group(2)})
+    _assert_quoted(
+        "mdl sim: 1052 more messages suppressed (from 658 clients)",
+        logged,
+        {"1052": counted.group(1), "658": counted.group(2)},
+    )
 
 
 def test_the_quotes_checked_here_cover_the_table_of_docs_connecting():

@@ -52,31 +52,37 @@ def test_writes_only_when_changed_and_check(tmp_path):
 
 def test_generated_module_imports_only_pymodbus_and_stdlib(tmp_path):
     run_mdl("gen", DATA / "all_tables.xml", "--lang", "python", "-o", tmp_path)
-    code = ("import sys, builtins\n"
-            "real = builtins.__import__\n"
-            "def guard(name, *a, **k):\n"
-            "    if name.split('.')[0] == 'mdl': raise ImportError('generated code imported mdl')\n"
-            "    return real(name, *a, **k)\n"
-            "builtins.__import__ = guard\n"
-            f"sys.path.insert(0, {str(tmp_path)!r})\n"
-            "import all_tables\n"
-            "print(sorted(all_tables.__all__))\n")
+    code = (
+        "import sys, builtins\n"
+        "real = builtins.__import__\n"
+        "def guard(name, *a, **k):\n"
+        "    if name.split('.')[0] == 'mdl': raise ImportError('generated code imported mdl')\n"
+        "    return real(name, *a, **k)\n"
+        "builtins.__import__ = guard\n"
+        f"sys.path.insert(0, {str(tmp_path)!r})\n"
+        "import all_tables\n"
+        "print(sorted(all_tables.__all__))\n"
+    )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert "AllTables" in proc.stdout and "AsyncAllTables" in proc.stdout
 
 
-@pytest.mark.parametrize("fragment, token", [
-    ("arg = system(&quot;reboot&quot;);", '"'),
-    ("arg = r1; } void evil() { ", "}"),
-    ("#define X 1\narg = r1;", "#"),
-    ("arg = r1; /* */ arg = getenv(0);", "getenv"),
-    ("arg = r1 /* ; arg = 0 */;", "comment"),
-])
+@pytest.mark.parametrize(
+    "fragment, token",
+    [
+        ("arg = system(&quot;reboot&quot;);", '"'),
+        ("arg = r1; } void evil() { ", "}"),
+        ("#define X 1\narg = r1;", "#"),
+        ("arg = r1; /* */ arg = getenv(0);", "getenv"),
+        ("arg = r1 /* ; arg = 0 */;", "comment"),
+    ],
+)
 @pytest.mark.parametrize("lang", ["python", "cpp", "all"])
 @pytest.mark.parametrize("code_element", ["read_function_code", "write_function_code"])
-def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_device, fragment, token, lang,
-                                                              code_element):
+def test_hostile_fragment_fails_generation_and_writes_nothing(
+    tmp_path, write_device, fragment, token, lang, code_element
+):
     evil = fn_xml("evil", "2", format="UINT16", **{code_element: fragment})
     path = write_device(fn_xml("good", "1", format="UINT16") + evil)
     out = tmp_path / "out"
@@ -87,8 +93,12 @@ def test_hostile_fragment_fails_generation_and_writes_nothing(tmp_path, write_de
 
 def test_text_from_input_cannot_escape_comments_or_strings(tmp_path, write_device):
     nasty = 'x""" + __import__(&quot;os&quot;).system(&quot;echo pwned&quot;) + """ \\\n# \r\nimport os'
-    path = write_device(fn_xml("t&quot;&apos;", "1", format="UINT16", units=nasty).replace(
-        "<description>t&quot;&apos;</description>", f"<description>{nasty}</description>"), name=f"Dev {nasty}")
+    path = write_device(
+        fn_xml("t&quot;&apos;", "1", format="UINT16", units=nasty).replace(
+            "<description>t&quot;&apos;</description>", f"<description>{nasty}</description>"
+        ),
+        name=f"Dev {nasty}",
+    )
     assert run_mdl("gen", path, "--lang", "python", "-o", tmp_path).returncode == 0
     generated = next(tmp_path.glob("*.py"))
     import ast
@@ -101,9 +111,13 @@ def test_text_from_input_cannot_escape_comments_or_strings(tmp_path, write_devic
 
 
 def test_names_are_sanitized_and_collisions_numbered(tmp_path, write_device):
-    path = write_device(fn_xml("Room Temp (°C)", "1", format="UINT16").replace("(°C)", "(&#176;C)")
-                        + fn_xml("room-temp", "2", format="UINT16") + fn_xml("class", "3", format="UINT16")
-                        + fn_xml("2nd value", "4", format="UINT16"), name="TEMCO TSTAT8")
+    path = write_device(
+        fn_xml("Room Temp (°C)", "1", format="UINT16").replace("(°C)", "(&#176;C)")
+        + fn_xml("room-temp", "2", format="UINT16")
+        + fn_xml("class", "3", format="UINT16")
+        + fn_xml("2nd value", "4", format="UINT16"),
+        name="TEMCO TSTAT8",
+    )
     run_mdl("gen", path, "--lang", "python", "-o", tmp_path)
     text = (tmp_path / "temco_tstat8.py").read_text()
     for method in ("read_room_temp_c", "read_room_temp", "read_class_", "read_f_2nd_value", "class TemcoTstat8:"):

@@ -21,11 +21,23 @@ from conftest import DATA, REFERENCE, ROOT, device_xml, fn_xml, run_mdl, skip_or
 GOLDEN = sorted([*(ROOT / "tests" / "golden").glob("**/*.py"), ROOT / "examples" / "temco_tstat" / "temco_tstat.py"])
 DEVICES = sorted([*DATA.glob("*.xml"), *(ROOT / "examples").glob("*/*.xml"), *(ROOT / "examples").glob("*/*.yaml")])
 # fragments calling every helper of the fragment runtime, both ways (docs/fragments.md)
-FRAGMENTS = (fn_xml("quotient", "10 11", format="UINT32", read_function_code="arg = 1000 / r1 + r2 % 7u;")
-             + fn_xml("shifted", "12 13", format="UINT32", read_function_code="arg = (int)(r1 &lt;&lt; r2) &gt;&gt; 3;",
-                      write_function_code="r1 = (uint32_t)(arg * 10.0f) &gt;&gt; 16; r2 = arg * 10;")
-             + fn_xml("wrapped", "14", format="INT16", write_function_code="r1 = (int16_t)arg;",
-                      read_function_code="r1 = r1 - 40000; arg = (float)(int8_t)r1 / 3.0f;"))
+FRAGMENTS = (
+    fn_xml("quotient", "10 11", format="UINT32", read_function_code="arg = 1000 / r1 + r2 % 7u;")
+    + fn_xml(
+        "shifted",
+        "12 13",
+        format="UINT32",
+        read_function_code="arg = (int)(r1 &lt;&lt; r2) &gt;&gt; 3;",
+        write_function_code="r1 = (uint32_t)(arg * 10.0f) &gt;&gt; 16; r2 = arg * 10;",
+    )
+    + fn_xml(
+        "wrapped",
+        "14",
+        format="INT16",
+        write_function_code="r1 = (int16_t)arg;",
+        read_function_code="r1 = r1 - 40000; arg = (float)(int8_t)r1 / 3.0f;",
+    )
+)
 REQUIRES = re.compile(r"^# Requires pymodbus >= (\d+\.\d+\.\d+), < 4\.$", re.M)
 
 
@@ -92,16 +104,29 @@ def test_the_lint_set_covers_expressions(drivers):
 def test_ruff_default_rules_find_nothing(drivers):
     ruff = _tool("ruff")
     files = sorted(drivers.values())
-    proc = _run([*ruff, "check", "--isolated", "--no-cache", "--output-format", "concise", *map(str, files)],
-                files[0].parent)
+    proc = _run(
+        [*ruff, "check", "--isolated", "--no-cache", "--output-format", "concise", *map(str, files)], files[0].parent
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
 def test_mypy_strict_finds_nothing(drivers):
     mypy = _tool("mypy")
     files = sorted(drivers.values())
-    proc = _run([*mypy, "--config-file", "", "--strict", "--python-executable", sys.executable,
-                 "--cache-dir", str(files[0].parent / ".mypy_cache"), *map(str, files)], files[0].parent)
+    proc = _run(
+        [
+            *mypy,
+            "--config-file",
+            "",
+            "--strict",
+            "--python-executable",
+            sys.executable,
+            "--cache-dir",
+            str(files[0].parent / ".mypy_cache"),
+            *map(str, files),
+        ],
+        files[0].parent,
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert f"Success: no issues found in {len(files)} source files" in proc.stdout
 
@@ -141,14 +166,20 @@ def test_read_all_is_typed_by_function_name(tmp_path):
     text = _generate(DATA / "all_tables.xml", tmp_path / "out").read_text()
     assert "    def read_all(self) -> AllTablesValues:" in text
     assert "    async def read_all(self) -> AllTablesValues:" in text
-    for line in ("    voltage: float | None\n", "    label: str\n", "    pump: bool\n", "    mode: int\n",
-                 "    setpoint: float\n"):
+    for line in (
+        "    voltage: float | None\n",
+        "    label: str\n",
+        "    pump: bool\n",
+        "    mode: int\n",
+        "    setpoint: float\n",
+    ):
         assert line in text, line
 
 
 def test_names_that_are_not_identifiers_key_a_functional_typed_dict(write_device, tmp_path):
-    path = write_device(fn_xml("Room Temp", "10", format="INT16", multiplier="0.1") + fn_xml("class", "11"),
-                        name="Odd Names")
+    path = write_device(
+        fn_xml("Room Temp", "10", format="INT16", multiplier="0.1") + fn_xml("class", "11"), name="Odd Names"
+    )
     text = _generate(path, tmp_path / "out").read_text()
     assert "OddNamesValues = TypedDict(\"OddNamesValues\", {\n    'Room Temp': float,\n    'class': int,\n})" in text
 
@@ -168,8 +199,23 @@ def lowest_pymodbus(tmp_path_factory) -> tuple[str, Path]:
     if made.returncode != 0:
         skip_or_fail(f"cannot create a virtual environment: {made.stderr.strip()}")
     python = venv / ("Scripts" if os.name == "nt" else "bin") / "python"
-    pip = subprocess.run([str(python), "-m", "pip", "install", "--disable-pip-version-check", "--retries", "1",
-                          "--timeout", "30", f"pymodbus=={version}"], capture_output=True, text=True, timeout=600)
+    pip = subprocess.run(
+        [
+            str(python),
+            "-m",
+            "pip",
+            "install",
+            "--disable-pip-version-check",
+            "--retries",
+            "1",
+            "--timeout",
+            "30",
+            f"pymodbus=={version}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     if pip.returncode != 0:
         skip_or_fail(f"pip cannot install pymodbus=={version} from the package registry: {pip.stderr.strip()[-500:]}")
     return version, python
@@ -207,8 +253,12 @@ def test_a_driver_runs_on_the_lowest_pymodbus(lowest_pymodbus, sim_factory, tmp_
     version, python = lowest_pymodbus
     driver = _generate(DATA / "all_tables.xml", tmp_path / "out")
     sim = sim_factory(DATA / "all_tables.xml", "--set", "setpoint=21.5", "--set", "label=Hall", "--set", "pump=1")
-    proc = subprocess.run([str(python), "-I", "-c", RUN_ON_LOWEST, str(driver.parent), str(sim.port)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [str(python), "-I", "-c", RUN_ON_LOWEST, str(driver.parent), str(sim.port)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)
     assert result["version"] == version

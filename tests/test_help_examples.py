@@ -25,8 +25,9 @@ SERVED = ["sim", "read", "write", "discover"]  # read, write and discover use th
 
 
 def _examples(help_text: str) -> list[list[str]]:
-    return [shlex.split(line.strip().rstrip("&"))[1:] for line in help_text.splitlines()
-            if line.strip().startswith("mdl ")]
+    return [
+        shlex.split(line.strip().rstrip("&"))[1:] for line in help_text.splitlines() if line.strip().startswith("mdl ")
+    ]
 
 
 def _help(*args: str) -> str:
@@ -48,8 +49,11 @@ def _commands(*names: str) -> list[Command]:
     found = []
     for name in names or ("",):
         where = f"mdl {name} --help".replace("  ", " ")
-        found += [cmd for line in _help(*filter(None, [name])).splitlines() if line.strip().startswith("mdl ")
-                  and (cmd := command(line, where)) is not None]
+        found += [
+            cmd
+            for line in _help(*filter(None, [name])).splitlines()
+            if line.strip().startswith("mdl ") and (cmd := command(line, where)) is not None
+        ]
     return found
 
 
@@ -89,9 +93,15 @@ def test_the_shell_completion_mdl_help_gives_completes_commands():
     mdl = Path(sys.executable).parent / "mdl"  # the console script: completion goes by the program's name
     if not mdl.exists():
         skip_or_fail(f"no console script {mdl} (mdl is not installed in this Python's environment)")
-    script = subprocess.run([mdl], env={**os.environ, "_MDL_COMPLETE": "bash_source"}, capture_output=True,
-                            text=True, timeout=60)
+    script = subprocess.run(
+        [mdl], env={**os.environ, "_MDL_COMPLETE": "bash_source"}, capture_output=True, text=True, timeout=60
+    )
     assert script.returncode == 0 and "complete -o nosort -F _mdl_completion" in script.stdout, script.stdout
-    answer = subprocess.run([mdl], env={**os.environ, "_MDL_COMPLETE": "bash_complete", "COMP_WORDS": "mdl va",
-                                            "COMP_CWORD": "1"}, capture_output=True, text=True, timeout=60)
+    answer = subprocess.run(
+        [mdl],
+        env={**os.environ, "_MDL_COMPLETE": "bash_complete", "COMP_WORDS": "mdl va", "COMP_CWORD": "1"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert answer.stdout.split() == ["plain,validate"], answer.stdout

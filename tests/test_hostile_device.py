@@ -60,12 +60,19 @@ def assert_refused(proc, where: str, request: str, problem: str) -> None:
 def test_an_honest_server_is_trusted():
     """The control: the same server telling the truth is read and written (each register holds its
     address; bits are 1 at odd addresses, padding bits included)."""
-    proc, _ = run_against("honest", "read", ALL, "pump", "fan", "door_open", "filter_dirty", "setpoint", "label",
-                          "--format", "json")
+    proc, _ = run_against(
+        "honest", "read", ALL, "pump", "fan", "door_open", "filter_dirty", "setpoint", "label", "--format", "json"
+    )
     assert proc.returncode == 0, proc.stderr
     values = json.loads(proc.stdout)
-    assert values == {"pump": False, "fan": True, "door_open": False, "filter_dirty": True, "setpoint": 10.0,
-                      "label": "\x00f\x00g\x00h\x00i"}
+    assert values == {
+        "pump": False,
+        "fan": True,
+        "door_open": False,
+        "filter_dirty": True,
+        "setpoint": 10.0,
+        "label": "\x00f\x00g\x00h\x00i",
+    }
     proc, _ = run_against("honest", "write", ALL, *WRITES)
     assert proc.returncode == 0, proc.stderr
 

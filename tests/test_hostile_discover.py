@@ -61,14 +61,17 @@ def assert_units(proc, probe, liar_identification=None) -> None:
     assert "Traceback" not in proc.stderr
     assert json.loads(proc.stdout) == [
         {"unit": unit, "matches": [str(probe)], "identification": liar_identification if unit == LIAR else HONEST}
-        for unit in (1, 2, 3)]
+        for unit in (1, 2, 3)
+    ]
     assert "unit 4: no answer" in proc.stderr
 
 
 def warning(connection: str, problem: str, whole: bool = True) -> str:
     """The warning about the liar's reply; `whole`: the problem is all of it, else its start."""
-    return (f"mdl discover: warning: {connection} unit {LIAR}: reading the device identification (function 43): "
-            f"{problem}" + ("; none of it is shown" if whole else ""))
+    return (
+        f"mdl discover: warning: {connection} unit {LIAR}: reading the device identification (function 43): "
+        f"{problem}" + ("; none of it is shown" if whole else "")
+    )
 
 
 @pytest.mark.parametrize("framing", ["tcp", "rtu"])
@@ -106,8 +109,10 @@ def test_a_reply_without_end_does_not_spoil_the_next_units(probe, framing):
     with serving("id_stream", framing=framing, units={1, 2, 3}, liar=LIAR) as (host, port):
         proc, _ = discover(probe, tcp(host, port, framing))
     assert_units(proc, probe, HONEST)
-    assert (f"mdl discover: warning: {where(host, port, framing)} unit 3: " in proc.stderr
-            and "bytes came that are no reply of this unit" in proc.stderr), proc.stderr
+    assert (
+        f"mdl discover: warning: {where(host, port, framing)} unit 3: " in proc.stderr
+        and "bytes came that are no reply of this unit" in proc.stderr
+    ), proc.stderr
 
 
 @pytest.fixture
@@ -138,8 +143,12 @@ def test_serial_line_a_dribbling_reply_is_drained(probe, line):
 @pytest.mark.parametrize("line", ["id_stream"], indirect=True)
 def test_serial_line_that_never_goes_quiet_ends_the_scan(probe, line):
     proc, _ = discover(probe, ["--serial", line])
-    assert_clean_error(proc, 3, f"error: {line} (19200 8N1): the line did not go quiet: bytes kept coming for 15 s "
-                                "after unit 3 was asked (02 2b 0e")
+    assert_clean_error(
+        proc,
+        3,
+        f"error: {line} (19200 8N1): the line did not go quiet: bytes kept coming for 15 s "
+        "after unit 3 was asked (02 2b 0e",
+    )
     assert proc.stdout == ""
 
 
@@ -154,26 +163,34 @@ def test_nobody_answering_is_exit_3(probe, framing):
 
 # the parser of replies, alone
 
+
 def test_parse_identification_of_each_lie():
     asked = bytes([0x2B, 0x0E, 1, 0])
     reply = parse_identification(identification(asked), 0)
     assert not isinstance(reply, int) and reply.objects == tuple(enumerate(IDENTITY)) and not reply.more
     assert parse_identification(bytes([0xAB, 1]), 0) == 1
-    for pdu, problem in [(bytes([0xAB, 1, 0]), "the exception reply has 3 bytes, expected 2"),
-                         (identification(asked)[:6], "fewer than the 7 of its header"),
-                         (bytes([0x2B, 0x0E, 2]) + identification(asked)[3:], "the reply starts 2b 0e 02"),
-                         (identification(asked, more=1), "'more follows' byte is 0x01"),
-                         (identification(asked) + b"\x00", "1 bytes follow its 3 objects"),
-                         (identification(asked, count=4, objects=bytes([0, 1, 65, 1])), "is cut off after its id"),
-                         (bytes([0x2B]) * (MAX_PDU + 1), "254 bytes long")]:
+    for pdu, problem in [
+        (bytes([0xAB, 1, 0]), "the exception reply has 3 bytes, expected 2"),
+        (identification(asked)[:6], "fewer than the 7 of its header"),
+        (bytes([0x2B, 0x0E, 2]) + identification(asked)[3:], "the reply starts 2b 0e 02"),
+        (identification(asked, more=1), "'more follows' byte is 0x01"),
+        (identification(asked) + b"\x00", "1 bytes follow its 3 objects"),
+        (identification(asked, count=4, objects=bytes([0, 1, 65, 1])), "is cut off after its id"),
+        (bytes([0x2B]) * (MAX_PDU + 1), "254 bytes long"),
+    ]:
         with pytest.raises(ValueError, match=problem.replace("(", r"\(")):
             parse_identification(pdu, 0)
 
 
-PDUS = st.one_of(st.binary(max_size=300), st.builds(
-    lambda head, objects, tail: head + b"".join(bytes([o, len(d)]) + d for o, d in objects) + tail,
-    st.binary(min_size=7, max_size=7).map(lambda h: b"\x2b\x0e\x01" + h[3:]),
-    st.lists(st.tuples(st.integers(0, 255), st.binary(max_size=40)), max_size=8), st.binary(max_size=3)))
+PDUS = st.one_of(
+    st.binary(max_size=300),
+    st.builds(
+        lambda head, objects, tail: head + b"".join(bytes([o, len(d)]) + d for o, d in objects) + tail,
+        st.binary(min_size=7, max_size=7).map(lambda h: b"\x2b\x0e\x01" + h[3:]),
+        st.lists(st.tuples(st.integers(0, 255), st.binary(max_size=40)), max_size=8),
+        st.binary(max_size=3),
+    ),
+)
 
 
 @settings(max_examples=300, deadline=None)

@@ -43,17 +43,21 @@ def xml_text(text: str) -> str:
 
 
 def document(functions: str, name: str = "Edge Device", description: str = "edges") -> str:
-    return (f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
-            f"  <name>{xml_text(name)}</name>\n  <description>{xml_text(description)}</description>\n"
-            f"{functions}</device>\n")
+    return (
+        f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
+        f"  <name>{xml_text(name)}</name>\n  <description>{xml_text(description)}</description>\n"
+        f"{functions}</device>\n"
+    )
 
 
 def expression_fn(name: str, expression: str, description: str = "", units: str = "") -> str:
     """An expression function: its text escaped for XML (labels in single quotes may hold anything)."""
     units_xml = f"    <units>{xml_text(units)}</units>\n" if units else ""
-    return (f"  <function>\n    <name>{xml_text(name)}</name>\n"
-            f"    <description>{xml_text(description or name)}</description>\n    <addresses></addresses>\n"
-            f"{units_xml}    <expression>{xml_text(expression)}</expression>\n  </function>\n")
+    return (
+        f"  <function>\n    <name>{xml_text(name)}</name>\n"
+        f"    <description>{xml_text(description or name)}</description>\n    <addresses></addresses>\n"
+        f"{units_xml}    <expression>{xml_text(expression)}</expression>\n  </function>\n"
+    )
 
 
 def quoted(label: str) -> str:
@@ -74,8 +78,12 @@ def gen(source: Path, outdir: Path, *args: str):
 
 def compile_file(source: Path, compiler: str, flags: list[str], *extra: str) -> subprocess.CompletedProcess[str]:
     cflags, _ = modbus_flags()
-    return subprocess.run([tool(compiler), *flags, *cflags, *extra, "-c", str(source), "-o", os.devnull],
-                          capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [tool(compiler), *flags, *cflags, *extra, "-c", str(source), "-o", os.devnull],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 def assert_builds(outdir: Path, stem: str) -> None:
@@ -95,14 +103,21 @@ def assert_no_hidden_text(outdir: Path) -> None:
 
 # ---- text that hides code: bidirectional controls and invisible characters ----
 
+
 def test_hidden_characters_reach_no_generated_file_and_labels_keep_them(tmp_path, sim_factory):
     trojan = "ok \u202e }; evil(); /* \u2066x\u2069 \u200b\ufeff\u2028end\u00ad"
     source = tmp_path / "trojan.xml"
-    source.write_text(document(
-        fn_xml("Raw", "0", format="UINT16", units=xml_text("\u200f%")).replace(
-            "<description>Raw</description>", f"<description>{xml_text(trojan)}</description>")
-        + expression_fn("Mode" + "\u202e", enum("hr:0", {1: "a\u202eb", 2: trojan}), trojan, "\u2067s"),
-        name="Trojan\u202e Device", description=trojan), encoding="ascii")
+    source.write_text(
+        document(
+            fn_xml("Raw", "0", format="UINT16", units=xml_text("\u200f%")).replace(
+                "<description>Raw</description>", f"<description>{xml_text(trojan)}</description>"
+            )
+            + expression_fn("Mode" + "\u202e", enum("hr:0", {1: "a\u202eb", 2: trojan}), trojan, "\u2067s"),
+            name="Trojan\u202e Device",
+            description=trojan,
+        ),
+        encoding="ascii",
+    )
     out = tmp_path / "out"
     gen(source, out)
     stem = "trojan_device"
@@ -139,6 +154,7 @@ def _mkdir(path: Path) -> Path:
 
 # ---- device names too long for a file name ----
 
+
 def _wise_with_name(tmp_path: Path, name: str, file: str) -> Path:
     ini = tmp_path / f"{file}.ini"
     ini.write_text(WISE.read_text(encoding="utf-8").replace("Name=Datatype Meter", f"Name={name}"), encoding="utf-8")
@@ -159,8 +175,9 @@ def test_a_301_character_wise_name_gets_a_short_unique_deterministic_stem(tmp_pa
     stem = files[0].rsplit(".", 1)[0]
     assert len(stem) <= STEM_LIMIT and stem.startswith("very_long_platform_name_very")
     assert files == sorted(f"{stem}.{ext}" for ext in ("py", "h", "cc", "c"))
-    assert re.search(rf"note: .*longer than {STEM_LIMIT} characters: the generated files are named {stem}\.\*",
-                     proc.stderr)
+    assert re.search(
+        rf"note: .*longer than {STEM_LIMIT} characters: the generated files are named {stem}\.\*", proc.stderr
+    )
     again = gen(first, out)
     assert "wrote" not in again.stdout  # the same name, the same files, byte for byte
     gen(other, out)
@@ -169,6 +186,7 @@ def test_a_301_character_wise_name_gets_a_short_unique_deterministic_stem(tmp_pa
 
 
 # ---- half generations ----
+
 
 def _stamps(outdir: Path, stem: str) -> dict[str, str]:
     found = {}
@@ -181,8 +199,11 @@ def _stamps(outdir: Path, stem: str) -> dict[str, str]:
 
 def _preprocess(outdir: Path, stem: str) -> dict[tuple[str, str], subprocess.CompletedProcess[str]]:
     """Each source preprocessed with each compiler of its language: where a mixed generation stops."""
-    return {(suffix, compiler): compile_file(outdir / f"{stem}{suffix}", compiler, flags[:1], "-E")
-            for suffix, (compilers, flags) in COMPILERS.items() for compiler in compilers}
+    return {
+        (suffix, compiler): compile_file(outdir / f"{stem}{suffix}", compiler, flags[:1], "-E")
+        for suffix, (compilers, flags) in COMPILERS.items()
+        for compiler in compilers
+    }
 
 
 def test_a_source_and_a_header_of_different_runs_refuse_to_build(tmp_path):
@@ -237,8 +258,9 @@ def test_sigkill_during_gen_all_never_builds_a_mixed_generation(tmp_path):
     for moment in moments:
         out = tmp_path / f"kill_{moment.strip('.')}"
         gen(old_src, out)
-        proc = subprocess.Popen(mdl_cmd("gen", new_src, "--lang", "all", "-o", out),
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            mdl_cmd("gen", new_src, "--lang", "all", "-o", out), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
         first = (out / "big.py").stat().st_ino  # the first file the renames replace
         try:
             while moment != "start" and proc.poll() is None:
@@ -273,8 +295,14 @@ def test_only_mdl_s_own_leftovers_are_removed_and_check_removes_none(tmp_path):
     source.write_text(document(fn_xml("a", "0", format="UINT16"), "Left"), encoding="ascii")
     out = _mkdir(tmp_path / "out")
     ours = [".left.h.0123456789ab.tmp", ".left.cc.a1b2c3d4e5f6.old", ".left.py.ffffffffffff.tmp"]
-    theirs = [".left.h.0123456789ab.tmp.keep", ".left.h.xyz.tmp", ".other.h.0123456789ab.tmp",
-              "left.h.0123456789ab.tmp", ".left.h.0123456789AB.tmp", ".left.hh.0123456789ab.tmp"]
+    theirs = [
+        ".left.h.0123456789ab.tmp.keep",
+        ".left.h.xyz.tmp",
+        ".other.h.0123456789ab.tmp",
+        "left.h.0123456789ab.tmp",
+        ".left.h.0123456789AB.tmp",
+        ".left.hh.0123456789ab.tmp",
+    ]
     for name in ours + theirs:
         (out / name).write_text("x")
     assert cli("gen", source, "--lang", "all", "-o", out, "--check").returncode == 1
@@ -288,8 +316,12 @@ def test_only_mdl_s_own_leftovers_are_removed_and_check_removes_none(tmp_path):
 
 EDGE_KEYS = [INT64_MIN, INT64_MIN + 1, -1, 0, 1, INT64_MAX - 1, INT64_MAX]
 LONG_LABELS = {  # bytes of UTF-8 around each language's string literal limit (templating.STRING_LIMIT)
-    "c_limit": "L" * 4095, "c_over": "M" * 4096, "audit": "N" * 5003, "multibyte": "\u00e9" * 2500 + "\"\\??/*/",
-    "cpp_limit": "P" * 65536, "cpp_over": "Q" * 65537,
+    "c_limit": "L" * 4095,
+    "c_over": "M" * 4096,
+    "audit": "N" * 5003,
+    "multibyte": "\u00e9" * 2500 + '"\\??/*/',
+    "cpp_limit": "P" * 65536,
+    "cpp_over": "Q" * 65537,
 }
 
 
@@ -310,14 +342,19 @@ def _edge_document(tmp_path: Path) -> tuple[Path, dict[str, str], dict[str, int]
         expected[f"e{i}"] = mapping[key]
         holding.update({str(4 * i + j): w for j, w in enumerate(_words(key))})
     base = 4 * len(EDGE_KEYS)
-    functions += expression_fn("flag", f"boolean(c:0 ; {quoted(LONG_LABELS['audit'])} ; "
-                                       f"{quoted(LONG_LABELS['cpp_over'])})")
+    functions += expression_fn(
+        "flag", f"boolean(c:0 ; {quoted(LONG_LABELS['audit'])} ; {quoted(LONG_LABELS['cpp_over'])})"
+    )
     functions += expression_fn("text", f"concat({quoted(LONG_LABELS['c_over'])}, uint16(hr:{base + 1}))")
-    functions += expression_fn("bits", f"bitset(hr:{base + 2} ; 0 -> {quoted(LONG_LABELS['multibyte'])}; "
-                                       f"{INT64_MIN} -> 'never'; {INT64_MAX} -> 'never')")
+    functions += expression_fn(
+        "bits",
+        f"bitset(hr:{base + 2} ; 0 -> {quoted(LONG_LABELS['multibyte'])}; "
+        f"{INT64_MIN} -> 'never'; {INT64_MAX} -> 'never')",
+    )
     holding.update({str(base + 1): 7, str(base + 2): 1})
-    expected.update({"flag": LONG_LABELS["audit"], "text": LONG_LABELS["c_over"] + "7",
-                     "bits": [LONG_LABELS["multibyte"]]})
+    expected.update(
+        {"flag": LONG_LABELS["audit"], "text": LONG_LABELS["c_over"] + "7", "bits": [LONG_LABELS["multibyte"]]}
+    )
     source = tmp_path / "edges.xml"
     source.write_text(document(functions, "Edges"), encoding="ascii")
     raw = tmp_path / "raw.json"
@@ -347,11 +384,16 @@ def test_enum_keys_at_the_int64_edges_and_long_labels_build_and_read_in_every_ta
     assert json.loads(read.stdout) == expected
 
 
-@pytest.mark.parametrize(("key", "hint"), [
-    (INT64_MIN - 1, ""), (INT64_MAX + 1, ": as 64 bits, write -9223372036854775808"),
-    (UINT64_MAX, ": as 64 bits, write -1"), ("0xFFFFFFFFFFFFFFFF", ": as 64 bits, write -1"),
-    ("-0x8000000000000001", ""),
-])
+@pytest.mark.parametrize(
+    ("key", "hint"),
+    [
+        (INT64_MIN - 1, ""),
+        (INT64_MAX + 1, ": as 64 bits, write -9223372036854775808"),
+        (UINT64_MAX, ": as 64 bits, write -1"),
+        ("0xFFFFFFFFFFFFFFFF", ": as 64 bits, write -1"),
+        ("-0x8000000000000001", ""),
+    ],
+)
 def test_validate_refuses_enum_keys_outside_int64_at_their_position(tmp_path, key, hint):
     source = tmp_path / "keys.xml"
     prefix = "enum(hr:0, hr:1, hr:2, hr:3 ; 1 -> 'one'; "
@@ -362,19 +404,27 @@ def test_validate_refuses_enum_keys_outside_int64_at_their_position(tmp_path, ke
     value = int(str(key), 0)
     for command in ("validate", "gen"):
         proc = cli(command, source, *(["-o", tmp_path / "out"] if command == "gen" else []))
-        assert_clean_error(proc, 1, f"{source}:{line}:{col}: error: function 'e': expression: mapped value "
-                                    f"{value} is outside int64 (-9223372036854775808..9223372036854775807){hint}")
+        assert_clean_error(
+            proc,
+            1,
+            f"{source}:{line}:{col}: error: function 'e': expression: mapped value "
+            f"{value} is outside int64 (-9223372036854775808..9223372036854775807){hint}",
+        )
     assert not (tmp_path / "out").exists()
 
 
 def test_toolkit_yaml_enum_key_below_int64_is_refused_at_its_position(tmp_path):
     source = tmp_path / "edge.yaml"
-    source.write_text("description: 'edges'\nblocks:\n  - id: 'S'\n    description: 'block'\n    fields:\n"
-                      "      - id: 'Mode'\n        description: 'mode'\n"
-                      "        expression: \"enum(hr:0 ; -9223372036854775809 -> 'x')\"\n", encoding="utf-8")
+    source.write_text(
+        "description: 'edges'\nblocks:\n  - id: 'S'\n    description: 'block'\n    fields:\n"
+        "      - id: 'Mode'\n        description: 'mode'\n"
+        "        expression: \"enum(hr:0 ; -9223372036854775809 -> 'x')\"\n",
+        encoding="utf-8",
+    )
     proc = cli("import", source, "-o", tmp_path / "edge.xml")
-    assert_clean_error(proc, 1, f"{source}:8:34: error: field 'Mode' of block 'S': mapped value "
-                                "-9223372036854775809 is outside int64")
+    assert_clean_error(
+        proc, 1, f"{source}:8:34: error: field 'Mode' of block 'S': mapped value -9223372036854775809 is outside int64"
+    )
     assert not (tmp_path / "edge.xml").exists()
 
 
@@ -385,12 +435,16 @@ SLOW = [HealthCheck.function_scoped_fixture, HealthCheck.too_slow, HealthCheck.d
 EDGES = [INT64_MIN, INT64_MIN + 1, -1, 0, 1, INT64_MAX - 1, INT64_MAX]
 OUTSIDE = [INT64_MIN - 1, INT64_MAX + 1, UINT64_MAX - 1, UINT64_MAX]
 label_text = st.one_of(
-    st.text(alphabet=st.sampled_from(list("ab\"\\?*/ \t%\u00e9\u20ac\U0001f600" + HIDDEN)), max_size=12),
-    st.builds(lambda ch, n: ch * n, st.sampled_from(["x", "\u00e9", "?", "\\", "\u202e"]),
-              st.sampled_from([4094, 4095, 4096, 5003, 21846, 65536, 65537])),
+    st.text(alphabet=st.sampled_from(list('ab"\\?*/ \t%\u00e9\u20ac\U0001f600' + HIDDEN)), max_size=12),
+    st.builds(
+        lambda ch, n: ch * n,
+        st.sampled_from(["x", "\u00e9", "?", "\\", "\u202e"]),
+        st.sampled_from([4094, 4095, 4096, 5003, 21846, 65536, 65537]),
+    ),
 )
-enum_mapping = st.dictionaries(st.sampled_from(EDGES) | st.integers(INT64_MIN, INT64_MAX), label_text,
-                               min_size=1, max_size=8)
+enum_mapping = st.dictionaries(
+    st.sampled_from(EDGES) | st.integers(INT64_MIN, INT64_MAX), label_text, min_size=1, max_size=8
+)
 
 
 def _literal_lengths(text: str) -> list[int]:
@@ -430,8 +484,9 @@ def test_fuzz_enum_edges_compile_strictly_in_every_target(tmp_path_factory, mapp
     """Many enums of fuzzed keys and labels in one document: one strict compile per compiler."""
     tmp = tmp_path_factory.mktemp("fuzzbuild")
     functions = "".join(expression_fn(f"e{i}", enum("hr:0, hr:1, hr:2, hr:3", m)) for i, m in enumerate(mappings))
-    functions += expression_fn("bits", "bitset(hr:4 ; " + "; ".join(
-        f"{k} -> {quoted(v)}" for m in mappings[:1] for k, v in m.items()) + ")")
+    functions += expression_fn(
+        "bits", "bitset(hr:4 ; " + "; ".join(f"{k} -> {quoted(v)}" for m in mappings[:1] for k, v in m.items()) + ")"
+    )
     source = tmp / "fuzz.xml"
     source.write_text(document(functions, "Fuzz"), encoding="ascii")
     gen(source, tmp / "out")

@@ -79,8 +79,11 @@ def test_requests_it_cannot_serve_get_the_right_exception_on_rtu_over_tcp(sim_fa
     sim = sim_factory(ALL, "--unit", "1", "--framer", "rtu")
     with socket.create_connection((sim.host, sim.port), timeout=10) as sock:
         # RTU frames have no length: only requests whose size the function code tells can be answered
-        for request, reply in [(bytes([0x08, 0x12, 0x34, 0, 0]), bytes([0x88, 1])),
-                               (bytes([0x81, 0]), bytes([0x81, 1])), SERVED]:
+        for request, reply in [
+            (bytes([0x08, 0x12, 0x34, 0, 0]), bytes([0x88, 1])),
+            (bytes([0x81, 0]), bytes([0x81, 1])),
+            SERVED,
+        ]:
             sock.sendall(rtu_frame(1, request))
             expected = rtu_frame(1, reply)
             assert recv_exactly(sock, len(expected)) == expected, request.hex(" ")
@@ -145,8 +148,12 @@ def test_fuzz_any_request_gets_a_reply_of_its_function_and_no_traceback(sim_fact
     with socket.create_connection((sim.host, sim.port), timeout=10) as sock:
 
         @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-        @given(st.one_of(st.builds(lambda fc, rest: bytes([fc]) + rest, codes, st.binary(max_size=12)),
-                         st.binary(min_size=1, max_size=12)))
+        @given(
+            st.one_of(
+                st.builds(lambda fc, rest: bytes([fc]) + rest, codes, st.binary(max_size=12)),
+                st.binary(min_size=1, max_size=12),
+            )
+        )
         def answered(pdu):
             reply = tcp_request(sock, pdu)
             assert reply[0] & 0x7F == pdu[0] & 0x7F, (pdu.hex(" "), reply.hex(" "))

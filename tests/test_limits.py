@@ -22,8 +22,14 @@ def _cap_memory() -> None:
 
 
 def run_capped(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(mdl_cmd(*args), capture_output=True, text=True, timeout=TIME_CAP, preexec_fn=_cap_memory,
-                          env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    return subprocess.run(
+        mdl_cmd(*args),
+        capture_output=True,
+        text=True,
+        timeout=TIME_CAP,
+        preexec_fn=_cap_memory,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
 
 
 def schema(tmp_path: Path, expression: str, tests: str = "") -> Path:
@@ -99,31 +105,66 @@ def test_deepest_expressions_still_compile_and_generate(tmp_path, expression):
 
 def test_expression_limits_in_mdl_xml(tmp_path):
     xml = tmp_path / "deep.xml"
-    xml.write_text(device_xml(fn_xml("f", "0").replace(
-        "<addresses>0</addresses>", "<addresses>0</addresses>\n    <expression>" + "(" * 500 + "1" + ")" * 500
-        + "</expression>")))
+    xml.write_text(
+        device_xml(
+            fn_xml("f", "0").replace(
+                "<addresses>0</addresses>",
+                "<addresses>0</addresses>\n    <expression>" + "(" * 500 + "1" + ")" * 500 + "</expression>",
+            )
+        )
+    )
     proc = run_capped("validate", xml)
     assert_clean_error(proc, 1, "function 'f': expression: the expression nests more than 64 levels deep")
 
 
-BILLION_LAUGHS = "description: 'x'\nblocks: []\n" + "a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n" + "".join(
-    f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]\n" for i in range(1, 10))
+BILLION_LAUGHS = (
+    "description: 'x'\nblocks: []\n"
+    + "a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]\n"
+    + "".join(f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]\n" for i in range(1, 10))
+)
 
 
-@pytest.mark.parametrize("text, where, message", [pytest.param(*case, id=case[2][:20] + "-" + case[1]) for case in [
-    (BILLION_LAUGHS, "4:10", "YAML aliases are not supported"),
-    ("description: 'x'\nblocks: " + deep("[", "", "]", 3000) + "\n", "2:40", "YAML nested more than 32 levels deep"),
-    ("description: 'x'\nblocks: " + deep("[", "", "]", 100000) + "\n", "2:40", "YAML nested more than 32 levels deep"),
-    ("blocks:\n" + "".join("  " * i + "- \n" for i in range(1, 3000)), "33:",
-     "YAML nested more than 32 levels deep"),
-    ("description: 'x'\nblocks: " + deep("{a: ", "1", "}", 3000) + "\n", "2:133", "YAML nested more than 32 levels"),
-    ("description: 'x'\n? [a, b]\n: 1\nblocks: []\n", "2:3", "a mapping key must be a plain text"),
-    ("description: 'x'\nblocks: []\n---\ndescription: 'y'\n", "3:1", "a Toolkit file holds one YAML document"),
-    ("description: 'x'\nmaxRegistersPerModbusRequest: '\u00b2'\nblocks: []\n", "2:31",
-     "maxRegistersPerModbusRequest must be a whole number from 1 to 125"),
-    ("description: 'x'\nmaxRegistersPerModbusRequest: " + "9" * 5000 + "\nblocks: []\n", "2:31",
-     "maxRegistersPerModbusRequest must be a whole number from 1 to 125"),
-]])
+@pytest.mark.parametrize(
+    "text, where, message",
+    [
+        pytest.param(*case, id=case[2][:20] + "-" + case[1])
+        for case in [
+            (BILLION_LAUGHS, "4:10", "YAML aliases are not supported"),
+            (
+                "description: 'x'\nblocks: " + deep("[", "", "]", 3000) + "\n",
+                "2:40",
+                "YAML nested more than 32 levels deep",
+            ),
+            (
+                "description: 'x'\nblocks: " + deep("[", "", "]", 100000) + "\n",
+                "2:40",
+                "YAML nested more than 32 levels deep",
+            ),
+            (
+                "blocks:\n" + "".join("  " * i + "- \n" for i in range(1, 3000)),
+                "33:",
+                "YAML nested more than 32 levels deep",
+            ),
+            (
+                "description: 'x'\nblocks: " + deep("{a: ", "1", "}", 3000) + "\n",
+                "2:133",
+                "YAML nested more than 32 levels",
+            ),
+            ("description: 'x'\n? [a, b]\n: 1\nblocks: []\n", "2:3", "a mapping key must be a plain text"),
+            ("description: 'x'\nblocks: []\n---\ndescription: 'y'\n", "3:1", "a Toolkit file holds one YAML document"),
+            (
+                "description: 'x'\nmaxRegistersPerModbusRequest: '\u00b2'\nblocks: []\n",
+                "2:31",
+                "maxRegistersPerModbusRequest must be a whole number from 1 to 125",
+            ),
+            (
+                "description: 'x'\nmaxRegistersPerModbusRequest: " + "9" * 5000 + "\nblocks: []\n",
+                "2:31",
+                "maxRegistersPerModbusRequest must be a whole number from 1 to 125",
+            ),
+        ]
+    ],
+)
 def test_yaml_limits(tmp_path, text, where, message):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -131,16 +172,35 @@ def test_yaml_limits(tmp_path, text, where, message):
         assert_clean_error(run_capped(command, path), 1, f"{path}:{where}", message)
 
 
-@pytest.mark.parametrize("tests, where, message", [
-    pytest.param("  - id: 'T'\n    input:\n      - firstAddress: 'hr:65534'\n        rawValues: 0001 0002 0003\n",
-                 "13:20", "the raw values run past address 65535 (to 65536)", id="registers"),
-    pytest.param("  - id: 'T'\n    input:\n      - firstAddress: 'c:65535'\n        rawValues: 01\n",
-                 "13:20", "the raw values run past address 65535 (to 65536)", id="bits"),
-    pytest.param("  - id: 'T'\n    blocks:\n      - id: 'Main'\n        expected:\n          F: [ [ [ 1 ] ] ]\n",
-                 "14:16", "test 'T': an expected value must be a text or a number", id="nested-list"),
-    pytest.param("  - id: 'T'\n    blocks:\n      - id: 'Main'\n        expected:\n          F: { a: 1 }\n",
-                 "14:14", "test 'T': an expected value must be a text or a number", id="mapping"),
-])
+@pytest.mark.parametrize(
+    "tests, where, message",
+    [
+        pytest.param(
+            "  - id: 'T'\n    input:\n      - firstAddress: 'hr:65534'\n        rawValues: 0001 0002 0003\n",
+            "13:20",
+            "the raw values run past address 65535 (to 65536)",
+            id="registers",
+        ),
+        pytest.param(
+            "  - id: 'T'\n    input:\n      - firstAddress: 'c:65535'\n        rawValues: 01\n",
+            "13:20",
+            "the raw values run past address 65535 (to 65536)",
+            id="bits",
+        ),
+        pytest.param(
+            "  - id: 'T'\n    blocks:\n      - id: 'Main'\n        expected:\n          F: [ [ [ 1 ] ] ]\n",
+            "14:16",
+            "test 'T': an expected value must be a text or a number",
+            id="nested-list",
+        ),
+        pytest.param(
+            "  - id: 'T'\n    blocks:\n      - id: 'Main'\n        expected:\n          F: { a: 1 }\n",
+            "14:14",
+            "test 'T': an expected value must be a text or a number",
+            id="mapping",
+        ),
+    ],
+)
 def test_scenario_limits(tmp_path, tests, where, message):
     path = schema(tmp_path, "int16(hr:0)", "tests:\n" + tests)
     assert_clean_error(run_capped("test", path), 1, f"{path}:{where}: error: {message}")
@@ -151,13 +211,16 @@ def test_the_example_still_passes_capped():
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
-@pytest.mark.parametrize("cell, message", [
-    pytest.param("hr:1#3000000000", "3000000000 addresses are more than one request reads", id="count"),
-    pytest.param("0 to 3000000000", "3000000001 addresses are more than one request reads", id="range"),
-    pytest.param("hr:" + "1" * 5000, "address '11111111111111111111...' is too large", id="named"),
-    pytest.param("4x" + "1" * 5000, "register number '11111111111111111111...' is too large", id="4x"),
-    pytest.param("hr:3000000000", "address 3000000000 is over 65535", id="over"),
-])
+@pytest.mark.parametrize(
+    "cell, message",
+    [
+        pytest.param("hr:1#3000000000", "3000000000 addresses are more than one request reads", id="count"),
+        pytest.param("0 to 3000000000", "3000000001 addresses are more than one request reads", id="range"),
+        pytest.param("hr:" + "1" * 5000, "address '11111111111111111111...' is too large", id="named"),
+        pytest.param("4x" + "1" * 5000, "register number '11111111111111111111...' is too large", id="4x"),
+        pytest.param("hr:3000000000", "address 3000000000 is over 65535", id="over"),
+    ],
+)
 def test_csv_address_cells_are_sized_before_they_are_built(tmp_path, cell, message):
     table = tmp_path / "table.csv"
     table.write_text(f"Address,Description,Format\n{cell},Huge,uint16\n5,Fine,uint16\n")

@@ -10,12 +10,16 @@ from mdl.sources.mdlxml.write import device_to_xml
 
 
 def _doc(identity: str, functions: str) -> str:
-    return (f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
-            f"<name>Meter</name><description>d</description>{identity}{functions}</device>\n")
+    return (
+        f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
+        f"<name>Meter</name><description>d</description>{identity}{functions}</device>\n"
+    )
 
 
-IDENTITY = ("<manufacturer>ACME &#8211; Meters</manufacturer><product>M-23854</product>"
-            "<product_version>1.2</product_version><program_id>9F:FF:FF:05:00:04:00:01</program_id>")
+IDENTITY = (
+    "<manufacturer>ACME &#8211; Meters</manufacturer><product>M-23854</product>"
+    "<product_version>1.2</product_version><program_id>9F:FF:FF:05:00:04:00:01</program_id>"
+)
 MODEL = fn_xml("model", "0", format="UINT16", marker="23854 23855", precision="-1")
 SETPOINT = fn_xml("sp", "1", format="INT16", multiplier="0.1", precision="1", write_multiple="true")
 
@@ -25,7 +29,11 @@ def test_identity_and_new_function_elements_round_trip(tmp_path):
     path.write_text(_doc(IDENTITY, MODEL + SETPOINT))
     device = read_device(path)
     assert (device.manufacturer, device.product, device.product_version, device.program_id) == (
-        "ACME \u2013 Meters", "M-23854", "1.2", "9F:FF:FF:05:00:04:00:01")
+        "ACME \u2013 Meters",
+        "M-23854",
+        "1.2",
+        "9F:FF:FF:05:00:04:00:01",
+    )
     model, sp = device.functions
     assert (model.marker, model.precision, model.write_multiple) == ([23854, 23855], -1, None)
     assert (sp.marker, sp.precision, sp.write_multiple) == (None, 1, True)
@@ -41,8 +49,10 @@ def test_validate_names_the_new_extensions(tmp_path):
     path.write_text(_doc(IDENTITY, MODEL + SETPOINT))
     proc = cli("validate", str(path))
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == (f"{path}: valid MDL 1.0 (extensions: manufacturer, product, product_version, "
-                                   "program_id, marker, precision, write_multiple)")
+    assert proc.stdout.strip() == (
+        f"{path}: valid MDL 1.0 (extensions: manufacturer, product, product_version, "
+        "program_id, marker, precision, write_multiple)"
+    )
     proc = cli("validate", "--schema", "0.9b", str(path))
     assert proc.returncode == 1
 
@@ -55,8 +65,13 @@ def test_identity_elements_keep_their_order(tmp_path):
 
 def test_a_marker_the_format_cannot_hold_is_refused(tmp_path):
     path = tmp_path / "meter.xml"
-    path.write_text(_doc("", fn_xml("kind", "0", format="INT16", marker="12 70000")
-                         + fn_xml("phases", "1", format="UINT8", length="Lower byte", marker="-1")))
+    path.write_text(
+        _doc(
+            "",
+            fn_xml("kind", "0", format="INT16", marker="12 70000")
+            + fn_xml("phases", "1", format="UINT8", length="Lower byte", marker="-1"),
+        )
+    )
     proc = cli("validate", str(path))
     assert_clean_error(proc, 1, "function 'kind': marker 70000 can never be read: the raw value is -32768..32767")
     assert "function 'phases': marker -1 can never be read: the raw value is 0..255" in proc.stderr

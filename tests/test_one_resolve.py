@@ -78,8 +78,9 @@ def test_resolving_leaves_the_model_as_it_is(path):
     assert _snapshot(device.functions) == before  # nothing written onto the model, not even a cache
     assert "compiled" not in {f.name for f in dataclasses.fields(Function)}
     assert not any(hasattr(fn, "compiled") for fn in device.functions)
-    assert [(f.ident, f.layout, f.codec, f.deps, f.compiled) for f in first.functions] == \
-        [(f.ident, f.layout, f.codec, f.deps, f.compiled) for f in second.functions]
+    assert [(f.ident, f.layout, f.codec, f.deps, f.compiled) for f in first.functions] == [
+        (f.ident, f.layout, f.codec, f.deps, f.compiled) for f in second.functions
+    ]
     expressions = [f for f in first.functions if f.fn.expression is not None]
     assert all(f.compiled is not None for f in expressions) and (expressions or path == ALL)
     assert all(f.compiled is None for f in first.functions if f.fn.expression is None)
@@ -106,8 +107,11 @@ def test_a_kind_seen_up_to_shown_each_times_is_said_each_time():
     c = Collector("f.mod")
     for line in (4, 2, 9):
         c.warn(f"'x{line}' is odd", line, 3, kind="an odd cell")
-    assert _messages(c.diagnostics()) == ["f.mod:2:3: warning: 'x2' is odd", "f.mod:4:3: warning: 'x4' is odd",
-                                          "f.mod:9:3: warning: 'x9' is odd"]
+    assert _messages(c.diagnostics()) == [
+        "f.mod:2:3: warning: 'x2' is odd",
+        "f.mod:4:3: warning: 'x4' is odd",
+        "f.mod:9:3: warning: 'x9' is odd",
+    ]
 
 
 def test_a_kind_seen_more_often_is_one_summary_counting_rows():
@@ -117,7 +121,8 @@ def test_a_kind_seen_more_often_is_one_summary_counting_rows():
     c.note("a guess", 1, kind="a guess")
     assert _messages(c.diagnostics()) == [
         "f.mod:1: note: a guess",
-        "f.mod:5:1: warning: an odd cell on 5 rows (first at lines 5, 6, 7, ...)"]
+        "f.mod:5:1: warning: an odd cell on 5 rows (first at lines 5, 6, 7, ...)",
+    ]
     assert c.counts["warning"] == 6 and not c.failed
 
 
@@ -135,8 +140,12 @@ def test_errors_past_the_cap_are_counted_in_one_last_error():
         c.error(f"bad {line}", line, 2)
     c.error("why the reader stopped", 20, always=True)
     out = _messages(c.diagnostics())
-    assert out == ["f.mod:1:2: error: bad 1", "f.mod:3:2: error: bad 3", "f.mod:20: error: why the reader stopped",
-                   "f.mod:8:2: error: 3 more errors not shown (first at lines 8, 9): only the first 2 are"]
+    assert out == [
+        "f.mod:1:2: error: bad 1",
+        "f.mod:3:2: error: bad 3",
+        "f.mod:20: error: why the reader stopped",
+        "f.mod:8:2: error: 3 more errors not shown (first at lines 8, 9): only the first 2 are",
+    ]
     assert c.failed and c.counts["error"] == 6
     assert _messages(c.diagnostics("warning")) == []
 
@@ -152,7 +161,8 @@ def test_fold_says_the_first_and_sums_up_the_rest_in_the_next():
         "m.ini:11:1: warning: [AI] entry 11: 'n11' has no unit",
         "m.ini:12: error: an error is its own kind",
         "m.ini:12:1: warning: [AI] entry 12: 'n12' has no unit; and 3 more like it (lines 13, 14, ...)",
-        "m.ini:30: warning: unlike the others"]
+        "m.ini:30: warning: unlike the others",
+    ]
     assert _messages(c.diagnostics("error")) == ["m.ini:12: error: an error is its own kind"]
 
 
@@ -170,8 +180,11 @@ def test_notes_once_says_a_note_once_and_warnings_always():
     c.note("guess", 8, file="c.csv")
     c.warn("row skipped", 3, file="a.csv")
     c.warn("row skipped", 3, file="a.csv")
-    assert _messages(c.diagnostics()) == ["a.csv: note: guess", "a.csv:3: warning: row skipped",
-                                          "a.csv:3: warning: row skipped"]
+    assert _messages(c.diagnostics()) == [
+        "a.csv: note: guess",
+        "a.csv:3: warning: row skipped",
+        "a.csv:3: warning: row skipped",
+    ]
 
 
 def test_message_kind_ignores_quoted_words_and_numbers():
@@ -180,9 +193,14 @@ def test_message_kind_ignores_quoted_words_and_numbers():
 
 # --- the Collector does what the readers' own collectors did (xif's Reporter, wise's summed_up) ----------
 
-_report = st.tuples(st.sampled_from(["error", "warning", "note"]), st.integers(1, 12) | st.none(),
-                    st.integers(1, 4) | st.none(), st.sampled_from(["a", "b", "c"]), st.integers(0, 99),
-                    st.booleans())
+_report = st.tuples(
+    st.sampled_from(["error", "warning", "note"]),
+    st.integers(1, 12) | st.none(),
+    st.integers(1, 4) | st.none(),
+    st.sampled_from(["a", "b", "c"]),
+    st.integers(0, 99),
+    st.booleans(),
+)
 _reports = st.lists(_report, max_size=60)
 
 
@@ -225,11 +243,14 @@ def test_the_collector_groups_as_xifs_reporter_did(reports, shown_each, max_erro
 @given(_reports)
 def test_the_collector_folds_as_wises_summed_up_did(reports):
     wise = _module("mdl.formats.wise.read", "mdl.sources.wise.read")
-    said = [Diagnostic("m.ini", line, col, f"'{kind}' {kind} at {n}", severity)
-            for severity, line, col, kind, n, _ in reports]
+    said = [
+        Diagnostic("m.ini", line, col, f"'{kind}' {kind} at {n}", severity)
+        for severity, line, col, kind, n, _ in reports
+    ]
     ordered = sorted(said, key=lambda d: (d.line or 0, d.col or 0))
-    new = Collector("m.ini", shown_each=wise.SHOWN_PER_KIND, shown_lines=wise.SHOWN_PER_KIND, fold=True,
-                    kind_of=message_kind)
+    new = Collector(
+        "m.ini", shown_each=wise.SHOWN_PER_KIND, shown_lines=wise.SHOWN_PER_KIND, fold=True, kind_of=message_kind
+    )
     for d in ordered:
         new.add(d)
     assert new.diagnostics() == wise.summed_up(ordered)

@@ -30,15 +30,23 @@ def _functions() -> str:
     """Every format, order and length, scaled, "not implemented", text, fragments and bits, each
     twice at other addresses (functions of the same IR share a decoder), and one whose registers
     are not consecutive."""
-    kinds = [dict(format=f, byte_order=b, word_order=w) for f in ("INT16", "UINT32", "INT64", "FLOAT32", "FLOAT64")
-             for b, w in ORDERS]
-    kinds += [dict(format="INT8", length="Lower byte"), dict(format="UINT8", length="Upper byte", byte_order="little"),
-              dict(format="INT16", multiplier="0.1"), dict(format="UINT32", multiplier="0.01", offset="-273.15"),
-              dict(format="UINT16", not_implemented="0xFFFF 0x8000"),
-              dict(format="INT32", not_implemented="0x80000000"),
-              dict(format="STRING", count="3"), dict(format="STRING", count="2", length="Lower byte"),
-              dict(format="UINT16", count="2", read_function_code="arg = r1 * 65536.0 + r2 / 1000.0;"),
-              dict(format="INT16", read_function_code="arg = (int16_t)r1 / 10.0f;")]
+    kinds = [
+        dict(format=f, byte_order=b, word_order=w)
+        for f in ("INT16", "UINT32", "INT64", "FLOAT32", "FLOAT64")
+        for b, w in ORDERS
+    ]
+    kinds += [
+        dict(format="INT8", length="Lower byte"),
+        dict(format="UINT8", length="Upper byte", byte_order="little"),
+        dict(format="INT16", multiplier="0.1"),
+        dict(format="UINT32", multiplier="0.01", offset="-273.15"),
+        dict(format="UINT16", not_implemented="0xFFFF 0x8000"),
+        dict(format="INT32", not_implemented="0x80000000"),
+        dict(format="STRING", count="3"),
+        dict(format="STRING", count="2", length="Lower byte"),
+        dict(format="UINT16", count="2", read_function_code="arg = r1 * 65536.0 + r2 / 1000.0;"),
+        dict(format="INT16", read_function_code="arg = (int16_t)r1 / 10.0f;"),
+    ]
     out, address = [], 0
     for copy in range(2):
         for i, kind in enumerate(kinds):
@@ -149,7 +157,7 @@ def test_the_generated_python_driver_decodes_as_the_runtime(device, tmp_path):
             registers[(table, a)] = value & 1
     raw = [0] * module._BUFFER_SIZE
     for (table, start, count), offset, _ in module._PLAN:
-        raw[offset:offset + count] = [registers.get((table, a), 0) for a in range(start, start + count)]
+        raw[offset : offset + count] = [registers.get((table, a), 0) for a in range(start, start + count)]
     functions = [f.fn for f in device.readable]
     s = session(device, registers)
     s.read(functions)

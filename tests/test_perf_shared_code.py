@@ -22,15 +22,31 @@ ORDERS = [("big", "big"), ("little", "little")]
 
 def _repeated() -> tuple[str, int]:
     """Functions in pairs of the same IR (and a third on two runs of registers), every kind of value."""
-    kinds = [dict(format=f, byte_order=b, word_order=w) for f in ("INT16", "UINT32", "FLOAT32", "FLOAT64")
-             for b, w in ORDERS]
-    kinds += [dict(format="UINT8", length="Upper byte"), dict(format="INT16", multiplier="0.1", minimum="-50"),
-              dict(format="UINT32", multiplier="0.01", offset="-273.15"), dict(format="STRING", count="3"),
-              dict(format="UINT16", not_implemented="0xFFFF"), dict(format="INT32", write_multiple="true")]
+    kinds = [
+        dict(format=f, byte_order=b, word_order=w) for f in ("INT16", "UINT32", "FLOAT32", "FLOAT64") for b, w in ORDERS
+    ]
+    kinds += [
+        dict(format="UINT8", length="Upper byte"),
+        dict(format="INT16", multiplier="0.1", minimum="-50"),
+        dict(format="UINT32", multiplier="0.01", offset="-273.15"),
+        dict(format="STRING", count="3"),
+        dict(format="UINT16", not_implemented="0xFFFF"),
+        dict(format="INT32", write_multiple="true"),
+    ]
     out, address = [], 0
     for i, kind in enumerate(kinds):
-        size = len(layout(Function("x", "", [0], format=kind["format"], count=int(kind.get("count", 0)) or None,
-                                   length=kind.get("length"))).addresses)
+        size = len(
+            layout(
+                Function(
+                    "x",
+                    "",
+                    [0],
+                    format=kind["format"],
+                    count=int(kind.get("count", 0)) or None,
+                    length=kind.get("length"),
+                )
+            ).addresses
+        )
         for copy in range(2):
             out.append(fn_xml(f"k{i}_{copy}", str(address), **kind))
             address += size
@@ -45,8 +61,10 @@ BITS = "".join(fn_xml(f"coil{i}", str(i), format="BIT", register_type="coil") fo
 
 
 def test_functions_of_one_ir_share_their_code_and_bounds_of_either_zero_do_not():
-    functions = [Function(f"t{i}", "", [i], format="FLOAT32", minimum=bound, maximum=10.0)
-                 for i, bound in enumerate([0.0, -0.0, 0.0, -0.0])]
+    functions = [
+        Function(f"t{i}", "", [i], format="FLOAT32", minimum=bound, maximum=10.0)
+        for i, bound in enumerate([0.0, -0.0, 0.0, -0.0])
+    ]
     files = render(Device("Zeros", "bounds", functions), "zeros.xml", "all")
     py, cc, c = files["zeros.py"], files["zeros.cc"], files["zeros.c"]
     assert "if value < -0.0:" in py and "if value < 0.0:" in py
@@ -86,8 +104,14 @@ def test_shared_code_reads_and_writes_as_the_python_driver(target, request):
         for name in ("k0_1", "k9_0", "k11_1", "runs", "coil2"):
             compare(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
     # writes through the shared writers, read back by the other driver
-    for name, value in [("k0_1", "-1234"), ("k5_0", "2.5"), ("k9_1", "12.3"), ("k13_0", "-7"), ("runs", "70000"),
-                        ("coil1", "1")]:
+    for name, value in [
+        ("k0_1", "-1234"),
+        ("k5_0", "2.5"),
+        ("k9_1", "12.3"),
+        ("k13_0", "-7"),
+        ("runs", "70000"),
+        ("coil1", "1"),
+    ]:
         assert h.ask(f"write {name} {value}") == ["ok"], name
         compare(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
     dev.write_k10_1(-40.0)
@@ -97,14 +121,22 @@ def test_shared_code_reads_and_writes_as_the_python_driver(target, request):
 
 # ---- expressions: functions of the same statements share one decoder ----
 
-EXPRESSIONS = "".join(fn_xml(name, addresses, expression=expression) for name, addresses, expression in [
-    ("sf", "0", "int16(hr:0)"),
-    ("a0", "1", "uint16(hr:1) * 10^sf"), ("a1", "2", "uint16(hr:2) * 10^sf"),
-    ("b0", "3 4", "int32(hr:3#2) / 100"), ("b1", "5 6", "int32(hr:5#2) / 100"),
-    ("s0", "1", "a0 + a1"), ("s1", "3", "b0 + b1"),  # the same statements on other functions' values
-    ("n0", "7", "uint16(hr:7; 0xFFFF)"), ("n1", "8", "uint16(hr:8; 0xFFFF)"),
-    ("t0", "9 10", "utf8(hr:9#2)"), ("t1", "11 12", "utf8(hr:11#2)"),
-])
+EXPRESSIONS = "".join(
+    fn_xml(name, addresses, expression=expression)
+    for name, addresses, expression in [
+        ("sf", "0", "int16(hr:0)"),
+        ("a0", "1", "uint16(hr:1) * 10^sf"),
+        ("a1", "2", "uint16(hr:2) * 10^sf"),
+        ("b0", "3 4", "int32(hr:3#2) / 100"),
+        ("b1", "5 6", "int32(hr:5#2) / 100"),
+        ("s0", "1", "a0 + a1"),
+        ("s1", "3", "b0 + b1"),  # the same statements on other functions' values
+        ("n0", "7", "uint16(hr:7; 0xFFFF)"),
+        ("n1", "8", "uint16(hr:8; 0xFFFF)"),
+        ("t0", "9 10", "utf8(hr:9#2)"),
+        ("t1", "11 12", "utf8(hr:11#2)"),
+    ]
+)
 EXPRESSION_REGISTERS = 13
 # plain functions over the same registers, so that the test can write them (expressions are read-only)
 RAW = "".join(fn_xml(f"raw{i}", str(i), format="UINT16") for i in range(EXPRESSION_REGISTERS))

@@ -33,8 +33,9 @@ def assert_spaced(times: list[datetime], interval: float) -> None:
 
 def test_count_gives_json_records_spaced_from_start_to_start(sim_factory):
     sim = sim_factory(ALL, "--set", "setpoint=21.5", "--set", "mode=1")
-    proc = run_mdl("read", ALL, *sim.connection, *NAMES, "--interval", "0.2", "--count", "3", "--format", "json",
-                   timeout=RUN)
+    proc = run_mdl(
+        "read", ALL, *sim.connection, *NAMES, "--interval", "0.2", "--count", "3", "--format", "json", timeout=RUN
+    )
     assert proc.returncode == 0, proc.stderr
     records = [json.loads(line) for line in proc.stdout.splitlines()]
     assert len(records) == 3
@@ -46,8 +47,9 @@ def test_count_gives_json_records_spaced_from_start_to_start(sim_factory):
 
 def test_csv_has_one_header_then_a_row_per_poll(sim_factory):
     sim = sim_factory(ALL, "--set", "setpoint=21.5", "--set", "label=Hall")
-    proc = run_mdl("read", ALL, *sim.connection, *NAMES, "--interval", "0.2", "--count", "3", "--format", "csv",
-                   timeout=RUN)
+    proc = run_mdl(
+        "read", ALL, *sim.connection, *NAMES, "--interval", "0.2", "--count", "3", "--format", "csv", timeout=RUN
+    )
     assert proc.returncode == 0, proc.stderr
     rows = list(csv.reader(io.StringIO(proc.stdout)))
     assert rows[0] == ["time", *NAMES]
@@ -57,8 +59,7 @@ def test_csv_has_one_header_then_a_row_per_poll(sim_factory):
 
 def test_table_blocks_and_senml_documents(sim_factory):
     sim = sim_factory(ALL, "--set", "setpoint=21.5")
-    proc = run_mdl("read", ALL, *sim.connection, "setpoint", "pump", "--interval", "0.2", "--count", "2",
-                   timeout=RUN)
+    proc = run_mdl("read", ALL, *sim.connection, "setpoint", "pump", "--interval", "0.2", "--count", "2", timeout=RUN)
     assert proc.returncode == 0, proc.stderr
     blocks = proc.stdout.split("\n\n")
     assert blocks[-1] == "" and len(blocks) == 3
@@ -66,31 +67,56 @@ def test_table_blocks_and_senml_documents(sim_factory):
         first, *rows = block.splitlines()
         assert first.split()[0] == "time" and parse_time(first.split()[1])
         assert [row.split()[:2] for row in rows] == [["setpoint", "21.5"], ["pump", "false"]]
-    proc = run_mdl("read", ALL, *sim.connection, "setpoint", "--interval", "0.2", "--count", "2", "--format",
-                   "senml", timeout=RUN)
+    proc = run_mdl(
+        "read", ALL, *sim.connection, "setpoint", "--interval", "0.2", "--count", "2", "--format", "senml", timeout=RUN
+    )
     assert proc.returncode == 0, proc.stderr
     documents = [json.loads(line) for line in proc.stdout.splitlines()]
     assert len(documents) == 2
     times = [doc["All Tables"]["bt"] for doc in documents]
     assert all(isinstance(t, float) for t in times) and 0.15 <= times[1] - times[0] < 2.2, times
-    assert documents[0]["All Tables"]["e"][0] == {"n": "setpoint", "v": 21.5, "u": "°C", "min": 5.0, "max": 35.0,
-                                                "asm": "rw"}
+    assert documents[0]["All Tables"]["e"][0] == {
+        "n": "setpoint",
+        "v": 21.5,
+        "u": "°C",
+        "min": 5.0,
+        "max": 35.0,
+        "asm": "rw",
+    }
 
 
 def test_count_against_no_device_fails_every_poll_and_exits_3():
-    proc = run_mdl("read", ALL, "--host", "127.0.0.1", "--port", "1", "setpoint", "--interval", "0.2", "--count", "2",
-                   "--format", "csv", timeout=RUN)
+    proc = run_mdl(
+        "read",
+        ALL,
+        "--host",
+        "127.0.0.1",
+        "--port",
+        "1",
+        "setpoint",
+        "--interval",
+        "0.2",
+        "--count",
+        "2",
+        "--format",
+        "csv",
+        timeout=RUN,
+    )
     assert_clean_error(proc, 3, "cannot connect to 127.0.0.1:1")
     failures = proc.stderr.splitlines()
     assert len(failures) == 2 and all(parse_time(line.split(": ", 1)[0]) for line in failures), failures
     assert proc.stdout == "time,setpoint\n"
 
 
-@pytest.mark.parametrize("args, code, message", [
-    (["--count", "2"], 2, "--count needs --interval"),
-    (["--interval", "0"], 2, "--interval"),
-    (["--interval", "1", "--count", "0"], 2, "--count"),
-], ids=["count-alone", "zero-interval", "zero-count"])
+@pytest.mark.parametrize(
+    "args, code, message",
+    [
+        (["--count", "2"], 2, "--count needs --interval"),
+        (["--interval", "0"], 2, "--interval"),
+        (["--interval", "1", "--count", "0"], 2, "--count"),
+    ],
+    ids=["count-alone", "zero-interval", "zero-count"],
+)
 def test_poll_options(args, code, message):
     assert_clean_error(cli("read", ALL, "--host", "127.0.0.1", "--port", "1", *args), code, message)
 
@@ -98,21 +124,25 @@ def test_poll_options(args, code, message):
 def test_a_function_named_time_would_hide_the_time_column(write_device):
     path = write_device(fn_xml("time", "10", format="UINT16"))
     for fmt in ("json", "csv"):
-        assert_clean_error(cli("read", path, "--host", "127.0.0.1", "--port", "1", "--interval", "1", "--format", fmt),
-                           1, "function 'time' has the name of the poll record's time")
+        assert_clean_error(
+            cli("read", path, "--host", "127.0.0.1", "--port", "1", "--interval", "1", "--format", fmt),
+            1,
+            "function 'time' has the name of the poll record's time",
+        )
 
 
 class Polling:
     """`mdl read --interval ...` running: its stdout and stderr lines as they come, waits bounded in time."""
 
     def __init__(self, *args):
-        self.proc = subprocess.Popen(mdl_cmd("read", *args), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     text=True)
+        self.proc = subprocess.Popen(mdl_cmd("read", *args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         self.changed = threading.Condition()
         self.out: list[str] = []
         self.err: list[str] = []
-        self.readers = [threading.Thread(target=self._collect, args=(stream, lines), daemon=True)
-                        for stream, lines in ((self.proc.stdout, self.out), (self.proc.stderr, self.err))]
+        self.readers = [
+            threading.Thread(target=self._collect, args=(stream, lines), daemon=True)
+            for stream, lines in ((self.proc.stdout, self.out), (self.proc.stderr, self.err))
+        ]
         for reader in self.readers:
             reader.start()
 
@@ -165,8 +195,9 @@ def test_a_stopped_device_fails_polls_then_is_read_again_when_it_returns(sim_fac
         first.stop()
         polling.wait_for(lambda: len(polling.err) >= 2)  # polls go on, and fail
         where = f"127.0.0.1:{first.port}"
-        assert all(f"error: {where} unit 1: " in line or f"error: cannot connect to {where}: " in line
-                   for line in polling.err), polling.err
+        assert all(
+            f"error: {where} unit 1: " in line or f"error: cannot connect to {where}: " in line for line in polling.err
+        ), polling.err
         assert all(parse_time(line.split(": ", 1)[0]) for line in polling.err)
         second = sim_factory(ALL, "--set", "setpoint=19.5", port=first.port)
         polling.wait_for(lambda: any(json.loads(line)["setpoint"] == 19.5 for line in polling.out))
@@ -184,8 +215,9 @@ def test_exit_0_when_the_last_poll_read_after_failures(sim_factory):
     first = sim_factory(ALL, "--set", "setpoint=21.5")
     port = first.port
     first.stop()
-    polling = Polling(ALL, "--host", "127.0.0.1", "--port", str(port), "setpoint", "--interval", "0.2",
-                      "--format", "json", *FAILING)
+    polling = Polling(
+        ALL, "--host", "127.0.0.1", "--port", str(port), "setpoint", "--interval", "0.2", "--format", "json", *FAILING
+    )
     try:
         polling.wait_for(lambda: len(polling.err) >= 1)
         sim_factory(ALL, "--set", "setpoint=19.5", port=port)

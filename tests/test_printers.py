@@ -37,7 +37,7 @@ EVERY_KIND = [
     "uint64(hr:20#4) + ieee754_32(hr:24#2) + ieee754_64(hr:26#4)",
     "concat(utf8(hr:30#2), hexstring(hr:32), eui48(hr:33#3), ipv4addr(hr:36#2), ipv6addr(hr:40#8), 'x', 1.5, 2)",
     "concat(enum(hr:50; 1 -> 'one'), bitset(hr:51; 0 -> 'a'), bitsetbit(hr:52; 3), boolean(true; 'no'; 'yes'))",
-    "int16(\"0x1234\")",
+    'int16("0x1234")',
     "boolean(c:5)",
 ]
 
@@ -62,8 +62,10 @@ def test_every_operation_kind_says_what_it_computes():
 def _device_xml() -> str:
     from conftest import device_xml
 
-    functions = [fn_xml(f"e{i}", "0", expression=text.replace("<", "&lt;").replace(">", "&gt;"))
-                 for i, text in enumerate(EVERY_KIND)]
+    functions = [
+        fn_xml(f"e{i}", "0", expression=text.replace("<", "&lt;").replace(">", "&gt;"))
+        for i, text in enumerate(EVERY_KIND)
+    ]
     return device_xml("".join(functions), name="Every Kind")
 
 
@@ -91,8 +93,11 @@ def test_every_kind_generates_drivers_that_compile_and_import(tmp_path):
     for compiler, flags, source in (("g++", CPP_STRICT, "every_kind.cc"), ("gcc", C_STRICT, "every_kind.c")):
         if shutil.which(compiler) is None:
             pytest.skip(f"{compiler} is not installed")
-        done = subprocess.run([compiler, *flags, *cflags, "-fsyntax-only", "-I", str(out), str(out / source)],
-                              capture_output=True, text=True)
+        done = subprocess.run(
+            [compiler, *flags, *cflags, "-fsyntax-only", "-I", str(out), str(out / source)],
+            capture_output=True,
+            text=True,
+        )
         assert done.returncode == 0, done.stderr
 
 
@@ -106,7 +111,7 @@ def test_a_double_literal_reads_back_as_its_double(x, parenthesized):
     assert text.strip("()") == text.lstrip("(").rstrip(")") and " " not in text
     inner = text[1:-1] if text.startswith("(") else text
     assert float(inner) == float(x) and math.copysign(1, float(inner)) == math.copysign(1, float(x))
-    assert ("." in inner or "e" in inner)  # a double literal in C, C++ and Python alike
+    assert "." in inner or "e" in inner  # a double literal in C, C++ and Python alike
     assert text.startswith("(-") == (parenthesized and math.copysign(1, float(x)) < 0)
 
 

@@ -23,10 +23,33 @@ def all_tables(tmp_path_factory):
 
 
 def test_sync_driver_reads_and_writes(all_tables, sim_factory):
-    sim = sim_factory(ALL, "--set", "setpoint=21.5", "--set", "mode=Cool", "--set", "label=Hall",
-                      "--set", "energy=1234.567", "--set", "power=-12.5", "--set", "big=-5000000000",
-                      "--set", "temp_offset=-10", "--set", "serial=305419896", "--set", "low_byte=-3",
-                      "--set", "high_byte=200", "--set", "pump=1", "--set", "flow=12.3")
+    sim = sim_factory(
+        ALL,
+        "--set",
+        "setpoint=21.5",
+        "--set",
+        "mode=Cool",
+        "--set",
+        "label=Hall",
+        "--set",
+        "energy=1234.567",
+        "--set",
+        "power=-12.5",
+        "--set",
+        "big=-5000000000",
+        "--set",
+        "temp_offset=-10",
+        "--set",
+        "serial=305419896",
+        "--set",
+        "low_byte=-3",
+        "--set",
+        "high_byte=200",
+        "--set",
+        "pump=1",
+        "--set",
+        "flow=12.3",
+    )
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
     try:
@@ -42,7 +65,7 @@ def test_sync_driver_reads_and_writes(all_tables, sim_factory):
         assert dev.read_low_byte() == -3
         assert dev.read_high_byte() == 200
         assert dev.read_pump() is True
-        assert dev.read_flow() == struct.unpack('>f', struct.pack('>f', 12.3))[0]  # FLOAT32: 12.3 as float32
+        assert dev.read_flow() == struct.unpack(">f", struct.pack(">f", 12.3))[0]  # FLOAT32: 12.3 as float32
         assert dev.read_voltage() == 0.0
         dev.write_setpoint(19.0)
         dev.write_fan(True)
@@ -53,9 +76,27 @@ def test_sync_driver_reads_and_writes(all_tables, sim_factory):
         assert values["setpoint"] == 19.0 and values["fan"] is True and values["label"] == "Kitchen"
         assert values["flow"] == 7.5 and values["status_bit"] == 0.0
         assert "alarm_reset" not in values  # write-only
-        assert set(values) == {"pump", "fan", "door_open", "filter_dirty", "energy", "power", "voltage", "gap_low",
-                               "gap_high", "setpoint", "mode", "label", "status_bit", "flow", "big", "temp_offset",
-                               "serial", "low_byte", "high_byte"}
+        assert set(values) == {
+            "pump",
+            "fan",
+            "door_open",
+            "filter_dirty",
+            "energy",
+            "power",
+            "voltage",
+            "gap_low",
+            "gap_high",
+            "setpoint",
+            "mode",
+            "label",
+            "status_bit",
+            "flow",
+            "big",
+            "temp_offset",
+            "serial",
+            "low_byte",
+            "high_byte",
+        }
         with pytest.raises(all_tables.ValueRangeError):
             dev.write_setpoint(40)
         with pytest.raises(ValueError):
@@ -142,11 +183,17 @@ class CountingClient:
 
 def test_read_all_uses_the_plan_and_falls_back_on_exception_2(tmp_path, write_device, sim_factory):
     # the description knows a write-only register at 11 between 10 and 12: the plan reads 10..12 at once
-    described = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
-                             + fn_xml("b", "12", format="UINT16"), name="Planned", filename="planned.xml")
+    described = write_device(
+        fn_xml("a", "10", format="UINT16")
+        + fn_xml("cmd", "11", format="UINT16", access="write")
+        + fn_xml("b", "12", format="UINT16"),
+        name="Planned",
+        filename="planned.xml",
+    )
     # the real device refuses to read its write-only register
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
-                          name="Planned", filename="actual.xml")
+    actual = write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"), name="Planned", filename="actual.xml"
+    )
     assert run_mdl("gen", described, "--lang", "python", "-o", tmp_path).returncode == 0
     module = import_generated(tmp_path / "planned.py", "planned_driver")
     sim = sim_factory(actual, "--set", "a=1", "--set", "b=2")
@@ -156,8 +203,11 @@ def test_read_all_uses_the_plan_and_falls_back_on_exception_2(tmp_path, write_de
         counting = CountingClient(client)
         dev = module.Planned(counting)
         assert dev.read_all() == {"a": 1, "b": 2}
-        assert counting.requests == [("read_holding_registers", 10, 3), ("read_holding_registers", 10, 1),
-                                     ("read_holding_registers", 12, 1)]
+        assert counting.requests == [
+            ("read_holding_registers", 10, 3),
+            ("read_holding_registers", 10, 1),
+            ("read_holding_registers", 12, 1),
+        ]
         counting.requests.clear()
         assert dev.read_all() == {"a": 1, "b": 2}  # remembered: no second try of the refused group
         assert counting.requests == [("read_holding_registers", 10, 1), ("read_holding_registers", 12, 1)]
@@ -167,8 +217,17 @@ def test_read_all_uses_the_plan_and_falls_back_on_exception_2(tmp_path, write_de
 
 def test_temco_example_driver(sim_factory, tmp_path):
     module = import_generated(EXAMPLE / "temco_tstat.py", "temco_example")
-    sim = sim_factory(EXAMPLE / "temco_tstat.xml", "--set", "room_temperature=21.5", "--set", "serial_number=123456",
-                      "--set", "occupied_setpoint=22", "--set", "occupancy=1")
+    sim = sim_factory(
+        EXAMPLE / "temco_tstat.xml",
+        "--set",
+        "room_temperature=21.5",
+        "--set",
+        "serial_number=123456",
+        "--set",
+        "occupied_setpoint=22",
+        "--set",
+        "occupancy=1",
+    )
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
     try:
@@ -187,9 +246,9 @@ def test_temco_example_driver(sim_factory, tmp_path):
 
 # ---- hostile devices and hostile fragments (docs/fragments.md; tests/hostile_server.py)
 
-FRAGMENT_FUNCTIONS = (fn_xml("ratio", "10", format="UINT16", read_function_code="arg = 1000 / r1;")
-                      + fn_xml("setpoint", "20", format="UINT16", read_function_code="arg = r1 / 10.0;",
-                               write_function_code="r1 = arg * 10;"))
+FRAGMENT_FUNCTIONS = fn_xml("ratio", "10", format="UINT16", read_function_code="arg = 1000 / r1;") + fn_xml(
+    "setpoint", "20", format="UINT16", read_function_code="arg = r1 / 10.0;", write_function_code="r1 = arg * 10;"
+)
 
 
 @pytest.fixture
@@ -234,8 +293,15 @@ CALLS = {  # what the driver is asked -> the function code of its request
 }
 # what pymodbus's decoded reply cannot show (trailing bytes after a complete reply, a bit reply's byte
 # count): `mdl read` sees the raw frame and refuses these too (tests/test_hostile_device.py)
-UNSEEN = {("extra_registers", 5), ("extra_registers", 6), ("extra_registers", 16), ("bad_byte_count", 3),
-          ("bad_byte_count", 4), ("long_byte_count", 1), ("long_byte_count", 2)}
+UNSEEN = {
+    ("extra_registers", 5),
+    ("extra_registers", 6),
+    ("extra_registers", 16),
+    ("bad_byte_count", 3),
+    ("bad_byte_count", 4),
+    ("long_byte_count", 1),
+    ("long_byte_count", 2),
+}
 
 
 @pytest.mark.parametrize("mode", [m for m in MODES if m != "honest"])
@@ -342,10 +408,14 @@ def test_the_async_driver_recovers_after_the_device_restarts(all_tables, sim_fac
 
 
 def test_text_that_could_end_a_docstring_does_not(write_device, tmp_path):
-    for i, description in enumerate(['ends in a quote"', 'has """ inside', "ends in a backslash\\", "cr\rinside",
-                                     'two quotes""', "\u2028separator"]):
-        path = write_device(fn_xml("x", "1"), name=f"Doc {i}").read_text().replace(
-            "<description>test</description>", f"<description>{description}</description>")
+    for i, description in enumerate(
+        ['ends in a quote"', 'has """ inside', "ends in a backslash\\", "cr\rinside", 'two quotes""', "\u2028separator"]
+    ):
+        path = (
+            write_device(fn_xml("x", "1"), name=f"Doc {i}")
+            .read_text()
+            .replace("<description>test</description>", f"<description>{description}</description>")
+        )
         source = tmp_path / f"doc{i}.xml"
         source.write_text(path.replace("\r", "&#13;").replace("\u2028", "&#x2028;"), encoding="ascii")
         out = tmp_path / f"out{i}"

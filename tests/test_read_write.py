@@ -22,8 +22,11 @@ def test_read_formats(sim_factory):
     assert proc.returncode == 0, proc.stderr
     assert json.loads(proc.stdout) == {"setpoint": 21.5, "mode": "Heat", "label": "Hall", "voltage": 0.0}
     proc = run_mdl("read", ALL, *conn, "setpoint", "mode", "--format", "csv")
-    assert list(csv.reader(io.StringIO(proc.stdout))) == [["name", "value", "units"], ["setpoint", "21.5", "°C"],
-                                                          ["mode", "Heat", ""]]
+    assert list(csv.reader(io.StringIO(proc.stdout))) == [
+        ["name", "value", "units"],
+        ["setpoint", "21.5", "°C"],
+        ["mode", "Heat", ""],
+    ]
     proc = run_mdl("read", ALL, *conn, "setpoint")
     assert proc.stdout.split() == ["setpoint", "21.5", "°C"]
     proc = run_mdl("read", ALL, *conn, "--format", "json")
@@ -37,18 +40,37 @@ def test_csv_keeps_a_carriage_return_inside_its_cell(sim_factory):
     proc = cli("read", ALL, "--host", sim.host, "--port", sim.port, "label", "setpoint", "--format", "csv")
     assert proc.returncode == 0, proc.stderr
     assert list(csv.reader(io.StringIO(proc.stdout, newline=""))) == [
-        ["name", "value", "units"], ["label", "a\rb", ""], ["setpoint", "21.5", "°C"]]
+        ["name", "value", "units"],
+        ["label", "a\rb", ""],
+        ["setpoint", "21.5", "°C"],
+    ]
     assert proc.stdout.count("\n") == 3
 
 
 def test_senml_format(sim_factory):
     sim = sim_factory(TSTAT, "--set", "room_temperature=21.5", "--set", "occupied_setpoint=22")
-    proc = run_mdl("read", TSTAT, "--host", sim.host, "--port", sim.port, "room_temperature", "occupied_setpoint",
-                   "--format", "senml")
+    proc = run_mdl(
+        "read",
+        TSTAT,
+        "--host",
+        sim.host,
+        "--port",
+        sim.port,
+        "room_temperature",
+        "occupied_setpoint",
+        "--format",
+        "senml",
+    )
     assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout) == {"TEMCO Tstat": {"bn": "TEMCO Tstat", "e": [
-        {"n": "room_temperature", "v": 21.5, "u": "°C", "asm": "r"},
-        {"n": "occupied_setpoint", "v": 22.0, "u": "°C", "min": 10.0, "max": 30.0, "asm": "rw"}]}}
+    assert json.loads(proc.stdout) == {
+        "TEMCO Tstat": {
+            "bn": "TEMCO Tstat",
+            "e": [
+                {"n": "room_temperature", "v": 21.5, "u": "°C", "asm": "r"},
+                {"n": "occupied_setpoint", "v": 22.0, "u": "°C", "min": 10.0, "max": 30.0, "asm": "rw"},
+            ],
+        }
+    }
 
 
 def test_not_implemented_is_null(sim_factory, tmp_path):
@@ -74,9 +96,13 @@ def test_write_round_trip_and_refusals(sim_factory):
 
 def test_refusals_before_anything_is_sent():
     """Each is refused before a connection is tried: NOWHERE would give exit 3."""
-    for assignment, message in [("occupied_setpoint=40", "above the maximum 30"), ("room_temperature=20", "read-only"),
-                                ("nosuch=1", "no function 'nosuch'"), ("fan_speed=fast", "expects a number"),
-                                ("occupied_setpoint=0x" + "F" * 300, "too large")]:
+    for assignment, message in [
+        ("occupied_setpoint=40", "above the maximum 30"),
+        ("room_temperature=20", "read-only"),
+        ("nosuch=1", "no function 'nosuch'"),
+        ("fan_speed=fast", "expects a number"),
+        ("occupied_setpoint=0x" + "F" * 300, "too large"),
+    ]:
         assert_clean_error(cli("write", TSTAT, *NOWHERE, assignment), 1, message)
     assert_clean_error(cli("write", TSTAT, *NOWHERE, "fan_speed"), 2, "expected NAME=VALUE")
     assert_clean_error(cli("read", ALL, *NOWHERE, "alarm_reset"), 1, "write-only")
@@ -91,11 +117,13 @@ def test_retries_resend_a_request_that_got_no_reply():
     for retries, tries in (("0", "1 try"), ("2", "3 tries")):
         with hostile_server("silent") as (host, port):
             started = time.monotonic()
-            proc = cli("read", ALL, "setpoint", "--host", host, "--port", port, "--timeout", "0.3",
-                       "--retries", retries)
+            proc = cli(
+                "read", ALL, "setpoint", "--host", host, "--port", port, "--timeout", "0.3", "--retries", retries
+            )
             elapsed = time.monotonic() - started
-        assert_clean_error(proc, 3, f"{host}:{port} unit 1: reading 1 holding from 100: ",
-                           f"no reply within 0.3 s ({tries})")
+        assert_clean_error(
+            proc, 3, f"{host}:{port} unit 1: reading 1 holding from 100: ", f"no reply within 0.3 s ({tries})"
+        )
         assert elapsed >= 0.3 * int(tries[0]), (retries, elapsed)  # each try waited for its reply
     assert_clean_error(cli("read", ALL, *NOWHERE, "--retries", "-1"), 2, "--retries")
 
@@ -110,10 +138,15 @@ def test_modbus_exception_exits_3(sim_factory, write_device):
 
 
 def test_read_falls_back_on_exception_2(sim_factory, write_device):
-    described = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
-                             + fn_xml("b", "12", format="UINT16"), filename="described.xml")
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
-                          filename="actual.xml")
+    described = write_device(
+        fn_xml("a", "10", format="UINT16")
+        + fn_xml("cmd", "11", format="UINT16", access="write")
+        + fn_xml("b", "12", format="UINT16"),
+        filename="described.xml",
+    )
+    actual = write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"), filename="actual.xml"
+    )
     sim = sim_factory(actual, "--set", "a=7", "--set", "b=9")
     proc = run_mdl("read", described, "--host", sim.host, "--port", sim.port, "--format", "json")
     assert proc.returncode == 0, proc.stderr
@@ -157,6 +190,9 @@ def test_a_float32_prints_as_the_shortest_decimal_that_is_the_same_float32(sim_f
     # json carries the double the drivers return (docs/user-guide.md): programs compare it exactly
     assert json.loads(cli("read", ALL, *conn, "power", "--format", "json").stdout) == {"power": 230.10000610351562}
     assert list(csv.reader(io.StringIO(cli("read", ALL, *conn, "power", "--format", "csv").stdout)))[1] == [
-        "power", "230.1", "W"]
+        "power",
+        "230.1",
+        "W",
+    ]
     senml = json.loads(cli("read", ALL, *conn, "power", "--format", "senml").stdout)
     assert [e["v"] for block in senml.values() for e in block["e"]] == [230.1]

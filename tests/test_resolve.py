@@ -16,10 +16,19 @@ from mdl.sources.loading import load_any, load_resolved
 # ---- numbers that are not finite
 
 
-@pytest.mark.parametrize("element, text", [
-    ("multiplier", "INF"), ("multiplier", "-INF"), ("multiplier", "NaN"), ("multiplier", "1e999"),
-    ("offset", "NaN"), ("offset", "-1e400"), ("minimum", "-INF"), ("maximum", "1e999"),
-])
+@pytest.mark.parametrize(
+    "element, text",
+    [
+        ("multiplier", "INF"),
+        ("multiplier", "-INF"),
+        ("multiplier", "NaN"),
+        ("multiplier", "1e999"),
+        ("offset", "NaN"),
+        ("offset", "-1e400"),
+        ("minimum", "-INF"),
+        ("maximum", "1e999"),
+    ],
+)
 def test_non_finite_numbers_are_refused_at_their_element(write_device, element, text):
     path = write_device(fn_xml("t", "1", format="UINT16", **{element: text}))
     col = len(element) + 7  # "    <element>" then the text
@@ -44,7 +53,8 @@ def test_resolve_refuses_non_finite_numbers_of_a_model_built_in_code(attr, value
         resolve(Device("d", "d", [fn]))
     assert [d.message for d in caught.value.diagnostics] == [
         f"function 't': <{attr}> {'NaN' if math.isnan(value) else 'INF' if value > 0 else '-INF'} "
-        "is not a finite number"]
+        "is not a finite number"
+    ]
 
 
 def test_finite_numbers_still_resolve():
@@ -66,25 +76,34 @@ def test_a_csv_cell_beyond_a_double_skips_its_row(tmp_path):
 def test_fragment_error_points_at_its_column_past_character_references(write_device):
     path = write_device(fn_xml("t", "1", format="UINT16", read_function_code="arg = r1 &amp; 0xFF; arg = foo;"))
     # line 10, "    <read_function_code>" is 24 characters; 'foo' is character 24 of the code, after "&amp;"
-    assert_clean_error(cli("validate", path), 1,
-                       f"{path}:10:{24 + 23 + 4 + 1}: error: function 't': read_function_code: "
-                       "unknown identifier 'foo' (column 24)")
+    assert_clean_error(
+        cli("validate", path),
+        1,
+        f"{path}:10:{24 + 23 + 4 + 1}: error: function 't': read_function_code: unknown identifier 'foo' (column 24)",
+    )
 
 
 def test_expression_error_on_a_later_line_of_the_element(write_device):
-    path = write_device("  <function><name>c</name><description>c</description><addresses>3</addresses>\n"
-                        "    <expression>int16(hr:3) +\n"
-                        "  Nosuch</expression></function>\n")
+    path = write_device(
+        "  <function><name>c</name><description>c</description><addresses>3</addresses>\n"
+        "    <expression>int16(hr:3) +\n"
+        "  Nosuch</expression></function>\n"
+    )
     assert_clean_error(cli("validate", path), 1, f"{path}:7:3: error: function 'c': expression: unknown field 'Nosuch'")
 
 
 def test_minified_document_positions(tmp_path):
     """Everything on one line: each function's own element is found, not the first of its name."""
     path = tmp_path / "one_line.xml"
-    functions = "".join(f"<function><name>f{i}</name><description>d</description><addresses>{i}</addresses>"
-                        f"<expression>int16(hr:{i}) + Nosuch{i}</expression></function>" for i in range(3))
-    text = (f'<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0"><name>n</name>'
-            f"<description>d</description>{functions}</device>")
+    functions = "".join(
+        f"<function><name>f{i}</name><description>d</description><addresses>{i}</addresses>"
+        f"<expression>int16(hr:{i}) + Nosuch{i}</expression></function>"
+        for i in range(3)
+    )
+    text = (
+        f'<device xmlns="http://www.ornl.gov/ModbusXMLSchema" version="1.0"><name>n</name>'
+        f"<description>d</description>{functions}</device>"
+    )
     path.write_text(text)
     proc = cli("validate", path)
     assert proc.returncode == 1
@@ -95,19 +114,24 @@ def test_minified_document_positions(tmp_path):
 
 def _toolkit(tmp_path, expression_line: str):
     path = tmp_path / "bad.yaml"
-    path.write_text("description: 'bad'\nblocks:\n  - id: 'Main'\n    fields:\n"
-                    "      - id: 'Good'\n        expression: 'int16(hr:0)'\n"
-                    f"      - id: 'Bad'\n{expression_line}")
+    path.write_text(
+        "description: 'bad'\nblocks:\n  - id: 'Main'\n    fields:\n"
+        "      - id: 'Good'\n        expression: 'int16(hr:0)'\n"
+        f"      - id: 'Bad'\n{expression_line}"
+    )
     return path
 
 
-@pytest.mark.parametrize("expression_line, line, col", [
-    ("        expression: int16(hr:0) + Nosuch\n", 8, 35),                   # plain
-    ("        expression: 'Good + Nosuch'\n", 8, 29),                         # single-quoted
-    ("        expression: 'Good + ''x'' + Nosuch'\n", 8, 37),                 # '' is one quote
-    ('        expression: "Good + \\u0020 Nosuch"\n', 8, 36),                 # an escape is one character
-    ('        expression: "Good +\n          Nosuch"\n', 9, 11),              # folded onto the next line
-])
+@pytest.mark.parametrize(
+    "expression_line, line, col",
+    [
+        ("        expression: int16(hr:0) + Nosuch\n", 8, 35),  # plain
+        ("        expression: 'Good + Nosuch'\n", 8, 29),  # single-quoted
+        ("        expression: 'Good + ''x'' + Nosuch'\n", 8, 37),  # '' is one quote
+        ('        expression: "Good + \\u0020 Nosuch"\n', 8, 36),  # an escape is one character
+        ('        expression: "Good +\n          Nosuch"\n', 9, 11),  # folded onto the next line
+    ],
+)
 def test_toolkit_expression_errors_point_into_the_yaml_scalar(tmp_path, expression_line, line, col):
     path = _toolkit(tmp_path, expression_line)
     assert_clean_error(cli("test", path), 1, f"{path}:{line}:{col}: error: field 'Bad' of block 'Main': unknown field")
@@ -141,8 +165,10 @@ def test_load_any_is_the_model_only_and_load_resolved_checks_it(write_device):
 # ---- warnings, and --fail-on-warning
 
 
-WARNED = ("  <function><name>w</name><description>w</description><addresses>7</addresses>"
-          "<expression>int16(hr:0)</expression></function>\n")
+WARNED = (
+    "  <function><name>w</name><description>w</description><addresses>7</addresses>"
+    "<expression>int16(hr:0)</expression></function>\n"
+)
 WARNING = "warning: function 'w': addresses 7 differ from the registers the expression reads (0)"
 
 
@@ -155,10 +181,16 @@ def test_a_warning_prints_once_and_the_command_goes_on(write_device, tmp_path):
     assert proc.stderr.count(WARNING) == 1 and (tmp_path / "out" / "test_device.py").exists()
 
 
-@pytest.mark.parametrize("command", [
-    ["validate"], ["gen", "-o", "OUT"], ["test"],
-    ["read", "--host", "127.0.0.1", "--port", "1"], ["write", "--host", "127.0.0.1", "--port", "1", "w=1"],
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["validate"],
+        ["gen", "-o", "OUT"],
+        ["test"],
+        ["read", "--host", "127.0.0.1", "--port", "1"],
+        ["write", "--host", "127.0.0.1", "--port", "1", "w=1"],
+    ],
+)
 def test_fail_on_warning_refuses_before_doing_anything(write_device, tmp_path, command):
     path = write_device(WARNED)
     args = [str(tmp_path / "out") if a == "OUT" else a for a in command]
@@ -171,8 +203,11 @@ def test_fail_on_warning_refuses_before_doing_anything(write_device, tmp_path, c
 
 def test_fail_on_warning_stops_sim_before_serving(write_device):
     path = write_device(WARNED)
-    assert_clean_error(run_mdl("sim", path, "--port", "0", "--fail-on-warning", timeout=30), 1,
-                       f"{path}: error: 1 warning and --fail-on-warning")
+    assert_clean_error(
+        run_mdl("sim", path, "--port", "0", "--fail-on-warning", timeout=30),
+        1,
+        f"{path}: error: 1 warning and --fail-on-warning",
+    )
 
 
 def test_fail_on_warning_on_csv2xml_writes_nothing(tmp_path):
@@ -198,13 +233,20 @@ def test_fail_on_warning_without_warnings_changes_nothing(write_device, tmp_path
 # ---- what an expression may name
 
 
-@pytest.mark.parametrize("named, why", [
-    (fn_xml("wo", "1", format="UINT16", access="write"), "field 'wo' it refers to cannot be read (access 'write')"),
-    (fn_xml("wo", "1 2 3 4", format="UINT64", write_function_code="r1 = arg;"),
-     "field 'wo' it refers to has a write fragment: its value is a double in the C++ driver"),
-    (fn_xml("wo", "1 2 3 4", format="INT64", write_function_code="r1 = arg;"),
-     "field 'wo' it refers to has a write fragment"),
-])
+@pytest.mark.parametrize(
+    "named, why",
+    [
+        (fn_xml("wo", "1", format="UINT16", access="write"), "field 'wo' it refers to cannot be read (access 'write')"),
+        (
+            fn_xml("wo", "1 2 3 4", format="UINT64", write_function_code="r1 = arg;"),
+            "field 'wo' it refers to has a write fragment: its value is a double in the C++ driver",
+        ),
+        (
+            fn_xml("wo", "1 2 3 4", format="INT64", write_function_code="r1 = arg;"),
+            "field 'wo' it refers to has a write fragment",
+        ),
+    ],
+)
 def test_an_expression_may_not_name_what_no_driver_reads_exactly(write_device, tmp_path, named, why):
     """A write-only function, and a 64-bit integer with a write fragment (a double in the C++
     driver), are refused where an expression names them: each driver would read them otherwise."""
@@ -216,7 +258,8 @@ def test_an_expression_may_not_name_what_no_driver_reads_exactly(write_device, t
 
 def test_narrower_integers_with_a_write_fragment_may_be_named(write_device):
     """A 32-bit integer with a write fragment is a double in the C++ driver too, and exact there."""
-    path = write_device(fn_xml("w", "1 2", format="INT32", write_function_code="r1 = arg;")
-                        + fn_xml("e", "1", expression="w + 1"))
+    path = write_device(
+        fn_xml("w", "1 2", format="INT32", write_function_code="r1 = arg;") + fn_xml("e", "1", expression="w + 1")
+    )
     proc = cli("validate", path)
     assert proc.returncode == 0, proc.stderr

@@ -21,10 +21,14 @@ def fn(body: str) -> str:
 CORPUS = {
     "empty_device": doc(),
     "minimal_function": doc(fn(F + "<addresses>1</addresses>")),
-    "all_fields": doc(fn(F + "<addresses>1 2</addresses><length>Lower byte</length><count>2</count>"
-                         "<format>UINT8</format><block_label>A</block_label><multiplier>0.5</multiplier>"
-                         "<units>C</units><read_function_code>arg = r1;</read_function_code>"
-                         "<write_function_code>r1 = arg;</write_function_code>")),
+    "all_fields": doc(
+        fn(
+            F + "<addresses>1 2</addresses><length>Lower byte</length><count>2</count>"
+            "<format>UINT8</format><block_label>A</block_label><multiplier>0.5</multiplier>"
+            "<units>C</units><read_function_code>arg = r1;</read_function_code>"
+            "<write_function_code>r1 = arg;</write_function_code>"
+        )
+    ),
     "wrong_order": doc(fn(F + "<addresses>1</addresses><count>1</count><length>Full word</length>")),
     "missing_function_description": doc(fn("<name>f</name><addresses>1</addresses>")),
     "missing_device_description": doc(head="<name>D</name>"),
@@ -49,17 +53,20 @@ CORPUS = {
     "extension_in_09b": doc(fn(F + "<addresses>1</addresses><register_type>input</register_type>")),
     "wrong_root": doc(root="devices"),
     "empty_units_and_name": doc(fn("<name></name><description>d</description><addresses>1</addresses><units></units>")),
-    "function_before_description": doc(fn(F + "<addresses>1</addresses>"),
-                                       head="<name>D</name>" + fn(F + "<addresses>1</addresses>")
-                                       + "<description>x</description>"),
+    "function_before_description": doc(
+        fn(F + "<addresses>1</addresses>"),
+        head="<name>D</name>" + fn(F + "<addresses>1</addresses>") + "<description>x</description>",
+    ),
     "version_attribute": doc().replace("<device ", '<device version="1.0" '),
 }
 
 
 # valid to both XSDs, refused by the checks an XSD cannot make
-SEMANTICALLY_INVALID = {"address_empty": "no address",
-                        # xs:float admits INF; no driver can scale by it (issue 9: non-finite numbers refused)
-                        "multiplier_inf": "<multiplier> INF is not a finite number"}
+SEMANTICALLY_INVALID = {
+    "address_empty": "no address",
+    # xs:float admits INF; no driver can scale by it (issue 9: non-finite numbers refused)
+    "multiplier_inf": "<multiplier> INF is not a finite number",
+}
 
 
 def _schema(path):

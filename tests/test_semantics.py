@@ -7,12 +7,17 @@ import pytest
 from conftest import assert_clean_error, cli, fn_xml, run_mdl
 
 
-@pytest.mark.parametrize("function, message", [
-    (fn_xml("label", "1 2", format="STRING", minimum="1"), "function 'label': minimum 1 cannot apply to a STRING"),
-    (fn_xml("label", "1 2", format="STRING", maximum="9"), "function 'label': maximum 9 cannot apply to a STRING"),
-    (fn_xml("level", "1", format="UINT16", minimum="10", maximum="5"),
-     "function 'level': minimum 10 is above maximum 5"),
-])
+@pytest.mark.parametrize(
+    "function, message",
+    [
+        (fn_xml("label", "1 2", format="STRING", minimum="1"), "function 'label': minimum 1 cannot apply to a STRING"),
+        (fn_xml("label", "1 2", format="STRING", maximum="9"), "function 'label': maximum 9 cannot apply to a STRING"),
+        (
+            fn_xml("level", "1", format="UINT16", minimum="10", maximum="5"),
+            "function 'level': minimum 10 is above maximum 5",
+        ),
+    ],
+)
 def test_bounds_that_mean_nothing_are_refused(write_device, function, message):
     path = write_device(function + fn_xml("fine", "40", format="UINT16", minimum="0", maximum="10"))
     proc = run_mdl("validate", path)
@@ -22,8 +27,10 @@ def test_bounds_that_mean_nothing_are_refused(write_device, function, message):
 
 def test_bounds_on_a_bit_are_accepted(write_device):
     """A coil that only accepts 1 (a trigger) is a real device's way."""
-    path = write_device(fn_xml("pump", "1", format="BIT", register_type="coil", minimum="1", maximum="1")
-                        + fn_xml("fan", "2", format="BIT", register_type="coil", minimum="-1", maximum="5"))
+    path = write_device(
+        fn_xml("pump", "1", format="BIT", register_type="coil", minimum="1", maximum="1")
+        + fn_xml("fan", "2", format="BIT", register_type="coil", minimum="-1", maximum="5")
+    )
     proc = run_mdl("validate", path)
     assert proc.returncode == 0, proc.stderr
 

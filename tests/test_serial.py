@@ -23,8 +23,24 @@ ALL = DATA / "all_tables.xml"
 TSTAT = EXAMPLE / "temco_tstat.xml"
 RUN = 30  # seconds any one command may take
 SILENT_BOUND = 10  # seconds a read of a silent unit may take with --timeout 0.5 (2 tries: about 1 s)
-SETTINGS = ["--set", "setpoint=21.5", "--set", "mode=Cool", "--set", "label=Hall", "--set", "energy=1234.567",
-            "--set", "power=-12.5", "--set", "pump=1", "--set", "flow=12.3", "--set", "big=-5000000000"]
+SETTINGS = [
+    "--set",
+    "setpoint=21.5",
+    "--set",
+    "mode=Cool",
+    "--set",
+    "label=Hall",
+    "--set",
+    "energy=1234.567",
+    "--set",
+    "power=-12.5",
+    "--set",
+    "pump=1",
+    "--set",
+    "flow=12.3",
+    "--set",
+    "big=-5000000000",
+]
 NO_HOST = "127.0.0.1", "1"  # refused at once
 
 
@@ -51,18 +67,36 @@ def test_read_and_write_on_a_serial_line_as_on_tcp(serial_line, sim_factory, tmp
 
 def test_two_devices_on_one_line_and_a_unit_that_is_not_there(serial_line, sim_factory):
     device, client_end = serial_line.ends
-    sim = sim_factory([ALL, TSTAT], "--unit", "3", "--unit", "7", "--set", "setpoint=19.5",
-                      "--set", "occupied_setpoint=22", serial=device)
-    assert sim.ready_lines == [f"mdl sim: serving All Tables on {device} unit 3",
-                               f"mdl sim: serving TEMCO Tstat on {device} unit 7"]
+    sim = sim_factory(
+        [ALL, TSTAT],
+        "--unit",
+        "3",
+        "--unit",
+        "7",
+        "--set",
+        "setpoint=19.5",
+        "--set",
+        "occupied_setpoint=22",
+        serial=device,
+    )
+    assert sim.ready_lines == [
+        f"mdl sim: serving All Tables on {device} unit 3",
+        f"mdl sim: serving TEMCO Tstat on {device} unit 7",
+    ]
     assert read_json(["--serial", client_end, "--unit", "3"], ALL, "setpoint") == {"setpoint": 19.5}
     assert read_json(["--serial", client_end, "--unit", "7"], TSTAT, "occupied_setpoint") == {"occupied_setpoint": 22}
     started = time.monotonic()
-    proc = run_mdl("read", TSTAT, "--serial", client_end, "--unit", "5", "--timeout", "0.5", "occupied_setpoint",
-                   timeout=RUN)
+    proc = run_mdl(
+        "read", TSTAT, "--serial", client_end, "--unit", "5", "--timeout", "0.5", "occupied_setpoint", timeout=RUN
+    )
     elapsed = time.monotonic() - started
-    assert_clean_error(proc, 3, f"{client_end} (19200 8N1) unit 5: ", "no reply within 0.5 s (2 tries)",
-                       "check baud rate, parity and unit id")
+    assert_clean_error(
+        proc,
+        3,
+        f"{client_end} (19200 8N1) unit 5: ",
+        "no reply within 0.5 s (2 tries)",
+        "check baud rate, parity and unit id",
+    )
     assert elapsed < SILENT_BOUND, elapsed
     # the silent unit did not upset the line: the devices on it still answer
     assert read_json(["--serial", client_end, "--unit", "7"], TSTAT, "occupied_setpoint") == {"occupied_setpoint": 22}
@@ -119,10 +153,12 @@ def test_wrong_baud_rate_on_one_side_gets_no_answer(uart_line, sim_factory):
     device, client_end = uart_line.ends
     sim_factory(TSTAT, "--baud", "9600", "--set", "occupied_setpoint=22", serial=device)
     assert read_json(["--serial", client_end, "--baud", "9600"], TSTAT, "occupied_setpoint") == {
-        "occupied_setpoint": 22}
+        "occupied_setpoint": 22
+    }
     started = time.monotonic()
-    proc = run_mdl("read", TSTAT, "--serial", client_end, "--baud", "19200", "--timeout", "0.5", "occupied_setpoint",
-                   timeout=RUN)
+    proc = run_mdl(
+        "read", TSTAT, "--serial", client_end, "--baud", "19200", "--timeout", "0.5", "occupied_setpoint", timeout=RUN
+    )
     assert_clean_error(proc, 3, f"{client_end} (19200 8N1) unit 1: ", "check baud rate, parity and unit id")
     assert time.monotonic() - started < SILENT_BOUND
 
@@ -134,10 +170,12 @@ def test_rtu_frames_over_tcp(sim_factory):
     assert proc.returncode == 0, proc.stderr
     assert read_json(rtu, TSTAT, "occupied_setpoint", "fan_speed") == {"occupied_setpoint": 23.5, "fan_speed": 2}
     # a unit the converter's line does not have: no answer, as on the line itself
-    proc = run_mdl("read", TSTAT, *sim.connection, "--framer", "rtu", "--unit", "5", "--timeout", "0.5",
-                   "fan_speed", timeout=RUN)
-    assert_clean_error(proc, 3, f"{sim.host}:{sim.port} (RTU over TCP) unit 5: ", "no reply within 0.5 s",
-                       "check the unit id")
+    proc = run_mdl(
+        "read", TSTAT, *sim.connection, "--framer", "rtu", "--unit", "5", "--timeout", "0.5", "fan_speed", timeout=RUN
+    )
+    assert_clean_error(
+        proc, 3, f"{sim.host}:{sim.port} (RTU over TCP) unit 5: ", "no reply within 0.5 s", "check the unit id"
+    )
 
 
 def rtu(frame: bytes) -> bytes:
@@ -147,8 +185,10 @@ def rtu(frame: bytes) -> bytes:
 LIES = {  # an RTU-over-TCP device's answer to a read of one holding register -> what `mdl read` says of it
     "other_unit": (lambda request: rtu(bytes([request[0] + 1, 3, 2, 0, 7])), "the reply comes from unit 2"),
     "short": (lambda request: rtu(bytes([request[0], 3, 0])), "the reply carries 0 data bytes, expected 2"),
-    "bad_crc": (lambda request: bytes([request[0], 3, 2, 0, 7, 0, 0]),
-                "the reply is not a Modbus RTU frame (7 bytes: 01 03 02 00 07 00 00); check the unit id"),
+    "bad_crc": (
+        lambda request: bytes([request[0], 3, 2, 0, 7, 0, 0]),
+        "the reply is not a Modbus RTU frame (7 bytes: 01 03 02 00 07 00 00); check the unit id",
+    ),
 }
 
 
@@ -190,21 +230,38 @@ def lying_rtu_device(answer):
 def test_rtu_replies_are_checked_before_they_are_trusted(lie):
     answer, message = LIES[lie]
     with lying_rtu_device(answer) as port:
-        proc = cli("read", TSTAT, "--host", "127.0.0.1", "--port", port, "--framer", "rtu", "--timeout", "0.3",
-                   "--retries", "0", "occupied_setpoint")
+        proc = cli(
+            "read",
+            TSTAT,
+            "--host",
+            "127.0.0.1",
+            "--port",
+            port,
+            "--framer",
+            "rtu",
+            "--timeout",
+            "0.3",
+            "--retries",
+            "0",
+            "occupied_setpoint",
+        )
     assert_clean_error(proc, 3, f"127.0.0.1:{port} (RTU over TCP) unit 1: reading 1 holding from ", message)
 
 
 def test_serial_device_that_cannot_be_opened(tmp_path):
     missing = tmp_path / "ttyUSB9"
     for command in (["read", TSTAT], ["write", TSTAT, "fan_speed=1"]):
-        assert_clean_error(cli(*command, "--serial", missing), 3,
-                           f"cannot open serial device {missing}: No such file or directory")
+        assert_clean_error(
+            cli(*command, "--serial", missing), 3, f"cannot open serial device {missing}: No such file or directory"
+        )
     not_a_terminal = tmp_path / "plain"
     not_a_terminal.write_text("")
     assert_clean_error(cli("read", TSTAT, "--serial", not_a_terminal), 3, "not a serial device")
-    assert_clean_error(run_mdl("sim", TSTAT, "--serial", missing, timeout=RUN), 1,
-                       f"cannot serve on {missing}: No such file or directory")
+    assert_clean_error(
+        run_mdl("sim", TSTAT, "--serial", missing, timeout=RUN),
+        1,
+        f"cannot serve on {missing}: No such file or directory",
+    )
 
 
 def test_settings_a_serial_device_refuses(serial_line):
@@ -216,26 +273,43 @@ def test_settings_a_serial_device_refuses(serial_line):
     except subprocess.TimeoutExpired:  # it serves: this kernel takes parity on a pseudo terminal
         return
     assert_clean_error(proc, 1, f"cannot serve on {end}: ")
-    assert_clean_error(cli("read", TSTAT, "--serial", end, "--parity", "E"), 3,
-                       f"cannot open serial device {end}: it refuses 19200 8E1 (")
+    assert_clean_error(
+        cli("read", TSTAT, "--serial", end, "--parity", "E"),
+        3,
+        f"cannot open serial device {end}: it refuses 19200 8E1 (",
+    )
 
 
 def test_a_serial_device_another_program_has_open(serial_line, sim_factory):
     sim_factory(TSTAT, serial=serial_line.ends[0])
-    assert_clean_error(cli("read", TSTAT, "--serial", serial_line.ends[0]), 3,
-                       f"cannot open serial device {serial_line.ends[0]}: another program has it open")
+    assert_clean_error(
+        cli("read", TSTAT, "--serial", serial_line.ends[0]),
+        3,
+        f"cannot open serial device {serial_line.ends[0]}: another program has it open",
+    )
 
 
-@pytest.mark.parametrize("args, message", [
-    ([], "give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"),
-    (["--serial", "/dev/ttyUSB0", "--host", NO_HOST[0]], "--serial and --host: give one connection"),
-    (["--serial", "/dev/ttyUSB0", "--port", "503"], "--serial and --port"),
-    (["--serial", "/dev/ttyUSB0", "--framer", "tcp"], "a serial line carries RTU frames"),
-    (["--host", NO_HOST[0], "--baud", "9600"], "--baud sets a serial line: it needs --serial DEVICE"),
-    (["--host", NO_HOST[0], "--parity", "X"], "--parity"),
-    (["--host", NO_HOST[0], "--stopbits", "3"], "--stopbits"),
-], ids=["none", "serial-and-host", "serial-and-port", "serial-tcp-framer", "baud-without-serial", "parity",
-        "stopbits"])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        ([], "give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"),
+        (["--serial", "/dev/ttyUSB0", "--host", NO_HOST[0]], "--serial and --host: give one connection"),
+        (["--serial", "/dev/ttyUSB0", "--port", "503"], "--serial and --port"),
+        (["--serial", "/dev/ttyUSB0", "--framer", "tcp"], "a serial line carries RTU frames"),
+        (["--host", NO_HOST[0], "--baud", "9600"], "--baud sets a serial line: it needs --serial DEVICE"),
+        (["--host", NO_HOST[0], "--parity", "X"], "--parity"),
+        (["--host", NO_HOST[0], "--stopbits", "3"], "--stopbits"),
+    ],
+    ids=[
+        "none",
+        "serial-and-host",
+        "serial-and-port",
+        "serial-tcp-framer",
+        "baud-without-serial",
+        "parity",
+        "stopbits",
+    ],
+)
 def test_connection_options_that_contradict_each_other(args, message):
     assert_clean_error(cli("read", TSTAT, *args), 2, message)
 
@@ -254,8 +328,16 @@ def tstat_driver(tmp_path_factory):
 
 
 def test_generated_driver_over_a_sync_serial_client(tstat_driver, serial_line, sim_factory):
-    sim_factory(TSTAT, "--unit", "9", "--set", "occupied_setpoint=22", "--set", "room_temperature=21.5",
-                serial=serial_line.ends[0])
+    sim_factory(
+        TSTAT,
+        "--unit",
+        "9",
+        "--set",
+        "occupied_setpoint=22",
+        "--set",
+        "room_temperature=21.5",
+        serial=serial_line.ends[0],
+    )
     client = ModbusSerialClient(serial_line.ends[1], baudrate=19200, timeout=2, retries=1)
     assert client.connect()
     try:

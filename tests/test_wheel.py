@@ -27,8 +27,9 @@ def wheel(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("wheel")
     proc = _run(sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", out, ROOT)
     if proc.returncode != 0:
-        skip_or_fail(f"cannot build the wheel (the build backend comes from the package registry): "
-                     f"{proc.stderr.strip()[-500:]}")
+        skip_or_fail(
+            f"cannot build the wheel (the build backend comes from the package registry): {proc.stderr.strip()[-500:]}"
+        )
     (whl,) = out.glob("mdl-*.whl")
     return whl
 
@@ -41,8 +42,7 @@ def installed(wheel, tmp_path_factory) -> Path:
     bindir = env_dir / "bin"
     proc = _run(bindir / "python", "-m", "pip", "install", "-q", "--disable-pip-version-check", wheel)
     if proc.returncode != 0:
-        skip_or_fail(f"cannot install the wheel's dependencies from the package registry: "
-                     f"{proc.stderr.strip()[-500:]}")
+        skip_or_fail(f"cannot install the wheel's dependencies from the package registry: {proc.stderr.strip()[-500:]}")
     return bindir
 
 

@@ -29,11 +29,13 @@ from refusing_proxy import refusing_proxy
 
 from mdl.sources.mdlxml import load_device
 
-FUNCTIONS = (fn_xml("level", "10", format="UINT16", write_multiple="true")
-             + fn_xml("split", "20 22", format="UINT32", write_multiple="true")  # two runs of one register
-             + fn_xml("enable", "5", format="BIT", register_type="coil", write_multiple="true")
-             + fn_xml("plain", "30", format="UINT16")
-             + fn_xml("plain_coil", "6", format="BIT", register_type="coil", write_multiple="false"))
+FUNCTIONS = (
+    fn_xml("level", "10", format="UINT16", write_multiple="true")
+    + fn_xml("split", "20 22", format="UINT32", write_multiple="true")  # two runs of one register
+    + fn_xml("enable", "5", format="BIT", register_type="coil", write_multiple="true")
+    + fn_xml("plain", "30", format="UINT16")
+    + fn_xml("plain_coil", "6", format="BIT", register_type="coil", write_multiple="false")
+)
 MULTIPLE = {"level": 1234, "split": 305419896, "enable": True}
 SINGLE = {"plain": 4321, "plain_coil": True}
 CODES = {"level": [16], "split": [16, 16], "enable": [15], "plain": [6], "plain_coil": [5]}
@@ -60,14 +62,27 @@ def _mdl_writer(device: Path, _: Path) -> Opener:
     @contextmanager
     def open_writer(host: str, port: int, timeout: float) -> Iterator[Write]:
         def write(name: str, value: object) -> str:
-            proc = cli("write", device, "--host", host, "--port", port, "--timeout", timeout, "--retries", "0",
-                       f"{name}={_text(value)}")
+            proc = cli(
+                "write",
+                device,
+                "--host",
+                host,
+                "--port",
+                port,
+                "--timeout",
+                timeout,
+                "--retries",
+                "0",
+                f"{name}={_text(value)}",
+            )
             if proc.returncode == 0:
                 return OK
             assert proc.returncode == 3 and "Traceback" not in proc.stderr, proc.stderr
             found = re.search(r"Modbus exception (\d+)", proc.stderr)
             return f"exception {found[1]}" if found else FAILED
+
         yield write
+
     return open_writer
 
 
@@ -94,10 +109,12 @@ def _python_sync_writer(device: Path, workdir: Path) -> Opener:
             except module.CommunicationError:
                 return FAILED
             return OK
+
         try:
             yield write
         finally:
             client.close()
+
     return open_writer
 
 
@@ -123,12 +140,14 @@ def _python_async_writer(device: Path, workdir: Path) -> Opener:
             except module.CommunicationError:
                 return FAILED
             return OK
+
         try:
             yield write
         finally:
             client.close()
             loop.run_until_complete(asyncio.sleep(0))
             loop.close()
+
     return open_writer
 
 
@@ -140,6 +159,7 @@ def _harness_writer(build: Callable[..., Path]) -> Callable[[Path, Path], Opener
         def open_writer(host: str, port: int, timeout: float) -> Iterator[Write]:
             assert host == "127.0.0.1"  # the harness connects to 127.0.0.1:PORT
             with Harness(exe, port, timeout_ms=round(1000 * timeout)) as h:
+
                 def write(name: str, value: object) -> str:
                     answer = h.ask(f"write {name} {_text(value)}")
                     if answer == ["ok"]:
@@ -147,8 +167,11 @@ def _harness_writer(build: Callable[..., Path]) -> Callable[[Path, Path], Opener
                     assert len(answer) == 1 and answer[0].startswith("error "), answer
                     code = int(answer[0].split()[1]) - MODBUS_ENOBASE
                     return f"exception {code}" if 1 <= code <= 11 else FAILED  # EMBXILFUN .. EMBXGTAR
+
                 yield write
+
         return open_writer
+
     return make
 
 
@@ -211,8 +234,14 @@ def test_mdl_write_multiple_over_rtu_framing_checks_and_accepts_the_fc15_and_fc1
 # writer reports the lie rather than a success ("honest" is the control). Pinned gap: the Python drivers
 # see pymodbus' decoded reply, which does not show bytes after a complete echo (as for their other
 # writes: test_python_driver.UNSEEN), so they take that echo as a success.
-LIES = {"wrong_function_code": FAILED, "extra_registers": FAILED, "short": FAILED, "bad_byte_count": FAILED,
-        "exception": "exception 4", "honest": OK}
+LIES = {
+    "wrong_function_code": FAILED,
+    "extra_registers": FAILED,
+    "short": FAILED,
+    "bad_byte_count": FAILED,
+    "exception": "exception 4",
+    "honest": OK,
+}
 UNSEEN = {("python", "extra_registers"), ("python asyncio", "extra_registers")}
 
 
@@ -224,9 +253,11 @@ def test_a_lying_reply_to_a_write_multiple_is_not_a_success(request, writer, mod
             assert write(name, MULTIPLE[name]) == expected, (mode, name)
 
 
-ONLY_MULTIPLE = (fn_xml("level", "10", format="UINT16", write_multiple="true")
-                 + fn_xml("enable", "5", format="BIT", register_type="coil", write_multiple="true")
-                 + fn_xml("reading", "40", format="UINT16", access="read", write_multiple="true"))
+ONLY_MULTIPLE = (
+    fn_xml("level", "10", format="UINT16", write_multiple="true")
+    + fn_xml("enable", "5", format="BIT", register_type="coil", write_multiple="true")
+    + fn_xml("reading", "40", format="UINT16", access="read", write_multiple="true")
+)
 
 
 def test_a_driver_carries_only_the_write_helpers_it_calls(tmp_path):
@@ -266,12 +297,27 @@ def test_the_python_driver_with_write_multiple_passes_ruff_and_mypy_strict(devic
     proc = run_mdl("gen", device, "--lang", "python", "-o", tmp_path)
     assert proc.returncode == 0, proc.stderr
     driver = tmp_path / "picky_meter.py"
-    ruff = subprocess.run([*_tool("ruff"), "check", "--isolated", "--no-cache", str(driver)],
-                          capture_output=True, text=True, timeout=300)
+    ruff = subprocess.run(
+        [*_tool("ruff"), "check", "--isolated", "--no-cache", str(driver)], capture_output=True, text=True, timeout=300
+    )
     assert ruff.returncode == 0, ruff.stdout + ruff.stderr
-    mypy = subprocess.run([*_tool("mypy"), "--config-file", "", "--strict", "--python-executable",
-                           sys.executable, "--cache-dir", str(tmp_path / ".mypy_cache"), str(driver)],
-                          capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    mypy = subprocess.run(
+        [
+            *_tool("mypy"),
+            "--config-file",
+            "",
+            "--strict",
+            "--python-executable",
+            sys.executable,
+            "--cache-dir",
+            str(tmp_path / ".mypy_cache"),
+            str(driver),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=tmp_path,
+    )
     assert mypy.returncode == 0, mypy.stdout + mypy.stderr
 
 

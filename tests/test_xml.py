@@ -35,8 +35,9 @@ def test_entity_bombs_and_external_entities_are_refused(tmp_path):
 
 def test_malformed_xml_names_line_and_column(tmp_path):
     path = tmp_path / "bad.xml"
-    path.write_text('<?xml version="1.0"?>\n<device xmlns="http://www.ornl.gov/ModbusXMLSchema">\n'
-                    '  <name>x</nam>\n</device>\n')
+    path.write_text(
+        '<?xml version="1.0"?>\n<device xmlns="http://www.ornl.gov/ModbusXMLSchema">\n  <name>x</nam>\n</device>\n'
+    )
     proc = run_mdl("validate", path)
     assert_clean_error(proc, 1, f"{path}:3:", "malformed XML")
 
@@ -51,11 +52,22 @@ def test_every_error_of_a_file_is_listed(tmp_path, write_device):
 
 
 def test_semantic_errors_listed_together(tmp_path, write_device):
-    path = write_device(fn_xml("a", "1") + fn_xml("a", "70000") + fn_xml("s", "5", format="STRING", count="126")
-                        + fn_xml("f", "9", read_function_code="arg = system(1);"))
+    path = write_device(
+        fn_xml("a", "1")
+        + fn_xml("a", "70000")
+        + fn_xml("s", "5", format="STRING", count="126")
+        + fn_xml("f", "9", read_function_code="arg = system(1);")
+    )
     proc = run_mdl("validate", path)
-    assert_clean_error(proc, 1, "duplicate function name", "address 70000 is over 65535",
-                       "at most 125", "function 'f': read_function_code", "system")
+    assert_clean_error(
+        proc,
+        1,
+        "duplicate function name",
+        "address 70000 is over 65535",
+        "at most 125",
+        "function 'f': read_function_code",
+        "system",
+    )
 
 
 def test_missing_and_unreadable_files(tmp_path):
@@ -85,8 +97,14 @@ def test_writer_is_ascii_with_character_references(tmp_path, write_device):
 
 def test_defaults_applied_in_model(write_device):
     fn = load_device(write_device(fn_xml("t", "1"), version=None)).functions[0]
-    assert (fn.eff_length, fn.eff_count, fn.eff_format, fn.eff_multiplier, fn.table, fn.eff_access) == \
-        ("Full word", 1, "INT8", 1.0, "holding", "read_write")
+    assert (fn.eff_length, fn.eff_count, fn.eff_format, fn.eff_multiplier, fn.table, fn.eff_access) == (
+        "Full word",
+        1,
+        "INT8",
+        1.0,
+        "holding",
+        "read_write",
+    )
     assert fn.length is None and fn.count is None
 
 

@@ -59,8 +59,12 @@ def _remember_fail_on_warning(ctx: click.Context, param: click.Parameter, value:
 
 
 fail_on_warning_option = click.option(
-    "--fail-on-warning", is_flag=True, expose_value=False, callback=_remember_fail_on_warning,
-    help="Exit 1, before doing anything, if reading the input gives any warning (they print either way).")
+    "--fail-on-warning",
+    is_flag=True,
+    expose_value=False,
+    callback=_remember_fail_on_warning,
+    help="Exit 1, before doing anything, if reading the input gives any warning (they print either way).",
+)
 
 
 def _warning_refusal(warnings: Iterable[Diagnostic], file: Path) -> Diagnostic | None:
@@ -145,20 +149,43 @@ def main() -> None:
 @main.command()
 @click.argument("source", type=INPUT)
 @click.option("--ini", "ini", type=INPUT, help="Device INI file (ORNL format).")
-@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
-              help="Output MDL file, - for stdout (default: stdout; with SOURCE an INI file, its output_xml_file).")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output MDL file, - for stdout (default: stdout; with SOURCE an INI file, its output_xml_file).",
+)
 @click.option("--allow-outside", is_flag=True, help="Let the INI's output_xml_file lie outside the INI's folder.")
 @click.option("--force", is_flag=True, help="Replace an existing output file that is not an MDL document.")
 @click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
 @click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
 @click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
-@click.option("--strict", is_flag=True, help="Exit 1 and write nothing if any row is skipped, any function "
-              "is left unmatched or matched by similarity only, or anything else gives a warning.")
-@click.option("--explain", "explain", multiple=True, metavar="FUNCTION",
-              help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).")
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Exit 1 and write nothing if any row is skipped, any function "
+    "is left unmatched or matched by similarity only, or anything else gives a warning.",
+)
+@click.option(
+    "--explain",
+    "explain",
+    multiple=True,
+    metavar="FUNCTION",
+    help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).",
+)
 @fail_on_warning_option
-def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: bool, force: bool, interactive: bool,
-            threshold: float | None, emit_all: bool, strict: bool, explain: tuple[str, ...]) -> None:
+def csv2xml(
+    source: Path,
+    ini: Path | None,
+    output: Path | None,
+    allow_outside: bool,
+    force: bool,
+    interactive: bool,
+    threshold: float | None,
+    emit_all: bool,
+    strict: bool,
+    explain: tuple[str, ...],
+) -> None:
     """Convert a vendor register table (CSV) to MDL XML.
 
     SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
@@ -181,14 +208,29 @@ def csv2xml(source: Path, ini: Path | None, output: Path | None, allow_outside: 
     _stdin_once([source] + ([ini] if ini else []))
     target = output_target(source, ini, output, allow_outside, force)
     fail_on_warning = bool(click.get_current_context().meta.get(_FAIL_ON_WARNING))
-    run_csv2xml(source, ini, target, interactive, threshold, emit_all, fail_on_warning=fail_on_warning,
-                strict=strict, explain=explain)
+    run_csv2xml(
+        source,
+        ini,
+        target,
+        interactive,
+        threshold,
+        emit_all,
+        fail_on_warning=fail_on_warning,
+        strict=strict,
+        explain=explain,
+    )
 
 
 @main.command()
 @click.argument("files", nargs=-1, required=True, type=INPUT)
-@click.option("--schema", "version", type=SCHEMAS, default="1.0", show_default=True,
-              help="Schema to validate against; 1.0 accepts every 0.9b document.")
+@click.option(
+    "--schema",
+    "version",
+    type=SCHEMAS,
+    default="1.0",
+    show_default=True,
+    help="Schema to validate against; 1.0 accepts every 0.9b document.",
+)
 @fail_on_warning_option
 def validate(files: tuple[Path, ...], version: str) -> None:
     """Validate MDL files (- for stdin) against the XSD and the semantic rules.
@@ -220,11 +262,22 @@ def validate(files: tuple[Path, ...], version: str) -> None:
 
 @main.command()
 @click.argument("file", type=INPUT)
-@click.option("--lang", type=click.Choice([*targets.names(), "all"], case_sensitive=False), default="all",
-              show_default=True,
-              help="A registered target (" + "; ".join(targets.summaries()) + "), or all of them.")
-@click.option("-o", "--output-dir", "outdir", type=click.Path(path_type=Path), default=Path("."),
-              show_default=True, help="Directory for the generated files.")
+@click.option(
+    "--lang",
+    type=click.Choice([*targets.names(), "all"], case_sensitive=False),
+    default="all",
+    show_default=True,
+    help="A registered target (" + "; ".join(targets.summaries()) + "), or all of them.",
+)
+@click.option(
+    "-o",
+    "--output-dir",
+    "outdir",
+    type=click.Path(path_type=Path),
+    default=Path("."),
+    show_default=True,
+    help="Directory for the generated files.",
+)
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
 @fail_on_warning_option
 def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
@@ -259,17 +312,38 @@ MAX_UNIT = 247
 @main.command()
 @click.argument("files", nargs=-1, required=True, type=INPUT)
 @connection_options(serving=True)
-@click.option("--unit", "units", type=click.IntRange(0, MAX_UNIT), multiple=True,
-              help="Unit id of each FILE, by position (default 1, 2, ...; 0: any unit, one FILE only).")
+@click.option(
+    "--unit",
+    "units",
+    type=click.IntRange(0, MAX_UNIT),
+    multiple=True,
+    help="Unit id of each FILE, by position (default 1, 2, ...; 0: any unit, one FILE only).",
+)
 @click.option("--registers", type=INPUT, multiple=True, help="Initial raw values (JSON) of each FILE, by position.")
-@click.option("--set", "settings", multiple=True, metavar="NAME=VALUE",
-              help="Initial value of a function, in every FILE that has it.")
-@click.option("--scenario", "scenarios", multiple=True,
-              help="Seed each FILE's registers from its embedded test scenario of this id, by position.")
+@click.option(
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="Initial value of a function, in every FILE that has it.",
+)
+@click.option(
+    "--scenario",
+    "scenarios",
+    multiple=True,
+    help="Seed each FILE's registers from its embedded test scenario of this id, by position.",
+)
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
 @fail_on_warning_option
-def sim(files: tuple[Path, ...], connection: Connection, units: tuple[int, ...], registers: tuple[Path, ...],
-        settings: tuple[str, ...], scenarios: tuple[str, ...], permissive: bool) -> None:
+def sim(
+    files: tuple[Path, ...],
+    connection: Connection,
+    units: tuple[int, ...],
+    registers: tuple[Path, ...],
+    settings: tuple[str, ...],
+    scenarios: tuple[str, ...],
+    permissive: bool,
+) -> None:
     """Serve devices (MDL or Toolkit YAML) on one connection until SIGINT/SIGTERM: Modbus TCP, Modbus RTU
     on a serial line (--serial DEVICE), or RTU frames over TCP (--framer rtu).
 
@@ -319,8 +393,10 @@ def _by_position(option: str, values: tuple[T, ...], files: int) -> list[T | Non
     if not values:
         return [None] * files
     if len(values) != files:
-        raise click.UsageError(f"{option} is given {len(values)} time{'s' * (len(values) != 1)} for {files} "
-                               f"FILE{'s' * (files != 1)}: give it once per FILE, in the same order")
+        raise click.UsageError(
+            f"{option} is given {len(values)} time{'s' * (len(values) != 1)} for {files} "
+            f"FILE{'s' * (files != 1)}: give it once per FILE, in the same order"
+        )
     return list(values)
 
 
@@ -340,17 +416,26 @@ def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
     return served
 
 
-unit_option = click.option("--unit", type=click.IntRange(0, 255), default=1, show_default=True,
-                           help="Unit (device) id to talk to.")
+unit_option = click.option(
+    "--unit", type=click.IntRange(0, 255), default=1, show_default=True, help="Unit (device) id to talk to."
+)
 
 
 @main.command(name="import")
 @click.argument("file", type=INPUT)
-@click.option("--from", "fmt", type=click.Choice(formats.names(), case_sensitive=False),
-              help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
-                   ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).")
-@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
-              help="Output MDL file, - for stdout (default: stdout).")
+@click.option(
+    "--from",
+    "fmt",
+    type=click.Choice(formats.names(), case_sensitive=False),
+    help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
+    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output MDL file, - for stdout (default: stdout).",
+)
 @fail_on_warning_option
 def import_(file: Path, fmt: str | None, output: Path | None) -> None:
     """Convert another device description to MDL 1.0.
@@ -381,19 +466,38 @@ def _emit_text(text: str, output: Path | None) -> None:
 
 @main.command(name="export")
 @click.argument("file", type=INPUT)
-@click.option("--to", "fmt", required=True,
-              type=click.Choice(list(engines.outputs()), case_sensitive=False),
-              help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in engines.outputs().items()) + ".")
-@click.option("-o", "--output", type=click.Path(path_type=Path, allow_dash=True),
-              help="Output file (default: stdout); a folder for volttron.")
+@click.option(
+    "--to",
+    "fmt",
+    required=True,
+    type=click.Choice(list(engines.outputs()), case_sensitive=False),
+    help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in engines.outputs().items()) + ".",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output file (default: stdout); a folder for volttron.",
+)
 @connection_options(optional=True)
 @unit_option
-@click.option("--interval", type=click.FloatRange(0.1, 7 * 86400), metavar="S",
-              help="Seconds between polls the engine should use (default 60).")
+@click.option(
+    "--interval",
+    type=click.FloatRange(0.1, 7 * 86400),
+    metavar="S",
+    help="Seconds between polls the engine should use (default 60).",
+)
 @click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
 @fail_on_warning_option
-def export_(file: Path, fmt: str, output: Path | None, connection: Connection | None, unit: int,
-            interval: float | None, force: bool) -> None:
+def export_(
+    file: Path,
+    fmt: str,
+    output: Path | None,
+    connection: Connection | None,
+    unit: int,
+    interval: float | None,
+    force: bool,
+) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
     What the format cannot express is reported as one warning per kind of loss naming the functions
@@ -433,10 +537,16 @@ def export_(file: Path, fmt: str, output: Path | None, connection: Connection | 
 @main.command()
 @click.argument("files", nargs=-1, required=True, type=INPUT)
 @connection_options(timeout=0.5, retries=0)
-@click.option("--units", default="1-247", show_default=True, metavar="LIST",
-              help="Unit ids to ask: numbers and ranges, e.g. 1-10,17.")
-@click.option("--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table",
-              show_default=True)
+@click.option(
+    "--units",
+    default="1-247",
+    show_default=True,
+    metavar="LIST",
+    help="Unit ids to ask: numbers and ranges, e.g. 1-10,17.",
+)
+@click.option(
+    "--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table", show_default=True
+)
 @fail_on_warning_option
 def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: str) -> None:
     """Find which description answers at each unit id, by the marker values of its functions.
@@ -530,14 +640,30 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 @click.argument("names", nargs=-1)
 @connection_options()
 @unit_option
-@click.option("--format", "fmt", type=click.Choice(["table", "json", "csv", "senml"], case_sensitive=False),
-              default="table", show_default=True)
-@click.option("--interval", type=click.FloatRange(0.1, 86400), metavar="S",
-              help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.")
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["table", "json", "csv", "senml"], case_sensitive=False),
+    default="table",
+    show_default=True,
+)
+@click.option(
+    "--interval",
+    type=click.FloatRange(0.1, 86400),
+    metavar="S",
+    help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.",
+)
 @click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
 @fail_on_warning_option
-def read(file: Path, names: tuple[str, ...], connection: Connection, unit: int, fmt: str, interval: float | None,
-         count: int | None) -> None:
+def read(
+    file: Path,
+    names: tuple[str, ...],
+    connection: Connection,
+    unit: int,
+    fmt: str,
+    interval: float | None,
+    count: int | None,
+) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
     With --interval, poll: one record per poll (json: one object per line, "time" first; csv: a header,

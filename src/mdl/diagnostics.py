@@ -54,9 +54,7 @@ class MdlError(Exception):
     def __init__(self, diagnostics: str | Diagnostic | Iterable[str | Diagnostic], exit_code: int = EXIT_INVALID):
         if isinstance(diagnostics, (str, Diagnostic)):
             diagnostics = [diagnostics]
-        self.diagnostics = [
-            d if isinstance(d, Diagnostic) else Diagnostic(None, None, None, d) for d in diagnostics
-        ]
+        self.diagnostics = [d if isinstance(d, Diagnostic) else Diagnostic(None, None, None, d) for d in diagnostics]
         self.exit_code = exit_code
         super().__init__("\n".join(str(d) for d in self.diagnostics))
 
@@ -125,9 +123,17 @@ class Collector:
     past `max_errors` (None: no cap) are counted in one last error; one given `always` (why a reader
     stopped) is said even then. With `notes_once`, a note whose text was said is not said again."""
 
-    def __init__(self, file: StrPath | None = None, *, shown_each: int = SHOWN_EACH, shown_lines: int = SHOWN_LINES,
-                 fold: bool = False, max_errors: int | None = None, kind_of: Callable[[str], str] | None = None,
-                 notes_once: bool = False) -> None:
+    def __init__(
+        self,
+        file: StrPath | None = None,
+        *,
+        shown_each: int = SHOWN_EACH,
+        shown_lines: int = SHOWN_LINES,
+        fold: bool = False,
+        max_errors: int | None = None,
+        kind_of: Callable[[str], str] | None = None,
+        notes_once: bool = False,
+    ) -> None:
         self.file = str(file) if file else None
         self.shown_each, self.shown_lines, self.fold = shown_each, shown_lines, fold
         self.max_errors, self.kind_of, self.notes_once = max_errors, kind_of, notes_once
@@ -143,16 +149,38 @@ class Collector:
     def failed(self) -> bool:
         return self.counts["error"] > 0
 
-    def error(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
-              always: bool = False, file: str | None = None) -> None:
+    def error(
+        self,
+        message: str,
+        line: int | None = None,
+        col: int | None = None,
+        *,
+        kind: str | None = None,
+        always: bool = False,
+        file: str | None = None,
+    ) -> None:
         self.add(Diagnostic(file or self.file, line, col, message), kind=kind, always=always)
 
-    def warn(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
-             file: str | None = None) -> None:
+    def warn(
+        self,
+        message: str,
+        line: int | None = None,
+        col: int | None = None,
+        *,
+        kind: str | None = None,
+        file: str | None = None,
+    ) -> None:
         self.add(Diagnostic(file or self.file, line, col, message, "warning"), kind=kind)
 
-    def note(self, message: str, line: int | None = None, col: int | None = None, *, kind: str | None = None,
-             file: str | None = None) -> None:
+    def note(
+        self,
+        message: str,
+        line: int | None = None,
+        col: int | None = None,
+        *,
+        kind: str | None = None,
+        file: str | None = None,
+    ) -> None:
         self.add(Diagnostic(file or self.file, line, col, message, "note"), kind=kind)
 
     def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
@@ -162,8 +190,12 @@ class Collector:
                 return False
             self._noted.add(diag.message)
         self.counts[diag.severity] += 1
-        if diag.severity == "error" and not always and self.max_errors is not None \
-                and self._errors_said >= self.max_errors:
+        if (
+            diag.severity == "error"
+            and not always
+            and self.max_errors is not None
+            and self._errors_said >= self.max_errors
+        ):
             if self._more_errors is None:
                 self._more_errors = _Kind([diag])
             self._more_errors.add_row(diag.line, self.shown_lines)
@@ -206,17 +238,24 @@ class Collector:
         more = self._more_errors
         if more is not None:
             first, n = more.said[0], more.times
-            out.append(Diagnostic(first.file, first.line, first.col,
-                                  f"{n:,} more error{'s' * (n > 1)} not shown (first at {more.where()}): "
-                                  f"only the first {self.max_errors} are"))
+            out.append(
+                Diagnostic(
+                    first.file,
+                    first.line,
+                    first.col,
+                    f"{n:,} more error{'s' * (n > 1)} not shown (first at {more.where()}): "
+                    f"only the first {self.max_errors} are",
+                )
+            )
         return out if severity is None else [d for d in out if d.severity == severity]
 
     @staticmethod
     def _summary(kind: str, seen: _Kind) -> Diagnostic:
         first = seen.said[0]
         rows = f"{seen.rows:,} row{'s' * (seen.rows > 1)}"
-        return Diagnostic(first.file, first.line, first.col, f"{kind} on {rows} (first at {seen.where()})",
-                          first.severity)
+        return Diagnostic(
+            first.file, first.line, first.col, f"{kind} on {rows} (first at {seen.where()})", first.severity
+        )
 
     def _folded_one(self, seen: _Kind) -> Diagnostic:
         last = seen.said[-1]
@@ -226,8 +265,9 @@ class Collector:
         lines = ", ".join(str(line) for line in seen.lines if line)
         etc = ", ..." if more > self.shown_lines else ""
         where = f" (lines {lines}{etc})" if lines else ""
-        return Diagnostic(last.file, last.line, last.col, f"{last.message}; and {more:,} more like it{where}",
-                          last.severity)
+        return Diagnostic(
+            last.file, last.line, last.col, f"{last.message}; and {more:,} more like it{where}", last.severity
+        )
 
 
 TextStyle = Literal["xml", "plain", "single", "double"]  # how raw source text maps to the parsed text
@@ -256,7 +296,7 @@ class TextSpan:
         done = 0
         while done < max(offset, 0) and i < len(raw):
             step = self._step(raw, i)
-            for ch in raw[i:i + step]:
+            for ch in raw[i : i + step]:
                 line, col = (line + 1, 1) if ch == "\n" else (line, col + 1)
             i += step
             done += 1
@@ -265,7 +305,7 @@ class TextSpan:
     def _step(self, raw: str, i: int) -> int:
         """How many raw characters make the parsed character at raw[i]."""
         ch = raw[i]
-        if ch == "\r" and raw[i + 1:i + 2] == "\n":
+        if ch == "\r" and raw[i + 1 : i + 2] == "\n":
             return 2
         if self.style == "xml":
             if ch == "&":
@@ -279,7 +319,7 @@ class TextSpan:
             return j - i
         if self.style == "double" and ch == "\\" and i + 1 < len(raw):
             return _YAML_ESCAPE.get(raw[i + 1], 2)
-        if self.style == "single" and raw[i:i + 2] == "\'\'":
+        if self.style == "single" and raw[i : i + 2] == "''":
             return 2
         return 1
 

@@ -88,9 +88,7 @@ def decode_text(data: bytes, path: StrPath, encodings: tuple[str, ...] = ("utf-8
     assert first_exc is not None, "decode_text needs at least one encoding"
     line = data[: first_exc.start].count(b"\n") + 1
     col = first_exc.start - (data.rfind(b"\n", 0, first_exc.start) + 1) + 1
-    raise error(
-        f"cannot decode byte 0x{data[first_exc.start]:02x} as {first_exc.encoding}", path, line, col
-    )
+    raise error(f"cannot decode byte 0x{data[first_exc.start]:02x} as {first_exc.encoding}", path, line, col)
 
 
 def read_text(path: StrPath, encodings: tuple[str, ...] = ("utf-8",)) -> str:

@@ -46,8 +46,11 @@ def defined_addresses(device: Device, layouts: Layouts | None = None) -> dict[st
 
 
 def plan_reads(
-    device: Device, functions: Iterable[Function] | None = None, max_registers: int | None = None,
-    layouts: Layouts | None = None, defined: Mapping[str, set[int]] | None = None,
+    device: Device,
+    functions: Iterable[Function] | None = None,
+    max_registers: int | None = None,
+    layouts: Layouts | None = None,
+    defined: Mapping[str, set[int]] | None = None,
 ) -> list[Request]:
     """The requests that read `functions` (every readable one by default). `defined` (table -> the
     addresses the device defines) may be given as `defined_addresses` computes it."""
@@ -78,8 +81,10 @@ def plan_reads(
         while i < len(points):
             start = end = points[i]
             names_in: dict[str, None] = {}  # ordered, without repeats
-            while i < len(points) and points[i] - start < limit and (
-                points[i] == end + 1 or all(a in there for a in range(end + 1, points[i] + 1))
+            while (
+                i < len(points)
+                and points[i] - start < limit
+                and (points[i] == end + 1 or all(a in there for a in range(end + 1, points[i] + 1)))
             ):
                 end = points[i]
                 names_in.update(dict.fromkeys(needed[table][end]))
@@ -115,5 +120,3 @@ def plan_groups(device: Device, layouts: Layouts | None = None) -> list[tuple[Re
         parts = split_request(device, req, layouts)
         out.append((req, parts if parts != [req] else []))
     return out
-
-

@@ -12,15 +12,40 @@ from mdl.lang.expr.parser import Parser
 from mdl.model.addressing import AddressError, address_range, address_run, match_address, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_BITS
 
-PREFIXES = ["hr:", "HR :", "holding-register:", "holding_register:", "ir:", "input-register:", "c:", "coil:", "di:",
-            "discrete-input:", "4x", "3X", "1x", "0x", "2x", "4", "3", "0", "1", "x:", ""]
-numbers = st.one_of(st.integers(0, 70000).map(str), st.integers(0, 10**40).map(str),
-                    st.integers(0, 5).map(lambda n: "0" * n + "1"), st.just("9" * 5000),
-                    st.text(alphabet="0123456789\u0663\u00b2 ", max_size=12))
+PREFIXES = [
+    "hr:",
+    "HR :",
+    "holding-register:",
+    "holding_register:",
+    "ir:",
+    "input-register:",
+    "c:",
+    "coil:",
+    "di:",
+    "discrete-input:",
+    "4x",
+    "3X",
+    "1x",
+    "0x",
+    "2x",
+    "4",
+    "3",
+    "0",
+    "1",
+    "x:",
+    "",
+]
+numbers = st.one_of(
+    st.integers(0, 70000).map(str),
+    st.integers(0, 10**40).map(str),
+    st.integers(0, 5).map(lambda n: "0" * n + "1"),
+    st.just("9" * 5000),
+    st.text(alphabet="0123456789\u0663\u00b2 ", max_size=12),
+)
 addresses = st.one_of(st.builds(str.__add__, st.sampled_from(PREFIXES), numbers), st.text(max_size=30))
-register_sets = st.lists(st.tuples(addresses, st.sampled_from(["", "#", "..", " # "]), numbers | addresses),
-                         min_size=1, max_size=6).map(
-    lambda parts: ", ".join(a + sep + (b if sep else "") for a, sep, b in parts))
+register_sets = st.lists(
+    st.tuples(addresses, st.sampled_from(["", "#", "..", " # "]), numbers | addresses), min_size=1, max_size=6
+).map(lambda parts: ", ".join(a + sep + (b if sep else "") for a, sep, b in parts))
 
 
 @settings(max_examples=1500, deadline=None)

@@ -20,39 +20,179 @@ from mdl.sources.csvmap.command import run_csv2xml
 from mdl.sources.mdlxml import validate_file
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep
-ADDRESSES = (["0", "1", "2", "7", "100", "101", "40001", "400001", "30010", "10001", "0x10", "10h", "hr:2..hr:5",
-              "hr:2#4", "0 to 3", "22to100", "17,18,19", "4x0102", "3x0001", "1x2", "c:1", "di:1", "400001#2"],
-             ["hr:2#99999999999", "0 to 99999999999", "0x0 to 0xFFFFFFFFFF", "0x" + "F" * 5000, "566 - 583", "-1",
-              "65535", "65536", "\u00b2", "\u0663", "1\u00b2", "9" * 5000, "0" * 300 + "1", "1e3", " ", "", "hr:",
-              "#", "to", "1..", "..2", "5-2", "1,1", "ir:0#0", "hr:1 and hr:3", "4&5", "7/8", "\u2013", "FFFFh"])
-DESCRIPTIONS = (["Room temperature", "Setpoint", "Fan speed", "Phase 1 voltage", "Serial number", "Humidity",
-                 "Firmware version", "temperature", "Operating mode", "CO2"], ["", "\u00b2", "x" * 300])
-FORMATS = (["UINT16", "int16", "float", "FLOAT64", "IEEE754 float", "string[8]", "STR", "bool", "uint64", "bit",
-            "text", "int8", "dword", "char[4]", "uint32", ""],
-           ["char(0)", "string99999999999", "string" + "9" * 5000, "ascii\u00b2", "string\u0663", "?", ">I", "<h",
-            ">xB", ">B", "=q", ">Ix", "<d", "INT"])
+ADDRESSES = (
+    [
+        "0",
+        "1",
+        "2",
+        "7",
+        "100",
+        "101",
+        "40001",
+        "400001",
+        "30010",
+        "10001",
+        "0x10",
+        "10h",
+        "hr:2..hr:5",
+        "hr:2#4",
+        "0 to 3",
+        "22to100",
+        "17,18,19",
+        "4x0102",
+        "3x0001",
+        "1x2",
+        "c:1",
+        "di:1",
+        "400001#2",
+    ],
+    [
+        "hr:2#99999999999",
+        "0 to 99999999999",
+        "0x0 to 0xFFFFFFFFFF",
+        "0x" + "F" * 5000,
+        "566 - 583",
+        "-1",
+        "65535",
+        "65536",
+        "\u00b2",
+        "\u0663",
+        "1\u00b2",
+        "9" * 5000,
+        "0" * 300 + "1",
+        "1e3",
+        " ",
+        "",
+        "hr:",
+        "#",
+        "to",
+        "1..",
+        "..2",
+        "5-2",
+        "1,1",
+        "ir:0#0",
+        "hr:1 and hr:3",
+        "4&5",
+        "7/8",
+        "\u2013",
+        "FFFFh",
+    ],
+)
+DESCRIPTIONS = (
+    [
+        "Room temperature",
+        "Setpoint",
+        "Fan speed",
+        "Phase 1 voltage",
+        "Serial number",
+        "Humidity",
+        "Firmware version",
+        "temperature",
+        "Operating mode",
+        "CO2",
+    ],
+    ["", "\u00b2", "x" * 300],
+)
+FORMATS = (
+    [
+        "UINT16",
+        "int16",
+        "float",
+        "FLOAT64",
+        "IEEE754 float",
+        "string[8]",
+        "STR",
+        "bool",
+        "uint64",
+        "bit",
+        "text",
+        "int8",
+        "dword",
+        "char[4]",
+        "uint32",
+        "",
+    ],
+    [
+        "char(0)",
+        "string99999999999",
+        "string" + "9" * 5000,
+        "ascii\u00b2",
+        "string\u0663",
+        "?",
+        ">I",
+        "<h",
+        ">xB",
+        ">B",
+        "=q",
+        ">Ix",
+        "<d",
+        "INT",
+    ],
+)
 WORD_ORDERS = (["TRUE", "FALSE", ""], ["CDAB", "little", "sideways", "\u00b2"])
-NUMBERS = (["0", "1", "0.1", "0,1", "10", "-40", "1/10", "x10", ""],
-           ["1.234,5", "1/0", "0/0", "1e999", "-1e999", "nan", "inf", "\u22125", "\u0661", "99999999999",
-            "9" * 5000, "abc", "1e-400", "-0"])
-COUNTS = (["1", "2", "4", ""], ["0", "-1", "125", "126", "2000", "99999999999", "1e300", "0x10", "1.5", "\u00b2",
-                                "9" * 5000])
+NUMBERS = (
+    ["0", "1", "0.1", "0,1", "10", "-40", "1/10", "x10", ""],
+    [
+        "1.234,5",
+        "1/0",
+        "0/0",
+        "1e999",
+        "-1e999",
+        "nan",
+        "inf",
+        "\u22125",
+        "\u0661",
+        "99999999999",
+        "9" * 5000,
+        "abc",
+        "1e-400",
+        "-0",
+    ],
+)
+COUNTS = (
+    ["1", "2", "4", ""],
+    ["0", "-1", "125", "126", "2000", "99999999999", "1e300", "0x10", "1.5", "\u00b2", "9" * 5000],
+)
 LENGTHS = (["Lower byte", "Upper byte", "Full word", ""], ["low", "hi", "16 bit", "x", "2"])
 ACCESS = (["R", "W", "R/W", "rw", "read only", ""], ["x", "\u00b2"])
 TABLES = (["holding", "input", "coil", "discrete", "FC03", "3", ""], ["fc05", "\u00b2", "4x", "x"])
 UNITS = (["\u00b0C", "%", "V", "kWh", ""], ["\u00b2"])
 NOTES = (["see page 3", ""], ["#comment", '"', '""', "a\nb", "\r", "\ufeff", "\x85", "\u2028"])
 COLUMNS = {  # a header text -> the cells its column holds
-    "Address": ADDRESSES, "Register": ADDRESSES, "Reg No": ADDRESSES, "Modbus Address": ADDRESSES,
-    "Address (hex)": ADDRESSES, "Offset": ADDRESSES, "Description": DESCRIPTIONS, "Parameter": DESCRIPTIONS,
-    "Name": DESCRIPTIONS, "Tag": DESCRIPTIONS, "Format": FORMATS, "Data Type": FORMATS,
-    "Type": (FORMATS[0] + TABLES[0], FORMATS[1] + TABLES[1]), "Count": COUNTS, "Words": COUNTS, "Bytes": COUNTS,
-    "Length": (LENGTHS[0], LENGTHS[1] + COUNTS[1]), "Multiplier": NUMBERS, "Scale": NUMBERS, "Units": UNITS,
-    "Access": ACCESS, "R/W": ACCESS, "Block": DESCRIPTIONS, "Register Type": TABLES, "Function Code": TABLES,
-    "Min": NUMBERS, "Max": NUMBERS, "Value Offset": NUMBERS, "Notes": NOTES, "Mixed Endian": WORD_ORDERS,
+    "Address": ADDRESSES,
+    "Register": ADDRESSES,
+    "Reg No": ADDRESSES,
+    "Modbus Address": ADDRESSES,
+    "Address (hex)": ADDRESSES,
+    "Offset": ADDRESSES,
+    "Description": DESCRIPTIONS,
+    "Parameter": DESCRIPTIONS,
+    "Name": DESCRIPTIONS,
+    "Tag": DESCRIPTIONS,
+    "Format": FORMATS,
+    "Data Type": FORMATS,
+    "Type": (FORMATS[0] + TABLES[0], FORMATS[1] + TABLES[1]),
+    "Count": COUNTS,
+    "Words": COUNTS,
+    "Bytes": COUNTS,
+    "Length": (LENGTHS[0], LENGTHS[1] + COUNTS[1]),
+    "Multiplier": NUMBERS,
+    "Scale": NUMBERS,
+    "Units": UNITS,
+    "Access": ACCESS,
+    "R/W": ACCESS,
+    "Block": DESCRIPTIONS,
+    "Register Type": TABLES,
+    "Function Code": TABLES,
+    "Min": NUMBERS,
+    "Max": NUMBERS,
+    "Value Offset": NUMBERS,
+    "Notes": NOTES,
+    "Mixed Endian": WORD_ORDERS,
 }
-ANY_CELL = st.sampled_from(sorted({cell for pair in COLUMNS.values() for cells in pair for cell in cells})) \
-    | st.text(max_size=10)
+ANY_CELL = st.sampled_from(sorted({cell for pair in COLUMNS.values() for cells in pair for cell in cells})) | st.text(
+    max_size=10
+)
 
 
 def often(common: list, rare: list) -> st.SearchStrategy:
@@ -75,8 +215,11 @@ def tables(draw: st.DrawFn) -> bytes:
             header.insert(draw(st.integers(0, len(header))), name)
     header = header or ["Address"]
     titles = draw(st.lists(st.lists(ANY_CELL, max_size=3), max_size=2))
-    data = draw(st.lists(st.tuples(*(st.one_of(cell_of(h), cell_of(h), cell_of(h), ANY_CELL) for h in header))
-                         .map(list), max_size=8))
+    data = draw(
+        st.lists(
+            st.tuples(*(st.one_of(cell_of(h), cell_of(h), cell_of(h), ANY_CELL) for h in header)).map(list), max_size=8
+        )
+    )
     lines = [*titles, header, *data]
     if draw(st.booleans()):
         buf = io.StringIO()
@@ -90,18 +233,89 @@ def tables(draw: st.DrawFn) -> bytes:
     return text.encode(encoding, errors="replace") + draw(often([b""], [b"\xff\xfe", b"\x81", b"\x00"]))
 
 
-SECTIONS = ["Modbus Device", "Input/Output", "Column/Field Indices", "Additional Column/Field Indices",
-            "Function Name Search Synonyms", "modbus device", "Other"]
-KEYS = ["name", "description", "addresses", "length", "count", "format", "block_label", "multiplier", "units",
-        "divisor",
-        "read_function_code", "write_function_code", "register_type", "access", "minimum", "maximum", "offset",
-        "device_name", "device_description", "address_base", "byte_order", "word_order", "count_unit",
-        "threshold", "default_synonyms", "address_map_csv_file", "lines_to_skip", "output_xml_file",
-        "temperature", "setpoint", "fan_speed", "operation_info"]
-VALUES = ["0", "1", "2", "3", "7", "\u00b2", "\u0663", "9" * 5000, "", "yes", "no", "big", "little", "modicon",
-          "words", "bytes", "holding", "coil", "0.5", "2", "-1", "nan", "Address", "Description", "Format",
-          "temperature, room temperature", ",", "table.csv", "missing.csv", ".", "..", "/", "out.xml",
-          "x*2", "r[0]", "(", "1/0", "\u00b0C"]
+SECTIONS = [
+    "Modbus Device",
+    "Input/Output",
+    "Column/Field Indices",
+    "Additional Column/Field Indices",
+    "Function Name Search Synonyms",
+    "modbus device",
+    "Other",
+]
+KEYS = [
+    "name",
+    "description",
+    "addresses",
+    "length",
+    "count",
+    "format",
+    "block_label",
+    "multiplier",
+    "units",
+    "divisor",
+    "read_function_code",
+    "write_function_code",
+    "register_type",
+    "access",
+    "minimum",
+    "maximum",
+    "offset",
+    "device_name",
+    "device_description",
+    "address_base",
+    "byte_order",
+    "word_order",
+    "count_unit",
+    "threshold",
+    "default_synonyms",
+    "address_map_csv_file",
+    "lines_to_skip",
+    "output_xml_file",
+    "temperature",
+    "setpoint",
+    "fan_speed",
+    "operation_info",
+]
+VALUES = [
+    "0",
+    "1",
+    "2",
+    "3",
+    "7",
+    "\u00b2",
+    "\u0663",
+    "9" * 5000,
+    "",
+    "yes",
+    "no",
+    "big",
+    "little",
+    "modicon",
+    "words",
+    "bytes",
+    "holding",
+    "coil",
+    "0.5",
+    "2",
+    "-1",
+    "nan",
+    "Address",
+    "Description",
+    "Format",
+    "temperature, room temperature",
+    ",",
+    "table.csv",
+    "missing.csv",
+    ".",
+    "..",
+    "/",
+    "out.xml",
+    "x*2",
+    "r[0]",
+    "(",
+    "1/0",
+    "\u00b0C",
+]
 
 
 @st.composite
@@ -132,8 +346,9 @@ def assert_positioned(exc: MdlError) -> None:
         assert re.match(r"^.+?(:\d+(:\d+)?)?: error: \S", str(diag)), str(diag)
 
 
-def convert(folder: Path, table: bytes, ini: str | None, ini_names_table: bool, threshold: float | None,
-            emit_all: bool) -> None:
+def convert(
+    folder: Path, table: bytes, ini: str | None, ini_names_table: bool, threshold: float | None, emit_all: bool
+) -> None:
     """`mdl csv2xml` in process: output that validates, or MdlError with positions."""
     source = folder / "table.csv"
     source.write_bytes(table)
@@ -183,8 +398,10 @@ HOSTILE = {  # a handful through the command line, as users meet them
     "binary": (b"\x89PNG\r\n\x1a\n\x00\x00", None),
     "huge_run": (b"Address,Description,Format\nhr:2#99999999999,Room temperature,UINT16\n", None),
     "long_digits": (b"Address,Description\n" + b"9" * 5000 + b",Room temperature\n", None),
-    "unicode_digit_index": (b"Address,Description\n1,Room temperature\n",
-                            "[Column/Field Indices]\naddresses = \u00b2\n"),
+    "unicode_digit_index": (
+        b"Address,Description\n1,Room temperature\n",
+        "[Column/Field Indices]\naddresses = \u00b2\n",
+    ),
     "stray_quote": (b'Address,Description\n1,"Room temperature\n2,Setpoint\n', None),
     "control_character_in_name": (ROOM, "[Modbus Device]\ndevice_name = a\x1bb\n"),
     "continued_value": (ROOM, "[Input/Output]\nlines_to_skip = 1\n  2\n"),

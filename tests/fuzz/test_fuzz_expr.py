@@ -15,35 +15,137 @@ from mdl.model import BIT_TABLES, Device, Function
 
 FIELDS = ("A", "B c")
 TOKENS = [
-    "int16(", "uint16(", "int32(", "uint32(", "int64(", "uint64(", "ieee754_32(", "ieee754_64(", "utf8(",
-    "hexstring(", "eui48(", "ipv4addr(", "ipv6addr(", "enum(", "bitset(", "bitsetbit(", "boolean(", "concat(",
-    "swapbytes(", "swapendian(", "nosuch(", "hr:0", "hr:1", "hr:65535", "ir:2", "c:0", "di:3", "4x0001", "40001",
-    "300001", "0x1", "#", "#2", "#0", "#4", "#3000000000", "..", "..hr:3", ",", ";", "0xDEAD", "0x8000", "0xFFFF",
-    " ", "->", "-1 ->", "'a'", "'b'", "'", '"', '"0x1234"', '"0x0001 0x0002"', "(", ")", "+", "-", "*", "/", "^",
-    "0", "1", "2.5", ".5", "1e308", "1e309", "9223372036854775807", "9223372036854775808", "65536", "A", "B c",
-    "B", "true", "false", "\t", "\u00b2", "\u0663",
+    "int16(",
+    "uint16(",
+    "int32(",
+    "uint32(",
+    "int64(",
+    "uint64(",
+    "ieee754_32(",
+    "ieee754_64(",
+    "utf8(",
+    "hexstring(",
+    "eui48(",
+    "ipv4addr(",
+    "ipv6addr(",
+    "enum(",
+    "bitset(",
+    "bitsetbit(",
+    "boolean(",
+    "concat(",
+    "swapbytes(",
+    "swapendian(",
+    "nosuch(",
+    "hr:0",
+    "hr:1",
+    "hr:65535",
+    "ir:2",
+    "c:0",
+    "di:3",
+    "4x0001",
+    "40001",
+    "300001",
+    "0x1",
+    "#",
+    "#2",
+    "#0",
+    "#4",
+    "#3000000000",
+    "..",
+    "..hr:3",
+    ",",
+    ";",
+    "0xDEAD",
+    "0x8000",
+    "0xFFFF",
+    " ",
+    "->",
+    "-1 ->",
+    "'a'",
+    "'b'",
+    "'",
+    '"',
+    '"0x1234"',
+    '"0x0001 0x0002"',
+    "(",
+    ")",
+    "+",
+    "-",
+    "*",
+    "/",
+    "^",
+    "0",
+    "1",
+    "2.5",
+    ".5",
+    "1e308",
+    "1e309",
+    "9223372036854775807",
+    "9223372036854775808",
+    "65536",
+    "A",
+    "B c",
+    "B",
+    "true",
+    "false",
+    "\t",
+    "\u00b2",
+    "\u0663",
 ]
 OPENERS = ["(", "-", "concat(", "boolean(", "int16(swapbytes(", "2^", "1+", "1*", "+"]
 
 token_soup = st.lists(st.sampled_from(TOKENS), max_size=40).map("".join)
-nested = st.builds(lambda opener, n, inner: opener * n + inner + ")" * (n * opener.count("(")),
-                   st.sampled_from(OPENERS), st.integers(0, 3 * MAX_DEPTH), st.sampled_from(["1", "A", "hr:0", "c:0"]))
-leaves = st.sampled_from(["0", "1", "-7", "2.5", "1e300", "A", "B c", "true", "'t'", "int16(hr:0)", "uint64(hr:0#4)",
-                          "ieee754_32(hr:2#2; 0xDEAD 0xDEAD)", "ieee754_64(swapendian(hr:0#4))", "utf8(hr:4#3)",
-                          "enum(hr:7; 1 -> 'a'; 0xFFFF -> 'b')", "bitset(hr:8; 0 -> 'x')", "bitsetbit(hr:8; 3)",
-                          "int32(hr:9, hr:8)", 'int16("0x8000")', "hexstring(hr:1..hr:3)"])
-well_formed = st.recursive(leaves, lambda inner: st.one_of(
-    st.builds("{} {} {}".format, inner, st.sampled_from(["+", "-", "*", "/", "^"]), inner),
-    st.builds("({})".format, inner), st.builds("-{}".format, inner), st.builds("{}({})".format, inner, inner),
-    st.builds("concat({}, {})".format, inner, inner)), max_leaves=12)
+nested = st.builds(
+    lambda opener, n, inner: opener * n + inner + ")" * (n * opener.count("(")),
+    st.sampled_from(OPENERS),
+    st.integers(0, 3 * MAX_DEPTH),
+    st.sampled_from(["1", "A", "hr:0", "c:0"]),
+)
+leaves = st.sampled_from(
+    [
+        "0",
+        "1",
+        "-7",
+        "2.5",
+        "1e300",
+        "A",
+        "B c",
+        "true",
+        "'t'",
+        "int16(hr:0)",
+        "uint64(hr:0#4)",
+        "ieee754_32(hr:2#2; 0xDEAD 0xDEAD)",
+        "ieee754_64(swapendian(hr:0#4))",
+        "utf8(hr:4#3)",
+        "enum(hr:7; 1 -> 'a'; 0xFFFF -> 'b')",
+        "bitset(hr:8; 0 -> 'x')",
+        "bitsetbit(hr:8; 3)",
+        "int32(hr:9, hr:8)",
+        'int16("0x8000")',
+        "hexstring(hr:1..hr:3)",
+    ]
+)
+well_formed = st.recursive(
+    leaves,
+    lambda inner: st.one_of(
+        st.builds("{} {} {}".format, inner, st.sampled_from(["+", "-", "*", "/", "^"]), inner),
+        st.builds("({})".format, inner),
+        st.builds("-{}".format, inner),
+        st.builds("{}({})".format, inner, inner),
+        st.builds("concat({}, {})".format, inner, inner),
+    ),
+    max_leaves=12,
+)
 expressions = st.one_of(st.text(max_size=60), token_soup, nested, well_formed)
 
 
 def _device(expression: str) -> Device:
     device = Device("fuzz", "fuzz", version="1.0")
-    device.functions = [Function("A", "A", [], block_labels=["M"], expression="int16(hr:5)"),
-                        Function("B c", "B c", [], block_labels=["M"], expression="ieee754_32(hr:6#2)"),
-                        Function("F", "F", [], block_labels=["M"], expression=expression)]
+    device.functions = [
+        Function("A", "A", [], block_labels=["M"], expression="int16(hr:5)"),
+        Function("B c", "B c", [], block_labels=["M"], expression="ieee754_32(hr:6#2)"),
+        Function("F", "F", [], block_labels=["M"], expression=expression),
+    ]
     return device
 
 

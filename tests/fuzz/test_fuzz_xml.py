@@ -23,48 +23,154 @@ from mdl.sources.mdlxml import device_to_xml, load_device, validate_file
 
 BASE = (DATA / "all_tables.xml").read_bytes()
 # a function's elements in schema order
-FUNCTION_TAGS = ["name", "description", "addresses", "length", "count", "format", "block_label", "multiplier",
-                 "units", "read_function_code", "write_function_code", "register_type", "byte_order", "word_order",
-                 "offset", "access", "minimum", "maximum", "not_implemented", "values", "expression", "immutable",
-                 "system", "fetch_group"]
-NUMBERS = ["0", "1", "-1", "0.1", "INF", "-INF", "NaN", "1e38", "1e39", "1e308", "1e309", "-0", "4.9e-324", "",
-           "x", "1,5", " 2 "]
+FUNCTION_TAGS = [
+    "name",
+    "description",
+    "addresses",
+    "length",
+    "count",
+    "format",
+    "block_label",
+    "multiplier",
+    "units",
+    "read_function_code",
+    "write_function_code",
+    "register_type",
+    "byte_order",
+    "word_order",
+    "offset",
+    "access",
+    "minimum",
+    "maximum",
+    "not_implemented",
+    "values",
+    "expression",
+    "immutable",
+    "system",
+    "fetch_group",
+]
+NUMBERS = [
+    "0",
+    "1",
+    "-1",
+    "0.1",
+    "INF",
+    "-INF",
+    "NaN",
+    "1e38",
+    "1e39",
+    "1e308",
+    "1e309",
+    "-0",
+    "4.9e-324",
+    "",
+    "x",
+    "1,5",
+    " 2 ",
+]
 BIG = ["99999999999", "9" * 5000, "0" * 5000 + "1", "+3", "\u0663"]
 TEXTS: dict[str, list[str]] = {
     "name": ["x", "", "a b", "1abc", "pump", "setpoint", "\u00e9t\u00e9", "x" * 300, "class", "_"],
     "description": ["", "text", "x" * 1000],
-    "addresses": ["0", "65535", "65536", "0 1", "1 0", "5 5", "100 102", "-1", "", " ", "0x10", "1.5",
-                  "0 " * 200, *BIG],
+    "addresses": [
+        "0",
+        "65535",
+        "65536",
+        "0 1",
+        "1 0",
+        "5 5",
+        "100 102",
+        "-1",
+        "",
+        " ",
+        "0x10",
+        "1.5",
+        "0 " * 200,
+        *BIG,
+    ],
     "count": ["1", "0", "-1", "2", "4", "125", "126", "2000", "", *BIG],
-    "format": ["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64", "FLOAT32", "FLOAT64",
-               "STRING", "BIT", "", "int16"],
+    "format": [
+        "INT8",
+        "UINT8",
+        "INT16",
+        "UINT16",
+        "INT32",
+        "UINT32",
+        "INT64",
+        "UINT64",
+        "FLOAT32",
+        "FLOAT64",
+        "STRING",
+        "BIT",
+        "",
+        "int16",
+    ],
     "length": ["Full word", "Lower byte", "Upper byte", "x"],
-    "multiplier": NUMBERS, "offset": NUMBERS, "minimum": NUMBERS, "maximum": NUMBERS,
+    "multiplier": NUMBERS,
+    "offset": NUMBERS,
+    "minimum": NUMBERS,
+    "maximum": NUMBERS,
     "units": ["", "\u00b0C", " V "],
-    "read_function_code": ["arg = r1 * 2;", "arg = (r1 >> 3) & 1;", "arg = r1 / 0;", "arg = r9;", "(", "",
-                           "arg = (float)r1 / 10.0f;", "arg = " + "(" * 300 + "r1" + ")" * 300 + ";"],
+    "read_function_code": [
+        "arg = r1 * 2;",
+        "arg = (r1 >> 3) & 1;",
+        "arg = r1 / 0;",
+        "arg = r9;",
+        "(",
+        "",
+        "arg = (float)r1 / 10.0f;",
+        "arg = " + "(" * 300 + "r1" + ")" * 300 + ";",
+    ],
     "write_function_code": ["r1 = (uint16_t)(arg * 10.0f);", "r1 = arg;", "r2 = arg;", ")", ""],
     "register_type": ["holding", "input", "coil", "discrete", "x"],
-    "byte_order": ["big", "little", "x"], "word_order": ["big", "little", "x"],
+    "byte_order": ["big", "little", "x"],
+    "word_order": ["big", "little", "x"],
     "access": ["read", "write", "read_write", "x"],
     "not_implemented": ["0xFFFF", "0xFFFFFFFF", "0x" + "F" * 16, "0x" + "F" * 17, "", "FFFF"],
-    "expression": ["int16(hr:0)", "uint32(hr:0#2)", "hr:0", "int16(hr:0; 0xDE 0xAD)", "utf8(hr:0#200)",
-                   "utf8(hr:1..hr:3000000000)", "enum(hr:0 ; ; 1 -> 'a')", "bitset(c:0#2000 ; ; 0 -> 'x')",
-                   "pump + 1", "setpoint * 2", "(", "1/0", "concat(label, 1)", "x" * 300, ""],
-    "immutable": ["true", "false", "1", "x"], "system": ["true", "0"], "fetch_group": ["a", ""],
-    "value": ["Off", "", "1.5", "x"], "input": ["0001", "FFFF ----", "xxxx", "0 1", "12345", ""],
+    "expression": [
+        "int16(hr:0)",
+        "uint32(hr:0#2)",
+        "hr:0",
+        "int16(hr:0; 0xDE 0xAD)",
+        "utf8(hr:0#200)",
+        "utf8(hr:1..hr:3000000000)",
+        "enum(hr:0 ; ; 1 -> 'a')",
+        "bitset(c:0#2000 ; ; 0 -> 'x')",
+        "pump + 1",
+        "setpoint * 2",
+        "(",
+        "1/0",
+        "concat(label, 1)",
+        "x" * 300,
+        "",
+    ],
+    "immutable": ["true", "false", "1", "x"],
+    "system": ["true", "0"],
+    "fetch_group": ["a", ""],
+    "value": ["Off", "", "1.5", "x"],
+    "input": ["0001", "FFFF ----", "xxxx", "0 1", "12345", ""],
 }
-ATTRIBUTES = {"version": ["1.0", "0.9b", "2"], "max_registers": ["1", "125", "126", "0", *BIG],
-              "key": ["0", "-1", "65536", *BIG], "id": ["t", "", "x" * 300],
-              "address": ["0", "100", "65536", *BIG], "function": ["setpoint", "pump", "nosuch", ""],
-              "register_type": ["holding", "coil", "x"]}
-TESTS = (f'<tests xmlns="{MDL_NS}"><test id="t"><input address="100">0001</input>'
-         '<expect function="setpoint"><value>0.1</value></expect></test></tests>')
+ATTRIBUTES = {
+    "version": ["1.0", "0.9b", "2"],
+    "max_registers": ["1", "125", "126", "0", *BIG],
+    "key": ["0", "-1", "65536", *BIG],
+    "id": ["t", "", "x" * 300],
+    "address": ["0", "100", "65536", *BIG],
+    "function": ["setpoint", "pump", "nosuch", ""],
+    "register_type": ["holding", "coil", "x"],
+}
+TESTS = (
+    f'<tests xmlns="{MDL_NS}"><test id="t"><input address="100">0001</input>'
+    '<expect function="setpoint"><value>0.1</value></expect></test></tests>'
+)
 
 xml_text = st.text(st.characters(blacklist_categories=("Cs", "Cc")) | st.sampled_from("\t\n"), max_size=12)
 MUTATIONS = ("field", "field", "field", "field", "text", "remove", "repeat", "attribute", "tests", "raw")
-mutations = st.lists(st.tuples(st.sampled_from(MUTATIONS), st.integers(0, 10**6), st.integers(0, 10**6),
-                               st.booleans(), xml_text), min_size=1, max_size=4)
+mutations = st.lists(
+    st.tuples(st.sampled_from(MUTATIONS), st.integers(0, 10**6), st.integers(0, 10**6), st.booleans(), xml_text),
+    min_size=1,
+    max_size=4,
+)
 
 
 def _q(tag: str) -> str:
@@ -128,7 +234,7 @@ def mutate(ops: list[tuple[str, int, int, bool, str]]) -> bytes:
     data = etree.tostring(tree, encoding="US-ASCII", xml_declaration=True)
     for where, pick, text in raw:  # cut a slice out, or put text in, anywhere
         at, size = where % len(data), pick % 40
-        data = data[:at] + (text.encode() if size % 2 else b"") + data[at + size:]
+        data = data[:at] + (text.encode() if size % 2 else b"") + data[at + size :]
     return data
 
 
@@ -160,8 +266,7 @@ def check(folder: Path, data: bytes) -> None:
     again = folder / "again.xml"
     again.write_text(device_to_xml(device), encoding="ascii")
     again_device, again_diagnostics = validate_file(again)
-    assert again_device is not None and not [d for d in again_diagnostics if d.severity == "error"], \
-        again_diagnostics
+    assert again_device is not None and not [d for d in again_diagnostics if d.severity == "error"], again_diagnostics
 
 
 @settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -183,8 +288,9 @@ def test_validate_gives_valid_or_positioned_errors(ops):
 HOSTILE = {  # a handful through the command line
     "nul": BASE.replace(b"<name>pump", b"<name>pu\x00mp"),
     "long_key": BASE.replace(b'<value key="0">', b'<value key="' + b"9" * 5000 + b'">'),
-    "long_input_address": BASE.replace(b"</device>", TESTS.replace('address="100"', 'address="' + "1" * 5000 + '"')
-                                       .encode() + b"</device>"),
+    "long_input_address": BASE.replace(
+        b"</device>", TESTS.replace('address="100"', 'address="' + "1" * 5000 + '"').encode() + b"</device>"
+    ),
     "doctype": BASE.replace(b"<device", b'<!DOCTYPE d [<!ENTITY a "aaaa">]>\n<device', 1),
     "long_count": BASE.replace(b"<count>4</count>", b"<count>" + b"9" * 5000 + b"</count>"),
     "deep": BASE.replace(b"</device>", b"<x>" * 10000 + b"</x>" * 10000 + b"</device>"),

@@ -31,10 +31,55 @@ tests:
           F: [ 1 ]
 """
 PIECES = [
-    "\n", " ", "  ", "- ", ": ", "-", ":", ",", "[", "]", "{", "}", "? ", "#", "&a ", "*a", "!!str ", "!x ", "'", '"',
-    "|\n", ">\n", "---\n", "...\n", "%YAML 1.1\n", "\t", "id", "blocks", "fields", "expression", "tests", "input",
-    "expected", "firstAddress", "rawValues", "registers", "maxRegistersPerModbusRequest", "immutable", "true",
-    "'hr:0'", "'c:65535'", "0001 0002", "0101", "hr:1#3000000000", "int16(hr:0)", "((((", "\u00b2", "\x00", "\ufeff",
+    "\n",
+    " ",
+    "  ",
+    "- ",
+    ": ",
+    "-",
+    ":",
+    ",",
+    "[",
+    "]",
+    "{",
+    "}",
+    "? ",
+    "#",
+    "&a ",
+    "*a",
+    "!!str ",
+    "!x ",
+    "'",
+    '"',
+    "|\n",
+    ">\n",
+    "---\n",
+    "...\n",
+    "%YAML 1.1\n",
+    "\t",
+    "id",
+    "blocks",
+    "fields",
+    "expression",
+    "tests",
+    "input",
+    "expected",
+    "firstAddress",
+    "rawValues",
+    "registers",
+    "maxRegistersPerModbusRequest",
+    "immutable",
+    "true",
+    "'hr:0'",
+    "'c:65535'",
+    "0001 0002",
+    "0101",
+    "hr:1#3000000000",
+    "int16(hr:0)",
+    "((((",
+    "\u00b2",
+    "\x00",
+    "\ufeff",
 ]
 SEEDS = [EXAMPLE, MINIMAL]
 
@@ -46,13 +91,16 @@ def mangled(draw: st.DrawFn) -> str:
     for _ in range(draw(st.integers(1, 6))):
         at = draw(st.integers(0, len(text)))
         cut = draw(st.integers(0, 8))
-        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut:]
+        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut :]
     return text
 
 
-nested = st.builds(lambda opener, closer, n: "description: 'x'\nblocks: " + opener * n + closer * n + "\n",
-                   st.sampled_from(["[", "{a: ", "[{a: "]), st.sampled_from(["]", "}", "}]"]),
-                   st.integers(0, 3 * MAX_YAML_DEPTH))
+nested = st.builds(
+    lambda opener, closer, n: "description: 'x'\nblocks: " + opener * n + closer * n + "\n",
+    st.sampled_from(["[", "{a: ", "[{a: "]),
+    st.sampled_from(["]", "}", "}]"]),
+    st.integers(0, 3 * MAX_YAML_DEPTH),
+)
 soup = st.lists(st.sampled_from(PIECES), max_size=40).map("".join)
 documents = st.one_of(mangled(), nested, soup, st.text(max_size=200))
 

@@ -35,8 +35,10 @@ SERIAL_OPTIONS = ("baud", "parity", "stopbits", "bytesize")
 OPTION_NAMES = ("host", "port", "serial", *SERIAL_OPTIONS, "framer", "timeout", "retries")
 SIM_PORT = 5020
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
-PORT_HELP = (f"TCP port (default {DEVICE_PORT}, the Modbus TCP port; mdl sim listens on {SIM_PORT} by default). "
-             "--host HOST:PORT gives both.")
+PORT_HELP = (
+    f"TCP port (default {DEVICE_PORT}, the Modbus TCP port; mdl sim listens on {SIM_PORT} by default). "
+    "--host HOST:PORT gives both."
+)
 
 
 def split_host(text: str) -> tuple[str, int | None]:
@@ -79,11 +81,24 @@ class Connection(Endpoint):
         from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
         if self.serial is not None:
-            return ModbusSerialClient(self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits,
-                                      bytesize=self.bytesize, timeout=self.timeout, retries=self.retries,
-                                      trace_packet=trace)
-        return ModbusTcpClient(self.host, port=self.port, framer=self.framer, timeout=self.timeout,
-                               retries=self.retries, trace_packet=trace)
+            return ModbusSerialClient(
+                self.serial,
+                baudrate=self.baud,
+                parity=self.parity,
+                stopbits=self.stopbits,
+                bytesize=self.bytesize,
+                timeout=self.timeout,
+                retries=self.retries,
+                trace_packet=trace,
+            )
+        return ModbusTcpClient(
+            self.host,
+            port=self.port,
+            framer=self.framer,
+            timeout=self.timeout,
+            retries=self.retries,
+            trace_packet=trace,
+        )
 
     def server(self, context: ModbusServerContext) -> ModbusBaseServer:
         """A pymodbus server of `context` (to be created inside the running event loop). On RTU framing a
@@ -91,10 +106,18 @@ class Connection(Endpoint):
         from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 
         if self.serial is not None:
-            return ModbusSerialServer(context, port=self.serial, baudrate=self.baud, parity=self.parity,
-                                      stopbits=self.stopbits, bytesize=self.bytesize, ignore_missing_devices=True)
-        return ModbusTcpServer(context, framer=self.framer, address=(self.host, self.port),
-                               ignore_missing_devices=self.rtu)
+            return ModbusSerialServer(
+                context,
+                port=self.serial,
+                baudrate=self.baud,
+                parity=self.parity,
+                stopbits=self.stopbits,
+                bytesize=self.bytesize,
+                ignore_missing_devices=True,
+            )
+        return ModbusTcpServer(
+            context, framer=self.framer, address=(self.host, self.port), ignore_missing_devices=self.rtu
+        )
 
     def serving_at(self, bound_port: int) -> str:
         """Where a server listens, for `mdl sim`'s ready line: the serial device, or host:port."""
@@ -131,8 +154,9 @@ class Connection(Endpoint):
         import serial  # type: ignore[import-untyped]  # pyserial ships no types
 
         try:
-            serial.Serial(self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits,
-                          bytesize=self.bytesize).close()
+            serial.Serial(
+                self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits, bytesize=self.bytesize
+            ).close()
         except (serial.SerialException, ValueError, OSError, termios.error) as exc:
             reason = exc.args[-1] if isinstance(exc, (OSError, termios.error)) and exc.args else exc
             return self.settings_refusal(reason)
@@ -158,8 +182,9 @@ class Connection(Endpoint):
         return ""
 
 
-def connection_options(serving: bool = False, optional: bool = False, timeout: float = 3.0,
-                       retries: int = 1) -> Callable[[F], F]:
+def connection_options(
+    serving: bool = False, optional: bool = False, timeout: float = 3.0, retries: int = 1
+) -> Callable[[F], F]:
     """The CONNECTION options of SPEC section 9, handed to the command as one `connection: Connection`.
 
     `serving` (mdl sim): --host defaults to 127.0.0.1 and --port to 5020 (0 picks a free port), and there
@@ -186,33 +211,74 @@ def connection_options(serving: bool = False, optional: bool = False, timeout: f
 def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Decorator]:
     """The click options, in the order --help lists them."""
     if serving:
-        address = [click.option("--host", default=SIM_HOST, show_default=True, metavar="HOST[:PORT]",
-                                help="Address to listen on (TCP); HOST:PORT ([IPV6]:PORT) gives the port too."),
-                   click.option("--port", type=click.IntRange(0, 65535), default=SIM_PORT, show_default=True,
-                                help="TCP port; 0 picks a free port.")]
+        address = [
+            click.option(
+                "--host",
+                default=SIM_HOST,
+                show_default=True,
+                metavar="HOST[:PORT]",
+                help="Address to listen on (TCP); HOST:PORT ([IPV6]:PORT) gives the port too.",
+            ),
+            click.option(
+                "--port",
+                type=click.IntRange(0, 65535),
+                default=SIM_PORT,
+                show_default=True,
+                help="TCP port; 0 picks a free port.",
+            ),
+        ]
     else:
-        address = [click.option("--host", metavar="HOST[:PORT]",
-                                help="Device address (Modbus TCP): HOST, HOST:PORT or [IPV6]:PORT; or give --serial."),
-                   click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, help=PORT_HELP)]
+        address = [
+            click.option(
+                "--host",
+                metavar="HOST[:PORT]",
+                help="Device address (Modbus TCP): HOST, HOST:PORT or [IPV6]:PORT; or give --serial.",
+            ),
+            click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, help=PORT_HELP),
+        ]
     line = [
         click.option("--serial", metavar="DEVICE", help="Serial device for Modbus RTU, e.g. /dev/ttyUSB0."),
-        click.option("--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True,
-                     help="Serial line speed."),
-        click.option("--parity", type=click.Choice(["N", "E", "O"], case_sensitive=False), default="N",
-                     show_default=True, help="Serial parity: none, even, odd."),
+        click.option(
+            "--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True, help="Serial line speed."
+        ),
+        click.option(
+            "--parity",
+            type=click.Choice(["N", "E", "O"], case_sensitive=False),
+            default="N",
+            show_default=True,
+            help="Serial parity: none, even, odd.",
+        ),
         click.option("--stopbits", type=click.IntRange(1, 2), default=1, show_default=True),
-        click.option("--bytesize", type=click.IntRange(7, 8), default=8, show_default=True,
-                     help="Data bits (Modbus RTU uses 8)."),
-        click.option("--framer", type=click.Choice(["tcp", "rtu"], case_sensitive=False),
-                     help="Framing on TCP: tcp (Modbus TCP, the default) or rtu (RTU frames, as serial-to-Ethernet "
-                          "converters carry them). A serial line always carries RTU."),
+        click.option(
+            "--bytesize", type=click.IntRange(7, 8), default=8, show_default=True, help="Data bits (Modbus RTU uses 8)."
+        ),
+        click.option(
+            "--framer",
+            type=click.Choice(["tcp", "rtu"], case_sensitive=False),
+            help="Framing on TCP: tcp (Modbus TCP, the default) or rtu (RTU frames, as serial-to-Ethernet "
+            "converters carry them). A serial line always carries RTU.",
+        ),
     ]
-    client: list[Decorator] = [] if serving else [
-        click.option("--timeout", type=click.FloatRange(0.1, 600), default=timeout, show_default=True,
-                     help="Seconds to wait for each reply."),
-        click.option("--retries", type=click.IntRange(0, 10), default=retries, show_default=True,
-                     help="Times a request that got no reply is sent again."),
-    ]
+    client: list[Decorator] = (
+        []
+        if serving
+        else [
+            click.option(
+                "--timeout",
+                type=click.FloatRange(0.1, 600),
+                default=timeout,
+                show_default=True,
+                help="Seconds to wait for each reply.",
+            ),
+            click.option(
+                "--retries",
+                type=click.IntRange(0, 10),
+                default=retries,
+                show_default=True,
+                help="Times a request that got no reply is sent again.",
+            ),
+        ]
+    )
     return address + line + client
 
 
@@ -256,9 +322,11 @@ def _host_and_port(text: str, port: int | None, port_given: bool, serving: bool)
         return host, port
     low = 0 if serving else 1
     if not low <= in_host <= 65535:
-        raise click.BadParameter(f"{text!r}: the port {in_host} is not in the range {low} to 65535",
-                                 param_hint="'--host'")
+        raise click.BadParameter(
+            f"{text!r}: the port {in_host} is not in the range {low} to 65535", param_hint="'--host'"
+        )
     if port_given and port != in_host:
-        raise click.UsageError(f"--host {text} and --port {port} disagree: give the port once "
-                               "(--host HOST:PORT or --port PORT)")
+        raise click.UsageError(
+            f"--host {text} and --port {port} disagree: give the port once (--host HOST:PORT or --port PORT)"
+        )
     return host, in_host

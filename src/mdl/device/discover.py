@@ -88,8 +88,10 @@ def parse_units(text: str) -> list[int]:
         else:
             units.update(range(first, last + 1))
     if problems:
-        raise ValueError(f"{one_line(text.strip())!r}: {'; '.join(problems)} (expected unit ids 0-{MAX_UNIT_ID} "
-                         "and ranges, e.g. 1-10,17)")
+        raise ValueError(
+            f"{one_line(text.strip())!r}: {'; '.join(problems)} (expected unit ids 0-{MAX_UNIT_ID} "
+            "and ranges, e.g. 1-10,17)"
+        )
     return sorted(units)
 
 
@@ -107,8 +109,16 @@ class UnitResult:
 def raw_function(fn: Function) -> Function:
     """`fn` as its raw value reads: without multiplier, offset, fragments, "not implemented" and bounds
     (SPEC 2.2 `marker`). Its value IR is then the function's own up to the point where scaling begins."""
-    return replace(fn, multiplier=None, offset=None, read_function_code=None, write_function_code=None,
-                   not_implemented=None, minimum=None, maximum=None)
+    return replace(
+        fn,
+        multiplier=None,
+        offset=None,
+        read_function_code=None,
+        write_function_code=None,
+        not_implemented=None,
+        minimum=None,
+        maximum=None,
+    )
 
 
 def raw_decoder(fn: Function, lay: Layout) -> Decoder:
@@ -135,8 +145,11 @@ class _Candidate:
 
 
 def _candidate(path: Path, resolved: ResolvedDevice) -> _Candidate:
-    markers = tuple(_Marker(f.name, f.layout, raw_decoder(f.fn, f.layout), frozenset(f.fn.marker))
-                    for f in resolved.functions if f.fn.marker)
+    markers = tuple(
+        _Marker(f.name, f.layout, raw_decoder(f.fn, f.layout), frozenset(f.fn.marker))
+        for f in resolved.functions
+        if f.fn.marker
+    )
     return _Candidate(path, resolved.name, markers)
 
 
@@ -177,8 +190,10 @@ class _Unit:
         data = wire.received[-1]
         shown = data[:8].hex(" ") + (" ..." if len(data) > 8 else "")
         how = "a new connection" if self.session.connection.serial is None else "the line drained"
-        what = (f"{len(data)} bytes came that are no reply of this unit ({shown}), late bytes of an earlier reply "
-                f"perhaps: dropped, with {how}, and asked again")
+        what = (
+            f"{len(data)} bytes came that are no reply of this unit ({shown}), late bytes of an earlier reply "
+            f"perhaps: dropped, with {how}, and asked again"
+        )
         _say(f"warning: {self.session.where(what)}")
         self._settle()
         return True
@@ -201,9 +216,11 @@ class _Unit:
         limit = max(DRAIN_TIMEOUTS * conn.timeout, DRAIN_MIN)
         busy = drain(port, conn.timeout, limit)
         if busy is not None:
-            raise LineLost(f"{conn}: the line did not go quiet: bytes kept coming for {limit:g} s after unit "
-                              f"{self.unit} was asked ({busy.hex(' ')} ...), a device still sending; no other unit "
-                              "can be asked on this line")
+            raise LineLost(
+                f"{conn}: the line did not go quiet: bytes kept coming for {limit:g} s after unit "
+                f"{self.unit} was asked ({busy.hex(' ')} ...), a device still sending; no other unit "
+                "can be asked on this line"
+            )
 
     def registers(self, marker: _Marker) -> list[int] | None:
         """The registers of a marker function, read alone; None if the unit did not give them all."""
@@ -283,8 +300,9 @@ class _Unit:
         for attempt in (1, 2):  # once more where someone else's late bytes spoilt the first
             session.wire.clear()
             try:
-                session.client.read_device_information(read_code=DeviceInformation.BASIC, object_id=object_id,
-                                                       device_id=self.unit)
+                session.client.read_device_information(
+                    read_code=DeviceInformation.BASIC, object_id=object_id, device_id=self.unit
+                )
                 break
             except (ModbusException, OSError):
                 if attempt == 1 and self._stale():
@@ -310,8 +328,10 @@ class _Unit:
         return reply
 
     def _warn(self, problem: str) -> None:
-        _say(f"warning: {self.session.where('reading the device identification (function 43)')}: {problem}; "
-             "none of it is shown")
+        _say(
+            f"warning: {self.session.where('reading the device identification (function 43)')}: {problem}; "
+            "none of it is shown"
+        )
 
 
 def _ask(session: Session, unit: int, candidates: list[_Candidate]) -> UnitResult | None:
@@ -334,8 +354,15 @@ def library_warnings(path: Path, resolved: ResolvedDevice) -> list[Diagnostic]:
     refuses them): no function with a marker, so it never matches."""
     if any(f.fn.marker for f in resolved.functions):
         return []
-    return [Diagnostic(str(path), None, None, "no function has a marker: this description never matches "
-                                              "(mdl discover compares marker values)", "warning")]
+    return [
+        Diagnostic(
+            str(path),
+            None,
+            None,
+            "no function has a marker: this description never matches (mdl discover compares marker values)",
+            "warning",
+        )
+    ]
 
 
 def _summary(unit: int, result: UnitResult | None) -> str:
@@ -349,8 +376,12 @@ def _summary(unit: int, result: UnitResult | None) -> str:
 def _progress(units: list[int], connection: Connection) -> Generator[tuple[int, bool], None, None]:
     """Each unit, and whether to print a line for it (not on a terminal, where a bar shows progress)."""
     if sys.stderr.isatty():
-        with click.progressbar(units, label=f"asking units on {connection}", file=sys.stderr,
-                               item_show_func=lambda u: None if u is None else f"unit {u}") as bar:
+        with click.progressbar(
+            units,
+            label=f"asking units on {connection}",
+            file=sys.stderr,
+            item_show_func=lambda u: None if u is None else f"unit {u}",
+        ) as bar:
             for unit in bar:
                 yield unit, False
     else:
@@ -358,8 +389,7 @@ def _progress(units: list[int], connection: Connection) -> Generator[tuple[int, 
             yield unit, True
 
 
-def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
-             units: list[int]) -> list[UnitResult]:
+def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection, units: list[int]) -> list[UnitResult]:
     """Ask each unit over `connection` which descriptions of `library` it is (SPEC section 10); the units
     that answered, in ascending order. DeviceError (exit 3) if no unit answered, if the connection cannot
     be opened, or is lost and cannot be opened again, or if a serial line never goes quiet."""
@@ -371,8 +401,10 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
     session.client.set_max_no_responses(len(units) + 3)  # silent units are the rule here, not a broken line
     results: list[UnitResult] = []
     with session:
-        _say(f"asking {len(units)} unit{'s' * (len(units) != 1)} on {connection} "
-             f"(at most {connection.timeout:g} s each when nothing answers)")
+        _say(
+            f"asking {len(units)} unit{'s' * (len(units) != 1)} on {connection} "
+            f"(at most {connection.timeout:g} s each when nothing answers)"
+        )
         with closing(_progress(units, connection)) as steps:  # the bar ends on an error too
             for unit, line in steps:
                 result = _ask(session, unit, candidates)
@@ -384,8 +416,9 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
     _say(f"{len(results)} unit{'s' * (len(results) != 1)} answered, {matched} matched a description")
     if not results:
         hint = connection.silence_hint()
-        raise DeviceError(f"{connection}: no unit answered (asked {unit_list(units) or 'none'})"
-                          + (f"; {hint}" if hint else ""))
+        raise DeviceError(
+            f"{connection}: no unit answered (asked {unit_list(units) or 'none'})" + (f"; {hint}" if hint else "")
+        )
     return results
 
 
@@ -413,13 +446,16 @@ def render(results: list[UnitResult], fmt: str) -> str:
     MajorMinorRevision; `-` where there is none); `json`: a list of objects
     `{"unit": U, "matches": [FILE...], "identification": {...} or null}`."""
     if fmt == "json":
-        data = [{"unit": r.unit, "matches": [str(p) for p in r.matches], "identification": r.identification}
-                for r in results]
+        data = [
+            {"unit": r.unit, "matches": [str(p) for p in r.matches], "identification": r.identification}
+            for r in results
+        ]
         return json.dumps(data, indent=2) + "\n"
     if fmt != "table":
         raise ValueError(f"unknown format {fmt!r}")
     rows = [["UNIT", "FILE", "DEVICE", *OBJECT_NAMES]]
     rows += [[one_line(cell) for cell in cells] for r in results for cells in _cells(r)]
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    return "".join("  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() + "\n"
-                   for row in rows)
+    return "".join(
+        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() + "\n" for row in rows
+    )

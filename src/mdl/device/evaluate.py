@@ -27,8 +27,7 @@ class Evaluator:
     def __init__(self, resolved: ResolvedDevice):
         self.resolved = resolved
         self._compiled: dict[str, Compiled] = {f.name: compile_codec(f.name, f.codec) for f in resolved.functions}
-        self._expressions = {f.name: python_function(f.compiled) for f in resolved.functions
-                             if f.compiled is not None}
+        self._expressions = {f.name: python_function(f.compiled) for f in resolved.functions if f.compiled is not None}
         self._orders: dict[tuple[str, ...], list[str]] = {}
 
     def order(self, names: Iterable[str]) -> list[str]:
@@ -99,8 +98,9 @@ class BufferDecoder:
     generated driver carries, one per shape of IR: mdl.targets.python.reader) and compiled once;
     a buffer with a gap (a register refused: expressions read None) still takes the closures."""
 
-    def __init__(self, evaluator: Evaluator, names: tuple[str, ...], order: list[str],
-                 slots: Mapping[str, tuple[int, ...]]) -> None:
+    def __init__(
+        self, evaluator: Evaluator, names: tuple[str, ...], order: list[str], slots: Mapping[str, tuple[int, ...]]
+    ) -> None:
         self.evaluator, self.names = evaluator, names
         self.steps = [evaluator._step(name, slots[name]) for name in order]
         self.uses = 0

@@ -24,7 +24,7 @@ def frames(data: bytes) -> Iterator[Frame]:
         end = MBAP.size - 1 + length
         if protocol != 0 or length < 2 or end > len(data):
             return
-        yield tid, unit, data[MBAP.size:end]
+        yield tid, unit, data[MBAP.size : end]
         data = data[end:]
 
 
@@ -35,9 +35,12 @@ def rtu_frames(data: bytes) -> Iterator[Frame]:
     while len(data) - start >= RTU_MIN:
         size = _rtu_reply_size(data[start:])
         end = start + size
-        if size and end <= len(data) and FramerRTU.compute_CRC(data[start:end - 2]) == int.from_bytes(
-                data[end - 2:end], "big"):
-            yield 0, data[start], data[start + 1:end - 2]
+        if (
+            size
+            and end <= len(data)
+            and FramerRTU.compute_CRC(data[start : end - 2]) == int.from_bytes(data[end - 2 : end], "big")
+        ):
+            yield 0, data[start], data[start + 1 : end - 2]
             start = end
         else:
             start += 1
@@ -108,7 +111,7 @@ class Wire:
         if self.rtu:
             return 0, self.request[0], self.request[1:-2]
         tid, _, _, unit = MBAP.unpack_from(self.request)
-        return tid, unit, self.request[MBAP.size:]
+        return tid, unit, self.request[MBAP.size :]
 
     def _frames(self, data: bytes) -> Iterator[Frame]:
         return rtu_frames(data) if self.rtu else frames(data)
@@ -116,8 +119,10 @@ class Wire:
     def accepted_problem(self) -> str | None:
         """What is wrong with the reply the client accepted: the frame it decoded is in its last buffer."""
         tid, unit, request = self._sent()
-        pdu = next((pdu for t, u, pdu in self._frames(self.received[-1] if self.received else b"")
-                    if (t, u) == (tid, unit)), None)
+        pdu = next(
+            (pdu for t, u, pdu in self._frames(self.received[-1] if self.received else b"") if (t, u) == (tid, unit)),
+            None,
+        )
         if pdu is None:
             return "the reply the client decoded is not in the bytes received"
         return reply_problem(request, pdu)

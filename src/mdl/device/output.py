@@ -46,8 +46,13 @@ def shown(fn: Function, value: Value, exact: bool = False) -> Value:
 
 def _plain_float32(fn: Function) -> bool:
     """Whether the function's value is a float32 as the registers hold it (no arithmetic in doubles after)."""
-    return (fn.format == "FLOAT32" and fn.multiplier in (None, 1.0) and not fn.offset and fn.expression is None
-            and fn.read_function_code is None)
+    return (
+        fn.format == "FLOAT32"
+        and fn.multiplier in (None, 1.0)
+        and not fn.offset
+        and fn.expression is None
+        and fn.read_function_code is None
+    )
 
 
 _FLOAT32 = struct.Struct(">f")
@@ -176,8 +181,9 @@ def _with_value(entry: dict[str, Value], value: Value) -> dict[str, Value]:
     return dict([n, (key, value), *rest])
 
 
-def _blocks(functions: list[Function], device_name: str,
-            entry: Callable[[Function, str], dict[str, Value]]) -> dict[str, Block]:
+def _blocks(
+    functions: list[Function], device_name: str, entry: Callable[[Function, str], dict[str, Value]]
+) -> dict[str, Block]:
     """One record pack per block label (the device's name for functions without one), in order of appearance.
     An entry's `n` is the function's name inside its block (`Status.Mode` -> `Mode` in block Status); where
     two functions of a block have the same such name, both keep their whole names."""
@@ -233,15 +239,16 @@ def record_header(functions: list[Function], fmt: str) -> str:
     return _csv_line([TIME_KEY, *(fn.name for fn in functions)]) if fmt == "csv" else ""
 
 
-def record(functions: list[Function], values: dict[str, Value], fmt: str, when: datetime,
-           device_name: str = "") -> str:
+def record(functions: list[Function], values: dict[str, Value], fmt: str, when: datetime, device_name: str = "") -> str:
     """One poll's record, ending with a newline: json one object on one line, time first; csv one row, time
     first; table a block (a time row, the values, a blank line); senml one document on one line, each
     block with `bt`, the time in seconds since 1970 (UTC)."""
     if fmt == "senml":
         bt = round(when.timestamp(), 3)
-        doc: dict[str, Any] = {label: {"bn": block["bn"], "bt": bt, "e": block["e"]}
-                               for label, block in senml(functions, values, device_name).items()}
+        doc: dict[str, Any] = {
+            label: {"bn": block["bn"], "bt": bt, "e": block["e"]}
+            for label, block in senml(functions, values, device_name).items()
+        }
         return json.dumps(doc, ensure_ascii=False) + "\n"
     if fmt == "json":
         return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"

@@ -77,12 +77,21 @@ class Stopper:
 def _refuse_time_clash(functions: list[Function], fmt: str) -> None:
     """A function named like the record's time column would hide it (json, csv): refused before polling."""
     if fmt in ("json", "csv") and any(fn.name == output.TIME_KEY for fn in functions):
-        raise error(f"function '{output.TIME_KEY}' has the name of the poll record's time {fmt} "
-                    f"{'key' if fmt == 'json' else 'column'}; leave it out, or poll with --format table or senml")
+        raise error(
+            f"function '{output.TIME_KEY}' has the name of the poll record's time {fmt} "
+            f"{'key' if fmt == 'json' else 'column'}; leave it out, or poll with --format table or senml"
+        )
 
 
-def poll(session: Session, functions: list[Function], fmt: str, interval: float, count: int | None,
-         out: TextIO | None = None, err: TextIO | None = None) -> int:
+def poll(
+    session: Session,
+    functions: list[Function],
+    fmt: str,
+    interval: float,
+    count: int | None,
+    out: TextIO | None = None,
+    err: TextIO | None = None,
+) -> int:
     """Poll until `count` polls have ended (None: until a stop signal); the exit status of the last poll.
     Records go to `out`, failures to `err`: by default the sys.stdout and sys.stderr of the moment of the
     call (not of the import: a test runner that captures output replaces them)."""
@@ -111,8 +120,9 @@ def poll(session: Session, functions: list[Function], fmt: str, interval: float,
     return status
 
 
-def _poll_once(session: Session, functions: list[Function], fmt: str, stopper: Stopper, out: TextIO,
-               err: TextIO) -> int:
+def _poll_once(
+    session: Session, functions: list[Function], fmt: str, stopper: Stopper, out: TextIO, err: TextIO
+) -> int:
     """One poll: its record on `out`, or the reason it failed on `err`; the poll's exit status."""
     when = datetime.now(timezone.utc)
     try:

@@ -52,8 +52,7 @@ def parse_identification(pdu: bytes, object_id: int) -> IdReply | int:
     if len(pdu) < 7:
         raise ValueError(f"the reply has {len(pdu)} bytes, fewer than the 7 of its header ({pdu.hex(' ')})")
     if (pdu[0], pdu[1], pdu[2]) != (MEI_FUNCTION, MEI_READ_DEVICE_ID, DeviceInformation.BASIC):
-        raise ValueError(f"the reply starts {pdu[:3].hex(' ')}, expected 2b 0e 01 (function 43, MEI 14, "
-                         "basic objects)")
+        raise ValueError(f"the reply starts {pdu[:3].hex(' ')}, expected 2b 0e 01 (function 43, MEI 14, basic objects)")
     if pdu[4] not in MORE_FOLLOWS:
         raise ValueError(f"its 'more follows' byte is 0x{pdu[4]:02x}, expected 0x00 or 0xff")
     more, next_object, count = MORE_FOLLOWS[pdu[4]], pdu[5], pdu[6]
@@ -65,7 +64,7 @@ def parse_identification(pdu: bytes, object_id: int) -> IdReply | int:
         oid, size = pdu[at], pdu[at + 1]
         if at + 2 + size > len(pdu):
             raise ValueError(f"object 0x{oid:02x}'s length byte says {size} bytes, {len(pdu) - at - 2} follow")
-        objects.append((oid, pdu[at + 2:at + 2 + size]))
+        objects.append((oid, pdu[at + 2 : at + 2 + size]))
         at += 2 + size
     if len(objects) < count:
         raise ValueError(f"it says {count} objects and carries {len(objects)}")
@@ -105,8 +104,8 @@ def reply_pdu(wire: Wire, unit: int) -> bytes | None:
             continue
         size = _rtu_identification_size(data[at:])
         end = at + size
-        if size and FramerRTU.compute_CRC(data[at:end - 2]) == int.from_bytes(data[end - 2:end], "big"):
-            return data[at + 1:end - 2]
+        if size and FramerRTU.compute_CRC(data[at : end - 2]) == int.from_bytes(data[end - 2 : end], "big"):
+            return data[at + 1 : end - 2]
     return None
 
 
@@ -123,8 +122,9 @@ def came_from(wire: Wire, unit: int) -> bool:
     first = wire.received[0]  # the client empties its buffer before it sends: the reply starts here
     if first[:1] == bytes([unit]) and (len(first) == 1 or first[1] & 0x7F == fc):
         return True
-    return any(u == unit for _, u, _ in rtu_frames(wire.received[-1][:4 * RTU_MAX])) or (
-        fc == MEI_FUNCTION and reply_pdu(wire, unit) is not None)
+    return any(u == unit for _, u, _ in rtu_frames(wire.received[-1][: 4 * RTU_MAX])) or (
+        fc == MEI_FUNCTION and reply_pdu(wire, unit) is not None
+    )
 
 
 def _tcp_came_from(data: bytes, request: bytes, unit: int) -> bool:
@@ -169,8 +169,8 @@ def rtu_whole_frame(wire: Wire, unit: int) -> bytes | None:
         if len(data) > RTU_MAX or data[:2] != bytes([unit, MEI_FUNCTION]):
             continue
         for end in range(4, len(data) + 1):
-            if FramerRTU.compute_CRC(data[:end - 2]) == int.from_bytes(data[end - 2:end], "big"):
-                return data[1:end - 2]
+            if FramerRTU.compute_CRC(data[: end - 2]) == int.from_bytes(data[end - 2 : end], "big"):
+                return data[1 : end - 2]
     return None
 
 

@@ -26,9 +26,15 @@ from mdl.values import codec
 from mdl.values.ir import Merge, find_step
 
 EXCEPTION_NAMES = {
-    1: "ILLEGAL FUNCTION", 2: "ILLEGAL DATA ADDRESS", 3: "ILLEGAL DATA VALUE",
-    4: "SERVER DEVICE FAILURE", 5: "ACKNOWLEDGE", 6: "SERVER DEVICE BUSY",
-    8: "MEMORY PARITY ERROR", 10: "GATEWAY PATH UNAVAILABLE", 11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
+    1: "ILLEGAL FUNCTION",
+    2: "ILLEGAL DATA ADDRESS",
+    3: "ILLEGAL DATA VALUE",
+    4: "SERVER DEVICE FAILURE",
+    5: "ACKNOWLEDGE",
+    6: "SERVER DEVICE BUSY",
+    8: "MEMORY PARITY ERROR",
+    10: "GATEWAY PATH UNAVAILABLE",
+    11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
 }
 
 
@@ -45,9 +51,14 @@ class _ReadPlan:
 
     __slots__ = ("groups", "size", "plain", "layouts", "decode")
 
-    def __init__(self, groups: list[tuple[Request, int, list[Request] | None]], size: int,
-                 plain: list[tuple[str, Layout, tuple[int, ...]]], layouts: dict[str, Layout],
-                 decode: BufferDecoder) -> None:
+    def __init__(
+        self,
+        groups: list[tuple[Request, int, list[Request] | None]],
+        size: int,
+        plain: list[tuple[str, Layout, tuple[int, ...]]],
+        layouts: dict[str, Layout],
+        decode: BufferDecoder,
+    ) -> None:
         self.groups, self.size, self.plain, self.layouts, self.decode = groups, size, plain, layouts, decode
 
 
@@ -62,8 +73,11 @@ class Session:
         self.wire = Wire(connection.rtu)
         self.client = connection.client(self.wire.trace)
         self._methods: dict[str, Callable[..., ModbusPDU]] = {
-            "holding": self.client.read_holding_registers, "input": self.client.read_input_registers,
-            "coil": self.client.read_coils, "discrete": self.client.read_discrete_inputs}
+            "holding": self.client.read_holding_registers,
+            "input": self.client.read_input_registers,
+            "coil": self.client.read_coils,
+            "discrete": self.client.read_discrete_inputs,
+        }
         self.refused: set[Request] = set()  # groups the device refused (exception 2): read split from then on
         self._evaluator: Evaluator | None = None
         self._plans: dict[tuple[str, ...], _ReadPlan] = {}  # the names read -> how to read them
@@ -89,16 +103,22 @@ class Session:
                 table_slots = resolved.table_slots
             else:
                 by_name = resolved.by_name
-                requests = plan_reads(self.device, [by_name[n].fn for n in order], layouts=layouts,
-                                      defined=defined_addresses(self.device, layouts))
+                requests = plan_reads(
+                    self.device,
+                    [by_name[n].fn for n in order],
+                    layouts=layouts,
+                    defined=defined_addresses(self.device, layouts),
+                )
                 groups, size, table_slots = [], 0, {}
                 for req in requests:  # split only if the device refuses one
                     groups.append((req, size, None))
                     table_slots.setdefault(req.table, {}).update(
-                        zip(range(req.start, req.end), range(size, size + req.count), strict=True))
+                        zip(range(req.start, req.end), range(size, size + req.count), strict=True)
+                    )
                     size += req.count
-            slots = {n: tuple(map(table_slots.get(layouts[n].table, {}).__getitem__, layouts[n].addresses))
-                     for n in order}
+            slots = {
+                n: tuple(map(table_slots.get(layouts[n].table, {}).__getitem__, layouts[n].addresses)) for n in order
+            }
             plain = [(n, layouts[n], slots[n]) for n in order if resolved.by_name[n].compiled is None]
             plan = self._plans[names] = _ReadPlan(groups, size, plain, layouts, self.evaluator.decoder(names, slots))
         return plan
@@ -180,7 +200,7 @@ class Session:
         for i, (group, offset, smaller) in enumerate(plan.groups):
             if group not in self.refused:
                 try:
-                    raw[offset:offset + group.count] = self.read_request(group)
+                    raw[offset : offset + group.count] = self.read_request(group)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -196,7 +216,7 @@ class Session:
             for req in smaller or ():
                 try:
                     at = offset + req.start - group.start
-                    raw[at:at + req.count] = self.read_request(req)
+                    raw[at : at + req.count] = self.read_request(req)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -204,8 +224,9 @@ class Session:
         if missing:  # only expressions may read a register the device does not answer
             for _, lay, slots in plan.plain:
                 if any(raw[s] is None for s in slots):
-                    req = next(r for r in missing
-                               if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses))
+                    req = next(
+                        r for r in missing if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses)
+                    )
                     raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
         try:
             return plan.decode(raw)
@@ -233,8 +254,13 @@ class Session:
         if merge is not None and merge.mask_write:
             for address, mask, bits in zip(lay.addresses, merge.masks, regs, strict=True):
                 if mask:
-                    self._call(f"writing {fn.name} at {lay.table} {address} (function 22)",
-                               self.client.mask_write_register, address=address, and_mask=~mask & 0xFFFF, or_mask=bits)
+                    self._call(
+                        f"writing {fn.name} at {lay.table} {address} (function 22)",
+                        self.client.mask_write_register,
+                        address=address,
+                        and_mask=~mask & 0xFFFF,
+                        or_mask=bits,
+                    )
             return
         if merge is not None:  # read, change only these bits, write back
             current: list[int] = []
@@ -243,7 +269,7 @@ class Session:
             regs = codec.merge(current, regs, merge.masks)
         at = 0
         for start, count in lay.runs:
-            values, at = regs[at:at + count], at + count
+            values, at = regs[at : at + count], at + count
             what = f"writing {fn.name} at {lay.table} {start}"
             if lay.table == "coil" and fn.write_multiple:
                 self._call(what, self.client.write_coils, start, [bool(v) for v in values])

@@ -39,8 +39,15 @@ def scenario_registers(sc: Scenario) -> Given:
 
 def _number(text: str) -> float | None:
     t = text.strip()
-    special = {"nan": math.nan, "+infinite": math.inf, "infinite": math.inf, "infinity": math.inf,
-               "+infinity": math.inf, "-infinite": -math.inf, "-infinity": -math.inf}
+    special = {
+        "nan": math.nan,
+        "+infinite": math.inf,
+        "infinite": math.inf,
+        "infinity": math.inf,
+        "+infinity": math.inf,
+        "-infinite": -math.inf,
+        "-infinity": -math.inf,
+    }
     if t.lower() in special:
         return special[t.lower()]
     try:
@@ -105,8 +112,11 @@ def run_scenario(device: Device | Evaluator, sc: Scenario) -> list[Failure]:
 
     names = list(sc.expected)
     values = device.values(names, lookup) if isinstance(device, Evaluator) else evaluate(device, names, lookup)
-    return [Failure(sc.id, name, want, values[name]) for name, want in sc.expected.items()
-            if not matches(values[name], want)]
+    return [
+        Failure(sc.id, name, want, values[name])
+        for name, want in sc.expected.items()
+        if not matches(values[name], want)
+    ]
 
 
 def find_scenario(device: Device, scenario_id: str) -> Scenario:

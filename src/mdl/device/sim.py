@@ -47,8 +47,18 @@ if TYPE_CHECKING:
     from _typeshed import StrPath
     from pymodbus.server import ModbusBaseServer
 
-FC_TABLE = {1: "coil", 5: "coil", 15: "coil", 2: "discrete", 4: "input",
-            3: "holding", 6: "holding", 16: "holding", 22: "holding", 23: "holding"}
+FC_TABLE = {
+    1: "coil",
+    5: "coil",
+    15: "coil",
+    2: "discrete",
+    4: "input",
+    3: "holding",
+    6: "holding",
+    16: "holding",
+    22: "holding",
+    23: "holding",
+}
 # the functions served: the tables', diagnostics (8) and Read Device Identification (43 / MEI 14); the
 # others pymodbus knows (file records, FIFO, event counters, report server id) it would answer from one
 # process-wide state, not from the device, and file records with no reply at all for some requests
@@ -76,8 +86,10 @@ def identification(device: Device) -> tuple[dict[int, bytes], list[str]]:
         data = text.encode("utf-8")
         if len(data) > MAX_OBJECT_BYTES:
             data = data[:MAX_OBJECT_BYTES].decode("utf-8", "ignore").encode("utf-8")
-            warnings.append(f"{attr} is {len(text.encode('utf-8'))} bytes long; function 43 answers {name} "
-                            f"with its first {len(data)} bytes")
+            warnings.append(
+                f"{attr} is {len(text.encode('utf-8'))} bytes long; function 43 answers {name} "
+                f"with its first {len(data)} bytes"
+            )
         objects[object_id] = data
     return objects, warnings
 
@@ -170,8 +182,10 @@ class Registers:
 
     def set_value(self, fn: Function, text: str) -> None:
         if fn.expression is not None:  # its registers are another function's, or none
-            raise error(f"--set {fn.name}={text}: '{fn.name}' is an expression, computed from registers: "
-                        "set the functions or registers it reads instead")
+            raise error(
+                f"--set {fn.name}={text}: '{fn.name}' is an expression, computed from registers: "
+                "set the functions or registers it reads instead"
+            )
         lay = self.layouts[fn.name]
         factor: tuple[Value, ...] = ()
         if fn.factor is not None:  # encoded with the factor the device holds now (as a driver reads it)
@@ -279,8 +293,9 @@ class ReadIdentification(ReadDeviceInformationRequest):
         information = select(control, self.read_code, self.object_id)
         if self.read_code == DeviceInformation.SPECIFIC and not information.get(self.object_id):
             return ExceptionResponse(self.function_code, ExcCodes.ILLEGAL_ADDRESS)
-        return ReadDeviceInformationResponse(read_code=self.read_code, information=information, dev_id=device_id,
-                                             transaction_id=self.transaction_id)
+        return ReadDeviceInformationResponse(
+            read_code=self.read_code, information=information, dev_id=device_id, transaction_id=self.transaction_id
+        )
 
 
 class Refused(ModbusPDU):
@@ -308,7 +323,9 @@ class SimDecoder(DecodePDU):
         super().__init__(is_server=True)
         table = {code: dict(subs) for code, subs in DecodePDU.pdu_sub_table.items()}  # this decoder's own
         table.setdefault(ReadIdentification.function_code, {})[ReadIdentification.sub_function_code] = (
-            ReadIdentification, ReadDeviceInformationResponse)
+            ReadIdentification,
+            ReadDeviceInformationResponse,
+        )
         self.pdu_sub_table = table
 
     def lookupPduClass(self, data: bytes) -> type[ModbusPDU] | None:  # noqa: N802  (pymodbus's name)
@@ -396,8 +413,9 @@ class LogLimiter(logging.Handler):
         """End the window: say how many messages were suppressed in it, if any."""
         total, clients = self.suppressed.total(), len(self.suppressed)
         if total:
-            self._write(f"{total} more message{'s' * (total != 1)} suppressed (from {clients} "
-                        f"client{'s' * (clients != 1)})")
+            self._write(
+                f"{total} more message{'s' * (total != 1)} suppressed (from {clients} client{'s' * (clients != 1)})"
+            )
         self.started = time.monotonic()
         self.shown.clear()
         self.suppressed.clear()
@@ -459,8 +477,12 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    out.write("".join(f"mdl sim: serving {one_line(registers.device.name)} on {where} unit {unit}\n"
-                      for unit, registers in units.items()))
+    out.write(
+        "".join(
+            f"mdl sim: serving {one_line(registers.device.name)} on {where} unit {unit}\n"
+            for unit, registers in units.items()
+        )
+    )
     out.flush()
     rolling = asyncio.create_task(_roll_every_window(limiter))
     try:

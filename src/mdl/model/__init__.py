@@ -26,7 +26,6 @@ Scalar: TypeAlias = bool | int | float | str  # a value the codec decodes or enc
 Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bitset: its labels; None: no value)
 
 
-
 class CompiledExpression(Protocol):
     """A function's expression as the resolve step compiles it (mdl.lang.expr.fields.Compiled, kept on
     mdl.resolve.ResolvedFunction, never on the model): the model names only what its layout reads,
@@ -190,7 +189,7 @@ class Function:
     def field_id(self) -> str:
         """The name expressions of its block use: the function name without a "<block>." prefix."""
         prefix = self.block + "."
-        return self.name[len(prefix):] if self.block and self.name.startswith(prefix) else self.name
+        return self.name[len(prefix) :] if self.block and self.name.startswith(prefix) else self.name
 
     @property
     def readable(self) -> bool:
@@ -198,8 +197,11 @@ class Function:
 
     @property
     def writable(self) -> bool:
-        return (self.eff_access in ("write", "read_write") and self.table not in READ_ONLY_TABLES
-                and self.expression is None)
+        return (
+            self.eff_access in ("write", "read_write")
+            and self.table not in READ_ONLY_TABLES
+            and self.expression is None
+        )
 
     def extensions(self) -> list[str]:
         used = [name for name in EXTENSION_FIELDS if getattr(self, name) is not None]

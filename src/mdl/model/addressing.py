@@ -16,8 +16,16 @@ import re
 from mdl.model.layout import MAX_ADDRESS, MAX_BITS, MAX_REGISTERS
 
 MODICON_TABLE = {"0": "coil", "1": "discrete", "3": "input", "4": "holding"}
-NAMED_TABLE = {"c": "coil", "coil": "coil", "di": "discrete", "discrete-input": "discrete",
-               "ir": "input", "input-register": "input", "hr": "holding", "holding-register": "holding"}
+NAMED_TABLE = {
+    "c": "coil",
+    "coil": "coil",
+    "di": "discrete",
+    "discrete-input": "discrete",
+    "ir": "input",
+    "input-register": "input",
+    "hr": "holding",
+    "holding-register": "holding",
+}
 TABLE_PREFIX = {"coil": "c", "discrete": "di", "input": "ir", "holding": "hr"}
 
 NAMED = re.compile(r"(?i)(coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:\s*([0-9]+)")
@@ -96,8 +104,9 @@ def address_run(first: int, count: int) -> range:
     if count < 1:
         raise AddressError(f"the register count {count} must be 1 or more")
     if count > MAX_BITS:
-        raise AddressError(f"{count} addresses are more than one request reads "
-                           f"(at most {MAX_REGISTERS} registers or {MAX_BITS} bits)")
+        raise AddressError(
+            f"{count} addresses are more than one request reads (at most {MAX_REGISTERS} registers or {MAX_BITS} bits)"
+        )
     last = first + count - 1
     if last > MAX_ADDRESS:
         raise AddressError(f"address {last} is over {MAX_ADDRESS}")

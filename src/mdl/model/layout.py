@@ -23,8 +23,18 @@ MAX_BITS = 2000
 MAX_ADDRESS = 65535
 
 FORMAT_BITS = {
-    "INT8": 8, "UINT8": 8, "INT16": 16, "UINT16": 16, "INT32": 32, "UINT32": 32,
-    "INT64": 64, "UINT64": 64, "FLOAT32": 32, "FLOAT64": 64, "STRING": 8, "BIT": 1,
+    "INT8": 8,
+    "UINT8": 8,
+    "INT16": 16,
+    "UINT16": 16,
+    "INT32": 32,
+    "UINT32": 32,
+    "INT64": 64,
+    "UINT64": 64,
+    "FLOAT32": 32,
+    "FLOAT64": 64,
+    "STRING": 8,
+    "BIT": 1,
 }
 Unit = Literal["word", "low", "high", "bit"]  # a full word, the lower or upper byte of a register, a bit
 Kind = Literal["int", "float", "string", "bool", "expr"]  # expr: computed by an expression

@@ -136,7 +136,7 @@ def stem(device_name: str) -> str:
     ident = identifier(device_name)
     if len(ident) > STEM_LIMIT:
         digest = hashlib.sha256(ident.encode("ascii")).hexdigest()[:_STEM_HASH]
-        return f"{ident[:STEM_LIMIT - _STEM_HASH - 1].rstrip('_')}_{digest}"
+        return f"{ident[: STEM_LIMIT - _STEM_HASH - 1].rstrip('_')}_{digest}"
     return ident + "_" if ident in STANDARD_HEADERS else ident
 
 

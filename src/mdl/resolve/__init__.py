@@ -172,7 +172,8 @@ class ResolvedDevice:
         for g in self.plan:
             req = g.request
             out.setdefault(req.table, {}).update(
-                zip(range(req.start, req.end), range(g.offset, g.offset + req.count), strict=True))
+                zip(range(req.start, req.end), range(g.offset, g.offset + req.count), strict=True)
+            )
         return out
 
     def slots_of(self, f: ResolvedFunction) -> tuple[int, ...]:

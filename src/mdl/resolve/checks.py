@@ -24,8 +24,7 @@ FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float ele
 class Report(Protocol):
     """Records a diagnostic about a function (at its element `key`, `offset` characters into its text)."""
 
-    def __call__(self, fn: Function, message: str, severity: str = "error", key: str = "",
-                 offset: int = 0) -> None: ...
+    def __call__(self, fn: Function, message: str, severity: str = "error", key: str = "", offset: int = 0) -> None: ...
 
 
 def position(owner: object, key: str = "", offset: int = 0, line: int | None = None) -> tuple[int | None, int | None]:
@@ -40,8 +39,12 @@ def position(owner: object, key: str = "", offset: int = 0, line: int | None = N
     return line, None
 
 
-def check_device(device: Device, path: str | None = None, layouts: dict[str, Layout] | None = None,
-                 compiled: dict[str, Compiled] | None = None) -> list[Diagnostic]:
+def check_device(
+    device: Device,
+    path: str | None = None,
+    layouts: dict[str, Layout] | None = None,
+    compiled: dict[str, Compiled] | None = None,
+) -> list[Diagnostic]:
     """Every problem of the device, in file order; the device is left as it is. `layouts`, when given,
     receives the layout of each function without an expression that has one, and `compiled` each
     expression that compiles (the resolve step keeps them)."""
@@ -77,15 +80,21 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
             layouts[fn.name] = lay
         if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
             err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
-        for attr, code in (("read_function_code", fn.read_function_code),
-                           ("write_function_code", fn.write_function_code)):
+        for attr, code in (
+            ("read_function_code", fn.read_function_code),
+            ("write_function_code", fn.write_function_code),
+        ):
             if code is None or (attr == "write_function_code" and mask_write(fn)):
                 continue
             try:
                 check(code, len(lay.addresses))
             except FragmentError as exc:
-                err(fn, f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""), key=attr,
-                    offset=(exc.col or 1) - 1)
+                err(
+                    fn,
+                    f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""),
+                    key=attr,
+                    offset=(exc.col or 1) - 1,
+                )
         if fn.read_function_code is not None and lay.kind in ("string", "bool"):
             err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
         if fn.write_function_code is not None and lay.kind == "string":
@@ -101,8 +110,7 @@ def check_device(device: Device, path: str | None = None, layouts: dict[str, Lay
         for token in fn.not_implemented or ():
             digits = len(token) - 2
             if digits > 4 and digits > 4 * len(lay.addresses):
-                err(fn, f"not_implemented value {token} is wider than the function's "
-                        f"{len(lay.addresses)} register(s)")
+                err(fn, f"not_implemented value {token} is wider than the function's {len(lay.addresses)} register(s)")
     out += check_tests(device, path)
     return sorted(out, key=_in_file_order)
 
@@ -129,8 +137,9 @@ def _expression_problem(fn: Function, message: str, col: int | None, path: str |
     span = span_of(fn, "expression")
     if span is None:  # no position for the text: the column inside the expression goes into the message
         where = f" (column {col})" if col else ""
-        return Diagnostic(path, fn.expression_line or fn.line, None,
-                          f"function '{fn.name}': expression: {message}{where}")
+        return Diagnostic(
+            path, fn.expression_line or fn.line, None, f"function '{fn.name}': expression: {message}{where}"
+        )
     line, file_col = span.at((col or 1) - 1)
     subject = span.label or f"function '{fn.name}': expression"
     return Diagnostic(path, line, file_col, f"{subject}: {message}")
@@ -142,8 +151,9 @@ def bound_problems(fn: Function, lay: Layout) -> list[str]:
     A bound that excludes one of a bit's values is allowed: a coil that only accepts 1 is a trigger."""
     bounds = [(attr, value) for attr, value in (("minimum", fn.minimum), ("maximum", fn.maximum)) if value is not None]
     if lay.kind == "string":
-        return [f"{attr} {value:g} cannot apply to a STRING value: text has no order to bound"
-                for attr, value in bounds]
+        return [
+            f"{attr} {value:g} cannot apply to a STRING value: text has no order to bound" for attr, value in bounds
+        ]
     if fn.minimum is not None and fn.maximum is not None and fn.minimum > fn.maximum:
         return [f"minimum {fn.minimum:g} is above maximum {fn.maximum:g}"]
     return []
@@ -159,8 +169,11 @@ def marker_problems(fn: Function, lay: Layout) -> list[tuple[str, str]]:
             out.append(("a marker is a number; format STRING cannot carry one", "error"))
         elif lay.kind in ("int", "bool"):
             low, high = (0, 1) if lay.kind == "bool" else int_range(lay)
-            out += [(f"marker {m} can never be read: the raw value is {low}..{high}", "error")
-                    for m in fn.marker if not low <= m <= high]
+            out += [
+                (f"marker {m} can never be read: the raw value is {low}..{high}", "error")
+                for m in fn.marker
+                if not low <= m <= high
+            ]
     if fn.write_multiple and not fn.writable:
         out.append(("write_multiple on a function that cannot be written does nothing", "warning"))
     return out
@@ -174,13 +187,25 @@ def _check_expression_function(fn: Function, compiled: Compiled | None, err: Rep
         err(fn, f"register_type {fn.register_type} but the expression reads the {lay.table} table")
     if fn.access in ("write", "read_write"):
         err(fn, "a function computed by an expression can only be read")
-    for attr in ("read_function_code", "write_function_code", "not_implemented", "marker", "bits", "scale_exponent",
-                 "scale_by", "initial"):
+    for attr in (
+        "read_function_code",
+        "write_function_code",
+        "not_implemented",
+        "marker",
+        "bits",
+        "scale_exponent",
+        "scale_by",
+        "initial",
+    ):
         if getattr(fn, attr) is not None:
             err(fn, f"{attr} cannot be combined with an expression")
     if fn.addresses and sorted(fn.addresses) != lay.addresses:
-        err(fn, f"addresses {' '.join(map(str, fn.addresses))} differ from the registers the expression reads "
-                f"({' '.join(map(str, lay.addresses)) or 'none'})", "warning")
+        err(
+            fn,
+            f"addresses {' '.join(map(str, fn.addresses))} differ from the registers the expression reads "
+            f"({' '.join(map(str, lay.addresses)) or 'none'})",
+            "warning",
+        )
 
 
 def check_tests(device: Device, path: str | None) -> list[Diagnostic]:

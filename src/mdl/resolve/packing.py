@@ -29,8 +29,13 @@ def packing_problems(fn: Function, lay: Layout, functions: Mapping[str, Function
 def _bits_problems(fn: Function, lay: Layout) -> list[Problem]:
     out: list[Problem] = []
     if mask_write(fn) and fn.bits is None:
-        out.append(("write_function_code 22 (Mask Write Register) changes bits: it needs <bits>", "error",
-                    "write_function_code"))
+        out.append(
+            (
+                "write_function_code 22 (Mask Write Register) changes bits: it needs <bits>",
+                "error",
+                "write_function_code",
+            )
+        )
     if fn.bits is None:
         return out
     span = fn.bit_range
@@ -41,21 +46,33 @@ def _bits_problems(fn: Function, lay: Layout) -> list[Problem]:
         return [*out, (f"bits pick bits of an integer; {what} has none to pick", "error", "bits")]
     low, high = span
     if high >= lay.bits:
-        out.append((f"bits {fn.bits.strip()} are outside the {lay.bits}-bit value (bits 0-{lay.bits - 1})",
-                    "error", "bits"))
+        out.append(
+            (f"bits {fn.bits.strip()} are outside the {lay.bits}-bit value (bits 0-{lay.bits - 1})", "error", "bits")
+        )
     if fn.read_function_code is not None:
-        out.append(("bits cannot be combined with read_function_code (the fragment decides the value)", "error",
-                    "bits"))
+        out.append(
+            ("bits cannot be combined with read_function_code (the fragment decides the value)", "error", "bits")
+        )
     if fn.write_function_code is not None and not mask_write(fn):
-        out.append(("bits cannot be combined with a write fragment (write_function_code 22 is Mask Write "
-                    "Register)", "error", "bits"))
+        out.append(
+            (
+                "bits cannot be combined with a write fragment (write_function_code 22 is Mask Write Register)",
+                "error",
+                "bits",
+            )
+        )
     if low == high and fn.scales:
         out.append(("one bit is a boolean: multiplier and offset cannot apply (use a range N-M)", "error", "bits"))
     if fn.factor is not None:
         out.append(("bits cannot be scaled by another function yet", "error", "bits"))
     if mask_write(fn) and fn.write_multiple:
-        out.append(("write_multiple does nothing: write_function_code 22 writes with Mask Write Register",
-                    "warning", "write_function_code"))
+        out.append(
+            (
+                "write_multiple does nothing: write_function_code 22 writes with Mask Write Register",
+                "warning",
+                "write_function_code",
+            )
+        )
     return out
 
 
@@ -70,8 +87,7 @@ def _scale_problems(fn: Function, lay: Layout, functions: Mapping[str, Function]
         what = "a BIT" if lay.kind == "bool" else f"format {fn.eff_format}"
         out.append((f"{element} scales an integer; {what} cannot be scaled", "error", element))
     if fn.read_function_code is not None or fn.write_function_code is not None:
-        out.append((f"{element} cannot be combined with a fragment (the fragment decides the value)", "error",
-                    element))
+        out.append((f"{element} cannot be combined with a fragment (the fragment decides the value)", "error", element))
     factor = functions.get(fn.factor)
     if factor is None:
         return [*out, (f"{element} names no function '{fn.factor}'", "error", element)]

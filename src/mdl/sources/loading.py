@@ -31,10 +31,13 @@ def import_format(path: StrPath) -> str:
     from mdl.fileio import read_bytes
     from mdl.sources.mdlxml.sniff import looks_like, starts_with_markup
 
-    data = read_bytes(path, limit=64 * 1024)[:64 * 1024]  # a missing or unreadable file: its own error
+    data = read_bytes(path, limit=64 * 1024)[: 64 * 1024]  # a missing or unreadable file: its own error
     if starts_with_markup(data):
-        raise error("cannot tell the format: this looks like XML, and mdl import reads XIF, WISE-Agent and "
-                    "Toolkit files, none of them XML; MDL needs no import: every command reads it as it is", path)
+        raise error(
+            "cannot tell the format: this looks like XML, and mdl import reads XIF, WISE-Agent and "
+            "Toolkit files, none of them XML; MDL needs no import: every command reads it as it is",
+            path,
+        )
     what, advice = looks_like(data, path)
     raise error(f"cannot tell the format: this looks like {what}; {advice}; or {give}", path)
 

@@ -129,7 +129,7 @@ def write_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = 
         return ValueType("float", 64, True)
     if bit_fields(fn, lay) is not None:
         return value_type(fn, lay)
-    if ((lay.kind in ("int", "float")) and fn.scales):
+    if (lay.kind in ("int", "float")) and fn.scales:
         return ValueType("float", 64, True)
     return value_type(fn, lay, compiled)
 

@@ -151,6 +151,7 @@ def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
                 raise error(f"function '{name}': read_function_code: {exc}") from None
 
     elif isinstance(first, ir.ToBool):
+
         def body(r: Sequence[int]) -> Value:
             return bool(r[0])
 
@@ -211,6 +212,7 @@ def compile_encoder(codec: ir.Codec, steps: tuple[ir.EncodeStep, ...]) -> Encode
                 raise CodecError(f"write_function_code: {exc}") from None
 
     elif isinstance(last, ir.FromBool):
+
         def body(value: Scalar) -> list[int]:
             return [1 if value else 0]
 

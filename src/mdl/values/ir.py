@@ -216,10 +216,33 @@ class Split:
     units: tuple[Unit, ...]
 
 
-DecodeStep: TypeAlias = (NotImplemented | Fragment | Expression | ToBool | Compose | ToText | Mask | SignExtend
-                          | ToFloat | Scale | Bits | ScaleFactor)
-EncodeStep: TypeAlias = (CheckRange | Fragment | FromBool | FromText | Unscale | UnscaleFactor | FromFloat | RoundInt
-                         | PlaceBits | Split | Merge)
+DecodeStep: TypeAlias = (
+    NotImplemented
+    | Fragment
+    | Expression
+    | ToBool
+    | Compose
+    | ToText
+    | Mask
+    | SignExtend
+    | ToFloat
+    | Scale
+    | Bits
+    | ScaleFactor
+)
+EncodeStep: TypeAlias = (
+    CheckRange
+    | Fragment
+    | FromBool
+    | FromText
+    | Unscale
+    | UnscaleFactor
+    | FromFloat
+    | RoundInt
+    | PlaceBits
+    | Split
+    | Merge
+)
 
 ValueKind = Literal["int", "float", "string", "bool", "expr"]
 

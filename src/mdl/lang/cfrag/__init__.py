@@ -24,8 +24,20 @@ from mdl.lang.cfrag.parser import MAX_DEPTH, Statement, parse
 from mdl.lang.cfrag.pyemit import FALLIBLE, HELPERS_SOURCE, helpers_namespace, statement
 
 __all__ = [
-    "FALLIBLE", "HELPERS_SOURCE", "INCLUDES", "MAX_DEPTH", "CFragment", "Dialect", "Fragment", "FragmentError",
-    "check", "compile_fragment", "compile_read", "compile_write", "helpers_source", "python_body",
+    "FALLIBLE",
+    "HELPERS_SOURCE",
+    "INCLUDES",
+    "MAX_DEPTH",
+    "CFragment",
+    "Dialect",
+    "Fragment",
+    "FragmentError",
+    "check",
+    "compile_fragment",
+    "compile_read",
+    "compile_write",
+    "helpers_source",
+    "python_body",
 ]
 
 ReadFragment = Callable[[list[int]], float]  # registers r1..rn -> arg

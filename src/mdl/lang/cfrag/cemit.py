@@ -91,8 +91,7 @@ def int_literal(value: int, t: str) -> str:
         if value == low:  # the most negative value has no literal
             return f"({int_literal(value + 1, t)} - 1)"
         return f"(-{int_literal(-value, t)})"
-    return {"int": str(value), "unsigned": f"{value}U", "long": f"INT64_C({value})",
-            "ulong": f"UINT64_C({value})"}[t]
+    return {"int": str(value), "unsigned": f"{value}U", "long": f"INT64_C({value})", "ulong": f"UINT64_C({value})"}[t]
 
 
 def literal(value: int | float, t: str) -> str:
@@ -152,8 +151,10 @@ class _Emitter:
         bits, signed = dst if isinstance(dst, tuple) else INT_TYPES[str(dst)]
         if src in FLOATS:
             low, high = int_range((bits, signed))
-            bounds = (repr(math.nextafter(float(low), -math.inf) if bits == 64 and signed else float(low - 1)),
-                      repr(float(high + 1)))
+            bounds = (
+                repr(math.nextafter(float(low), -math.inf) if bits == 64 and signed else float(low - 1)),
+                repr(float(high + 1)),
+            )
             checked = self.call("mdl_frag_f2i", self.convert(code, src, "double"), *bounds, fallible=True)
             return f"({c_type_name('int' if bits < 32 else (bits, signed))})({checked})"
         sbits, ssigned = INT_TYPES[src]
@@ -392,8 +393,9 @@ class CFragment:
     def _results(self, declared: set[str]) -> list[str]:
         if self.reading:
             return [f"*out = {'arg' if 'arg' in declared else '0.0'};", "return 0;"]
-        return [f"r[{i - 1}] = {f'(uint16_t)(r{i})' if f'r{i}' in declared else '0U'};"
-                for i in range(1, self.nregs + 1)] + ["return 0;"]
+        return [
+            f"r[{i - 1}] = {f'(uint16_t)(r{i})' if f'r{i}' in declared else '0U'};" for i in range(1, self.nregs + 1)
+        ] + ["return 0;"]
 
     def body(self) -> list[str]:
         """The statements of the function, in the dialect."""

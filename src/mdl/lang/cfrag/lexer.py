@@ -40,8 +40,14 @@ _PP_NUMBER = re.compile(r"\.?[0-9](?:[eEpP][+-]|[0-9A-Za-z_.])*", re.ASCII)
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z_0-9]*", re.ASCII)
 # what a comment may hold: words, numbers, and punctuation that cannot spell a statement
 _PLAIN_COMMENT = re.compile(r"[A-Za-z0-9 \t\r\n.,:!?%+\-*/<>()'\[\]]*", re.ASCII)
-_REFUSED = {"#": "preprocessor lines", "\\": "backslashes", '"': "string literals",
-            "'": "character literals", "{": "braces", "}": "braces"}
+_REFUSED = {
+    "#": "preprocessor lines",
+    "\\": "backslashes",
+    '"': "string literals",
+    "'": "character literals",
+    "{": "braces",
+    "}": "braces",
+}
 
 
 def shown(ch: str) -> str:
@@ -64,8 +70,11 @@ def _comment_end(src: str, i: int) -> int:
         body = src[i + 2 : after]
     if not _PLAIN_COMMENT.fullmatch(body):
         bad = next(j for j, c in enumerate(body) if not _PLAIN_COMMENT.fullmatch(c))
-        raise FragmentError(f"a comment may hold only words, numbers and plain punctuation, "
-                            f"not '{shown(body[bad])}' (it could hide code)", i + 3 + bad)
+        raise FragmentError(
+            f"a comment may hold only words, numbers and plain punctuation, "
+            f"not '{shown(body[bad])}' (it could hide code)",
+            i + 3 + bad,
+        )
     return after
 
 

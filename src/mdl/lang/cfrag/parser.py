@@ -39,8 +39,16 @@ __all__ = ["CASTS", "INT_TYPES", "MAX_DEPTH", "Statement", "arith_type", "int_ty
 MAX_DEPTH = 40  # levels of an expression tree: parentheses, operators, casts
 ASSIGN_OPS = ("=", "+=", "-=", "*=", "/=", "%=", "<<=", ">>=", "&=", "|=", "^=")
 BINARY_PREC = [
-    ("||",), ("&&",), ("|",), ("^",), ("&",), ("==", "!="), ("<", ">", "<=", ">="), ("<<", ">>"),
-    ("+", "-"), ("*", "/", "%"),
+    ("||",),
+    ("&&",),
+    ("|",),
+    ("^",),
+    ("&",),
+    ("==", "!="),
+    ("<", ">", "<=", ">="),
+    ("<<", ">>"),
+    ("+", "-"),
+    ("*", "/", "%"),
 ]
 INTEGER_ONLY = ("<<", ">>", "%", "&", "|", "^")
 _REG = re.compile(r"r([1-9][0-9]*)", re.ASCII)
@@ -200,8 +208,9 @@ class _Parser:
         target = self.variable(self.take())
         op = self.peek()
         if op.kind != "op" or op.text not in ASSIGN_OPS:
-            raise FragmentError(f"expected an assignment after {self.describe(tok)} but found {self.describe(op)}",
-                                op.col)
+            raise FragmentError(
+                f"expected an assignment after {self.describe(tok)} but found {self.describe(op)}", op.col
+            )
         self.take()
         value = self.expr()
         if op.text != "=":  # `t op= v` is `t = t op v`, checked as such
@@ -258,8 +267,9 @@ class _Parser:
             node = ("bin", lt, o, left.node, right.node, lt)
             if right.const is not None and not 0 <= right.const < INT_TYPES[lt][0]:
                 bits = INT_TYPES[lt][0]
-                raise FragmentError(f"shift count {right.const} is outside 0..{bits - 1} for a {bits}-bit operand",
-                                    op.col)
+                raise FragmentError(
+                    f"shift count {right.const} is outside 0..{bits - 1} for a {bits}-bit operand", op.col
+                )
         else:
             optype = arith_type(lt, rt)
             node = ("bin", "int" if o in COMPARISONS else optype, o, left.node, right.node, optype)

@@ -30,9 +30,18 @@ Statement: TypeAlias = tuple[str, str, CNode]
 
 # cast name -> (bits, signed) for integers, or "float"/"double"
 CASTS: dict[str, CastTarget] = {
-    "int8_t": (8, True), "uint8_t": (8, False), "int16_t": (16, True), "uint16_t": (16, False),
-    "int32_t": (32, True), "uint32_t": (32, False), "int64_t": (64, True), "uint64_t": (64, False),
-    "int": (32, True), "unsigned": (32, False), "float": "float", "double": "double",
+    "int8_t": (8, True),
+    "uint8_t": (8, False),
+    "int16_t": (16, True),
+    "uint16_t": (16, False),
+    "int32_t": (32, True),
+    "uint32_t": (32, False),
+    "int64_t": (64, True),
+    "uint64_t": (64, False),
+    "int": (32, True),
+    "unsigned": (32, False),
+    "float": "float",
+    "double": "double",
 }
 # integer expression types: name -> (bits, signed)
 INT_TYPES: dict[str, IntType] = {"int": (32, True), "unsigned": (32, False), "long": (64, True), "ulong": (64, False)}

@@ -62,8 +62,10 @@ def _unusable(fn: Function) -> str | None:
         except LayoutError:
             return None  # reported as its own error
         if lay.kind == "int" and lay.bits > 53 and not fn.scales and not fn.read_function_code:
-            return ("has a write fragment: its value is a double in the C++ driver (SPEC 5), which "
-                    f"cannot hold every {lay.bits}-bit integer an expression computes with")
+            return (
+                "has a write fragment: its value is a double in the C++ driver (SPEC 5), which "
+                f"cannot hold every {lay.bits}-bit integer an expression computes with"
+            )
     return None
 
 

@@ -22,12 +22,36 @@ from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 if TYPE_CHECKING:
     from typing_extensions import Unpack
 
-REGISTER_COUNT = {"int16": 1, "uint16": 1, "int32": 2, "uint32": 2, "int64": 4, "uint64": 4,
-                  "ieee754_32": 2, "ieee754_64": 4, "ipv4addr": 2, "ipv6addr": 8}
-RESULT = {"int16": "long", "uint16": "long", "int32": "long", "uint32": "long", "int64": "long",
-          "uint64": "long", "ieee754_32": "double", "ieee754_64": "double", "utf8": "string",
-          "hexstring": "string", "eui48": "string", "ipv4addr": "string", "ipv6addr": "string",
-          "enum": "string", "bitset": "list", "bitsetbit": "bool"}
+REGISTER_COUNT = {
+    "int16": 1,
+    "uint16": 1,
+    "int32": 2,
+    "uint32": 2,
+    "int64": 4,
+    "uint64": 4,
+    "ieee754_32": 2,
+    "ieee754_64": 4,
+    "ipv4addr": 2,
+    "ipv6addr": 8,
+}
+RESULT = {
+    "int16": "long",
+    "uint16": "long",
+    "int32": "long",
+    "uint32": "long",
+    "int64": "long",
+    "uint64": "long",
+    "ieee754_32": "double",
+    "ieee754_64": "double",
+    "utf8": "string",
+    "hexstring": "string",
+    "eui48": "string",
+    "ipv4addr": "string",
+    "ipv6addr": "string",
+    "enum": "string",
+    "bitset": "list",
+    "bitsetbit": "bool",
+}
 
 
 @dataclass
@@ -155,7 +179,7 @@ class Lowerer:
         if isinstance(node, Swap):
             inner, _ = self.regs(node.arg)
             return self.emit(OpKind[node.kind.upper()], "regs", [inner], count=self.ops[-1].data["count"])
-        raise ExprError("expected registers (hr:N#count, \"0x1234\", swapbytes(...))", node.col)
+        raise ExprError('expected registers (hr:N#count, "0x1234", swapbytes(...))', node.col)
 
     def call(self, node: Call) -> tuple[str, str]:
         name = node.name
@@ -192,8 +216,9 @@ class Lowerer:
             raise ExprError(f"enum reads at most 4 registers (64 bits), got {count}", node.args[0].col)
         for group in node.not_implemented:
             if len(group) != count:
-                raise ExprError(f"a 'not implemented' value of {len(group)} register(s) for {count} register(s)",
-                                node.col)
+                raise ExprError(
+                    f"a 'not implemented' value of {len(group)} register(s) for {count} register(s)", node.col
+                )
         if name == "bitsetbit":
             if node.bit is None or not 0 <= node.bit < 16 * count:
                 raise ExprError(f"bitsetbit needs a bit number from 0 to {16 * count - 1}", node.col)
@@ -202,8 +227,9 @@ class Lowerer:
         if node.mapping and name not in ("enum", "bitset"):
             raise ExprError(f"{name} takes no mapping", node.col)
         ni = [list(g) for g in node.not_implemented]
-        return self.emit(OpKind[name.upper()], RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping),
-                         bit=node.bit)
+        return self.emit(
+            OpKind[name.upper()], RESULT[name], [regs], ni=ni, count=count, mapping=dict(node.mapping), bit=node.bit
+        )
 
 
 def lower(node: Node, ref_types: dict[str, str], max_registers: int = MAX_REGISTERS) -> Lowered:

@@ -33,8 +33,11 @@ class OpKind(Enum):
     CONST = ("const", "the register values `data.words` (`data.count` of them); never null.")
     SWAPBYTES = ("swapbytes", "the registers `args[0]`, each with its two bytes swapped.")
     SWAPENDIAN = ("swapendian", "the registers `args[0]`, each with its 16 bits in reverse order.")
-    CONCAT = ("concat", "the text of each of `args` (of the types `data.types`) joined: a null as '', a bool as "
-                        "true/false, a double as Java's Double.toString, a list as [a, b]; never null.")
+    CONCAT = (
+        "concat",
+        "the text of each of `args` (of the types `data.types`) joined: a null as '', a bool as "
+        "true/false, a double as Java's Double.toString, a list as [a, b]; never null.",
+    )
     BIT = ("bit", "a bool: the one coil or discrete input `args[0]` is not 0.")
     LABEL = ("label", "`data.labels[1]` where the bool `args[0]` is true, else `data.labels[0]`.")
     TODOUBLE = ("todouble", "the long `args[0]` as a double.")
@@ -55,19 +58,41 @@ class OpKind(Enum):
     EUI48 = ("eui48", "the last three registers' six bytes as `AA:BB:CC:DD:EE:FF`.")
     IPV4ADDR = ("ipv4addr", "the two registers' four bytes as dotted decimal.")
     IPV6ADDR = ("ipv6addr", "the eight registers as `XXXX:...` (four hex digits each, not shortened).")
-    ENUM = ("enum", "the label `data.mapping` gives the registers as a signed integer of their bits, else "
-                    "`No mapping for value ` and their hexstring.")
-    BITSET = ("bitset", "a list: the label (`data.mapping`, else `Bit N`) of each set bit N of the registers "
-                        "(bit 0 the least significant of the last register), lowest first.")
+    ENUM = (
+        "enum",
+        "the label `data.mapping` gives the registers as a signed integer of their bits, else "
+        "`No mapping for value ` and their hexstring.",
+    )
+    BITSET = (
+        "bitset",
+        "a list: the label (`data.mapping`, else `Bit N`) of each set bit N of the registers "
+        "(bit 0 the least significant of the last register), lowest first.",
+    )
     BITSETBIT = ("bitsetbit", "a bool: bit `data.bit` of the registers (bit 0 the least significant of the last).")
 
 
 # the kinds that read registers `args[0]`: null where those are null or equal one of the "not
 # implemented" values `data.ni`
-REGISTER_FUNCTIONS = frozenset({
-    OpKind.INT16, OpKind.UINT16, OpKind.INT32, OpKind.UINT32, OpKind.INT64, OpKind.UINT64, OpKind.IEEE754_32,
-    OpKind.IEEE754_64, OpKind.UTF8, OpKind.HEXSTRING, OpKind.EUI48, OpKind.IPV4ADDR, OpKind.IPV6ADDR, OpKind.ENUM,
-    OpKind.BITSET, OpKind.BITSETBIT})
+REGISTER_FUNCTIONS = frozenset(
+    {
+        OpKind.INT16,
+        OpKind.UINT16,
+        OpKind.INT32,
+        OpKind.UINT32,
+        OpKind.INT64,
+        OpKind.UINT64,
+        OpKind.IEEE754_32,
+        OpKind.IEEE754_64,
+        OpKind.UTF8,
+        OpKind.HEXSTRING,
+        OpKind.EUI48,
+        OpKind.IPV4ADDR,
+        OpKind.IPV6ADDR,
+        OpKind.ENUM,
+        OpKind.BITSET,
+        OpKind.BITSETBIT,
+    }
+)
 
 
 class OpData(TypedDict, total=False):

@@ -20,8 +20,24 @@ from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, N
 from mdl.model.addressing import AddressError, address_range, address_run, match_address, whole_number
 from mdl.model.layout import MAX_ADDRESS
 
-REGISTER_FUNCTIONS = ("int16", "uint16", "int32", "uint32", "int64", "uint64", "ieee754_32", "ieee754_64",
-                      "utf8", "hexstring", "eui48", "ipv4addr", "ipv6addr", "enum", "bitset", "bitsetbit")
+REGISTER_FUNCTIONS = (
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+    "ieee754_32",
+    "ieee754_64",
+    "utf8",
+    "hexstring",
+    "eui48",
+    "ipv4addr",
+    "ipv6addr",
+    "enum",
+    "bitset",
+    "bitsetbit",
+)
 FUNCTIONS = REGISTER_FUNCTIONS + ("concat", "boolean", "swapbytes", "swapendian")
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?")
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -80,7 +96,7 @@ class Parser:
     def next_char(self, pos: int) -> str:
         """The first character at or after pos that is not a space ('' at the end)."""
         end = self._space_end(pos)
-        return self.text[end: end + 1]
+        return self.text[end : end + 1]
 
     def descend(self, pos: int | None = None) -> None:
         """One level deeper; refused past MAX_DEPTH. The caller restores self.depth when done."""
@@ -165,7 +181,7 @@ class Parser:
         if ch == "'":
             return Str(start + 1, self.string())
         if ch == '"':
-            raise self.error("a register constant \"0x...\" is only allowed inside a function such as int16(...)")
+            raise self.error('a register constant "0x..." is only allowed inside a function such as int16(...)')
         m = _IDENT.match(self.text, self.pos)
         if m:
             word = m.group(0)
@@ -179,7 +195,8 @@ class Parser:
             for field_id in self.fields.by_lead.get(word, ()):
                 end = self.pos + len(field_id)
                 if self.text.startswith(field_id, self.pos) and not (
-                        end < len(self.text) and (self.text[end].isalnum() or self.text[end] == "_")):
+                    end < len(self.text) and (self.text[end].isalnum() or self.text[end] == "_")
+                ):
                     self.pos = end
                     return Ref(start + 1, field_id)
             if word.lower() in ("true", "false"):
@@ -215,7 +232,7 @@ class Parser:
         end = self.text.find("'", self.pos)
         if end < 0:
             raise self.error("unterminated string", self.pos - 1)
-        value = self.text[self.pos:end]
+        value = self.text[self.pos : end]
         self.pos = end + 1
         return value
 
@@ -265,7 +282,7 @@ class Parser:
             if end < 0:
                 raise self.error("unterminated register constant", start)
             words = []
-            for word in re.finditer(r"\S+", self.text[self.pos:end]):
+            for word in re.finditer(r"\S+", self.text[self.pos : end]):
                 if not _HEXWORD.fullmatch(word.group(0)):
                     raise self.error(f"'{word.group(0)}' is not a register value like 0x1234", self.pos + word.start())
                 words.append(int(word.group(0), 16))
@@ -361,9 +378,11 @@ class Parser:
                 if value in node.mapping:
                     raise self.error(f"value {value} is mapped twice", part_start)
                 if not -LONG_MAX - 1 <= value <= LONG_MAX:  # every target compares int64 values
-                    raise self.error(f"mapped value {value} is outside int64 ({-LONG_MAX - 1}..{LONG_MAX})"
-                                     + (f": as 64 bits, write {value - 2**64}" if value > LONG_MAX else ""),
-                                     part_start)
+                    raise self.error(
+                        f"mapped value {value} is outside int64 ({-LONG_MAX - 1}..{LONG_MAX})"
+                        + (f": as 64 bits, write {value - 2**64}" if value > LONG_MAX else ""),
+                        part_start,
+                    )
                 node.mapping[value] = self.string_arg()
             else:
                 node.bit = value

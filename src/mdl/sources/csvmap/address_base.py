@@ -34,8 +34,11 @@ class BaseGuess:
 
 def guess_address_base(rows: list[Row], index: int, header: str, type_index: int | None) -> BaseGuess:
     if "hex" in header.lower():
-        return BaseGuess("hex", f"addresses read as hexadecimal: the header '{header.strip()}' says so; "
-                                "set address_base = 0 in [Modbus Device] to read them as decimal")
+        return BaseGuess(
+            "hex",
+            f"addresses read as hexadecimal: the header '{header.strip()}' says so; "
+            "set address_base = 0 in [Modbus Device] to read them as decimal",
+        )
     plain: list[tuple[Row, list[str]]] = []
     for r in rows:
         text = r.cell(index)
@@ -43,11 +46,17 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
             plain.append((r, re.findall(r"\d+", text)))
     if not plain:
         return BaseGuess("0", None)  # hex, named or Modicon-x forms only: nothing to guess
-    shaped = [(r, tokens) for r, tokens in plain if tokens and all(is_modicon_number(t) for t in tokens)
-              or tokens and _coil_numbers(r, tokens, type_index)]
+    shaped = [
+        (r, tokens)
+        for r, tokens in plain
+        if tokens and all(is_modicon_number(t) for t in tokens) or tokens and _coil_numbers(r, tokens, type_index)
+    ]
     if not shaped:
-        return BaseGuess("0", "plain addresses read as wire addresses (0-based, as sent on the bus); "
-                              "set address_base = 1 in [Modbus Device] if the table counts from 1")
+        return BaseGuess(
+            "0",
+            "plain addresses read as wire addresses (0-based, as sent on the bus); "
+            "set address_base = 1 in [Modbus Device] if the table counts from 1",
+        )
     impossible = next((t for _, tokens in plain for t in tokens if len(t) == 5 and not is_modicon_number(t)), None)
     six = any(len(t) == 6 for _, tokens in shaped for t in tokens)
     low = any(len(t) == 5 and int(t[1:]) < 1000 for _, tokens in shaped for t in tokens)
@@ -64,12 +73,18 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
     if why_not is None:
         stray = len(plain) - len(shaped)
         strays = f"; the {stray} that are not are reported on their lines" if stray else ""
-        return BaseGuess("modicon", f"addresses read as Modicon register numbers (40001 is holding register 0, "
-                                    f"30001 input register 0){strays}; set address_base = 0 in [Modbus Device] "
-                                    "if they are wire addresses")
-    return BaseGuess("0", f"addresses read as wire addresses (0-based), though {len(shaped)} of {len(plain)} look "
-                          f"like Modicon register numbers (40001 ...): {why_not}; set address_base = modicon in "
-                          "[Modbus Device] to read them as Modicon numbers")
+        return BaseGuess(
+            "modicon",
+            f"addresses read as Modicon register numbers (40001 is holding register 0, "
+            f"30001 input register 0){strays}; set address_base = 0 in [Modbus Device] "
+            "if they are wire addresses",
+        )
+    return BaseGuess(
+        "0",
+        f"addresses read as wire addresses (0-based), though {len(shaped)} of {len(plain)} look "
+        f"like Modicon register numbers (40001 ...): {why_not}; set address_base = modicon in "
+        "[Modbus Device] to read them as Modicon numbers",
+    )
 
 
 def _coil_numbers(row: Row, tokens: list[str], type_index: int | None) -> bool:

@@ -140,8 +140,10 @@ FORMAT_WORDS = [
     (r"bool(?:ean)?|bit|coil|binary|digital", "BIT"),
 ]
 _FORMATS = [(re.compile(rf"(?i)^(?:{pattern})$"), fmt) for pattern, fmt in FORMAT_WORDS]
-_STRING = re.compile(r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*([0-9]+)\s*[\])]$"
-                     r"|^(?:string|str|ascii|text)([0-9]*)$")
+_STRING = re.compile(
+    r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*([0-9]+)\s*[\])]$"
+    r"|^(?:string|str|ascii|text)([0-9]*)$"
+)
 
 
 # format words that give no width (some projects mean 32 bits by INT): read as one register, and said
@@ -173,8 +175,10 @@ def _struct_type(t: str) -> TypeCell | None:
     fmt = f"FLOAT{8 * size}" if code in "fd" else f"{'INT' if code.islower() else 'UINT'}{8 * size}"
     if size == 1:
         if bool(pad_before) == bool(pad_after):
-            raise CellError(f"struct type '{t}' is one byte: it needs one pad byte to fill a register "
-                            f"('{prefix}x{code}' the lower byte, '{prefix}{code}x' the upper)")
+            raise CellError(
+                f"struct type '{t}' is one byte: it needs one pad byte to fill a register "
+                f"('{prefix}x{code}' the lower byte, '{prefix}{code}x' the upper)"
+            )
         return TypeCell(fmt, length="Lower byte" if pad_before else "Upper byte")
     if pad_before or pad_after:
         raise CellError(f"struct type '{t}': a pad byte (x) beside a value of {size} bytes fills no register")
@@ -217,17 +221,46 @@ def parse_length(text: str) -> str:
     raise CellError(f"unknown length '{text.strip()}' (expected Lower byte, Upper byte or Full word)")
 
 
-ACCESS_WORDS = {"r": "read", "ro": "read", "read": "read", "read only": "read", "read-only": "read",
-                "readonly": "read", "read_only": "read", "r/o": "read", "rd": "read", "w": "write",
-                "wo": "write", "write": "write", "write only": "write", "write-only": "write", "writeonly": "write",
-                "write_only": "write", "w/o": "write",
-                "rw": "read_write", "r/w": "read_write", "w/r": "read_write", "r/w/": "read_write",
-                "read/write": "read_write", "read write": "read_write", "read-write": "read_write",
-                "wr": "read_write", "r+w": "read_write", "r & w": "read_write", "r&w": "read_write",
-                "read_write": "read_write", "rd/wr": "read_write", "rdwr": "read_write",
-                # a "Writable" column (VOLTTRON, Victron): yes or no
-                "true": "read_write", "yes": "read_write", "y": "read_write",
-                "false": "read", "no": "read", "n": "read"}
+ACCESS_WORDS = {
+    "r": "read",
+    "ro": "read",
+    "read": "read",
+    "read only": "read",
+    "read-only": "read",
+    "readonly": "read",
+    "read_only": "read",
+    "r/o": "read",
+    "rd": "read",
+    "w": "write",
+    "wo": "write",
+    "write": "write",
+    "write only": "write",
+    "write-only": "write",
+    "writeonly": "write",
+    "write_only": "write",
+    "w/o": "write",
+    "rw": "read_write",
+    "r/w": "read_write",
+    "w/r": "read_write",
+    "r/w/": "read_write",
+    "read/write": "read_write",
+    "read write": "read_write",
+    "read-write": "read_write",
+    "wr": "read_write",
+    "r+w": "read_write",
+    "r & w": "read_write",
+    "r&w": "read_write",
+    "read_write": "read_write",
+    "rd/wr": "read_write",
+    "rdwr": "read_write",
+    # a "Writable" column (VOLTTRON, Victron): yes or no
+    "true": "read_write",
+    "yes": "read_write",
+    "y": "read_write",
+    "false": "read",
+    "no": "read",
+    "n": "read",
+}
 BOTH_LETTERS = frozenset(k for k, v in ACCESS_WORDS.items() if v == "read_write" and "r" in k and "w" in k)
 
 
@@ -249,17 +282,52 @@ def parse_access(text: str, w_alone: str = "write") -> str:
 
 
 # a word-order column (VOLTTRON's `Mixed Endian`, `Word Swap`): swapped or not, relative to the type's own order
-_SWAPPED = {"true": True, "t": True, "yes": True, "y": True, "1": True, "swap": True, "swapped": True,
-            "reversed": True, "mixed": True, "on": True,
-            "false": False, "f": False, "no": False, "n": False, "0": False, "off": False, "normal": False,
-            "not swapped": False, "none": False}
+_SWAPPED = {
+    "true": True,
+    "t": True,
+    "yes": True,
+    "y": True,
+    "1": True,
+    "swap": True,
+    "swapped": True,
+    "reversed": True,
+    "mixed": True,
+    "on": True,
+    "false": False,
+    "f": False,
+    "no": False,
+    "n": False,
+    "0": False,
+    "off": False,
+    "normal": False,
+    "not swapped": False,
+    "none": False,
+}
 # ... or the order itself: of the words, or of the bytes A (most significant) to D
-_WORD_ORDERS = {"big": "big", "be": "big", "big endian": "big", "msw first": "big", "high word first": "big",
-                "hi lo": "big", "little": "little", "le": "little", "little endian": "little",
-                "lsw first": "little", "low word first": "little", "lo hi": "little"}
-_BYTE_ORDERS = {"abcd": ("big", "big"), "cdab": ("big", "little"), "badc": ("little", "big"),
-                "dcba": ("little", "little"), "1234": ("big", "big"), "3412": ("big", "little"),
-                "2143": ("little", "big"), "4321": ("little", "little")}
+_WORD_ORDERS = {
+    "big": "big",
+    "be": "big",
+    "big endian": "big",
+    "msw first": "big",
+    "high word first": "big",
+    "hi lo": "big",
+    "little": "little",
+    "le": "little",
+    "little endian": "little",
+    "lsw first": "little",
+    "low word first": "little",
+    "lo hi": "little",
+}
+_BYTE_ORDERS = {
+    "abcd": ("big", "big"),
+    "cdab": ("big", "little"),
+    "badc": ("little", "big"),
+    "dcba": ("little", "little"),
+    "1234": ("big", "big"),
+    "3412": ("big", "little"),
+    "2143": ("little", "big"),
+    "4321": ("little", "little"),
+}
 
 
 @dataclass(frozen=True)
@@ -278,24 +346,58 @@ def parse_word_order(text: str) -> WordOrderCell:
     if t.replace(" ", "") in _BYTE_ORDERS:
         byte, word = _BYTE_ORDERS[t.replace(" ", "")]
         return WordOrderCell(word_order=word, byte_order=byte)
-    raise CellError(f"unknown word order '{text.strip()}' (expected TRUE/FALSE for swapped, big/little, "
-                    "or ABCD/CDAB/BADC/DCBA)")
+    raise CellError(
+        f"unknown word order '{text.strip()}' (expected TRUE/FALSE for swapped, big/little, or ABCD/CDAB/BADC/DCBA)"
+    )
 
 
-TABLE_WORDS = {"holding": "holding", "holding register": "holding", "holding registers": "holding", "hr": "holding",
-               "4x": "holding", "input": "input", "input register": "input", "input registers": "input",
-               "ir": "input", "3x": "input", "coil": "coil", "coils": "coil", "0x": "coil", "c": "coil",
-               "coil status": "coil", "discrete": "discrete", "discrete input": "discrete",
-               "discrete inputs": "discrete",
-               "di": "discrete", "1x": "discrete", "input status": "discrete",
-               "read coils": "coil", "read discrete inputs": "discrete", "read holding registers": "holding",
-               "read input registers": "input", "analog input": "input", "analog output": "holding",
-               # VOLTTRON's table names (modbus_tk register maps)
-               "discrete output coils": "coil", "discrete input contacts": "discrete",
-               "analog input registers": "input", "analog output holding registers": "holding"}
+TABLE_WORDS = {
+    "holding": "holding",
+    "holding register": "holding",
+    "holding registers": "holding",
+    "hr": "holding",
+    "4x": "holding",
+    "input": "input",
+    "input register": "input",
+    "input registers": "input",
+    "ir": "input",
+    "3x": "input",
+    "coil": "coil",
+    "coils": "coil",
+    "0x": "coil",
+    "c": "coil",
+    "coil status": "coil",
+    "discrete": "discrete",
+    "discrete input": "discrete",
+    "discrete inputs": "discrete",
+    "di": "discrete",
+    "1x": "discrete",
+    "input status": "discrete",
+    "read coils": "coil",
+    "read discrete inputs": "discrete",
+    "read holding registers": "holding",
+    "read input registers": "input",
+    "analog input": "input",
+    "analog output": "holding",
+    # VOLTTRON's table names (modbus_tk register maps)
+    "discrete output coils": "coil",
+    "discrete input contacts": "discrete",
+    "analog input registers": "input",
+    "analog output holding registers": "holding",
+}
 # Modbus function codes -> the table they read or write
-FUNCTION_CODES = {1: "coil", 2: "discrete", 3: "holding", 4: "input", 5: "coil", 6: "holding", 15: "coil",
-                  16: "holding", 22: "holding", 23: "holding"}
+FUNCTION_CODES = {
+    1: "coil",
+    2: "discrete",
+    3: "holding",
+    4: "input",
+    5: "coil",
+    6: "holding",
+    15: "coil",
+    16: "holding",
+    22: "holding",
+    23: "holding",
+}
 _CODE = re.compile(r"(?i)^(?:fc|func(?:tion)?(?:\s*code)?)?\s*(?:0x)?0*(\d{1,2})h?$")
 _CODE_IN_TEXT = re.compile(r"(?i)\bfc\s*0*(\d{1,2})\b|\(\s*0x0*(\d{1,2})\s*\)")
 

@@ -21,14 +21,35 @@ from mdl.sources.csvmap.numbers import parse_int, parse_number
 from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
-GUESS_ORDER = ("addresses", "description", "name", "format", "count", "length", "multiplier", "divisor", "units",
-               "access", "block_label", "register_type", "minimum", "maximum", "offset", "word_order")
+GUESS_ORDER = (
+    "addresses",
+    "description",
+    "name",
+    "format",
+    "count",
+    "length",
+    "multiplier",
+    "divisor",
+    "units",
+    "access",
+    "block_label",
+    "register_type",
+    "minimum",
+    "maximum",
+    "offset",
+    "word_order",
+)
 PREFIX_KEYS = ("addresses", "description", "format", "units", "multiplier", "count")
 ADDRESS_FALLBACKS = ("offset", "index", "nr", "no", "number")  # headers taken for addresses if none says so
 # a column whose header names one field but whose cells hold another: the fields it may hold instead
-ALTERNATIVES = {"addresses": ("format", "register_type"), "description": ("register_type", "format"),
-                "name": ("register_type", "format"), "format": ("register_type",), "length": ("count",),
-                "access": ("register_type",)}
+ALTERNATIVES = {
+    "addresses": ("format", "register_type"),
+    "description": ("register_type", "format"),
+    "name": ("register_type", "format"),
+    "format": ("register_type",),
+    "length": ("count",),
+    "access": ("register_type",),
+}
 SAMPLE = 200  # cells looked at to check a guess
 # the share of them that must fit: half, so that a few bad cells (mod10k(True) in a column of scales,
 # int99 among formats) are reported on their rows rather than every row read without the column
@@ -71,11 +92,20 @@ def _anything(cell: str) -> None:
 
 CHECKS: dict[str, Callable[[str], None]] = {
     "addresses": _fits_address,
-    "description": _fits_text, "name": _fits_text, "format": lambda c: None if parse_format(c) else None,
-    "count": _fits_count, "length": lambda c: None if parse_length(c) else None,
-    "multiplier": _fits_scale, "divisor": _fits_scale, "units": _anything, "access": lambda c: None if parse_access(c)
-    else None, "block_label": _anything, "register_type": lambda c: None if parse_table(c) else None,
-    "minimum": _fits_number, "maximum": _fits_number, "offset": _fits_number,
+    "description": _fits_text,
+    "name": _fits_text,
+    "format": lambda c: None if parse_format(c) else None,
+    "count": _fits_count,
+    "length": lambda c: None if parse_length(c) else None,
+    "multiplier": _fits_scale,
+    "divisor": _fits_scale,
+    "units": _anything,
+    "access": lambda c: None if parse_access(c) else None,
+    "block_label": _anything,
+    "register_type": lambda c: None if parse_table(c) else None,
+    "minimum": _fits_number,
+    "maximum": _fits_number,
+    "offset": _fits_number,
     "word_order": lambda c: None if parse_word_order(c) else None,
 }
 
@@ -147,9 +177,15 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
     for key, spec in given.items():
         if isinstance(spec, int):
             if spec >= width:  # no row has the column: every cell of it would read as empty
-                errors.append(Diagnostic(where, ini.line("columns", key) if ini else None, None,
-                                         f"[Column/Field Indices] {key} = {spec}: no row of {table.path} has a "
-                                         f"column {spec} (columns count from 0; the widest row has {width})"))
+                errors.append(
+                    Diagnostic(
+                        where,
+                        ini.line("columns", key) if ini else None,
+                        None,
+                        f"[Column/Field Indices] {key} = {spec}: no row of {table.path} has a "
+                        f"column {spec} (columns count from 0; the widest row has {width})",
+                    )
+                )
             cols.index[key] = spec
         else:
             norm = normalize_header(spec)
@@ -157,15 +193,27 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
                 cols.index[key] = headers.index(norm)
             else:
                 line = f" (line {header.line})" if header else ""
-                errors.append(Diagnostic(where, ini.line("columns", key) if ini else None, None,
-                                         f"[Column/Field Indices] {key} = {spec}: "
-                                         f"no such column in the header row{line} of {table.path}"))
+                errors.append(
+                    Diagnostic(
+                        where,
+                        ini.line("columns", key) if ini else None,
+                        None,
+                        f"[Column/Field Indices] {key} = {spec}: "
+                        f"no such column in the header row{line} of {table.path}",
+                    )
+                )
     if errors:
         raise MdlError(errors)
     if "multiplier" in cols.index and "divisor" in cols.index and cols.index["multiplier"] == cols.index["divisor"]:
-        raise MdlError(Diagnostic(where, ini.line("columns", "divisor") if ini else None, None,
-                                  "[Column/Field Indices] multiplier and divisor name the same "
-                                  "column: a scale either multiplies or divides"))
+        raise MdlError(
+            Diagnostic(
+                where,
+                ini.line("columns", "divisor") if ini else None,
+                None,
+                "[Column/Field Indices] multiplier and divisor name the same "
+                "column: a scale either multiplies or divides",
+            )
+        )
     if "name" in cols.index:
         cols.names = [cols.index["name"]]
     taken.update(cols.index.values())
@@ -190,8 +238,11 @@ def _candidates(key: str, headers: list[str], taken: set[int]) -> list[int]:
     ranks = [(synonym_rank(key, h), i) for i, h in enumerate(headers) if i not in taken]
     out = [i for _, i in sorted((r, i) for r, i in ranks if r is not None)]
     if key in PREFIX_KEYS:
-        out += [i for i, h in enumerate(headers) if i not in taken and i not in out and any(
-            h.startswith(s + " ") for s in words if len(s) >= 4)]
+        out += [
+            i
+            for i, h in enumerate(headers)
+            if i not in taken and i not in out and any(h.startswith(s + " ") for s in words if len(s) >= 4)
+        ]
     if key == "addresses":  # some vendors call the address "Offset" or "No."
         out += [i for i, h in enumerate(headers) if h in ADDRESS_FALLBACKS and i not in taken and i not in out]
     return out
@@ -244,9 +295,11 @@ def _scale_in_units(cols: Columns, data: list[Row], skip: set[str]) -> None:
     if any(n is not None and n.value != 1 for n in numbers) and any(n is not None and n.unit for n in numbers):
         cols.index["multiplier"] = i
         cols.guessed["multiplier"] = i
-        cols.notes.append(f"{cols.describe(i)} holds scales written before their units (e.g. 0.1V): read as "
-                          "multiplier and units; set multiplier = (blank) in [Column/Field Indices] to read "
-                          "it as units only, or divisor = to divide by it")
+        cols.notes.append(
+            f"{cols.describe(i)} holds scales written before their units (e.g. 0.1V): read as "
+            "multiplier and units; set multiplier = (blank) in [Column/Field Indices] to read "
+            "it as units only, or divisor = to divide by it"
+        )
 
 
 def _whole_scales(data: list[Row], index: int) -> bool:
@@ -268,10 +321,15 @@ def _say_guesses(cols: Columns, ini: DeviceIni | None, data: list[Row]) -> None:
         return
     parts = [f"{key} = {cols.describe(i)}" for i, key in found]
     how = "name them in [Column/Field Indices] of the INI" if ini else "give a device INI (--ini) naming them"
-    cols.notes.insert(0, f"columns found by their headers: {', '.join(parts)}; to choose others, {how} "
-                         "(a 0-based number or a header text; blank for none)")
+    cols.notes.insert(
+        0,
+        f"columns found by their headers: {', '.join(parts)}; to choose others, {how} "
+        "(a 0-based number or a header text; blank for none)",
+    )
     scale = cols.guessed.get("multiplier")
     if scale is not None and scale != cols.index.get("units") and _whole_scales(data, scale):
-        cols.notes.append(f"{cols.describe(scale)} is read as a multiplier (the raw value times the cell); if the "
-                          f"table divides by it (a scale factor of 10 meaning tenths), set divisor = "
-                          f"{cols.headers.get(scale) or scale} and multiplier = (blank) in [Column/Field Indices]")
+        cols.notes.append(
+            f"{cols.describe(scale)} is read as a multiplier (the raw value times the cell); if the "
+            f"table divides by it (a scale factor of 10 meaning tenths), set divisor = "
+            f"{cols.headers.get(scale) or scale} and multiplier = (blank) in [Column/Field Indices]"
+        )

@@ -25,13 +25,23 @@ def _self_check(xml: str, device: Device) -> None:
     tree = etree.fromstring(xml.encode("ascii"), secure_parser()).getroottree()
     problems = schema_errors(tree, "<csv2xml output>", device.schema_version)
     if problems:
-        raise MdlError([Diagnostic(None, None, None, f"internal error, output does not validate: {p}")
-                        for p in problems])
+        raise MdlError(
+            [Diagnostic(None, None, None, f"internal error, output does not validate: {p}") for p in problems]
+        )
 
 
-def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, interactive: bool,
-                threshold: float | None, emit_all: bool, *, fail_on_warning: bool = False, strict: bool = False,
-                explain: tuple[str, ...] = ()) -> None:
+def run_csv2xml(
+    source: Path,
+    ini_path: Path | None,
+    output: Path | None,
+    interactive: bool,
+    threshold: float | None,
+    emit_all: bool,
+    *,
+    fail_on_warning: bool = False,
+    strict: bool = False,
+    explain: tuple[str, ...] = (),
+) -> None:
     """Convert and write to `output` (None: stdout; chosen and checked by csvmap/target.py); with
     fail_on_warning (--strict, --fail-on-warning), a warning (a skipped row, an unmatched function, an
     unknown INI key) is an error: nothing is written, exit 1. With `explain`, print each named
@@ -52,11 +62,13 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
             report.note(said.message, file=said.file)
     csv_path = csv_given or (ini.csv_file if ini else None)
     if csv_path is None:
-        raise error("the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line",
-                    ini_path)
+        raise error(
+            "the INI names no address_map_csv_file in [Input/Output]; give the CSV on the command line", ini_path
+        )
     if ini is not None and csv_given is None and not csv_path.exists():
-        raise error(f"address_map_csv_file names {csv_path}: no such file", ini.path,
-                    ini.line("io", "address_map_csv_file"))
+        raise error(
+            f"address_map_csv_file names {csv_path}: no such file", ini.path, ini.line("io", "address_map_csv_file")
+        )
     opts = Options(choose_rows if interactive else None, threshold, emit_all, explain, strict)
     device = convert(csv_path, ini, opts, report)
     if device is None:
@@ -75,5 +87,6 @@ def run_csv2xml(source: Path, ini_path: Path | None, output: Path | None, intera
         sys.stdout.flush()
     else:
         write_atomic(output, xml)
-        click.echo(f"wrote {output}: {counted(len(device.functions), 'function')}, MDL {device.schema_version}",
-                   err=True)
+        click.echo(
+            f"wrote {output}: {counted(len(device.functions), 'function')}, MDL {device.schema_version}", err=True
+        )

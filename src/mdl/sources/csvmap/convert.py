@@ -42,19 +42,24 @@ def _split_rows(table: Table, ini: DeviceIni | None) -> tuple[Row | None, list[R
         if header is None and skipped and not texts:
             header = skipped[-1]
         if texts and header is None:
-            raise error(f"no row among the {ini.lines_to_skip} skipped lines holds the header texts "
-                        f"{', '.join(repr(t) for t in texts)}", table.path)
+            raise error(
+                f"no row among the {ini.lines_to_skip} skipped lines holds the header texts "
+                f"{', '.join(repr(t) for t in texts)}",
+                table.path,
+            )
         return header, [r for r in table.rows if r.line > ini.lines_to_skip]
     header = find_header(table, None, texts or None)
     if header is None and texts:
-        raise error(f"no row holds the header texts {', '.join(repr(t) for t in texts)} named in the INI",
-                    table.path)
+        raise error(f"no row holds the header texts {', '.join(repr(t) for t in texts)} named in the INI", table.path)
     if header is None:
         if ini and ini.columns and not texts and "addresses" in ini.columns:
             return None, table.rows
-        raise error("no recognizable header row (expected a column such as 'Address', 'Register', "
-                    "'Reg No' or 'Modbus Address', and a description column)", table.path,
-                    table.rows[0].line)
+        raise error(
+            "no recognizable header row (expected a column such as 'Address', 'Register', "
+            "'Reg No' or 'Modbus Address', and a description column)",
+            table.path,
+            table.rows[0].line,
+        )
     return header, [r for r in table.rows if r.line > header.line]
 
 
@@ -84,8 +89,9 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
     base = dev.get("address_base")
     guessed_base = base is None
     if base is None:
-        guess = guess_address_base(data, cols.index["addresses"], cols.header_of("addresses"),
-                                   cols.index.get("register_type"))
+        guess = guess_address_base(
+            data, cols.index["addresses"], cols.header_of("addresses"), cols.index.get("register_type")
+        )
         base = guess.base
         if guess.note:
             report.note(guess.note, file=where)
@@ -97,16 +103,30 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
         cells = [r.cell(cols.index["access"]) for r in data if r.cell(cols.index["access"])]
         w_alone = access_words(cells)
         if w_alone == "read_write" and any(c.strip().lower() == "w" for c in cells):
-            report.note(f"{cols.describe(cols.index['access'])} holds only the letters R and W: W is read as "
-                        "writable (read and write); a table that also writes R/W would make W write-only", file=where)
+            report.note(
+                f"{cols.describe(cols.index['access'])} holds only the letters R and W: W is read as "
+                "writable (read and write); a table that also writes R/W would make W write-only",
+                file=where,
+            )
     if "word_order" in cols.index:
-        report.note(f"{cols.describe(cols.index['word_order'])} gives each row's word order: TRUE reverses the "
-                    "registers of a value from its type's order (big; little for a '<' struct type), FALSE "
-                    "keeps it, big/little or ABCD/CDAB/BADC/DCBA name it; it wins over [Modbus Device] "
-                    "word_order; set word_order = (blank) in [Column/Field Indices] to ignore it", file=where)
+        report.note(
+            f"{cols.describe(cols.index['word_order'])} gives each row's word order: TRUE reverses the "
+            "registers of a value from its type's order (big; little for a '<' struct type), FALSE "
+            "keeps it, big/little or ABCD/CDAB/BADC/DCBA name it; it wins over [Modbus Device] "
+            "word_order; set word_order = (blank) in [Column/Field Indices] to ignore it",
+            file=where,
+        )
     decimal = (ini.decimal if ini else None) or "auto"
-    return RowSettings(base, unit, dev.get("register_type"), dev.get("byte_order"), dev.get("word_order"),
-                       decimal, w_alone, guessed_base)
+    return RowSettings(
+        base,
+        unit,
+        dev.get("register_type"),
+        dev.get("byte_order"),
+        dev.get("word_order"),
+        decimal,
+        w_alone,
+        guessed_base,
+    )
 
 
 def _guess_notes(cols: Columns) -> dict[str, str]:
@@ -115,15 +135,17 @@ def _guess_notes(cols: Columns) -> dict[str, str]:
     scale_key = "divisor" if "divisor" in cols.index else "multiplier"
     return {
         COMMA: "decimal comma: '{cell}' on line {line} (and any like it) is read with ',' as the decimal mark; "
-               "set decimal_separator = point in [Input/Output] if ',' groups thousands",
-        UNIT_ALONE: (f"{cols.describe(scale) if scale is not None else 'the scale column'} is both {scale_key} and "
-                     "units: '{cell}' on line {line} (a unit with no number before it, and any like it) is read as "
-                     "scale 1 in that unit; write the scale before the unit (1W) if it is another"),
+        "set decimal_separator = point in [Input/Output] if ',' groups thousands",
+        UNIT_ALONE: (
+            f"{cols.describe(scale) if scale is not None else 'the scale column'} is both {scale_key} and "
+            "units: '{cell}' on line {line} (a unit with no number before it, and any like it) is read as "
+            "scale 1 in that unit; write the scale before the unit (1W) if it is another"
+        ),
         WIDTHLESS: "format '{cell}' on line {line} (and any like it) gives no width: read as one register (16 bits); "
-                   "if the table means 32 bits, write INT32/UINT32 there or give the row a count of 2 "
-                   "(count = N in [Column/Field Indices])",
+        "if the table means 32 bits, write INT32/UINT32 there or give the row a count of 2 "
+        "(count = N in [Column/Field Indices])",
         NATIVE: "struct type '{cell}' on line {line} (and any like it) has the byte order of the host that reads "
-                "it: read as little-endian (x86 and ARM hosts); write '<' or '>' to say which",
+        "it: read as little-endian (x86 and ARM hosts); write '<' or '>' to say which",
     }
 
 
@@ -174,12 +196,18 @@ def _table_notes(table: Table, ini: DeviceIni | None, report: Report) -> None:
     if table.encoding_guess:
         report.note(table.encoding_guess.note(ini is not None), file=where)
     if table.markdown:
-        report.note("a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
-                    "set delimiter = pipe in [Input/Output] to read every | as a cell boundary", file=where)
+        report.note(
+            "a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
+            "set delimiter = pipe in [Input/Output] to read every | as a cell boundary",
+            file=where,
+        )
     elif table.delimiter_guessed and table.delimiter != ",":
         name = DELIMITER_NAMES[table.delimiter]
-        report.note(f"cells separated by {name}s (the character that splits the first lines most evenly); "
-                    f"set delimiter = comma, semicolon, tab or pipe in [Input/Output] to override", file=where)
+        report.note(
+            f"cells separated by {name}s (the character that splits the first lines most evenly); "
+            f"set delimiter = comma, semicolon, tab or pipe in [Input/Output] to override",
+            file=where,
+        )
 
 
 def counted(n: int, what: str) -> str:
@@ -203,8 +231,9 @@ class Matched:
     lost: dict[str, Candidate]
 
 
-def _match(functions: dict[str, list[str]], index: Index, readable: int, limit: float,
-           progress: Progress | None = None) -> Matched:
+def _match(
+    functions: dict[str, list[str]], index: Index, readable: int, limit: float, progress: Progress | None = None
+) -> Matched:
     """Rows at and after `readable` are skipped rows: matched like the others, so that a function
     whose best row was skipped is left unmatched (and told) rather than given a lesser row."""
     chosen = assign(functions, index, limit, progress)
@@ -214,25 +243,38 @@ def _match(functions: dict[str, list[str]], index: Index, readable: int, limit: 
 
 def _shown(text: str, width: int = 50) -> str:
     text = " ".join(text.split())
-    return text if len(text) <= width else text[:width - 3] + "..."
+    return text if len(text) <= width else text[: width - 3] + "..."
 
 
 def _row_text(index: Index, row: int) -> str:
     return _shown(index.texts[row][0].raw) if index.texts[row] else ""
 
 
-def _instead(name: str, phrases: list[str], index: Index, readable: int, used: set[int], limit: float,
-             lines: list[int]) -> str:
+def _instead(
+    name: str, phrases: list[str], index: Index, readable: int, used: set[int], limit: float, lines: list[int]
+) -> str:
     """`; left unmatched rather than given line 2 'PV2 voltage' (fuzzy 0.72)`, or the bare first part."""
     for c in candidates(name, phrases, index, limit, BUDGET):
         if c.row_index < readable and c.row_index not in used:
-            return (f"; left unmatched rather than given line {lines[c.row_index]} '{_row_text(index, c.row_index)}' "
-                    f"({TIER_NAMES[c.score.tier]} {c.score})")
+            return (
+                f"; left unmatched rather than given line {lines[c.row_index]} '{_row_text(index, c.row_index)}' "
+                f"({TIER_NAMES[c.score.tier]} {c.score})"
+            )
     return "; left unmatched"
 
 
-def _say_matches(where: str, functions: dict[str, list[str]], index: Index, parsed: Parsed, matched: Matched,
-                 limit: float, lines: list[int], opts: Options, own: bool, report: Report) -> None:
+def _say_matches(
+    where: str,
+    functions: dict[str, list[str]],
+    index: Index,
+    parsed: Parsed,
+    matched: Matched,
+    limit: float,
+    lines: list[int],
+    opts: Options,
+    own: bool,
+    report: Report,
+) -> None:
     """A warning for each function whose best row was skipped (a note for the bundled list's functions,
     which the user did not ask for: the row's own warning has been said); a note (a warning with
     --strict) for each function matched by similarity only."""
@@ -241,8 +283,10 @@ def _say_matches(where: str, functions: dict[str, list[str]], index: Index, pars
     for name, c in matched.lost.items():
         skipped = parsed.skipped[c.row_index - readable]
         instead = _instead(name, functions[name], index, readable, used, limit, lines)
-        message = (f"{name}: line {skipped.row.line} names it ({TIER_NAMES[c.score.tier]} {c.score}: "
-                   f"'{_row_text(index, c.row_index)}') but was skipped ({skipped.reason}){instead}")
+        message = (
+            f"{name}: line {skipped.row.line} names it ({TIER_NAMES[c.score.tier]} {c.score}: "
+            f"'{_row_text(index, c.row_index)}') but was skipped ({skipped.reason}){instead}"
+        )
         if own:
             report.warn(message, skipped.row.line, file=where)
         else:
@@ -251,9 +295,11 @@ def _say_matches(where: str, functions: dict[str, list[str]], index: Index, pars
         if c.score.tier != FUZZY:
             continue
         line = lines[c.row_index]
-        message = (f"{name} matched by similarity only: line {line} '{_row_text(index, c.row_index)}' "
-                   f"(score {c.score}; none of its synonyms stands there as a phrase); if that is not its row, "
-                   f"add the right row's words as a synonym (--explain {name} lists its nearest rows)")
+        message = (
+            f"{name} matched by similarity only: line {line} '{_row_text(index, c.row_index)}' "
+            f"(score {c.score}; none of its synonyms stands there as a phrase); if that is not its row, "
+            f"add the right row's words as a synonym (--explain {name} lists its nearest rows)"
+        )
         if opts.strict:
             report.warn(message + "; --strict refuses it", line, file=where)
         else:
@@ -266,8 +312,12 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
     if "addresses" not in cols.index:
-        raise error("no address column: name it in the INI ([Column/Field Indices] addresses = N) "
-                    "or give it a header such as 'Address' or 'Register'", csv_path, header.line if header else None)
+        raise error(
+            "no address column: name it in the INI ([Column/Field Indices] addresses = N) "
+            "or give it a header such as 'Address' or 'Register'",
+            csv_path,
+            header.line if header else None,
+        )
     _table_notes(table, ini, report)
     for message in cols.notes:
         report.note(message, file=str(csv_path))
@@ -295,8 +345,11 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         report.flush_notes()
         matched = Matched(opts.choose(functions, index, parsed.rows), {})
     else:
-        progress = (Progress(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions),
-                             percent=True) if len(lines) >= LONG_TABLE else None)
+        progress = (
+            Progress(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions), percent=True)
+            if len(lines) >= LONG_TABLE
+            else None
+        )
         matched = _match(functions, index, readable, limit, progress)
         if progress:
             progress.close()
@@ -306,22 +359,35 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     unreached = [n for n in missing if n not in matched.lost]
     if unreached and own and opts.choose is None:
         details = ", ".join(nearest(n, functions[n], index, lines, chosen) for n in unreached)
-        report.warn(f"no row reached the threshold {limit:g} for: {details}; "
-                    "--explain NAME lists a function's nearest rows", file=str(ini.path if ini else csv_path))
+        report.warn(
+            f"no row reached the threshold {limit:g} for: {details}; --explain NAME lists a function's nearest rows",
+            file=str(ini.path if ini else csv_path),
+        )
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
-    summary = (f"summary: {counted(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
-               f"matched, {len(missing)} {'unmatched' if own else 'not found'}")
+    summary = (
+        f"summary: {counted(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
+        f"matched, {len(missing)} {'unmatched' if own else 'not found'}"
+    )
     report.note(summary + (f"; {counted(extra, 'more row')} emitted (--all)" if extra else ""), file=str(csv_path))
     if not out and matched.lost:
-        raise error(f"no function matched a row that could be read: the best row of {', '.join(matched.lost)} was "
-                    "skipped (see the warnings above); fix that row, or add synonyms to the INI", csv_path)
+        raise error(
+            f"no function matched a row that could be read: the best row of {', '.join(matched.lost)} was "
+            "skipped (see the warnings above); fix that row, or add synonyms to the INI",
+            csv_path,
+        )
     if not out:
-        raise error("no function matched a row; add synonyms to the INI, lower --threshold, or use --all "
-                    "(--explain NAME lists a function's nearest rows)", csv_path)
+        raise error(
+            "no function matched a row; add synonyms to the INI, lower --threshold, or use --all "
+            "(--explain NAME lists a function's nearest rows)",
+            csv_path,
+        )
     dev = ini.device if ini else {}
-    device = Device(dev.get("device_name") or csv_path.stem,
-                    dev.get("device_description") or f"Converted from {csv_path.name} by mdl csv2xml", out)
+    device = Device(
+        dev.get("device_name") or csv_path.stem,
+        dev.get("device_description") or f"Converted from {csv_path.name} by mdl csv2xml",
+        out,
+    )
     if device.extensions():
         device.version = "1.0"
     return device
@@ -339,7 +405,7 @@ def _functions_out(rows: list[ParsedRow], chosen: dict[str, Candidate], emit_all
         return out, 0
     used = {c.row_index for c in chosen.values()}
     rest = [pr for i, pr in enumerate(rows) if i not in used]
-    names = unique_identifiers([f.name for f in out] + [pr.label for pr in rest])[len(out):]
+    names = unique_identifiers([f.name for f in out] + [pr.label for pr in rest])[len(out) :]
     for pr, name in zip(rest, names, strict=True):
         pr.function.name = name
         out.append(pr.function)

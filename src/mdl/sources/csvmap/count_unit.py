@@ -40,7 +40,9 @@ def count_unit(cols: Columns, data: list[Row], given: str | None) -> tuple[str, 
         words += n == size
         octets += n == 2 * size
     if octets >= 2 and octets > 2 * words:
-        return "bytes", (f"counts in {col} read as bytes: {octets} of the rows with a format are counted in bytes "
-                         f"(a 32-bit value counted 4); {override.format('words')}")
+        return "bytes", (
+            f"counts in {col} read as bytes: {octets} of the rows with a format are counted in bytes "
+            f"(a 32-bit value counted 4); {override.format('words')}"
+        )
     why = f"{words} of the rows with a format are counted in registers" if words else "the usual unit"
     return "words", f"counts in {col} read as registers (words): {why}; {override.format('bytes')}"

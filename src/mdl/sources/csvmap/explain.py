@@ -14,7 +14,7 @@ BUDGET = 2000  # ratios computed at most to find an unmatched function's best ro
 
 def _one_line(text: str, width: int = 60) -> str:
     text = " ".join(text.split())
-    return text if len(text) <= width else text[:width - 3] + "..."
+    return text if len(text) <= width else text[: width - 3] + "..."
 
 
 def _reason(phrases: list[str], index: Index, row: int) -> str:
@@ -25,9 +25,16 @@ def _reason(phrases: list[str], index: Index, row: int) -> str:
     return why(phrase, text)
 
 
-def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Index, lines: list[int],
-            chosen: dict[str, Candidate], threshold: float, skipped: dict[int, str] | None = None,
-            lost: dict[str, Candidate] | None = None) -> None:
+def explain(
+    names: tuple[str, ...],
+    functions: dict[str, list[str]],
+    index: Index,
+    lines: list[int],
+    chosen: dict[str, Candidate],
+    threshold: float,
+    skipped: dict[int, str] | None = None,
+    lost: dict[str, Candidate] | None = None,
+) -> None:
     """Print, for each name, its synonyms and its best rows with score, tier, line, text, whether it was
     chosen (or which function took it, or why the row was skipped) and why it scores so."""
     skipped, lost = skipped or {}, lost or {}
@@ -42,8 +49,9 @@ def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Inde
         distinct: dict[str, str] = {}
         for p in phrases:
             distinct.setdefault(normalize(p), p)
-        shown = ", ".join(f"'{p}'" + (" (its name)" if isinstance(p, FunctionName) else "")
-                          for key, p in distinct.items() if key)
+        shown = ", ".join(
+            f"'{p}'" + (" (its name)" if isinstance(p, FunctionName) else "") for key, p in distinct.items() if key
+        )
         click.echo(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
         mine = chosen.get(name)
         if mine is not None:
@@ -64,8 +72,10 @@ def explain(names: tuple[str, ...], functions: dict[str, list[str]], index: Inde
                 status = "  (below the threshold)"
             else:
                 status = ""
-            click.echo(f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} line {lines[c.row_index]}: "
-                       f"{_one_line(text)}{status}")
+            click.echo(
+                f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} line {lines[c.row_index]}: "
+                f"{_one_line(text)}{status}"
+            )
             click.echo(f"        {_reason(phrases, index, c.row_index)}")
 
 

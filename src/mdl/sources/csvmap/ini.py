@@ -13,11 +13,37 @@ from mdl.exchange.text import unwritable
 from mdl.fileio import read_bytes
 from mdl.sources.csvmap.table import decode_table
 
-COLUMN_KEYS = ("name", "description", "addresses", "length", "count", "format", "block_label",
-               "multiplier", "divisor", "units", "read_function_code", "write_function_code", "register_type",
-               "access", "minimum", "maximum", "offset", "word_order")
-DEVICE_KEYS = ("device_name", "device_description", "register_type", "address_base", "byte_order",
-               "word_order", "count_unit", "threshold", "default_synonyms")
+COLUMN_KEYS = (
+    "name",
+    "description",
+    "addresses",
+    "length",
+    "count",
+    "format",
+    "block_label",
+    "multiplier",
+    "divisor",
+    "units",
+    "read_function_code",
+    "write_function_code",
+    "register_type",
+    "access",
+    "minimum",
+    "maximum",
+    "offset",
+    "word_order",
+)
+DEVICE_KEYS = (
+    "device_name",
+    "device_description",
+    "register_type",
+    "address_base",
+    "byte_order",
+    "word_order",
+    "count_unit",
+    "threshold",
+    "default_synonyms",
+)
 IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator", "encoding")
 DELIMITER_WORDS = {"comma": ",", ",": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "pipe": "|", "|": "|"}
 DECIMAL_WORDS = {"point": "point", ".": "point", "dot": "point", "comma": "comma", ",": "comma"}
@@ -92,8 +118,13 @@ class _CaseKeepingParser(configparser.ConfigParser):
 
 
 def _parse(text: str, path: Path) -> configparser.ConfigParser:
-    parser = _CaseKeepingParser(interpolation=None, inline_comment_prefixes=(";",),
-                                comment_prefixes=("#", ";"), strict=True, empty_lines_in_values=False)
+    parser = _CaseKeepingParser(
+        interpolation=None,
+        inline_comment_prefixes=(";",),
+        comment_prefixes=("#", ";"),
+        strict=True,
+        empty_lines_in_values=False,
+    )
     try:
         parser.read_string(text, source=str(path))
     except configparser.Error as exc:
@@ -134,8 +165,9 @@ def read_ini(path: Path) -> DeviceIni:
     parser = _parse(text, path)
     ini = DeviceIni(path=path)
     if guess:  # the INI's own encoding (its `encoding` key is the table's): saving it as UTF-8 says it
-        ini.notes.append(Diagnostic(str(path), None, None, f"{guess.why}; save the INI as UTF-8 to be sure of "
-                                                           "its text", "note"))
+        ini.notes.append(
+            Diagnostic(str(path), None, None, f"{guess.why}; save the INI as UTF-8 to be sure of its text", "note")
+        )
     errors: list[Diagnostic] = []
 
     def where(section: str, key: str | None = None) -> int | None:
@@ -160,8 +192,11 @@ def read_ini(path: Path) -> DeviceIni:
             if line is not None:
                 ini.lines[(kind, lkey)] = line
             if "\n" in value and kind != "synonyms":  # only synonym lists may go on over indented lines
-                err(section, key, f"the value of '{key}' goes on over the next line: an indented line continues "
-                                  "the one before it")
+                err(
+                    section,
+                    key,
+                    f"the value of '{key}' goes on over the next line: an indented line continues the one before it",
+                )
             elif kind == "synonyms":
                 words = [w.strip() for w in re.split(r"[,\n]", value) if w.strip()]
                 if not words:
@@ -213,8 +248,11 @@ def read_ini(path: Path) -> DeviceIni:
                 elif lkey == "encoding" and value:
                     ini.encoding = _codec(value)
                     if ini.encoding is None:
-                        err(section, key, f"encoding must name a text encoding (utf-8, cp1252, latin-1, utf-16 ...), "
-                                          f"not '{value}'")
+                        err(
+                            section,
+                            key,
+                            f"encoding must name a text encoding (utf-8, cp1252, latin-1, utf-16 ...), not '{value}'",
+                        )
                 elif lkey == "decimal_separator" and value:
                     ini.decimal = DECIMAL_WORDS.get(value.lower())
                     if ini.decimal is None:

@@ -88,8 +88,14 @@ class Work:
 PULSE = 256  # steps of the fuzzy search between two calls of its `pulse`
 
 
-def candidates(name: str, phrases: list[str], index: Index, threshold: float,
-               budget: int | None = None, pulse: Callable[[], None] | None = None) -> Iterator[Candidate]:
+def candidates(
+    name: str,
+    phrases: list[str],
+    index: Index,
+    threshold: float,
+    budget: int | None = None,
+    pulse: Callable[[], None] | None = None,
+) -> Iterator[Candidate]:
     """Every row scoring at least `threshold` for the function, best first (earlier rows first on ties).
     With a budget, the fuzzy search stops after that many ratios (what it yielded is still right).
     `pulse` is called every PULSE steps of the fuzzy search (a progress bar's sign of life)."""
@@ -119,8 +125,15 @@ def candidates(name: str, phrases: list[str], index: Index, threshold: float,
     yield from _fuzzy(name, syns, index, threshold, set(strong), budget, pulse)
 
 
-def _fuzzy(name: str, syns: list[Synonym], index: Index, threshold: float, excluded: set[int],
-           budget: int | None, pulse: Callable[[], None] | None = None) -> Iterator[Candidate]:
+def _fuzzy(
+    name: str,
+    syns: list[Synonym],
+    index: Index,
+    threshold: float,
+    excluded: set[int],
+    budget: int | None,
+    pulse: Callable[[], None] | None = None,
+) -> Iterator[Candidate]:
     # heap entries: (-bound, row, kind, tiebreak, payload); kind 0: an exact ratio, 1: a quick_ratio
     # bound of one pair, 2: a real_quick_ratio bound of every pair of one text length (row: its first row)
     heap: list[tuple[float, int, int, int, tuple[int, int, int]]] = []
@@ -184,8 +197,9 @@ def _quick(syn: Synonym, text: str, index: Index) -> float:
     return 2.0 * shared / (len(syn.norm) + len(text))
 
 
-def assign(functions: dict[str, list[str]], index: Index, threshold: float,
-           progress: Callable[[int], None] | None = None) -> dict[str, Candidate]:
+def assign(
+    functions: dict[str, list[str]], index: Index, threshold: float, progress: Callable[[int], None] | None = None
+) -> dict[str, Candidate]:
     """Each function its best row at or above the threshold, each row serving one function at most.
     The strongest pairs are settled first (ties: the function listed first, then the earlier row), so
     a weaker function never takes a stronger one's row.

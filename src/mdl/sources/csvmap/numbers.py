@@ -139,7 +139,7 @@ def _read(cell: str, decimal: str, what: str, scale: bool) -> Number | None:
             exponent = int(m.group(1))
             if abs(exponent) > 300:
                 raise _NotFinite(f"{what} '{cell}' is not a finite number".lstrip())
-            return Number(10.0 ** exponent, _unit(m.group(2)))
+            return Number(10.0**exponent, _unit(m.group(2)))
         if form is _FRACTION:
             top, comma1 = _digits_to_float(m.group(1), decimal)
             bottom, comma2 = _digits_to_float(m.group(2), decimal)

@@ -62,8 +62,11 @@ class Progress:
         self.last = now
         width = 30
         filled = min(width, width * self.done // self.total)
-        count = (f"{min(100, 100 * self.done // self.total)}% {now - self.start:.0f}s" if self.percent
-                 else f"{self.done}/{self.total}")
+        count = (
+            f"{min(100, 100 * self.done // self.total)}% {now - self.start:.0f}s"
+            if self.percent
+            else f"{self.done}/{self.total}"
+        )
         frame = f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {count}"
         if self.shown and frame == self.frame:
             return

@@ -76,16 +76,19 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     base = st.address_base
     if base == "hex":
         address_text, base = hexify(address_text), "0"
-    column_table = parse_table(cell(ix["register_type"])) if "register_type" in ix and cell(ix["register_type"]) \
-        else None
+    column_table = (
+        parse_table(cell(ix["register_type"])) if "register_type" in ix and cell(ix["register_type"]) else None
+    )
     if base == "modicon" and column_table == "coil" and is_digits(address_text) and len(address_text) <= 4:
         address_text = address_text.zfill(5)  # coil number 1 is 00001 without its zeros (VOLTTRON's maps)
     try:
         addresses, table = parse_addresses(address_text, base)
     except CellError as exc:
         if base == "modicon" and st.base_guessed:
-            raise CellError(f"{exc}, though the column's other addresses are (read as Modicon numbers: "
-                            "set address_base = 0 or 1 in [Modbus Device] if they are not)") from None
+            raise CellError(
+                f"{exc}, though the column's other addresses are (read as Modicon numbers: "
+                "set address_base = 0 or 1 in [Modbus Device] if they are not)"
+            ) from None
         raise
     if column_table is not None:
         if table and column_table != table:
@@ -100,8 +103,9 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     length = parse_length(cell(ix["length"])) if "length" in ix and cell(ix["length"]) else None
     if typed and typed.length:
         if length not in (None, typed.length):
-            raise CellError(f"format '{cell(ix['format'])}' is the {typed.length.lower()} but the length column "
-                            f"says {length}")
+            raise CellError(
+                f"format '{cell(ix['format'])}' is the {typed.length.lower()} but the length column says {length}"
+            )
         length = typed.length
     unit_bits = 16 if (length or "Full word") == "Full word" else 8
     count = None
@@ -120,9 +124,12 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     description, names = texts[0], texts[1:]
     byte_order, word_order, own_order = _orders(row, cols, st, typed)
     fn = Function(
-        name="", description=description or (names[0] if names else address_text), addresses=addresses,
+        name="",
+        description=description or (names[0] if names else address_text),
+        addresses=addresses,
         length=length if length and length != "Full word" and table not in BIT_TABLES else None,
-        count=count if count and count > 1 else None, format=fmt,
+        count=count if count and count > 1 else None,
+        format=fmt,
         register_type=table if table != "holding" else None,
         byte_order=byte_order if byte_order == "little" else None,
         word_order=word_order if word_order == "little" else None,
@@ -231,8 +238,10 @@ def _scale(row: Row, cols: Columns, st: RowSettings) -> tuple[Number | None, str
         if n is not None:
             given[key] = n
     if len(given) == 2:
-        raise CellError(f"both a multiplier ('{cells['multiplier']}') and a divisor ('{cells['divisor']}'): "
-                        "a row is scaled one way, not both")
+        raise CellError(
+            f"both a multiplier ('{cells['multiplier']}') and a divisor ('{cells['divisor']}'): "
+            "a row is scaled one way, not both"
+        )
     if "divisor" in given:
         d = given["divisor"]
         if d.value == 0:

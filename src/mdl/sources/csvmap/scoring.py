@@ -110,7 +110,7 @@ def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | Non
             at = nxt
         if not ok or between > k - 1:
             continue
-        rest = text.lower[tokens[at][2]:]
+        rest = text.lower[tokens[at][2] :]
         rest = _CLOSING.sub("", rest)
         clause_ends = not _WORD.search(rest) or bool(_CLAUSE_ENDS.match(rest))
         value = 0.9 + (0.1 if clause_ends else 0.02) * len(syn_norm) / len(text.norm)

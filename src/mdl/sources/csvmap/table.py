@@ -17,38 +17,171 @@ DELIMITER_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", "|": "pipe"}
 
 # column key -> header texts (normalized: lowercase, single spaces, no punctuation)
 HEADER_SYNONYMS = {
-    "addresses": ["address", "addr", "register", "reg", "reg no", "register no", "register number",
-                  "modbus address", "modbus register", "start address", "starting address", "offset address",
-                  "register address", "reg addr", "reg address", "adr", "adresse", "registro", "data address",
-                  "modbus addr", "pdu address", "address dec", "address decimal", "registre", "indirizzo",
-                  "point address", "modbus register address"],
-    "description": ["description", "register and description", "desc", "name and description",
-                    "parameter", "parameter name", "function", "meaning", "beschreibung", "bezeichnung",
-                    "descripcion", "description of register", "signal", "variable", "data point", "point",
-                    "quantity", "measurement", "item", "object"],
-    "name": ["name", "xml tag", "tag", "keyword", "keywords", "keyword list", "keyword list case insensitive",
-             "symbol", "identifier", "id", "short name", "variable name", "point name", "field",
-             "register name", "volttron point name", "reference name"],
-    "format": ["format", "data type", "datatype", "type", "data format", "value type", "ints", "typ",
-               "datentyp", "format type", "variable type"],
-    "count": ["count", "bytes", "words", "length words", "no of registers", "number of registers",
-              "registers", "size", "quantity of registers", "num registers", "reg count", "word count",
-              "anzahl", "qty", "number of words", "length bytes", "byte count"],
+    "addresses": [
+        "address",
+        "addr",
+        "register",
+        "reg",
+        "reg no",
+        "register no",
+        "register number",
+        "modbus address",
+        "modbus register",
+        "start address",
+        "starting address",
+        "offset address",
+        "register address",
+        "reg addr",
+        "reg address",
+        "adr",
+        "adresse",
+        "registro",
+        "data address",
+        "modbus addr",
+        "pdu address",
+        "address dec",
+        "address decimal",
+        "registre",
+        "indirizzo",
+        "point address",
+        "modbus register address",
+    ],
+    "description": [
+        "description",
+        "register and description",
+        "desc",
+        "name and description",
+        "parameter",
+        "parameter name",
+        "function",
+        "meaning",
+        "beschreibung",
+        "bezeichnung",
+        "descripcion",
+        "description of register",
+        "signal",
+        "variable",
+        "data point",
+        "point",
+        "quantity",
+        "measurement",
+        "item",
+        "object",
+    ],
+    "name": [
+        "name",
+        "xml tag",
+        "tag",
+        "keyword",
+        "keywords",
+        "keyword list",
+        "keyword list case insensitive",
+        "symbol",
+        "identifier",
+        "id",
+        "short name",
+        "variable name",
+        "point name",
+        "field",
+        "register name",
+        "volttron point name",
+        "reference name",
+    ],
+    "format": [
+        "format",
+        "data type",
+        "datatype",
+        "type",
+        "data format",
+        "value type",
+        "ints",
+        "typ",
+        "datentyp",
+        "format type",
+        "variable type",
+    ],
+    "count": [
+        "count",
+        "bytes",
+        "words",
+        "length words",
+        "no of registers",
+        "number of registers",
+        "registers",
+        "size",
+        "quantity of registers",
+        "num registers",
+        "reg count",
+        "word count",
+        "anzahl",
+        "qty",
+        "number of words",
+        "length bytes",
+        "byte count",
+    ],
     "length": ["length", "length info", "length info column", "byte", "bytes used", "part"],
-    "multiplier": ["multiplier", "multipler", "scale", "scaling", "factor", "scale factor", "gain",
-                   "resolution", "faktor", "skalierung", "multiply", "scaling factor", "transform"],
+    "multiplier": [
+        "multiplier",
+        "multipler",
+        "scale",
+        "scaling",
+        "factor",
+        "scale factor",
+        "gain",
+        "resolution",
+        "faktor",
+        "skalierung",
+        "multiply",
+        "scaling factor",
+        "transform",
+    ],
     "divisor": ["divisor", "divide by", "divided by", "div"],
     "units": ["units", "unit", "uom", "engineering units", "einheit", "unidad", "unite"],
-    "access": ["access", "r w", "rw", "read write", "operation info", "operation", "mode", "permission",
-               "zugriff", "attribute", "property", "access type", "writable", "writeable"],
+    "access": [
+        "access",
+        "r w",
+        "rw",
+        "read write",
+        "operation info",
+        "operation",
+        "mode",
+        "permission",
+        "zugriff",
+        "attribute",
+        "property",
+        "access type",
+        "writable",
+        "writeable",
+    ],
     "block_label": ["block", "group", "category", "section", "block label", "gruppe", "module"],
-    "register_type": ["register type", "table", "function code", "fc", "object type", "reg type", "area",
-                      "modbus table", "register table", "function", "func", "function codes"],
+    "register_type": [
+        "register type",
+        "table",
+        "function code",
+        "fc",
+        "object type",
+        "reg type",
+        "area",
+        "modbus table",
+        "register table",
+        "function",
+        "func",
+        "function codes",
+    ],
     "minimum": ["min", "minimum", "min value", "range min", "low limit"],
     "maximum": ["max", "maximum", "max value", "range max", "high limit"],
     "offset": ["offset", "value offset", "add"],
-    "word_order": ["mixed endian", "word swap", "swap words", "word order", "word swapped", "swap", "mixed",
-                   "wordswap", "word swap enabled"],
+    "word_order": [
+        "mixed endian",
+        "word swap",
+        "swap words",
+        "word order",
+        "word swapped",
+        "swap",
+        "mixed",
+        "wordswap",
+        "word swap enabled",
+    ],
 }
 
 
@@ -167,8 +300,11 @@ def _pick_delimiter(text: str) -> str:
 def _is_markdown(text: str) -> bool:
     lines = [line.strip() for line in text.splitlines() if line.strip()]
     piped = [line for line in lines if line.startswith("|") and line.endswith("|") and len(line) > 1]
-    return len(piped) >= 2 and len(piped) >= 0.5 * len(lines) and any(
-        all(_RULE.match(c) or not c.strip() for c in line.strip("|").split("|")) for line in piped)
+    return (
+        len(piped) >= 2
+        and len(piped) >= 0.5 * len(lines)
+        and any(all(_RULE.match(c) or not c.strip() for c in line.strip("|").split("|")) for line in piped)
+    )
 
 
 FALLBACK = "cp1252"  # Windows-1252, the Latin-1 of Windows exports (Excel's "CSV" on a Western locale)
@@ -182,8 +318,10 @@ class EncodingGuess:
 
     def note(self, ini: bool) -> str:
         where = "[Input/Output]" if ini else "[Input/Output] of a device INI (--ini)"
-        return (f"{self.why}; set encoding = {self.encoding} in {where} to say so, or encoding = NAME for "
-                "another (latin-1, cp1250, utf-16 ...)")
+        return (
+            f"{self.why}; set encoding = {self.encoding} in {where} to say so, or encoding = NAME for "
+            "another (latin-1, cp1250, utf-16 ...)"
+        )
 
 
 def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[str, EncodingGuess | None]:
@@ -193,7 +331,8 @@ def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[
         return decode_text(data, path, (encoding,)).lstrip("\ufeff"), None
     if data.startswith(_UTF16_BOMS):
         return decode_text(data, path, ("utf-16",)), EncodingGuess(
-            "utf-16", "read as UTF-16 (the file starts with its byte order mark)")
+            "utf-16", "read as UTF-16 (the file starts with its byte order mark)"
+        )
     try:
         return decode_text(data, path, ("utf-8-sig",)).lstrip("\ufeff"), None
     except MdlError as exc:
@@ -201,22 +340,34 @@ def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[
     try:
         text = data.decode(FALLBACK)
     except UnicodeDecodeError:
-        raise error(f"{bad.message}, nor as {FALLBACK}: save the file as UTF-8, or, for a table, say how it is "
-                    "written with encoding = NAME in [Input/Output] of its device INI (a Python codec name: "
-                    "latin-1, utf-16, cp1250 ...)", path, bad.line, bad.col) from None
+        raise error(
+            f"{bad.message}, nor as {FALLBACK}: save the file as UTF-8, or, for a table, say how it is "
+            "written with encoding = NAME in [Input/Output] of its device INI (a Python codec name: "
+            "latin-1, utf-16, cp1250 ...)",
+            path,
+            bad.line,
+            bad.col,
+        ) from None
     assert bad.line is not None and bad.col is not None, "decode_text names the byte's line and column"
-    byte = data.split(b"\n", bad.line)[bad.line - 1][bad.col - 1:bad.col]
-    return text, EncodingGuess(FALLBACK, f"not UTF-8 (byte 0x{byte.hex()} on line {bad.line}, column {bad.col}): "
-                                         f"read as Windows-1252 ({FALLBACK}, the Latin-1 of Windows exports), "
-                                         f"where that byte is '{byte.decode(FALLBACK)}'")
+    byte = data.split(b"\n", bad.line)[bad.line - 1][bad.col - 1 : bad.col]
+    return text, EncodingGuess(
+        FALLBACK,
+        f"not UTF-8 (byte 0x{byte.hex()} on line {bad.line}, column {bad.col}): "
+        f"read as Windows-1252 ({FALLBACK}, the Latin-1 of Windows exports), "
+        f"where that byte is '{byte.decode(FALLBACK)}'",
+    )
 
 
 def read_table(path: Path, delimiter: str | None = None, encoding: str | None = None) -> Table:
     text, guess = decode_table(read_bytes(path), path, encoding)
     if "\x00" in text:
         line = text[: text.index("\x00")].count("\n") + 1
-        raise error("a NUL byte: this is not a text CSV file (if it is UTF-16 without a byte order mark, set "
-                    "encoding = utf-16-le in [Input/Output])", path, line)
+        raise error(
+            "a NUL byte: this is not a text CSV file (if it is UTF-16 without a byte order mark, set "
+            "encoding = utf-16-le in [Input/Output])",
+            path,
+            line,
+        )
     guessed = delimiter is None
     markdown = guessed and _is_markdown(text)
     if markdown:

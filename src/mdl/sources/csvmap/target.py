@@ -24,8 +24,9 @@ MDL_ROOT = "{http://www.ornl.gov/ModbusXMLSchema}device"
 _SNIFF_BYTES = 1 << 16  # enough of a file to see its root element
 
 
-def output_target(source: Path, ini_path: Path | None, output: Path | None, allow_outside: bool,
-                  force: bool) -> Path | None:
+def output_target(
+    source: Path, ini_path: Path | None, output: Path | None, allow_outside: bool, force: bool
+) -> Path | None:
     """The file csv2xml writes, checked against the rules above; None: stdout."""
     ini = read_ini(source) if ini_path is None and is_ini(source) else None  # the `mdl csv2xml DEVICE.ini` form
     named = (source, ini_path, ini.csv_file if ini else None)
@@ -42,12 +43,20 @@ def output_target(source: Path, ini_path: Path | None, output: Path | None, allo
     folder = source.parent.resolve()
     resolved = target.resolve()
     if not allow_outside and not resolved.is_relative_to(folder):
-        raise error(f"output_xml_file names {resolved}, outside the INI's folder {folder}; "
-                    "give -o FILE, or --allow-outside to write it there", source, line)
+        raise error(
+            f"output_xml_file names {resolved}, outside the INI's folder {folder}; "
+            "give -o FILE, or --allow-outside to write it there",
+            source,
+            line,
+        )
     hidden = _hidden_part(resolved, Path(os.path.commonpath([resolved, folder])))
     if hidden is not None:
-        raise error(f"output_xml_file names {target}, inside the hidden {hidden!r}; mdl csv2xml does not write "
-                    "into hidden files or folders from an INI: give -o FILE to write there", source, line)
+        raise error(
+            f"output_xml_file names {target}, inside the hidden {hidden!r}; mdl csv2xml does not write "
+            "into hidden files or folders from an INI: give -o FILE to write there",
+            source,
+            line,
+        )
     _check_not_input(target, inputs, source, line)
     _check_replace(target, force, source, line)
     return target
@@ -58,8 +67,9 @@ def _check_not_input(target: Path, inputs: list[Path], ini: Path | None, line: i
     for path in inputs:
         if _same_file(target, path):
             what = "the INI file itself" if ini is not None and _same_file(path, ini) else f"the input {path}"
-            raise error(f"the output {target} is {what}: csv2xml never writes over an input of the run",
-                        ini or target, line)
+            raise error(
+                f"the output {target} is {what}: csv2xml never writes over an input of the run", ini or target, line
+            )
 
 
 def _check_replace(target: Path, force: bool, ini: Path, line: int | None) -> None:
@@ -68,8 +78,12 @@ def _check_replace(target: Path, force: bool, ini: Path, line: int | None) -> No
     if target.is_dir():
         raise error(f"output_xml_file names {target}, a folder", ini, line)
     if not is_mdl_document(target):
-        raise error(f"output_xml_file names {target}, which exists and is not an MDL document (an earlier output "
-                    "of csv2xml); give --force to replace it, or -o FILE", ini, line)
+        raise error(
+            f"output_xml_file names {target}, which exists and is not an MDL document (an earlier output "
+            "of csv2xml); give --force to replace it, or -o FILE",
+            ini,
+            line,
+        )
 
 
 def is_mdl_document(path: Path) -> bool:
@@ -80,8 +94,9 @@ def is_mdl_document(path: Path) -> bool:
     except OSError:
         return False
     try:
-        for _event, element in etree.iterparse(_Chunk(head), events=("start",), resolve_entities=False,
-                                               no_network=True, load_dtd=False):
+        for _event, element in etree.iterparse(
+            _Chunk(head), events=("start",), resolve_entities=False, no_network=True, load_dtd=False
+        ):
             return bool(element.tag == MDL_ROOT)
     except (etree.XMLSyntaxError, MdlError):
         return False
@@ -97,7 +112,7 @@ class _Chunk:
 
     def read(self, size: int = -1) -> bytes:
         end = len(self._data) if size < 0 else self._pos + size
-        chunk = self._data[self._pos:end]
+        chunk = self._data[self._pos : end]
         self._pos += len(chunk)
         return chunk
 

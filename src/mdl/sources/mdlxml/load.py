@@ -16,13 +16,33 @@ if TYPE_CHECKING:
     from _typeshed import StrPath
 
 _FLOATS = ("multiplier", "offset", "minimum", "maximum")
-_STRINGS = ("length", "format", "units", "read_function_code", "write_function_code",
-            "register_type", "byte_order", "word_order", "access")
+_STRINGS = (
+    "length",
+    "format",
+    "units",
+    "read_function_code",
+    "write_function_code",
+    "register_type",
+    "byte_order",
+    "word_order",
+    "access",
+)
 
 
 # elements the XSDs give a default: empty, they take it, as the model does for an absent one
-_DEFAULTED = ("length", "count", "format", "multiplier", "register_type", "byte_order", "word_order", "offset",
-              "immutable", "system", "write_multiple")
+_DEFAULTED = (
+    "length",
+    "count",
+    "format",
+    "multiplier",
+    "register_type",
+    "byte_order",
+    "word_order",
+    "offset",
+    "immutable",
+    "system",
+    "write_multiple",
+)
 _CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
 _NAMED = ("bits", "scale_exponent", "scale_by", "role")  # texts kept without the spaces around them
 _SPANNED = _CODE + _FLOATS + _NAMED + ("initial",)  # the texts mdl.resolve may point at
@@ -89,7 +109,7 @@ class _Reader:
                 continue
             if key:
                 end = self.text.find("<", tag.text_start)
-                raw = self.text[tag.text_start:end if end >= 0 else len(self.text)] if key in _CODE else ""
+                raw = self.text[tag.text_start : end if end >= 0 else len(self.text)] if key in _CODE else ""
                 record_span(owner, key, TextSpan(tag.text_line, tag.text_col, raw))
             else:
                 record_span(owner, key, TextSpan(tag.line, tag.col))
@@ -99,8 +119,11 @@ class _Reader:
         t = (text or "").strip()
         digits = t.lstrip("+-").lstrip("0")  # leading zeros count towards int()'s limit too
         if len(digits) > _MAX_DIGITS:
-            raise MdlError(Diagnostic(self.source, *self.where(el, inside),
-                                      f"{what} '{t[:20]}...' is too large ({len(digits)} digits)"))
+            raise MdlError(
+                Diagnostic(
+                    self.source, *self.where(el, inside), f"{what} '{t[:20]}...' is too large ({len(digits)} digits)"
+                )
+            )
         return -int(digits or "0") if t.startswith("-") else int(digits or "0")
 
     def number(self, text: str, el: etree._Element, tag: str, owner: str | None) -> float:
@@ -141,8 +164,9 @@ class _Reader:
             elif tag == "not_implemented":
                 kw["not_implemented"] = text.split()
             elif tag == "values":
-                kw["values"] = {self.integer(v.get("key"), v, "key", False): _text(v)
-                                for v in child if isinstance(v.tag, str)}
+                kw["values"] = {
+                    self.integer(v.get("key"), v, "key", False): _text(v) for v in child if isinstance(v.tag, str)
+                }
             elif tag == "expression":
                 kw["expression"] = text
                 kw["expression_line"] = child.sourceline

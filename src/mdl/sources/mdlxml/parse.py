@@ -24,8 +24,12 @@ SCHEMA_VERSIONS = ("0.9b", "1.0")
 
 def secure_parser() -> etree.XMLParser:
     return etree.XMLParser(
-        resolve_entities=False, no_network=True, load_dtd=False, dtd_validation=False,
-        huge_tree=False, remove_comments=False,
+        resolve_entities=False,
+        no_network=True,
+        load_dtd=False,
+        dtd_validation=False,
+        huge_tree=False,
+        remove_comments=False,
     )
 
 
@@ -50,8 +54,11 @@ def parse_source(path: StrPath) -> tuple[etree._ElementTree, bytes]:
 
 
 # markup that holds no element (comments, CDATA, processing instructions, declarations), or a tag
-_MARKUP = re.compile(r"<!--.*?-->|<!\[CDATA\[.*?\]\]>|<\?.*?\?>|<![^>]*>"
-                     r"|<(/?)((?:[^\s/>:]+:)?([^\s/>]+))((?:[^>\"']|\"[^\"]*\"|'[^']*')*)>", re.S)
+_MARKUP = re.compile(
+    r"<!--.*?-->|<!\[CDATA\[.*?\]\]>|<\?.*?\?>|<![^>]*>"
+    r"|<(/?)((?:[^\s/>:]+:)?([^\s/>]+))((?:[^>\"']|\"[^\"]*\"|'[^']*')*)>",
+    re.S,
+)
 
 
 @dataclass(frozen=True)
@@ -91,7 +98,8 @@ def element_tags(root: etree._Element, text: str) -> dict[etree._Element, StartT
     elements = [el for el in root.iter() if isinstance(el.tag, str)]
     found = start_tags(text)
     matched = len(found) == len(elements) and all(
-        etree.QName(el).localname == tag.localname for el, tag in zip(elements, found, strict=True))
+        etree.QName(el).localname == tag.localname for el, tag in zip(elements, found, strict=True)
+    )
     return dict(zip(elements, found, strict=True)) if matched else {}
 
 
@@ -134,10 +142,7 @@ def schema_errors(tree: etree._ElementTree, path: StrPath, version: str, data: b
         if "No matching global declaration" in message:
             root = etree.QName(tree.getroot())
             if root.namespace != NS:
-                message = (
-                    f"root element '{root.localname}' is not in the MDL namespace; "
-                    f'add xmlns="{NS}"'
-                )
+                message = f"root element '{root.localname}' is not in the MDL namespace; add xmlns=\"{NS}\""
         out.append(Diagnostic(str(path), line, col, message))
     return out
 

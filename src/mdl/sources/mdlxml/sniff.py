@@ -25,7 +25,7 @@ def starts_with_markup(data: bytes) -> bool:
     """Whether the bytes begin (after a BOM and blanks) with `<`, as every XML document does."""
     for bom, encoding in ((b"\xef\xbb\xbf", "utf-8"), (b"\xff\xfe", "utf-16-le"), (b"\xfe\xff", "utf-16-be")):
         if data.startswith(bom):
-            return data[len(bom):].decode(encoding, errors="replace").lstrip().startswith("<")
+            return data[len(bom) :].decode(encoding, errors="replace").lstrip().startswith("<")
     return data.lstrip().startswith(b"<")
 
 
@@ -45,8 +45,10 @@ def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
         return "an empty file", "give an MDL document (`mdl csv2xml` makes one from a vendor's register table)"
     head = data[:_HEAD]
     if head.startswith(_ZIP):
-        return ("a zip archive (an Excel .xlsx workbook?)",
-                "save the register table as CSV and convert it with `mdl csv2xml TABLE.csv`")
+        return (
+            "a zip archive (an Excel .xlsx workbook?)",
+            "save the register table as CSV and convert it with `mdl csv2xml TABLE.csv`",
+        )
     text = head.decode("utf-8", errors="replace").lstrip("\ufeff")
     if "\x00" in text:
         return "binary data", "give an MDL document (`mdl csv2xml` makes one from a vendor's register table)"
@@ -55,15 +57,16 @@ def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
         sections = {line.strip().lower() for line in text.splitlines() if line.strip().startswith("[")}
         if sections & _DEVICE_INI:
             return "a device INI (csv2xml's)", f"`mdl csv2xml {name}` converts the register table it names"
-        return ("an INI file", f"a device INI goes to `mdl csv2xml {name}`, a WISE-Agent Modbus.ini to "
-                               f"`mdl import {name} --from wise`")
+        return (
+            "an INI file",
+            f"a device INI goes to `mdl csv2xml {name}`, a WISE-Agent Modbus.ini to `mdl import {name} --from wise`",
+        )
     if first[:1] in "{[" and _is_json(text):
         return "a JSON document", "give an MDL document (raw registers in JSON go to `mdl sim --registers`)"
     delimiter = table_delimiter(text)
     if delimiter is not None or Path(str(path)).suffix.lower() in _TABLE_SUFFIXES:
         cells = f" (cells separated by {DELIMITER_NAMES[delimiter]}s)" if delimiter else ""
-        return (f"a register table{cells}",
-                f"`mdl csv2xml {name} [--ini DEVICE.ini]` converts it to MDL")
+        return (f"a register table{cells}", f"`mdl csv2xml {name} [--ini DEVICE.ini]` converts it to MDL")
     return "plain text", "give an MDL document (`mdl csv2xml` makes one from a vendor's register table)"
 
 
@@ -71,8 +74,11 @@ def _importable(path: StrPath) -> str | None:
     """What `mdl import` would read this file as (its own guess: mdl.formats.guess_format)."""
     from mdl.formats import guess_format
 
-    return {"xif": "an XIF file (SmartServer .mod)", "schema": "a Modbus Schema Toolkit YAML file",
-            "wise": "a WISE-Agent Modbus.ini"}.get(guess_format(path) or "")
+    return {
+        "xif": "an XIF file (SmartServer .mod)",
+        "schema": "a Modbus Schema Toolkit YAML file",
+        "wise": "a WISE-Agent Modbus.ini",
+    }.get(guess_format(path) or "")
 
 
 def _is_json(text: str) -> bool:
