@@ -8,42 +8,13 @@ from lxml import etree
 
 from mdl.diagnostics import error
 from mdl.exchange.text import unwritable
-from mdl.model import IDENTITY_FIELDS, Device
+from mdl.model import EXTENSION_FIELDS, IDENTITY_FIELDS, Device
 from mdl.sources.mdlxml.parse import NS
 
-_ORDER = (
-    "name",
-    "description",
-    "addresses",
-    "length",
-    "count",
-    "format",
-    "block_labels",
-    "multiplier",
-    "units",
-    "read_function_code",
-    "write_function_code",
-    "register_type",
-    "byte_order",
-    "word_order",
-    "offset",
-    "access",
-    "minimum",
-    "maximum",
-    "not_implemented",
-    "values",
-    "expression",
-    "immutable",
-    "system",
-    "fetch_group",
-    "marker",
-    "precision",
-    "write_multiple",
-    "bits",
-    "scale_exponent",
-    "scale_by",
-    "role",
-    "initial",
+_ORDER = (  # a function's elements in schema order: 0.9b's, then the 1.0 extensions (one list, in the model)
+    *("name", "description", "addresses", "length", "count", "format", "block_labels", "multiplier", "units"),
+    *("read_function_code", "write_function_code"),
+    *EXTENSION_FIELDS,
 )
 
 
