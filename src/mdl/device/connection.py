@@ -83,10 +83,7 @@ class Connection(Endpoint):
         if self.serial is not None:
             return ModbusSerialClient(
                 self.serial,
-                baudrate=self.baud,
-                parity=self.parity,
-                stopbits=self.stopbits,
-                bytesize=self.bytesize,
+                **self.line_settings(),
                 timeout=self.timeout,
                 retries=self.retries,
                 trace_packet=trace,
@@ -100,6 +97,10 @@ class Connection(Endpoint):
             trace_packet=trace,
         )
 
+    def line_settings(self) -> dict[str, Any]:
+        """The serial line's settings as pyserial and pymodbus take them."""
+        return {"baudrate": self.baud, "parity": self.parity, "stopbits": self.stopbits, "bytesize": self.bytesize}
+
     def server(self, context: ModbusServerContext) -> ModbusBaseServer:
         """A pymodbus server of `context` (to be created inside the running event loop). On RTU framing a
         request for a unit the context does not serve gets no answer, as on a bus."""
@@ -109,10 +110,7 @@ class Connection(Endpoint):
             return ModbusSerialServer(
                 context,
                 port=self.serial,
-                baudrate=self.baud,
-                parity=self.parity,
-                stopbits=self.stopbits,
-                bytesize=self.bytesize,
+                **self.line_settings(),
                 ignore_missing_devices=True,
             )
         return ModbusTcpServer(
@@ -154,9 +152,7 @@ class Connection(Endpoint):
         import serial  # type: ignore[import-untyped]  # pyserial ships no types
 
         try:
-            serial.Serial(
-                self.serial, baudrate=self.baud, parity=self.parity, stopbits=self.stopbits, bytesize=self.bytesize
-            ).close()
+            serial.Serial(self.serial, **self.line_settings()).close()
         except (serial.SerialException, ValueError, OSError, termios.error) as exc:
             reason = exc.args[-1] if isinstance(exc, (OSError, termios.error)) and exc.args else exc
             return self.settings_refusal(reason)
