@@ -37,7 +37,7 @@ TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "1
                          "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
 
 TYPES = {"INT8L", "INT8H", "UINT8L", "UINT8H", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64",
-         "FLOAT32", "FLOAT64", "STRING"}
+         "FLOAT32", "FLOAT64", "STRING", "BIT"}
 LENGTH = {"INT8L": 1, "INT8H": 1, "UINT8L": 1, "UINT8H": 1, "INT16": 1, "UINT16": 1, "INT32": 2, "UINT32": 2,
           "FLOAT32": 2, "INT64": 4, "UINT64": 4, "FLOAT64": 4}
 
@@ -75,6 +75,8 @@ def decode(field: dict, registers: list[int], order: str):
             (order, kind.endswith("L"))]
         value = data[index]
         return value - 256 if kind.startswith("INT") and value > 127 else value
+    if kind == "BIT":  # type_conversions_bit.go: the register converted as a 16-bit one, then v >> bit & 1
+        return (to_host16(registers[0], order) >> field["bit"]) & 1
     if kind == "STRING":
         text = b"".join(to_host16(r, order).to_bytes(2, "big") for r in registers)
         return text.split(b"\x00", 1)[0].decode()

@@ -27,6 +27,7 @@ ENGINES = {"homeassistant": "Home Assistant", "telegraf": "Telegraf", "volttron"
 CASES = [EXAMPLE / "temco_tstat.xml", DATA / "all_tables.xml"]
 _LINE = re.compile(r"^(?P<file>.*?)(?::(?P<line>\d+))?: (?P<severity>warning|note): "
                    r"(?P<subject>functions? '.*?): (?P<engine>Home Assistant|Telegraf|VOLTTRON): (?P<kind>.*)$")
+_BARE = re.compile(r"^(?P<file>.*?)(?::(?P<line>\d+))?: (?P<severity>warning|note): (?P<rest>functions? '.*)$")
 _DETAIL = re.compile(r" \([^()]*\)")
 
 # Home Assistant 2024.3's units and state classes for the device classes the export writes
@@ -56,14 +57,34 @@ STATE_CLASSES = {"measurement", "total", "total_increasing"}
 
 
 def said(stderr: str) -> list[dict]:
-    """Each warning or note about functions: file, line, severity, engine, kind and the functions it names."""
+    """Each warning or note about functions: file, line, severity, engine (None for XIF and WISE, whose warnings
+    name none), kind and the functions it names."""
     out = []
     for text in stderr.splitlines():
         m = _LINE.match(text)
-        if m:
-            subject = _DETAIL.sub("", m["subject"].split(" ", 1)[1])
-            out.append({**m.groupdict(), "names": re.findall(r"'([^']*)'", subject)})
+        found = m.groupdict() if m else _bare(text)
+        if found:
+            subject = _DETAIL.sub("", found["subject"].split(" ", 1)[1])
+            out.append({**found, "names": re.findall(r"'([^']*)'", subject)})
     return out
+
+
+def _bare(text: str) -> dict | None:
+    """A warning about functions that names no engine (XIF, WISE): its subject ends at the first `: ` outside
+    quotes and parentheses."""
+    m = _BARE.match(text)
+    if m is None:
+        return None
+    rest, depth, quoted = m["rest"], 0, False
+    for i, ch in enumerate(rest):
+        if ch == "'" and depth == 0:
+            quoted = not quoted
+        elif not quoted:
+            depth += {"(": 1, ")": -1}.get(ch, 0)
+            if depth == 0 and rest.startswith(": ", i):
+                return {**{k: m[k] for k in ("file", "line", "severity")}, "subject": rest[:i], "engine": None,
+                        "kind": rest[i + 2:]}
+    return None
 
 
 def named(stderr: str, engine: str, fragment: str, severity: str = "warning") -> set[str]:

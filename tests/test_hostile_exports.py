@@ -180,7 +180,7 @@ def check_wise(path: Path, out: Path, warnings: str) -> None:
         if name != f.name:  # only the characters a line cannot hold are changed, and that is said
             assert name == (WISE_BREAKS.sub("_", f.name).strip() or "unnamed") or \
                 re.fullmatch(r".*_[0-9]+", name), (f.name, name)
-            assert f"function {_quoted(f.name)}: written as {_quoted(name)}" in warnings, (f.name, name, warnings)
+            assert f"{_quoted(f.name)} (as {_quoted(name)})" in warnings, (f.name, name, warnings)
     for key, row in parser["Holding Registers"].items():
         if key != "numberOfR":
             assert row.count(",") == 6, row  # offset,name,min,max,precision,unit,datatype: no column shifted
@@ -295,7 +295,8 @@ def test_wise_lua_column_cannot_break_its_line(tmp_path):
     out = tmp_path / "Modbus.ini"
     proc = export(path, "wise", "-o", out)
     assert proc.returncode == 0, proc.stderr
-    assert "function 't': written, losing the Lua conversion its description keeps" in proc.stderr
+    assert "function 't' (" in proc.stderr and \
+        "): written, losing the Lua conversion its description keeps (quotes and control characters" in proc.stderr
     check_wise(path, out, proc.stderr)
 
 

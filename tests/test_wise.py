@@ -15,6 +15,7 @@ import pytest
 from conftest import DATA, ROOT, assert_clean_error, cli, fn_xml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from test_export_warnings import said
 
 from mdl.diagnostics import MdlError
 from mdl.formats.wise.read import read_wise
@@ -231,15 +232,23 @@ def test_export_writes_the_agent_form(tmp_path):
     assert "IR0=0,energy,0,4294967.295,0.001,kWh,6\n" in text
     assert 'R4=300,temp_offset,-40,32727.5,1, ,0,"modbus_val*0.5-40"\n' in text
     assert "R2=100,setpoint,5,35,0.1,°C,0\n" in text
+    warned: dict[str, str] = {}  # each function's warnings: one per kind, naming all its functions (issue 20)
+    for d in said(proc.stderr):
+        for name in d["names"]:
+            warned[name] = warned.get(name, "") + f"{d['subject']}: {d['kind']}\n"
     for name, why in (("label", "not written: text"), ("flow", "not written: read by a C fragment"),
-                      ("big", "not written: a 64-bit value"), ("serial", "not written: UINT32 with byte order little"),
-                      ("low_byte", "not written: the lower byte"), ("mode", "written, losing its enumeration"),
-                      ("voltage", "written, losing its not_implemented"), ("setpoint", "written, losing INT16"),
-                      ("alarm_reset", "written, losing access write")):
-        assert f"warning: function '{name}': {why}" in proc.stderr, name
+                      ("big", "(64 bits): not written: a value of neither 16 nor 32 bits"),
+                      ("serial", "(UINT32 with byte order little and word order big): not written"),
+                      ("low_byte", "(lower), 'high_byte' (upper): not written: a byte of a register"),
+                      ("mode", "written, losing its enumeration"),
+                      ("voltage", "(0xFFFF): written, losing its not_implemented"),
+                      ("setpoint", "(INT16): written, losing a signed format"),
+                      ("alarm_reset", "(write, coil): written, losing its access")):
+        assert why in warned[name], (name, warned[name])
     # each function's warning names its line in the description, as the engine exports do
     assert f"{ALL}:98: warning: function 'label': not written: text" in proc.stderr
     assert f"{ALL}:91: warning: function 'mode': written, losing its enumeration" in proc.stderr
+    assert f"{ALL}:81: warning: functions 'setpoint', 'temp_offset' (INT16): written, losing a signed" in proc.stderr
     assert f"{ALL}: note: " not in proc.stderr and "written without the device's" not in proc.stderr
     assert cli("export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3",
                "--interval", "5").stdout == text  # deterministic
@@ -274,12 +283,13 @@ def test_export_names_and_clashes(write_device):
     assert proc.returncode == 0, proc.stderr
     assert "R0=0,a_ _b_,0,65535,1, ,0\nR1=1,a_ _b__2,0,65535,1, ,0\nR2=10,pair," in proc.stdout
     assert "R3=20,reversed,0,4294967295,1, ,6\nR4=40,shown,0,65535,1,a_b,0\n" in proc.stdout
-    assert f"{path}:5: warning: function 'a, \"b\"': written as 'a_ _b_'" in proc.stderr  # the function's line
-    for fragment in ("function 'a, \"b\"': written as 'a_ _b_'", "function 'a_ _b_': written as 'a_ _b__2'",
-                     "function 'again': not written: offset 0 of the holding table is 'a, \"b\"' already",
-                     "function 'apart': not written: registers 30 and 32 are not next to each other",
-                     "function 'shown': written, losing precision (a Modbus.ini line has no such field); the commas, "
-                     "quotes and control characters of its unit 'a,b'"):
+    assert f"{path}:5: warning: functions 'a, \"b\"' (as 'a_ _b_'), 'a_ _b_' (as 'a_ _b__2'): written under " \
+        "another name" in proc.stderr  # one warning for the kind, at its first function's line
+    for fragment in ("function 'again' (holding 0: 'a, \"b\"'): not written: its offset is taken",
+                     "function 'apart' (registers 30 and 32): not written: registers not next to each other",
+                     "function 'shown' (precision): written, losing fields a Modbus.ini line has not",
+                     "function 'shown' ('a,b'): written, losing the commas, quotes and control characters of its "
+                     "unit"):
         assert fragment in proc.stderr, fragment
 
 
@@ -313,7 +323,7 @@ def test_round_trips_read_the_same_values(sim_factory, tmp_path):
         ini = tmp_path / f"{path.stem}.ini"
         proc = cli("export", path, "--to", "wise", "-o", ini)
         assert proc.returncode == 0, (path, proc.stderr)
-        warned = set(re.findall(r"warning: function '(.*?)': ", proc.stderr))
+        warned = {name for d in said(proc.stderr) if d["severity"] == "warning" for name in d["names"]}
         back = tmp_path / f"{path.stem}.wise.xml"
         proc = cli("import", ini, "-o", back)
         assert proc.returncode == 0, (path, proc.stderr)
@@ -365,8 +375,8 @@ def test_lua_kept_in_the_description_goes_back_into_the_lua_column(tmp_path):
     proc = cli("export", xml, "--to", "wise", "-o", back)
     assert proc.returncode == 0, proc.stderr
     assert 'R0=0,Temp,0,100,1,C,0,"math.floor(modbus_val/10)"\n' in back.read_text()
-    assert (f"{xml}:5: warning: function 'Temp': written with the Lua conversion its description keeps, "
-            "'math.floor(modbus_val/10)': the agent applies it, mdl does not") in proc.stderr
+    assert (f"{xml}:5: warning: function 'Temp' ('math.floor(modbus_val/10)'): written with the Lua conversion its "
+            "description keeps: the agent applies it, mdl does not") in proc.stderr
     again = cli("import", back)
     assert again.returncode == 0, again.stderr
     assert _kept_description(again.stdout) == _kept_description(xml.read_text())
@@ -386,7 +396,7 @@ def test_lua_round_trips_exactly(tmp_path, name, column, lua):
     proc = cli("export", xml, "--to", "wise")
     assert proc.returncode == 0, proc.stderr
     assert re.findall(r"^IR0=(.*)$", proc.stdout, re.M) == [f'7,{name},0,10,0.1,V,1,"{lua}"']
-    assert f"function '{name}': written with the Lua conversion its description keeps, '{lua}'" in proc.stderr
+    assert f"function '{name}' ('{lua}'): written with the Lua conversion its description keeps" in proc.stderr
 
 
 def test_lua_in_a_description_with_an_offset_a_bit_or_a_quote(write_device):
@@ -411,13 +421,14 @@ def test_lua_in_a_description_with_an_offset_a_bit_or_a_quote(write_device):
     assert "R2=2,quoted,0,65535,1, ,0\n" in proc.stdout
     assert 'R3=3,comment,1,65536,1, ,0,"modbus_val+1"\n' in proc.stdout
     assert "R4=4,plain,0,65535,1, ,0\n" in proc.stdout
-    for fragment in ("function 'scaled': written with the Lua conversion its description keeps",
-                     "function 'switch': written, losing the Lua conversion its description keeps, 'modbus_val' "
+    for fragment in ("functions 'scaled' ('math.floor(modbus_val/10)'), 'neg' ('math.abs(modbus_val)'): written "
+                     "with the Lua conversion its description keeps",
+                     "function 'switch' ('modbus_val'): written, losing the Lua conversion its description keeps "
                      "(a bit line has no Lua column)",
-                     "function 'quoted': written, losing the Lua conversion its description keeps, 'modbus_val..\"V\"' "
-                     "(quotes and control characters",
-                     "function 'comment': written, losing the Lua conversion its description keeps, "
-                     "'f(modbus_val) -- x' (its `--` comment"):
+                     "function 'quoted' ('modbus_val..\"V\"'): written, losing the Lua conversion its description "
+                     "keeps (quotes and control characters",
+                     "function 'comment' ('f(modbus_val) -- x'): written, losing the Lua conversion its description "
+                     "keeps (its `--` comment"):
         assert fragment in proc.stderr, fragment
     assert "'plain'" not in proc.stderr
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import csv
 import json
-import re
 import struct
 from pathlib import Path
 
@@ -15,6 +14,7 @@ from conftest import DATA, ROOT, assert_clean_error, cli, run_mdl
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from lxml import etree
+from test_export_warnings import said
 
 from mdl.diagnostics import MdlError
 from mdl.exchange.export import Settings
@@ -356,9 +356,12 @@ def test_export_writes_current_columns_product_lines_and_rows(tmp_path):
 def test_export_names_each_function_it_cannot_express(tmp_path):
     proc = cli("export", DATA / "all_tables.xml", "--to", "xif")
     assert proc.returncode == 0
-    warned = dict(re.findall(r"function '([^']+)': (.*)", proc.stderr))
+    warned: dict[str, str] = {}  # each function's warnings: one per kind, naming all its functions (issue 20)
+    for d in said(proc.stderr):
+        for name in d["names"]:
+            warned[name] = warned.get(name, "") + f"{d['subject']}: {d['kind']}\n"
     assert "read fragment" in warned["status_bit"] and "read fragment" in warned["flow"]
-    assert "enumeration" in warned["mode"] and "not_implemented 0xFFFF" in warned["voltage"]
+    assert "enumeration" in warned["mode"] and "'voltage' (0xFFFF): not_implemented" in warned["voltage"]
     assert "write-only" in warned["alarm_reset"]
     assert "status_bit" not in proc.stdout and ",mode," in proc.stdout
     assert "placeholder" in proc.stderr  # no program_id: said, not silently invented

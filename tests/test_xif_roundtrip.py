@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import json
 import random
-import re
 from pathlib import Path
 
 import pytest
 from conftest import DATA, ROOT, cli, run_mdl
+from test_export_warnings import said
 
 from mdl.exchange.export import Settings
 from mdl.formats.xif.read import read_xif
@@ -28,7 +28,6 @@ from mdl.sources.loading import load_any
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
 DESCRIPTIONS = sorted((ROOT / "examples").glob("**/*.xml")) + sorted(DATA.glob("*.xml")) + [HEAT_PUMP]
 MOD_FILES = sorted((ROOT / "examples").glob("**/*.mod")) + sorted((DATA / "xif").glob("*.mod"))
-WARNED = re.compile(r"warning: function '([^']+)': ")
 
 
 def _rel(path: Path) -> str:
@@ -76,7 +75,7 @@ def test_mdl_to_xif_to_mdl_reads_the_same_values(source, tmp_path, sim_factory):
     mod = tmp_path / (mdl_file.stem + ".mod")
     proc = cli("export", mdl_file, "--to", "xif", "-o", mod)
     assert proc.returncode == 0, proc.stderr
-    warned = set(WARNED.findall(proc.stderr))
+    warned = {name for d in said(proc.stderr) if d["severity"] == "warning" for name in d["names"]}
     original = resolve(load_any(mdl_file), str(mdl_file))
     assert inexpressible(original.device) <= warned, proc.stderr
     again = load_any(mod)

@@ -2,11 +2,15 @@
 
 Each writer walks the resolved device's functions and decides, from the layout and the value IR
 the resolve step computed (never from the document again), how its engine reads each one. What the
-engine cannot express is said with `Notes.warn(f, kind, detail)`: the export prints one warning per
-kind of loss (SPEC 11), naming every function it concerns, each with its own detail where the kind
-needs one (`functions 'a', 'b' (0xFFFF): Telegraf: ...`), at the first function's line. A function no
-engine can read as mdl does (an expression, a fragment, registers that are not one ascending run, a
-value built from bytes of several registers) is left out with such a warning (`left_out_unreadable`).
+engine cannot express is said with `Notes.warn(f, kind, detail)` (mdl.exchange.notes, which the XIF and
+WISE writers share): the export prints one warning per kind of loss (SPEC 11), naming every function it
+concerns, each with its own detail where the kind needs one (`functions 'a', 'b' (0xFFFF): Telegraf: ...`),
+at the first function's line. A function no engine can read as mdl does (an expression, a fragment,
+registers that are not one ascending run, a value built from bytes of several registers) is left out
+with such a warning (`left_out_unreadable`).
+A function with `bits` or a scale register (`scale_exponent`, `scale_by`; SPEC 2.2) is each writer's own
+affair: `register_bit` says where one bit is on the wire, `scale_factor` what scales a value and by whom
+(docs/bits-and-scale.md, "In other formats and engines", says what each engine carries).
 An export that would hold nothing at all is an error (`nothing_left`).
 
 How every export writes text (docs/fleet.md, "Text in exports"): the encoders of mdl.exchange.text
@@ -17,86 +21,21 @@ unit or description can end a comment, a string or a cell early and become confi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from decimal import Decimal
 from typing import TYPE_CHECKING
 
-from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.diagnostics import MdlError, error
 from mdl.exchange.connection import Endpoint
-from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, find_step
+from mdl.exchange.notes import Notes as Notes
+from mdl.exchange.notes import bits_detail as bits_detail
+from mdl.exchange.notes import factor_detail as factor_detail
+from mdl.exchange.notes import subject as subject
+from mdl.values.build import split_value, units
+from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, ScaleFactor, find_step
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
     from mdl.resolve import ResolvedDevice, ResolvedFunction
-
-
-@dataclass
-class _Kind:
-    """One kind of loss (or note) of one export: the functions it concerns, each with its detail or None."""
-
-    severity: str
-    message: str
-    functions: list[tuple[ResolvedFunction, str | None]] = field(default_factory=list)
-    seen: set[tuple[str, str | None]] = field(default_factory=set)  # (function name, detail) in functions
-
-
-@dataclass
-class Notes:
-    """The warnings (and notes) of one export, each naming the engine: those about functions gathered into one
-    per kind (severity and message), in the order each kind was first met."""
-
-    resolved: ResolvedDevice
-    engine: str
-    _said: list[_Kind | Diagnostic] = field(default_factory=list)
-    _kinds: dict[tuple[str, str], _Kind] = field(default_factory=dict)
-
-    def warn(self, f: ResolvedFunction, message: str, detail: str | None = None) -> None:
-        """A loss of kind `message` for `f`; `detail`: what is particular to this function (a value, a unit)."""
-        self._add(f, message, detail, "warning")
-
-    def note_for(self, f: ResolvedFunction, message: str, detail: str | None = None) -> None:
-        """Like warn, a note (a guess said, a spelling changed): not a loss, so --fail-on-warning lets it pass."""
-        self._add(f, message, detail, "note")
-
-    def _add(self, f: ResolvedFunction, message: str, detail: str | None, severity: str) -> None:
-        kind = self._kinds.get((severity, message))
-        if kind is None:
-            kind = self._kinds[(severity, message)] = _Kind(severity, message)
-            self._said.append(kind)
-        if (f.name, detail) not in kind.seen:
-            kind.seen.add((f.name, detail))
-            kind.functions.append((f, detail))
-
-    def device_warning(self, message: str) -> None:
-        self._said.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "warning"))
-
-    def note(self, message: str) -> None:
-        self._said.append(Diagnostic(self.resolved.device.source, None, None, f"{self.engine}: {message}", "note"))
-
-    @property
-    def found(self) -> list[Diagnostic]:
-        """Every warning and note: one for each kind, at its first function's line."""
-        return [said if isinstance(said, Diagnostic) else self._diagnostic(said) for said in self._said]
-
-    def _diagnostic(self, kind: _Kind) -> Diagnostic:
-        return Diagnostic(self.resolved.device.source, kind.functions[0][0].fn.line, None,
-                          f"{subject(kind.functions)}: {self.engine}: {kind.message}", kind.severity)
-
-
-def subject(functions: list[tuple[ResolvedFunction, str | None]]) -> str:
-    """`function 'a'`, or `functions 'a', 'b' (d1), 'c' (d2)`: the functions, those of the same details together
-    with them in parentheses (a function's several details joined by `; `), in the order first met."""
-    details: dict[str, list[str]] = {}
-    for f, detail in functions:
-        said = details.setdefault(f.name, [])
-        if detail:
-            said.append(detail)
-    by_detail: dict[str, list[str]] = {}
-    for name, said in details.items():
-        by_detail.setdefault("; ".join(said), []).append(name)
-    parts = [", ".join(f"'{name}'" for name in names) + (f" ({detail})" if detail else "")
-             for detail, names in by_detail.items()]
-    return ("function " if len(details) == 1 else "functions ") + ", ".join(parts)
 
 
 UNREADABLE = "cannot be read as mdl does: {}: left out"
@@ -109,8 +48,6 @@ def unreadable(f: ResolvedFunction) -> tuple[str, str | None] | None:
         return "a Toolkit expression computes its value", None
     if find_step(steps, Fragment) is not None:
         return "a read fragment computes its value", None
-    if f.fn.bits is not None or f.fn.factor is not None:  # issue 21: the engines' exports do not carry them yet
-        return "its value is bits of a register or scaled by another register (not carried yet)", None
     addresses = f.layout.addresses
     if addresses != tuple(range(addresses[0], addresses[0] + len(addresses))):
         return "its registers are not one ascending run", f"registers {' '.join(map(str, addresses))}"
@@ -125,6 +62,22 @@ def left_out_unreadable(f: ResolvedFunction, notes: Notes) -> bool:
     if found is not None:
         notes.warn(f, UNREADABLE.format(found[0]), found[1])
     return found is not None
+
+
+def register_bit(f: ResolvedFunction) -> tuple[int, int] | None:
+    """Where a one-bit function's bit is on the wire: (register address, bit 0-15 of the register as sent,
+    0 the least significant); None for a function without `bits` or with a range of them."""
+    span = f.fn.bit_range
+    if span is None or span[0] != span[1] or f.layout.kind != "int":
+        return None
+    masks = split_value(units(f.layout), len(f.layout.addresses), 1 << span[0])  # as mdl's writes place it
+    address, mask = next((a, m) for a, m in zip(f.layout.addresses, masks, strict=True) if m)
+    return address, mask.bit_length() - 1
+
+
+def scale_factor(f: ResolvedFunction) -> ScaleFactor | None:
+    """How a function scaled by another register is computed (`f.fn.factor` names that register), or None."""
+    return find_step(f.codec.decode, ScaleFactor)
 
 
 def written_by_fragment(f: ResolvedFunction) -> bool:

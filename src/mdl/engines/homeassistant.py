@@ -17,6 +17,11 @@ one hub (named by the device's stem, with the connection of the command line) ho
   binary_sensor reads bit 0 of a register only, so it is a uint16 sensor with `max_value: 1` (it
   shows 1 or 0); a writable one is also a switch (write_type `holding`, function 6, or `holdings`,
   function 16, command_on 1, command_off 0) without `verify` (which knows the values 1 and 0 only);
+- a function with `bits` (SPEC 2.2) that is one bit landing on bit 0 of a register as sent (bit 0 of a
+  16-bit big-endian value, or of the register holding the low word) is a binary_sensor of that register
+  (`input_type` holding or input; binary_sensor.py: `registers[0] & 1`), read-only (a switch writes the
+  whole register); any other bits, and a value scaled by another register (`scale_exponent`,
+  `scale_by`: a sensor's scale and offset are constants), are left out with a warning;
 each with `name` (the function's), `unique_id` (stem, unit, identifier), `device_address` (--unit),
 `address` (the wire address) and `scan_interval` (--interval, whole seconds).
 
@@ -39,12 +44,15 @@ import yaml
 from mdl.engines.base import (
     Notes,
     bit_in_register,
+    bits_detail,
     connection_of,
     decimals,
+    factor_detail,
     hex_pattern,
     left_out_unreadable,
     nothing_left,
     patterns_of,
+    register_bit,
     scale_of,
     whole_seconds,
     write_code,
@@ -242,6 +250,23 @@ def _bit_sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict
     return entry
 
 
+def _register_bit(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any] | None:
+    """A function with `bits` as a binary_sensor (one bit that is bit 0 of a register as sent), or None (warned)."""
+    found = register_bit(f)
+    if found is None or found[1] != 0 or not f.fn.readable:
+        where = f"bit {found[1]} of register {found[0]}" if found is not None else bits_detail(f.fn)
+        notes.warn(f, "a binary_sensor reads bit 0 of a register only, and no sensor takes some bits of one: left out",
+                   where if f.fn.readable else "write-only")
+        return None
+    if f.fn.writable:
+        notes.warn(f, "exported read-only (a binary_sensor): a switch would write the whole register, not its bit")
+    patterns = patterns_of(f)
+    if patterns:
+        notes.warn(f, "a binary_sensor has no 'not implemented' value: the values that mean it read as a bit",
+                   ", ".join(map(hex_pattern, patterns)))
+    return {**base, "address": found[0], "input_type": "input" if f.layout.table == "input" else "holding"}
+
+
 def _write_type(f: ResolvedFunction) -> str:
     """The switch's write_type: the function code mdl writes with (5/15 for a coil, 6/16 for a register)."""
     return {5: "coil", 15: "coils", 6: "holding", 16: "holdings"}[write_code(f)]
@@ -267,6 +292,15 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
             continue
         base = {"name": f.name, "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
                 "device_address": settings.unit, "address": f.layout.addresses[0]}
+        if f.fn.factor is not None:
+            notes.warn(f, "a sensor's scale and offset are constants, and none is read from another register: "
+                          "left out", factor_detail(f.fn))
+            continue
+        if f.fn.bits is not None:
+            sensor = _register_bit(f, base, notes)
+            if sensor is not None:
+                out["binary_sensors"].append((f, {**sensor, "scan_interval": scan}))
+            continue
         writable = f.fn.writable and not written_by_fragment(f)
         if f.fn.writable and not writable:
             notes.warn(f, "a write fragment encodes it, which Home Assistant cannot: exported read-only")

@@ -20,6 +20,12 @@ in a holding or input register (true when the register is not 0, where Telegraf'
 bit) is read as UINT16 and `[[processors.enum]]` maps 0 to false and every other value to true
 (`default`). The processors run in that order (`order`), each limited to the measurement by
 `namepass`. Telegraf only reads.
+
+A function with one bit (`bits`, SPEC 2.2) is a BIT field of the register holding it, `bit` its place in the
+register as the section's byte order gives it (type_conversions_bit.go: the 16-bit register converted,
+then `v >> bit & 1`; Telegraf 1.32+, which the header then names); the 0 or 1 goes through the same
+`[[processors.enum]]` mapping to false and true. A range of bits, and a value scaled by another register
+(`scale_exponent`, `scale_by`), are left out with a warning: no field type or processor here reads them.
 """
 
 from __future__ import annotations
@@ -30,12 +36,15 @@ from typing import TYPE_CHECKING
 from mdl.engines.base import (
     Notes,
     bit_in_register,
+    bits_detail,
     connection_of,
+    factor_detail,
     hex_pattern,
     left_out_unreadable,
     nothing_left,
     patterns_of,
     plain_number,
+    register_bit,
     scale_of,
 )
 from mdl.exchange.export import Export
@@ -81,8 +90,35 @@ def field_type(lay: Layout, order: str) -> str | None:
     return name if order == _ORDER_OF[(lay.byte_order, lay.word_order)] else None
 
 
-def _fits_somehow(lay: Layout) -> bool:
-    return any(field_type(lay, order) is not None for order in ORDERS)
+def _type(f: ResolvedFunction, order: str) -> str | None:
+    """The field type of a function (BIT for one bit of a register) in a section of `order`, or None."""
+    return "BIT" if register_bit(f) is not None else field_type(f.layout, order)
+
+
+def _bit_entry(f: ResolvedFunction, order: str) -> dict[str, object]:
+    """The `bit` option of a BIT field: the bit's place in the register as `order` converts it."""
+    found = register_bit(f)
+    assert found is not None
+    return {"bit": found[1] ^ 8 if order in _BYTE_SWAPPED else found[1]}
+
+
+def _address(f: ResolvedFunction) -> int:
+    """The field's address: the register holding a BIT field's bit, else the function's first."""
+    found = register_bit(f)
+    return found[0] if found is not None else f.layout.addresses[0]
+
+
+def _registers(f: ResolvedFunction) -> tuple[int, ...]:
+    return (_address(f),) if register_bit(f) is not None else f.layout.addresses
+
+
+def _fits_somehow(f: ResolvedFunction) -> bool:
+    return any(_type(f, order) is not None for order in ORDERS)
+
+
+def _one_bit(f: ResolvedFunction) -> bool:
+    """A BIT in a register read as a whole, or one bit of one: a 0/1 (or register) processors.enum makes a bool."""
+    return bit_in_register(f) or register_bit(f) is not None
 
 
 def _toml(value: object) -> str:
@@ -108,7 +144,14 @@ def _exported(resolved: ResolvedDevice, notes: Notes) -> dict[str, ResolvedFunct
             continue
         if left_out_unreadable(f, notes):
             continue
-        if not _fits_somehow(f.layout):
+        if f.fn.factor is not None:
+            notes.warn(f, "no field or processor multiplies by another register's value: left out", factor_detail(f.fn))
+            continue
+        if f.fn.bits is not None and register_bit(f) is None:
+            notes.warn(f, "a BIT field reads one bit, and no field type takes a range of them: left out",
+                       bits_detail(f.fn))
+            continue
+        if not _fits_somehow(f):
             notes.warn(f, "no field type reads its value: left out",
                        f"a {f.layout.bits}-bit {f.layout.kind} in {len(f.layout.addresses)} registers")
             continue
@@ -125,14 +168,14 @@ def _exported(resolved: ResolvedDevice, notes: Notes) -> dict[str, ResolvedFunct
 def _runs(functions: list[ResolvedFunction]) -> list[tuple[str, list[ResolvedFunction]]]:
     """The functions of one request (by address) in runs that one byte_order reads, each with its order."""
     runs: list[tuple[str, list[ResolvedFunction]]] = []
-    for f in sorted(functions, key=lambda g: (g.layout.addresses[0], g.ident)):
+    for f in sorted(functions, key=lambda g: (_address(g), g.ident)):
         if runs:
             order, members = runs[-1]
-            common = [o for o in ORDERS if all(field_type(g.layout, o) for g in (*members, f))]
+            common = [o for o in ORDERS if all(_type(g, o) for g in (*members, f))]
             if common:
                 runs[-1] = (common[0], [*members, f])
                 continue
-        runs.append((next(o for o in ORDERS if field_type(f.layout, o)), [f]))
+        runs.append((next(o for o in ORDERS if _type(f, o)), [f]))
     return runs
 
 
@@ -140,19 +183,21 @@ def _fields(order: str, members: list[ResolvedFunction], bits: bool) -> list[str
     lines = []
     covered: set[int] = set()
     for f in members:
-        covered.update(f.layout.addresses)
+        covered.update(_registers(f))
     start = min(covered)
     end = max(covered) + 1
     by_address: dict[int, list[ResolvedFunction]] = {}
     for f in members:
-        by_address.setdefault(f.layout.addresses[0], []).append(f)
+        by_address.setdefault(_address(f), []).append(f)
     for address in range(start, end):
         for f in by_address.get(address, []):
             entry: dict[str, object] = {"address": address, "name": f.ident}
             if bits:
                 entry["output"] = "BOOL"
             else:
-                entry["type"] = field_type(f.layout, order)
+                entry["type"] = _type(f, order)
+                if entry["type"] == "BIT":
+                    entry.update(_bit_entry(f, order))
                 if f.layout.kind == "string":
                     entry["length"] = len(f.layout.addresses)
                 step = scale_of(f)
@@ -232,8 +277,8 @@ def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction])
         for offset, idents in offsets.items():
             out += ["  [[processors.scale.scaling]]", "    factor = 1.0", f"    offset = {_toml(float(offset))}",
                     f"    fields = [{', '.join(map(_toml, idents))}]"]
-    bits = [f for f in exported.values() if bit_in_register(f)]
-    enums = [f for f in exported.values() if f.fn.values and not bit_in_register(f)]
+    bits = [f for f in exported.values() if _one_bit(f)]
+    enums = [f for f in exported.values() if f.fn.values and not _one_bit(f)]
     if bits or enums:
         order += 1
         what = ["the label for each value"] if enums else []
@@ -251,6 +296,11 @@ def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction])
     return "\n".join(out) + ("\n" if out else "")
 
 
+def _version(exported: dict[str, ResolvedFunction]) -> str:
+    """The oldest Telegraf that reads every field: 1.32 for a BIT field (influxdata/telegraf#15648), else 1.30."""
+    return "1.32" if any(register_bit(f) is not None for f in exported.values()) else "1.30"
+
+
 def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
     notes = Notes(resolved, ENGINE)
     exported = _exported(resolved, notes)
@@ -258,6 +308,6 @@ def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
         raise nothing_left(resolved, ENGINE, notes)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
     head = (f"# Telegraf modbus input: {comment_text(resolved.name)}, from {comment_text(source)} by mdl export.\n"
-            "# One request section per request of mdl's read plan. Needs Telegraf 1.30 or newer.\n")
+            f"# One request section per request of mdl's read plan. Needs Telegraf {_version(exported)} or newer.\n")
     text = head + _input(resolved, settings, notes, exported) + _processors(resolved, exported)
     return Export(text=text, warnings=notes.found)

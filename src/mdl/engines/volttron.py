@@ -19,6 +19,14 @@ function out with a warning, as do expressions and fragments. So does a BIT in a
 register (mdl: true when the register is not 0): the driver's `bool` there unpacks one byte from two
 and fails the whole poll, and no type or transform tests a register for 0.
 
+Bits and scale registers (SPEC 2.2): no type or transform reads bits of a register (left out, warned). A
+`scale_exponent` without multiplier or offset is `scale_reg_pow_10(REG)` (helpers.py: value * 10^REG, rounded
+to the decimal places of str(10^REG), the same double as mdl's value / 10^|e| for -4 <= e <= 22), REG the
+factor's Register Name; the transform's syntax takes letters, digits and points only
+(its pattern's `[a-zA-Z0-9.]*` in maps), so a factor named otherwise gets a Register Name of its letters and
+digits (its point keeps its name). `scale_reg(REG)` divides by the register where `scale_by` multiplies,
+so a `scale_by` is left out, as is a scaled value with a multiplier or offset (one transform a point).
+
 Writes (utils/client.py `write_all`): one coil is written with function 5 even where the function says
 write_multiple (warned); registers with function 16 when the config's `write_multiple_registers` is
 true, else one register with function 6 (which writes a struct-format or multi-register value wrong).
@@ -35,19 +43,23 @@ from __future__ import annotations
 
 import csv
 import io
+import re
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import error
 from mdl.engines.base import (
     Notes,
     bit_in_register,
+    bits_detail,
     connection_of,
     decimals,
+    factor_detail,
     hex_pattern,
     left_out_unreadable,
     nothing_left,
     patterns_of,
     plain_number,
+    scale_factor,
     scale_of,
     write_code,
     written_by_fragment,
@@ -107,8 +119,33 @@ def volttron_type(lay: Layout) -> tuple[str, bool] | str:
     return "<" + _STRUCT[key], n > 1 and lay.word_order == "big"  # <: DCBA; mixed: BADC
 
 
+_TRANSFORM_ARG = re.compile(r"[a-zA-Z0-9.]+")  # what the driver's Transform syntax takes between parentheses
+POW_10 = "scale_reg_pow_10"
+
+
+def _factor_transform(f: ResolvedFunction, notes: Notes) -> str | None:
+    """`scale_reg_pow_10(<factor>)` for a scale_exponent the driver computes as mdl does (the factor's
+    Register Name filled in by `_name_factors`), or None (warned)."""
+    step = scale_factor(f)
+    assert step is not None
+    if not step.exponent:
+        notes.warn(f, "scale_reg(REG) divides the value by the register, where scale_by multiplies: left out",
+                   factor_detail(f.fn))
+        return None
+    if step.multiplier != 1 or step.offset != 0:
+        notes.warn(f, f"{POW_10}() is the point's one transform, so no multiplier or offset goes with it: left out",
+                   factor_detail(f.fn))
+        return None
+    notes.warn(f, f"{POW_10}() rounds to the decimal places of str(10**e): an exponent below -4 rounds the value "
+                  "to a whole number, and a factor mdl reads as null (its not_implemented, or beyond +-22) gives a "
+                  "number", factor_detail(f.fn))
+    return f"{POW_10}({f.fn.factor})"
+
+
 def _transform(f: ResolvedFunction, notes: Notes) -> str | None:
     """The Transform cell ("" for none), or None when the scaling cannot be said (warned)."""
+    if f.fn.factor is not None:
+        return _factor_transform(f, notes)
     step = scale_of(f)
     if step is None:
         return ""
@@ -129,6 +166,10 @@ def _transform(f: ResolvedFunction, notes: Notes) -> str | None:
 
 def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
     if f.fn.readable and left_out_unreadable(f, notes):
+        return None
+    if f.fn.bits is not None:
+        notes.warn(f, "no VOLTTRON type or transform reads bits of a register (a struct format reads whole bytes): "
+                      "left out", bits_detail(f.fn))
         return None
     if bit_in_register(f):
         notes.warn(f, f"a BIT in the {f.layout.table} registers (true when the register is not 0): the driver's bool "
@@ -152,7 +193,10 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
             notes.warn(f, "neither readable nor writable here: left out")
             return None
         notes.warn(f, "write-only, but VOLTTRON polls every point it knows: it will read this one too")
-    if writable and transform:
+    if writable and transform.startswith(POW_10):
+        notes.warn(f, f"writes through {POW_10}() take integers only (the driver packs value / 10^e, a float, into "
+                      "the integer register and fails) and cut the raw value where mdl rounds it")
+    elif writable and transform:
         notes.warn(f, "writes through scale() take integers only (the driver packs value / m, a float, into the "
                       "integer register and fails) and cut the raw value where mdl rounds it")
     if writable and f.layout.table == "coil" and write_code(f) == 15:
@@ -204,13 +248,12 @@ def _csv(columns: tuple[str, ...], rows: list[dict[str, str]]) -> str:
     return out.getvalue()
 
 
-def _write_multiple_registers(resolved: ResolvedDevice, rows: list[dict[str, str]], notes: Notes) -> bool:
+def _write_multiple_registers(resolved: ResolvedDevice, rows: dict[str, dict[str, str]], notes: Notes) -> bool:
     """The config's write_multiple_registers: false (function 6 for each register, as mdl writes one register)
     where every writable register is a named 16-bit type mdl writes with 6; else true (function 16 for
     every register write), with a warning naming the functions mdl would write with 6."""
-    by_ident = {f.ident: f for f in resolved.functions}
-    written = [(row["Type"], by_ident[row["Register Name"]]) for row in rows
-               if row["Writable"] == "TRUE" and row["Table"] == TABLES["holding"]]
+    written = [(row["Type"], f) for f in resolved.functions if (row := rows.get(f.ident)) is not None
+               and row["Writable"] == "TRUE" and row["Table"] == TABLES["holding"]]
     needs = [(vtype, f) for vtype, f in written if write_code(f) == 16 or vtype not in _SINGLE_TYPES]
     if not needs:
         return not written  # nothing to write: the driver's default
@@ -245,15 +288,46 @@ def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes, multiple
     return json_text(config, indent=4)
 
 
+def _name_factors(resolved: ResolvedDevice, rows: dict[str, dict[str, str]], notes: Notes) -> None:
+    """Each scale_reg_pow_10 row's Transform given its factor's Register Name (one the Transform syntax takes,
+    renamed where needed); a row whose factor is not exported is dropped, with a warning."""
+    by_name = {f.name: f for f in resolved.functions}
+    taken = set(rows)
+    renamed: dict[str, str] = {}
+    for f in resolved.functions:
+        row = rows.get(f.ident)
+        if row is None or not row["Transform"].startswith(POW_10):
+            continue
+        factor = by_name[f.fn.factor or ""]
+        if factor.ident not in rows:
+            notes.warn(f, "its factor is not exported, and the transform reads the factor's register: left out",
+                       factor_detail(f.fn))
+            del rows[f.ident]
+            continue
+        name = renamed.get(factor.ident, factor.ident)
+        if not _TRANSFORM_ARG.fullmatch(name):
+            base = re.sub(r"[^a-zA-Z0-9]", "", name) or "factor"
+            name = next(c for c in (base, *(f"{base}{i}" for i in range(2, len(taken) + 3))) if c not in taken)
+            taken.add(name)
+            renamed[factor.ident] = name
+            notes.note_for(factor, "Register Name written without the characters the driver's Transform syntax "
+                                   "does not take (its point keeps its name)", name)
+        row["Transform"] = f"{POW_10}({name})"
+    for ident, name in renamed.items():
+        rows[ident]["Register Name"] = name
+
+
 def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
     notes = Notes(resolved, ENGINE)
-    rows = [row for f in resolved.functions if (row := _row(f, notes)) is not None]
+    by_ident = {f.ident: row for f in resolved.functions if (row := _row(f, notes)) is not None}
+    _name_factors(resolved, by_ident, notes)
+    rows = list(by_ident.values())
     if not rows:
         raise nothing_left(resolved, ENGINE, notes)
-    exported = {row["Register Name"] for row in rows}
-    registry = [{"Volttron Point Name": _cell(f, "Volttron Point Name", f.name, notes), "Register Name": f.ident}
-                for f in resolved.functions if f.ident in exported]
+    registry = [{"Volttron Point Name": _cell(f, "Volttron Point Name", f.name, notes),
+                 "Register Name": by_ident[f.ident]["Register Name"]}
+                for f in resolved.functions if f.ident in by_ident]
     stem = resolved.stem
     files = {f"{stem}_map.csv": _csv(MAP_COLUMNS, rows), f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),
-             f"{stem}.config": _config(resolved, settings, notes, _write_multiple_registers(resolved, rows, notes))}
+             f"{stem}.config": _config(resolved, settings, notes, _write_multiple_registers(resolved, by_ident, notes))}
     return Export(files=files, warnings=notes.found)

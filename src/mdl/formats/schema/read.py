@@ -29,6 +29,7 @@ from yaml.events import (
 
 from mdl.diagnostics import TextSpan, TextStyle, error, record_span
 from mdl.fileio import decode_text, read_head, too_large
+from mdl.lang.expr.ops import OpKind
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.model.addressing import AddressError, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
@@ -36,7 +37,7 @@ from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 if TYPE_CHECKING:
     from _typeshed import StrPath
 
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
 
 # Toolkit files nest 7 levels (tests > test > blocks > block > expected > field > values); deeper
 # input is refused while it is read, before the YAML scanner's look-ahead grows with the depth.
@@ -196,15 +197,45 @@ def import_schema(path: StrPath) -> Device:
 
 def with_registers(resolved: ResolvedDevice) -> Device:
     """The resolved device's model with every expression function's registers filled in from its
-    compiled expression, as MDL's `addresses` (and `register_type`) hold them."""
+    compiled expression, as MDL's `addresses` (and `register_type`) hold them; a field that is one bit
+    of its registers (`as_bits`) becomes a read-only `bits` function, which exports can carry."""
     device = resolved.device
     for rf in resolved.functions:
         fn = rf.fn
+        if as_bits(rf):
+            continue
         if fn.expression is not None and not fn.addresses:
             fn.addresses = list(rf.layout.addresses)
             if rf.layout.table != "holding" and fn.register_type is None:
                 fn.register_type = rf.layout.table
     return device
+
+
+_BITS_FORMATS = {1: "UINT16", 2: "UINT32", 4: "UINT64"}
+
+
+def as_bits(rf: ResolvedFunction) -> bool:
+    """Rewrite a field whose expression is `bitsetbit(REGS; N)` alone, REGS 1, 2 or 4 registers listed in
+    ascending order, without "not implemented" values, as MDL's `bits` N of a UINT16/32/64 (bit 0 the lowest
+    of the last register in both; docs/bits-and-scale.md), read-only as the field is; whether it was."""
+    lowered = rf.compiled.lowered if rf.compiled is not None else None
+    if lowered is None or rf.fn.expression is None or lowered.refs or len(lowered.ops) != 2:
+        return False
+    regs, bit = lowered.ops
+    count = regs.data.get("count", 0)
+    if (regs.kind is not OpKind.REGS or bit.kind is not OpKind.BITSETBIT or bit.args != [regs.tmp]
+            or lowered.result != bit.tmp or bit.data.get("ni") or count not in _BITS_FORMATS
+            or regs.data.get("index") != list(range(count)) or rf.layout.addresses != tuple(lowered.addresses)):
+        return False
+    fn = rf.fn
+    fn.expression = None
+    fn.addresses = list(rf.layout.addresses)
+    fn.format = _BITS_FORMATS[count]
+    fn.bits = str(bit.data.get("bit"))
+    fn.access = "read"
+    if rf.layout.table != "holding":
+        fn.register_type = rf.layout.table
+    return True
 
 
 def read_schema(path: StrPath) -> Device:

@@ -7,9 +7,11 @@ inputs `offset,name`; registers `offset,name,min,max,precision,unit,datatype[,lu
 the multiplier, and an offset is written as the Lua column `modbus_val*m+o` (precision 1 then). Every
 field is written, never left empty: the agent splits a line with strtok, which skips an empty field
 and shifts the rest (no unit is written as one space; no minimum/maximum as the range of the raw value,
-scaled). What the format cannot express is a warning naming the function: a function it cannot read
-at all is left out (fragments, expressions, text, bytes, 64-bit values, byte orders datatypes 0-8 do not
-have, addresses not next to each other); one it reads with a loss is written and the loss named.
+scaled). What the format cannot express is a warning: a function it cannot read at all is left out
+(fragments, expressions, text, bytes, 64-bit values, byte orders datatypes 0-8 do not have, addresses not
+next to each other, and SPEC 2.2's `bits` and scale registers: an entry reads whole registers, scaled by a
+constant precision); one it reads with a loss is written and the loss named. One warning per kind of
+loss, naming every function it concerns (mdl.exchange.notes, as the engines do).
 
 No text can make a line of its own or shift the columns: the agent splits the file at line breaks and a line
 at commas (strtok), so a name or unit has its commas, quotes, control characters and line breaks of every
@@ -31,6 +33,7 @@ from mdl import __version__
 from mdl.diagnostics import Diagnostic
 from mdl.exchange.connection import Endpoint
 from mdl.exchange.export import Export, Settings
+from mdl.exchange.notes import LeftOut, Lost, Notes, bits_detail, factor_detail
 from mdl.exchange.text import comment_text
 from mdl.formats.wise.lua import KEPT, kept_lua, kept_twice
 from mdl.formats.wise.sections import (
@@ -58,22 +61,26 @@ PARITY = {"N": "None", "E": "Even", "O": "Odd"}
 
 
 class _Warn(Protocol):
-    def __call__(self, message: str, severity: str = "warning", line: int | None = None) -> None: ...
+    def __call__(self, message: str, severity: str = "warning") -> None: ...
 
 
-class _Skip(Exception):
-    """The function cannot be written to a Modbus.ini; the message says why."""
+class _Skip(LeftOut):
+    """The function cannot be written to a Modbus.ini."""
 
 
 @dataclass
 class _Line:
-    fn: Function
+    rf: ResolvedFunction
     table: str
     offset: int
     name: str
     rest: list[str] = field(default_factory=list)  # the fields after the name
-    losses: list[str] = field(default_factory=list)
+    losses: list[Lost] = field(default_factory=list)
     lua: str | None = None  # a Lua conversion kept in the description and written back
+
+    @property
+    def fn(self) -> Function:
+        return self.rf.fn
 
 
 def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
@@ -84,37 +91,13 @@ def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
 
 def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
              interval: float) -> tuple[str, list[Diagnostic]]:
-    warnings: list[Diagnostic] = []
     source = resolved.device.source
+    notes = Notes(resolved, "")
 
-    def warn(message: str, severity: str = "warning", line: int | None = None) -> None:
-        warnings.append(Diagnostic(source, line, None, message, severity))
+    def warn(message: str, severity: str = "warning") -> None:  # about the device
+        (notes.device_warning if severity == "warning" else notes.note)(message)
 
-    lines: dict[str, list[_Line]] = {s.table: [] for s in AGENT_SECTIONS}
-    taken: dict[tuple[str, int], str] = {}
-    for rf in resolved.functions:
-        if rf.fn.bits is not None or rf.fn.factor is not None:  # issue 21: an entry carries neither yet
-            warn(f"function '{rf.name}': not written: the agent's entries cannot carry <bits> or a scale register "
-                 "(scale_exponent, scale_by) yet", line=rf.fn.line)
-            continue
-        try:
-            line = _line(rf)
-        except _Skip as why:
-            warn(f"function '{rf.name}': not written: {why}", line=rf.fn.line)
-            continue
-        where = (line.table, line.offset)
-        if where in taken:
-            warn(f"function '{rf.name}': not written: offset {line.offset} of the {line.table} table is "
-                 f"'{taken[where]}' already (the agent reads one entry per offset)", line=rf.fn.line)
-            continue
-        taken[where] = rf.name
-        _unique_name(line, lines[line.table], warn)
-        if line.losses:
-            warn(f"function '{rf.name}': written, losing " + "; ".join(line.losses), line=rf.fn.line)
-        if line.lua is not None:
-            warn(f"function '{rf.name}': written with the Lua conversion its description keeps, "
-                 f"'{line.lua}': the agent applies it, mdl does not", line=rf.fn.line)
-        lines[line.table].append(line)
+    lines = _lines(resolved, notes)
     _device_losses(resolved, lines, warn)
     out = [f"; WISE-Agent Modbus handler configuration for {comment_text(resolved.name)}",
            f"; written by mdl {__version__}" + (f" from {comment_text(Path(source).name)}" if source else ""), ""]
@@ -129,7 +112,33 @@ def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
             ";precision multiplies the raw value; the lua script (on modbus_val) runs before it",
             ";data type"]
     out += [f";{d.code}->{d.summary} ({d.letters})" for d in DATA_TYPES]
-    return "\n".join(out) + "\n", warnings
+    return "\n".join(out) + "\n", notes.found
+
+
+def _lines(resolved: ResolvedDevice, notes: Notes) -> dict[str, list[_Line]]:
+    """The line of each function a Modbus.ini can hold, by table; each other function, and each loss, warned."""
+    lines: dict[str, list[_Line]] = {s.table: [] for s in AGENT_SECTIONS}
+    taken: dict[tuple[str, int], str] = {}
+    for rf in resolved.functions:
+        try:
+            line = _line(rf)
+        except _Skip as skip:
+            notes.warn(rf, f"not written: {skip.why}", skip.detail)
+            continue
+        where = (line.table, line.offset)
+        if where in taken:
+            notes.warn(rf, "not written: its offset is taken by an entry before it (the agent reads one entry per "
+                           "offset)", f"{line.table} {line.offset}: '{taken[where]}'")
+            continue
+        taken[where] = rf.name
+        _unique_name(line, lines[line.table], notes)
+        for why, detail in line.losses:
+            notes.warn(rf, f"written, losing {why}", detail)
+        if line.lua is not None:
+            notes.warn(rf, "written with the Lua conversion its description keeps: the agent applies it, mdl does not",
+                       f"'{line.lua}'")
+        lines[line.table].append(line)
+    return lines
 
 
 def _platform(name: str, connection: Endpoint | None, unit: int, interval: float,
@@ -158,6 +167,10 @@ def _platform(name: str, connection: Endpoint | None, unit: int, interval: float
 def _line(rf: ResolvedFunction) -> _Line:
     """The function's Modbus.ini line, or _Skip saying why there is none."""
     fn, lay = rf.fn, rf.layout
+    if fn.bits is not None:
+        raise _Skip("bits of a register (an entry reads whole registers)", bits_detail(fn))
+    if fn.factor is not None:
+        raise _Skip("scaled by another register (an entry's precision is a constant)", factor_detail(fn))
     if fn.expression is not None:
         raise _Skip("computed by an expression (WISE has none)")
     if fn.read_function_code is not None:
@@ -166,12 +179,12 @@ def _line(rf: ResolvedFunction) -> _Line:
     lua = kept_lua(fn.description)
     if lay.kind == "bool" and lay.unit == "bit":
         if lua is not None:
-            losses.append(f"the Lua conversion its description keeps, '{lua}' (a bit line has no Lua column)")
-        return _Line(fn, lay.table, lay.addresses[0], fn.name, [], losses)
+            losses.append(("the Lua conversion its description keeps (a bit line has no Lua column)", f"'{lua}'"))
+        return _Line(rf, lay.table, lay.addresses[0], fn.name, [], losses)
     if lay.kind == "string":
         raise _Skip("text (STRING): WISE reads numbers")
     if lay.unit != "word":
-        raise _Skip(f"the {'lower' if lay.unit == 'low' else 'upper'} byte of a register: WISE reads whole registers")
+        raise _Skip("a byte of a register: WISE reads whole registers", "lower" if lay.unit == "low" else "upper")
     offset, dtype = _data_type(fn, lay, losses)
     lo, hi = _RAW_RANGE[dtype.format]
     multiplier, add = fn.eff_multiplier, fn.eff_offset
@@ -179,25 +192,25 @@ def _line(rf: ResolvedFunction) -> _Line:
     high = fn.maximum if fn.maximum is not None else max(lo * multiplier + add, hi * multiplier + add)
     unit = (fn.units or "").strip()
     if _UNSAFE.search(fn.units or ""):
-        losses.append(f"the commas, quotes and control characters of its unit {fn.units!r}")
+        losses.append(("the commas, quotes and control characters of its unit", repr(fn.units)))
         unit = _UNSAFE.sub("_", fn.units or "").strip()
     if lua is not None and kept_twice(fn.description):
-        losses.append(f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
-                      "starts is not clear)")
+        losses.append((f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
+                       "starts is not clear)", None))
         lua = None
     elif lua is not None and _UNSAFE_LUA.search(lua):
-        losses.append(f"the Lua conversion its description keeps, {lua!r} (quotes and control characters "
-                      "cannot be written in the Lua column)")
+        losses.append(("the Lua conversion its description keeps (quotes and control characters cannot be "
+                       "written in the Lua column)", repr(lua)))
         lua = None
     elif lua is not None and add != 0 and "--" in lua:
-        losses.append(f"the Lua conversion its description keeps, '{lua}' (its `--` comment would hide the "
-                      "offset the Lua column adds)")
+        losses.append(("the Lua conversion its description keeps (its `--` comment would hide the offset the Lua "
+                       "column adds)", f"'{lua}'"))
         lua = None
     rest = [_number(low), _number(high), _number(multiplier if add == 0 else 1.0), unit or " ", str(dtype.code)]
     column = _lua_column(lua, multiplier, add)
     if column is not None:
         rest.append(f'"{column}"')
-    return _Line(fn, lay.table, offset, fn.name, rest, losses, lua)
+    return _Line(rf, lay.table, offset, fn.name, rest, losses, lua)
 
 
 def _lua_column(lua: str | None, multiplier: float, add: float) -> str | None:
@@ -210,55 +223,56 @@ def _lua_column(lua: str | None, multiplier: float, add: float) -> str | None:
     return f"{scaled}{'+' if add > 0 else '-'}{_number(abs(add))}"
 
 
-def _data_type(fn: Function, lay: Layout, losses: list[str]) -> tuple[int, DataType]:
+def _data_type(fn: Function, lay: Layout, losses: list[Lost]) -> tuple[int, DataType]:
     """The first address and datatype of a value in registers (losses appended), or _Skip."""
     fmt = fn.eff_format
     if lay.kind == "bool":
-        losses.append("true/false (the agent reads the register's number)")
+        losses.append(("true/false (the agent reads the register's number)", None))
         return lay.addresses[0], DATA_TYPES[0]
     if len(lay.addresses) == 1:
         if lay.byte_order == "little":
             raise _Skip("its bytes are swapped: WISE reads a 16-bit register as it comes")
         if lay.bits == 8:
-            losses.append(f"{fmt} (the agent reads the whole 16-bit register, unsigned)")
+            losses.append(("an 8-bit format (the agent reads the whole 16-bit register, unsigned)", fmt))
         elif lay.signed:
-            losses.append(f"{fmt} (the agent reads the register unsigned: a negative value reads 65536 higher)")
+            losses.append(("a signed format (the agent reads the register unsigned: a negative value reads 65536 "
+                           "higher)", fmt))
         return lay.addresses[0], DATA_TYPES[0]
     if len(lay.addresses) != 2:
-        raise _Skip(f"a {lay.bits}-bit value: WISE reads 16 or 32 bits")
+        raise _Skip("a value of neither 16 nor 32 bits: WISE reads 16 or 32 bits", f"{lay.bits} bits")
     first, second = lay.addresses
     word_order = lay.word_order
     if second == first - 1:  # listed high address first: the same as word order reversed
         first, word_order = second, "little" if word_order == "big" else "big"
     elif second != first + 1:
-        raise _Skip(f"registers {first} and {second} are not next to each other")
+        raise _Skip("registers not next to each other", f"registers {first} and {second}")
     kind = "FLOAT32" if lay.kind == "float" else "INT32" if lay.signed else "UINT32"
     dtype = data_type_of(kind, lay.byte_order, word_order)
     if dtype is None:
-        raise _Skip(f"{kind} with byte order {lay.byte_order} and word order {word_order}: "
-                    "no WISE datatype reads it")
+        raise _Skip("no WISE datatype reads its byte and word order",
+                    f"{kind} with byte order {lay.byte_order} and word order {word_order}")
     return first, dtype
 
 
-def _losses(fn: Function) -> list[str]:
+def _losses(fn: Function) -> list[Lost]:
     """What the line cannot say about the function, apart from its value's layout."""
-    out = []
+    out: list[Lost] = []
     if fn.values:
-        out.append("its enumeration (the agent shows the number)")
+        out.append(("its enumeration (the agent shows the number)", None))
     if fn.not_implemented:
-        out.append("its not_implemented values (the agent shows the number)")
+        out.append(("its not_implemented values (the agent shows the number)", " ".join(fn.not_implemented)))
     if fn.write_function_code is not None:
-        out.append("its write fragment")
+        out.append(("its write fragment", None))
     if fn.table not in READ_ONLY_TABLES and fn.eff_access != "read_write":
-        out.append(f"access {fn.eff_access} (the agent reads and writes the {fn.table} table)")
+        out.append(("its access (the agent reads and writes the table)", f"{fn.eff_access}, {fn.table}"))
     lost = [name for name in ("precision", "marker", "write_multiple", "immutable", "system", "fetch_group")
             if getattr(fn, name) is not None]
     if lost:
-        out.append(", ".join(lost) + " (a Modbus.ini line has no such field)")
+        out.append(("fields a Modbus.ini line has not", ", ".join(lost)))
     return out
 
 
-def _unique_name(line: _Line, section: list[_Line], warn: _Warn) -> None:
+def _unique_name(line: _Line, section: list[_Line], notes: Notes) -> None:
     """A name the line can hold, unique in its section (the agent finds an entry by section and name)."""
     name = _UNSAFE.sub("_", line.name).strip() or "unnamed"
     used = {e.name for e in section}
@@ -267,8 +281,8 @@ def _unique_name(line: _Line, section: list[_Line], warn: _Warn) -> None:
         n += 1
         name = f"{base}_{n}"
     if name != line.name:
-        warn(f"function '{line.fn.name}': written as '{name}' (a name in a Modbus.ini has no commas, quotes, "
-             "control characters or line breaks and is unique in its section)", line=line.fn.line)
+        notes.warn(line.rf, "written under another name (a name in a Modbus.ini has no commas, quotes, control "
+                            "characters or line breaks and is unique in its section)", f"as '{name}'")
     line.name = name
 
 
