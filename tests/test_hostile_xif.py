@@ -14,9 +14,8 @@ import pytest
 from conftest import assert_clean_error, cli, device_xml, fn_xml, run_mdl
 from lxml import etree
 
-from mdl.formats.xif.read import MAX_BYTES, MAX_DATAPOINTS
+from mdl.formats.xif.read import MAX_BYTES, MAX_DATAPOINTS, MAX_ERRORS
 from mdl.formats.xif.records import MAX_CELLS
-from mdl.formats.xif.report import MAX_ERRORS
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser
 

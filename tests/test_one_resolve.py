@@ -12,8 +12,6 @@ import sys
 
 import pytest
 from conftest import DATA, cli
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 import mdl.resolve
 from mdl.diagnostics import Collector, Diagnostic, message_kind
@@ -189,69 +187,3 @@ def test_notes_once_says_a_note_once_and_warnings_always():
 
 def test_message_kind_ignores_quoted_words_and_numbers():
     assert message_kind("line 7: 'a b' is 12") == message_kind("line 9: 'c' is 3") == "line #: # is #"
-
-
-# --- the Collector does what the readers' own collectors did (xif's Reporter, wise's summed_up) ----------
-
-_report = st.tuples(
-    st.sampled_from(["error", "warning", "note"]),
-    st.integers(1, 12) | st.none(),
-    st.integers(1, 4) | st.none(),
-    st.sampled_from(["a", "b", "c"]),
-    st.integers(0, 99),
-    st.booleans(),
-)
-_reports = st.lists(_report, max_size=60)
-
-
-def _module(*names: str):
-    for name in names:
-        try:
-            return __import__(name, fromlist=["_"])
-        except ImportError:
-            continue
-    pytest.skip(f"none of {names} is there: the reader uses the Collector itself now")
-
-
-@settings(max_examples=200, deadline=None)
-@given(_reports, st.integers(1, 4), st.integers(1, 5), st.sampled_from(["warning", "note"]))
-def test_the_collector_groups_as_xifs_reporter_did(reports, shown_each, max_errors, other):
-    """(The Reporter kept one kind across severities, the Collector keeps them apart: one severity
-    besides errors per example, as a .mod reader never gives one kind two severities.)"""
-    report = _module("mdl.formats.xif.report", "mdl.sources.xif.report")
-    monkey = pytest.MonkeyPatch()
-    monkey.setattr(report, "SHOWN_EACH", shown_each)
-    monkey.setattr(report, "MAX_ERRORS", max_errors)
-    try:
-        old = report.Reporter("f.mod")
-        new = Collector("f.mod", shown_each=shown_each, shown_lines=report.SHOWN_LINES, max_errors=max_errors)
-        for severity, line, col, kind, n, always in reports:
-            severity = severity if severity == "error" else other
-            message = f"{kind} number {n}"
-            if severity == "error":
-                old.error(line, col, message, always)
-                new.error(message, line, col, always=always)
-            else:
-                old.warn(line, col, message, f"the kind {kind}", severity)
-                new.add(Diagnostic("f.mod", line, col, message, severity), kind=f"the kind {kind}")
-        assert new.diagnostics() == old.diagnostics() and new.failed == old.failed
-    finally:
-        monkey.undo()
-
-
-@settings(max_examples=200, deadline=None)
-@given(_reports)
-def test_the_collector_folds_as_wises_summed_up_did(reports):
-    wise = _module("mdl.formats.wise.read", "mdl.sources.wise.read")
-    said = [
-        Diagnostic("m.ini", line, col, f"'{kind}' {kind} at {n}", severity)
-        for severity, line, col, kind, n, _ in reports
-    ]
-    ordered = sorted(said, key=lambda d: (d.line or 0, d.col or 0))
-    new = Collector(
-        "m.ini", shown_each=wise.SHOWN_PER_KIND, shown_lines=wise.SHOWN_PER_KIND, fold=True, kind_of=message_kind
-    )
-    for d in ordered:
-        new.add(d)
-    assert new.diagnostics() == wise.summed_up(ordered)
-    assert new.diagnostics("error") == wise.summed_up([d for d in ordered if d.severity == "error"])

@@ -82,7 +82,7 @@ def message_kind(message: str) -> str:
     return _VARYING.sub("#", message)
 
 
-def _line_order(d: Diagnostic) -> tuple[int, int]:
+def line_order(d: Diagnostic) -> tuple[int, int]:
     return d.line or 0, d.col or 0
 
 
@@ -234,7 +234,7 @@ class Collector:
             out = [d for key, d in self._said if key is None]
             for (_, kind), seen in self._kinds.items():
                 out += seen.said if seen.times <= self.shown_each else [self._summary(kind, seen)]
-        out.sort(key=_line_order)
+        out.sort(key=line_order)
         more = self._more_errors
         if more is not None:
             first, n = more.said[0], more.times

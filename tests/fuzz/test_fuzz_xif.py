@@ -20,8 +20,9 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from lxml import etree
 
+from mdl.diagnostics import SHOWN_EACH
 from mdl.formats.xif import columns as C
-from mdl.formats.xif.report import MAX_ERRORS, SHOWN_EACH
+from mdl.formats.xif.read import MAX_ERRORS
 from mdl.model import Device
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser

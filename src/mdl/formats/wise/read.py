@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mdl.diagnostics import Diagnostic, MdlError, TextSpan, record_span
+from mdl.diagnostics import Collector, Diagnostic, MdlError, TextSpan, line_order, message_kind, record_span
 from mdl.fileio import is_stdin, read_bytes
 from mdl.formats.wise.lua import Affine, affine, kept_in_description
 from mdl.formats.wise.sections import (
@@ -56,7 +56,6 @@ ENCODINGS = ("utf-8-sig", "cp1252", "latin-1")  # latin-1 decodes any byte: the 
 MAX_FILE_BYTES = 4 * 1024 * 1024  # the agent's samples are a few kB; a full table of entries is some 2 MB
 MAX_ENTRIES = 65536  # entries of all sections together: one whole table's worth
 SHOWN_PER_KIND = 5  # diagnostics of one kind printed in full before the rest are summed up
-_KIND = re.compile(r"'[^']*'|[0-9]+")  # what differs between two diagnostics of one kind
 COLUMNS = ("offset", "name", "min", "max", "precision", "unit", "datatype", "lua")  # a register line's fields
 
 
@@ -141,42 +140,22 @@ def read_wise(path: StrPath) -> Device:
     _check_addresses(claims, reader)
     _unique_names(functions, reader)
     if reader.failed:
-        errors = sorted((d for d in reader.diagnostics if d.severity == "error"), key=_line_order)
-        raise MdlError(summed_up(errors))
+        raise MdlError(summed_up(d for d in reader.diagnostics if d.severity == "error"))
     source = "<stdin>" if is_stdin(path) else Path(path).name
     device = Device(name, f"Imported from WISE-Agent {source}", functions, source=str(path))
     if device.extensions():
         device.version = "1.0"
-    device.notes = summed_up(sorted(reader.diagnostics, key=_line_order))
+    device.notes = summed_up(reader.diagnostics)
     return device
 
 
 def summed_up(diagnostics: Iterable[Diagnostic]) -> list[Diagnostic]:
-    """The diagnostics, with those of one kind and severity past the first SHOWN_PER_KIND folded into the
-    next one: its message ends with how many more there are and the lines of the first few of them."""
-    shown: list[Diagnostic] = []
-    rest: dict[tuple[str, str], list[Diagnostic]] = {}
-    counts: dict[tuple[str, str], int] = {}
-    for d in diagnostics:
-        kind = (d.severity, _KIND.sub("#", d.message))
-        counts[kind] = counts.get(kind, 0) + 1
-        if counts[kind] <= SHOWN_PER_KIND:
-            shown.append(d)
-        else:
-            rest.setdefault(kind, []).append(d)
-    for first, *more in rest.values():
-        if more:
-            lines = ", ".join(str(d.line) for d in more[:SHOWN_PER_KIND] if d.line)
-            etc = ", ..." if len(more) > SHOWN_PER_KIND else ""
-            where = f" (lines {lines}{etc})" if lines else ""
-            first = Diagnostic(first.file, first.line, first.col,
-                               f"{first.message}; and {len(more):,} more like it{where}", first.severity)
-        shown.append(first)
-    return sorted(shown, key=_line_order)
-
-
-def _line_order(d: Diagnostic) -> tuple[int, int]:
-    return d.line or 0, d.col or 0
+    """The diagnostics in line order, those of one kind and severity past the first SHOWN_PER_KIND folded
+    into the next one: its message ends with how many more there are and the lines of the first few."""
+    collector = Collector(shown_each=SHOWN_PER_KIND, shown_lines=SHOWN_PER_KIND, fold=True, kind_of=message_kind)
+    for d in sorted(diagnostics, key=line_order):
+        collector.add(d)
+    return collector.diagnostics()
 
 
 def _decode(data: bytes, reader: _Reader) -> str:
@@ -237,13 +216,19 @@ def _platform(blocks: list[_Block], path: StrPath, reader: _Reader) -> str:
     others = [k for k in keys if k is not name]
     if others:
         settings = ", ".join(f"{k.key}={k.value}" for k in others)
-        reader.report(others[0].line, None, f"[Platform] {settings}: connection settings are not part of MDL "
-                                            "(give them to mdl read or mdl export as options)", "note")
+        reader.report(
+            others[0].line,
+            None,
+            f"[Platform] {settings}: connection settings are not part of MDL "
+            "(give them to mdl read or mdl export as options)",
+            "note",
+        )
     if name is not None:
         return name.value
     guess = "WISE device" if is_stdin(path) else Path(path).stem
-    reader.report(platform.line if platform else None, None, f"no [Platform] Name: the device is named '{guess}'",
-                  "note")
+    reader.report(
+        platform.line if platform else None, None, f"no [Platform] Name: the device is named '{guess}'", "note"
+    )
     return guess
 
 
@@ -254,20 +239,27 @@ def _section_functions(block: _Block, section: Section, reader: _Reader, claims:
     for key in block.keys:
         if key.key.lower() == section.count_key.lower():
             if count_key is not None:
-                reader.report(key.line, key.key_col,
-                              f"{section.count_key} appears twice (first on line {count_key.line})")
+                reader.report(
+                    key.line, key.key_col, f"{section.count_key} appears twice (first on line {count_key.line})"
+                )
                 continue
             count_key = key
             continue
         m = _INDEX.fullmatch(key.key)
         if m is None or m.group("tag").lower() != section.tag.lower():
-            reader.report(key.line, key.key_col, f"[{section.name}] has no key '{key.key}' (entries are "
-                          f"{section.tag}0, {section.tag}1, ... and {section.count_key}): not read", "warning")
+            reader.report(
+                key.line,
+                key.key_col,
+                f"[{section.name}] has no key '{key.key}' (entries are "
+                f"{section.tag}0, {section.tag}1, ... and {section.count_key}): not read",
+                "warning",
+            )
             continue
         index = int(m.group("index"))
         if index in entries:
-            reader.report(key.line, key.key_col,
-                          f"{section.tag}{index} appears twice (first on line {entries[index].line})")
+            reader.report(
+                key.line, key.key_col, f"{section.tag}{index} appears twice (first on line {entries[index].line})"
+            )
             continue
         entries[index] = key
     count = _count(count_key, section, reader)
@@ -291,26 +283,39 @@ def _count(key: _Key | None, section: Section, reader: _Reader) -> int | None:
     return int(key.value)
 
 
-def _check_count(block: _Block, section: Section, count_key: _Key | None, count: int | None,
-                 entries: dict[int, _Key], reader: _Reader) -> None:
+def _check_count(
+    block: _Block,
+    section: Section,
+    count_key: _Key | None,
+    count: int | None,
+    entries: dict[int, _Key],
+    reader: _Reader,
+) -> None:
     tag, name = section.tag, section.count_key
     if count_key is None:
         if entries:
             first = entries[min(entries)]
-            reader.report(first.line, first.key_col, f"[{section.name}] has no {name}: the agent reads none of its "
-                                         f"{len(entries)} entries (add {name}={len(entries)})")
+            reader.report(
+                first.line,
+                first.key_col,
+                f"[{section.name}] has no {name}: the agent reads none of its "
+                f"{len(entries)} entries (add {name}={len(entries)})",
+            )
         return
     if count is None:
         return
     for index in sorted(entries):
         if index >= count:
             key = entries[index]
-            reader.report(key.line, key.key_col, f"{tag}{index} is beyond {name}={count} (line {count_key.line}): "
-                                       f"the agent reads {_span(tag, 0, count)} only")
+            reader.report(
+                key.line,
+                key.key_col,
+                f"{tag}{index} is beyond {name}={count} (line {count_key.line}): "
+                f"the agent reads {_span(tag, 0, count)} only",
+            )
     missing = _runs([i for i in range(count) if i not in entries]) if count <= len(entries) + 1000 else None
     if missing is None:
-        reader.report(count_key.line, count_key.col,
-                      f"{name}={count} but [{section.name}] has {len(entries)} entries")
+        reader.report(count_key.line, count_key.col, f"{name}={count} but [{section.name}] has {len(entries)} entries")
     elif missing:
         listed = ", ".join(_span(tag, lo, hi) for lo, hi in missing)
         reader.report(count_key.line, count_key.col, f"{name}={count} but [{section.name}] has no {listed}")
@@ -351,10 +356,14 @@ def _shifted(section: Section, label: str, key: _Key, fields: list[_Field], read
     and the agent reads every later field one column to the left, so the line is refused (reported)."""
     read = 2 if section.bits else len(COLUMNS)
     for i, fld in enumerate(fields[:read]):
-        if fld.raw == "" and any(later.token for later in fields[i + 1:]):
-            reader.report(key.line, fld.col, f"{label}: the {COLUMNS[i]} field is empty: the agent (C strtok) skips "
-                                             "an empty field and reads every later one a column to the left; "
-                                             f"write the {COLUMNS[i]} (a unit may be one space)")
+        if fld.raw == "" and any(later.token for later in fields[i + 1 :]):
+            reader.report(
+                key.line,
+                fld.col,
+                f"{label}: the {COLUMNS[i]} field is empty: the agent (C strtok) skips "
+                "an empty field and reads every later one a column to the left; "
+                f"write the {COLUMNS[i]} (a unit may be one space)",
+            )
             return True
     return False
 
@@ -365,25 +374,34 @@ def _entry(section: Section, label: str, key: _Key, reader: _Reader, claims: lis
     errors_before = reader.errors
     reader.entries += 1
     if reader.entries == MAX_ENTRIES + 1:
-        reader.report(key.line, key.key_col, f"{label}: more than {MAX_ENTRIES:,} entries in the file, the most "
-                                             "the reader takes (each table has 65,536 addresses)")
+        reader.report(
+            key.line,
+            key.key_col,
+            f"{label}: more than {MAX_ENTRIES:,} entries in the file, the most "
+            "the reader takes (each table has 65,536 addresses)",
+        )
     if reader.entries > MAX_ENTRIES or _shifted(section, label, key, fields, reader):
         return None
     offset = _offset(fields[0], label, key, reader)
     if offset is not None:
         claims.append(_claim(section, offset, label, key, fields, reader))
     if len(fields) < 2 or not fields[1].text:
-        reader.report(key.line, key.col, f"{label}: no name (the line is offset,name"
-                                         f"{'' if section.bits else ',min,max,precision,unit,datatype'})")
+        reader.report(
+            key.line,
+            key.col,
+            f"{label}: no name (the line is offset,name{'' if section.bits else ',min,max,precision,unit,datatype'})",
+        )
         return None
     name = fields[1].text
-    fn = Function(name, name, [offset if offset is not None else 0], block_labels=[section.name],
-                  register_type=section.table)
+    fn = Function(
+        name, name, [offset if offset is not None else 0], block_labels=[section.name], register_type=section.table
+    )
     if section.bits:
         fn.format = "BIT"
         if len(fields) > 2 and not all(f.blank for f in fields[2:]):
-            reader.report(key.line, fields[2].col, f"{label}: a bit line is offset,name; the rest is not read",
-                          "warning")
+            reader.report(
+                key.line, fields[2].col, f"{label}: a bit line is offset,name; the rest is not read", "warning"
+            )
     else:
         _register_fields(fn, fields, label, key, reader)
     if section.table == "holding":
@@ -403,8 +421,12 @@ def _claim(section: Section, offset: int, label: str, key: _Key, fields: list[_F
     if _DIGITS.fullmatch(dtype) is not None and 0 < int(dtype) < len(DATA_TYPES):
         claim.width = 2
         if offset + 1 > MAX_ADDRESS:
-            reader.report(key.line, fields[0].col, f"{label}: datatype {dtype} reads two registers, and offset "
-                                                   f"{offset} is the table's last ({MAX_ADDRESS})")
+            reader.report(
+                key.line,
+                fields[0].col,
+                f"{label}: datatype {dtype} reads two registers, and offset "
+                f"{offset} is the table's last ({MAX_ADDRESS})",
+            )
     return claim
 
 
@@ -454,9 +476,14 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
         if plain is None:
             fn.description = kept_in_description(fn.name, text)
             cut = "; the agent reads the column only up to its first comma" if len(fields) > 8 else ""
-            reader.report(key.line, fields[7].col, f"{label} '{fn.name}': the Lua column '{text}' is not plain "
-                                                   "arithmetic on modbus_val: kept in the description (export "
-                                                   f"writes it back), not applied{cut}", "warning")
+            reader.report(
+                key.line,
+                fields[7].col,
+                f"{label} '{fn.name}': the Lua column '{text}' is not plain "
+                "arithmetic on modbus_val: kept in the description (export "
+                f"writes it back), not applied{cut}",
+                "warning",
+            )
         else:  # the agent runs the Lua on the raw value, then multiplies by the precision
             offset = plain[1] * scale + 0.0
             scale = plain[0] * scale
@@ -473,13 +500,15 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
         low, high = low or 0.0, high or 0.0
     if low is not None and high is not None:
         if low == high == 0:
-            reader.report(key.line, low_col,
-                          f"{label} '{fn.name}': min and max are both 0: read as no range", "note")
+            reader.report(key.line, low_col, f"{label} '{fn.name}': min and max are both 0: read as no range", "note")
             return
         if low > high:
-            reader.report(key.line, low_col,
-                          f"{label} '{fn.name}': min {low:g} is above max {high:g}: swapped, as the agent does",
-                          "warning")
+            reader.report(
+                key.line,
+                low_col,
+                f"{label} '{fn.name}': min {low:g} is above max {high:g}: swapped, as the agent does",
+                "warning",
+            )
             low, high = high, low
     fn.minimum, fn.maximum = low, high
 
@@ -496,22 +525,34 @@ def _lua_column(fields: list[_Field], label: str, key: _Key, reader: _Reader) ->
         whole = whole[1:].split('"', 1)[0].strip()
     agent: str | None = column.raw or None  # nothing between the commas: no token, no conversion
     if '"' in column.raw:
-        after = column.raw[column.raw.index('"') + 1:].lstrip('"')
+        after = column.raw[column.raw.index('"') + 1 :].lstrip('"')
         agent = None if len(column.raw) <= 2 else after.split('"', 1)[0]  # the agent skips a column of 2
         if agent == "":
-            reader.report(key.line, column.col, f"{label}: the Lua column '{column.text}' has nothing between quotes "
-                                                "for the agent, which then reports -1 for the value")
+            reader.report(
+                key.line,
+                column.col,
+                f"{label}: the Lua column '{column.text}' has nothing between quotes "
+                "for the agent, which then reports -1 for the value",
+            )
             return None
     if agent is not None and not agent.strip():
-        reader.report(key.line, column.col, f"{label}: the Lua column is only spaces: the agent's conversion "
-                                            "then returns nothing and it reports 0 for the value")
+        reader.report(
+            key.line,
+            column.col,
+            f"{label}: the Lua column is only spaces: the agent's conversion "
+            "then returns nothing and it reports 0 for the value",
+        )
         return None
     agent = agent.strip() if agent is not None else None
     plain = affine(agent) if agent else None
     if plain is not None and agent != whole:
-        reader.report(key.line, column.col, f"{label}: the agent runs '{agent}' as this line's Lua conversion (the "
-                                            "column up to its first comma, between its first quotes), not "
-                                            f"'{whole}': write the column as one quoted expression without commas")
+        reader.report(
+            key.line,
+            column.col,
+            f"{label}: the agent runs '{agent}' as this line's Lua conversion (the "
+            "column up to its first comma, between its first quotes), not "
+            f"'{whole}': write the column as one quoted expression without commas",
+        )
         return None
     text = whole or agent
     if not text:
@@ -535,8 +576,10 @@ def _check_addresses(claims: list[_Claim], reader: _Reader) -> None:
         if claim.offset == other.offset and claim.width == other.width == 1:
             message = f"offset {claim.offset} of the {claim.table} table is already {other.label}'s (line {other.line})"
         else:
-            message = (f"reads {claim.span} of the {claim.table} table; register {register} is already read by "
-                       f"{other.label} (line {other.line}: {other.span})")
+            message = (
+                f"reads {claim.span} of the {claim.table} table; register {register} is already read by "
+                f"{other.label} (line {other.line}: {other.span})"
+            )
         reader.report(claim.line, claim.col, f"{claim.label}: {message}")
 
 
@@ -558,6 +601,11 @@ def _unique_names(functions: list[Function], reader: _Reader) -> None:
         fn.name = f"{original}_{n}"
         used[fn.name] = fn
         same = other.block == fn.block
-        reader.report(fn.line, None, f"'{original}' is also the name of line {other.line}"
-                                     f"{' in the same section' if same else f' ([{other.block}])'}: "
-                                     f"this one is named '{fn.name}'", "warning" if same else "note")
+        reader.report(
+            fn.line,
+            None,
+            f"'{original}' is also the name of line {other.line}"
+            f"{' in the same section' if same else f' ([{other.block}])'}: "
+            f"this one is named '{fn.name}'",
+            "warning" if same else "note",
+        )

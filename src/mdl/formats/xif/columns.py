@@ -20,8 +20,13 @@ PRODUCT_LINES = {
     "description": "description",
 }
 # the order and spelling export writes them in (after `#filetype,Modbus_xif`)
-PRODUCT_LINE_NAMES = (("program_ID", "program_id"), ("version", "product_version"), ("product_name", "product"),
-                      ("manufacturer", "manufacturer"), ("description", "description"))
+PRODUCT_LINE_NAMES = (
+    ("program_ID", "program_id"),
+    ("version", "product_version"),
+    ("product_name", "product"),
+    ("manufacturer", "manufacturer"),
+    ("description", "description"),
+)
 
 # column key -> the current heading (what export writes)
 CURRENT = {
@@ -72,9 +77,26 @@ IGNORED = ("iap_type", "iap_field", "in_feedback")  # read and not kept: MDL has
 SCALING_POINTS = ("native_1", "native_2", "scaled_1", "scaled_2")
 
 # the columns export writes, in this order
-EXPORT_COLUMNS = ("block", "block_index", "name", "modicon", "address", "function_code", "native", "ascii_length",
-                  "word_order", "byte_order", "iap_type", "write", "precision", *SCALING_POINTS, "range_min",
-                  "range_max", "marker", "description")
+EXPORT_COLUMNS = (
+    "block",
+    "block_index",
+    "name",
+    "modicon",
+    "address",
+    "function_code",
+    "native",
+    "ascii_length",
+    "word_order",
+    "byte_order",
+    "iap_type",
+    "write",
+    "precision",
+    *SCALING_POINTS,
+    "range_min",
+    "range_max",
+    "marker",
+    "description",
+)
 
 
 def normalize(heading: str) -> str:
@@ -106,22 +128,25 @@ class Native:
     chars: int = 0  # characters per register (strings)
 
 
-NATIVE_TYPES = {n.name: n for n in (
-    Native("BIT", "BIT", 1),
-    Native("UINT8", "UINT8", 1),
-    Native("SINT8", "INT8", 1),
-    Native("UINT16", "UINT16", 1),
-    Native("SINT16", "INT16", 1),
-    Native("UINT32", "UINT32", 2),
-    Native("SINT32", "INT32", 2),
-    Native("UINT64", "UINT64", 4),
-    Native("SINT64", "INT64", 4),
-    Native("FLOAT32", "FLOAT32", 2),
-    Native("FLOAT64", "FLOAT64", 4),
-    Native("CHAR8", "STRING", 0, 1),  # one 8-bit character in each register (its low byte)
-    Native("CHAR8_2", "STRING", 0, 2),  # two 8-bit characters in each register, high byte first
-    Native("CHAR16", "STRING", 0, 1),  # one 16-bit character in each register
-)}
+NATIVE_TYPES = {
+    n.name: n
+    for n in (
+        Native("BIT", "BIT", 1),
+        Native("UINT8", "UINT8", 1),
+        Native("SINT8", "INT8", 1),
+        Native("UINT16", "UINT16", 1),
+        Native("SINT16", "INT16", 1),
+        Native("UINT32", "UINT32", 2),
+        Native("SINT32", "INT32", 2),
+        Native("UINT64", "UINT64", 4),
+        Native("SINT64", "INT64", 4),
+        Native("FLOAT32", "FLOAT32", 2),
+        Native("FLOAT64", "FLOAT64", 4),
+        Native("CHAR8", "STRING", 0, 1),  # one 8-bit character in each register (its low byte)
+        Native("CHAR8_2", "STRING", 0, 2),  # two 8-bit characters in each register, high byte first
+        Native("CHAR16", "STRING", 0, 1),  # one 16-bit character in each register
+    )
+}
 NATIVE_ALIASES = {"FLOAT": "FLOAT32"}  # what real files write besides the vendor's names
 STRING_TYPES = ("CHAR8", "CHAR8_2", "CHAR16")
 
@@ -131,8 +156,14 @@ TABLE_CODES = {table: f"FC{code:02d}" for code, table in FUNCTION_TABLES.items()
 WRITE_CODES = (5, 6, 15, 16)
 
 # write enable (and the pre-3.2 Direction) -> (writable, always a multiple write)
-WRITE_ENABLE = {"-": (False, False), "+": (True, False), "++": (True, True), "r": (False, False),
-                "rw": (True, False), "r/w": (True, False)}
+WRITE_ENABLE = {
+    "-": (False, False),
+    "+": (True, False),
+    "++": (True, True),
+    "r": (False, False),
+    "rw": (True, False),
+    "r/w": (True, False),
+}
 ORDERS = ("big", "little")
 
 # the IAP type export writes for a value of each kind (a SmartServer needs one; edit to taste)

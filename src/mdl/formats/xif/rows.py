@@ -8,11 +8,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from mdl.diagnostics import TextSpan, record_span
+from mdl.diagnostics import Collector, TextSpan, record_span
 from mdl.exchange.text import unwritable
 from mdl.formats.xif import columns as C
 from mdl.formats.xif.records import Cell, Record
-from mdl.formats.xif.report import Reporter
 from mdl.formats.xif.scaling import ScalingError, abc, linear, number, to_float, two_point
 from mdl.model import BIT_TABLES, READ_ONLY_TABLES, Function
 from mdl.model.addressing import MODICON_TABLE, AddressError, parse_address, whole_number
@@ -61,18 +60,18 @@ class Point:
 class RowReader:
     """One datapoint row read into a function; each bad cell reported, the rest still read."""
 
-    def __init__(self, columns: Columns, record: Record, report: Reporter, modicon_guessed: list[int]):
+    def __init__(self, columns: Columns, record: Record, report: Collector, modicon_guessed: list[int]):
         self.columns, self.record, self.report = columns, record, report
         self.modicon_guessed = modicon_guessed  # lines whose address is read as a Modicon number: said once
         self.failed = False
 
     def error(self, cell: Cell, message: str) -> None:
         self.failed = True
-        self.report.error(cell.line, cell.col, message)
+        self.report.error(line=cell.line, col=cell.col, message=message)
 
     def warn(self, cell: Cell, message: str, kind: str) -> None:
         """A warning of `kind` (a fixed text: said once for all rows that have it)."""
-        self.report.warn(cell.line, cell.col, message, kind)
+        self.report.warn(message, cell.line, cell.col, kind=kind)
 
     def text(self, key: str) -> str:
         """A text cell (name, description, Block Name) as `text_cell` reads it; "" if bad (said)."""
@@ -130,11 +129,12 @@ class RowReader:
             return None
         table, address = table_and_address
         if table in BIT_TABLES and native.format != "BIT":
-            self.error(self.cell("native") or name_cell,
-                       f"Native Type {native.name}: a {table} ({C.TABLE_CODES[table]}) holds one bit (use BIT)")
+            self.error(
+                self.cell("native") or name_cell,
+                f"Native Type {native.name}: a {table} ({C.TABLE_CODES[table]}) holds one bit (use BIT)",
+            )
             return None
-        fn = Function(name, self.text("description") or name, [address], format=native.format,
-                      line=self.record.line)
+        fn = Function(name, self.text("description") or name, [address], format=native.format, line=self.record.line)
         record_span(fn, "", TextSpan(name_cell.line, name_cell.col))
         if table != "holding":
             fn.register_type = table
@@ -148,8 +148,11 @@ class RowReader:
         if block:
             fn.block_labels = [block] + ([f"{block}[{index}]"] if index else [])
         elif index:
-            self.warn(self.cell("block_index") or name_cell, "Block Index without a Block Name; ignored",
-                      "Block Index without a Block Name, ignored,")
+            self.warn(
+                self.cell("block_index") or name_cell,
+                "Block Index without a Block Name; ignored",
+                "Block Index without a Block Name, ignored,",
+            )
         return Point(fn, self.record, name_cell, address_cell, (block, index), (table, address, part))
 
     # -- the cells that need more than one column --------------------------------------------------
@@ -165,8 +168,11 @@ class RowReader:
             upper = C.NATIVE_ALIASES.get(text.upper(), text.upper())
             found = C.NATIVE_TYPES.get(upper)
             if found is not None:
-                self.warn(cell, f"Native Type '{text}' read as {found.name} (SmartServer wants upper case)",
-                          "Native Types not in upper case, read as the upper-case type,")
+                self.warn(
+                    cell,
+                    f"Native Type '{text}' read as {found.name} (SmartServer wants upper case)",
+                    "Native Types not in upper case, read as the upper-case type,",
+                )
         if found is None:
             known = ", ".join([*C.NATIVE_TYPES, *C.NATIVE_ALIASES])
             self.error(cell, f"Native Type: unknown native type '{text[:40]}' (expected one of {known})")
@@ -191,8 +197,11 @@ class RowReader:
         if as_modicon:
             return self.modicon(cell, code_table)
         if code_table is None:
-            self.error(cell, f"Function Code is blank and Address {text} is a wire address: "
-                             "give FC01-FC04, or a Modicon address (40001 = holding register 0)")
+            self.error(
+                cell,
+                f"Function Code is blank and Address {text} is a wire address: "
+                "give FC01-FC04, or a Modicon address (40001 = holding register 0)",
+            )
             return None
         try:
             address = whole_number(text, "address")
@@ -208,9 +217,12 @@ class RowReader:
         text = cell.value
         if _modicon_table(text) is None:
             why = "Function Code is blank and " if code_table is None else ""
-            self.error(cell, f"{why}Address {text[:40]} is not a Modicon address (5 or 6 digits, the first 0, 1, 3 "
-                             "or 4 naming the table: 40001 = holding register 0)"
-                             + (": give FC01-FC04 for a wire address" if code_table is None else ""))
+            self.error(
+                cell,
+                f"{why}Address {text[:40]} is not a Modicon address (5 or 6 digits, the first 0, 1, 3 "
+                "or 4 naming the table: 40001 = holding register 0)"
+                + (": give FC01-FC04 for a wire address" if code_table is None else ""),
+            )
             return None
         try:
             table, address = parse_address(text)
@@ -218,8 +230,11 @@ class RowReader:
             self.error(cell, f"Address: {exc}")
             return None
         if code_table is not None and code_table != table:
-            self.error(cell, f"Modicon address {text} is a {table} but the Function Code reads the {code_table} "
-                             f"table ({C.TABLE_CODES[code_table]})")
+            self.error(
+                cell,
+                f"Modicon address {text} is a {table} but the Function Code reads the {code_table} "
+                f"table ({C.TABLE_CODES[code_table]})",
+            )
             return None
         return table, address
 
@@ -229,8 +244,9 @@ class RowReader:
         text = cell.value
         if not text:
             if table not in READ_ONLY_TABLES:
-                self.warn(cell, "Write Enable is blank: read as - (read-only)",
-                          "Write Enable blank, read as - (read-only),")
+                self.warn(
+                    cell, "Write Enable is blank: read as - (read-only)", "Write Enable blank, read as - (read-only),"
+                )
             return False, False
         found = C.WRITE_ENABLE.get(text.lower())
         if found is None:
@@ -242,12 +258,17 @@ class RowReader:
         cell = self.cell("ascii_length")
         if native is None or native.name not in C.STRING_TYPES:
             if cell is not None and cell.value not in ("", "0") and native is not None:
-                self.warn(cell, f"ASCII Length ignored: Native Type {native.name} is not a string",
-                          "ASCII Length ignored on a Native Type that is not a string")
+                self.warn(
+                    cell,
+                    f"ASCII Length ignored: Native Type {native.name} is not a string",
+                    "ASCII Length ignored on a Native Type that is not a string",
+                )
             return None
         if cell is None or not cell.value:
-            self.error(cell or self.cell("native") or self.record.cells[0],
-                       f"Native Type {native.name} needs an ASCII Length (the string's characters)")
+            self.error(
+                cell or self.cell("native") or self.record.cells[0],
+                f"Native Type {native.name} needs an ASCII Length (the string's characters)",
+            )
             return None
         length = self.parse("ascii_length", _index)
         if isinstance(length, int) and length < 1:
@@ -269,19 +290,28 @@ class RowReader:
             if given:
                 if len(given) < 4:
                     names = ", ".join(C.CURRENT[k] for k in C.SCALING_POINTS if k not in given)
-                    self.error(cell, f"scaling needs all four of Native Value 1, Native Value 2, Scaled Value 1 "
-                                     f"and Scaled Value 2; {names} {'is' if len(given) == 3 else 'are'} missing")
+                    self.error(
+                        cell,
+                        f"scaling needs all four of Native Value 1, Native Value 2, Scaled Value 1 "
+                        f"and Scaled Value 2; {names} {'is' if len(given) == 3 else 'are'} missing",
+                    )
                     return None
                 if legacy_abc or legacy_linear:
-                    self.warn(cell, "A', B', C' / Multiplier, Offset ignored: the Native and Scaled Values give the "
-                                    "scale", "A', B', C' / Multiplier, Offset ignored beside Native and Scaled Values")
+                    self.warn(
+                        cell,
+                        "A', B', C' / Multiplier, Offset ignored: the Native and Scaled Values give the scale",
+                        "A', B', C' / Multiplier, Offset ignored beside Native and Scaled Values",
+                    )
                 n1, n2, s1, s2 = (_fraction(values[k]) for k in C.SCALING_POINTS)
                 return two_point(n1, n2, s1, s2)
             if legacy_abc:
                 a, b, c = (_fraction(values[k], default) for k, default in (("a", 1), ("b", 0), ("c", 0)))
                 if legacy_linear:
-                    self.warn(cell, "Multiplier and Offset ignored: A', B', C' give the scale",
-                              "Multiplier and Offset ignored beside A', B', C'")
+                    self.warn(
+                        cell,
+                        "Multiplier and Offset ignored: A', B', C' give the scale",
+                        "Multiplier and Offset ignored beside A', B', C'",
+                    )
                 return abc(a, b, c)
             if legacy_linear:
                 return linear(_fraction(values["multiplier"], 1), _fraction(values["offset"], 0))
@@ -297,18 +327,23 @@ class RowReader:
         bit = orders["bit_order"]
         name = native.name
         if bit == "big" and name != "BIT":
-            self.warn(self.cell("bit_order") or self.record.cells[0],
-                      "Bit Order big is not supported: bits are read least significant first, so the value "
-                      "differs from what a SmartServer reads", "Bit Order big (not supported)")
+            self.warn(
+                self.cell("bit_order") or self.record.cells[0],
+                "Bit Order big is not supported: bits are read least significant first, so the value "
+                "differs from what a SmartServer reads",
+                "Bit Order big (not supported)",
+            )
         if name == "BIT":
             return C.register_part(native, None)
         if native.chars == 1:  # CHAR8, CHAR16: a character in each register
             fn.count = length
             fn.length = "Upper byte" if byte == "little" else "Lower byte"
             if name == "CHAR16":
-                self.warn(self.cell("native") or self.record.cells[0],
-                          "CHAR16 read as the low byte of each register: ASCII text reads right, other characters "
-                          "do not", "CHAR16 read as the low byte of each register")
+                self.warn(
+                    self.cell("native") or self.record.cells[0],
+                    "CHAR16 read as the low byte of each register: ASCII text reads right, other characters do not",
+                    "CHAR16 read as the low byte of each register",
+                )
             return C.register_part(native, byte if isinstance(byte, str) else None)
         registers = native.registers
         if native.chars == 2 and length is not None:  # CHAR8_2: two characters in each register
@@ -320,32 +355,40 @@ class RowReader:
             if word == "little":
                 fn.word_order = "little"
             elif word is None and byte == "little" and native.format != "STRING":
-                self.warn(self.cell("word_order") or self.cell("byte_order") or self.record.cells[0],
-                          "Word Order blank read as big (each register's bytes swapped); the vendor page reads "
-                          "Byte Order little with a blank Word Order as the whole value little-endian: write Word "
-                          "Order little for that", "Word Order blank with Byte Order little, read as big,")
+                self.warn(
+                    self.cell("word_order") or self.cell("byte_order") or self.record.cells[0],
+                    "Word Order blank read as big (each register's bytes swapped); the vendor page reads "
+                    "Byte Order little with a blank Word Order as the whole value little-endian: write Word "
+                    "Order little for that",
+                    "Word Order blank with Byte Order little, read as big,",
+                )
         return C.register_part(native, byte if isinstance(byte, str) else None)
 
     def access(self, fn: Function, table: str, writable: bool, multiple: bool) -> None:
         if table in READ_ONLY_TABLES:
             if writable:
-                self.warn(self.cell("write") or self.record.cells[0],
-                          f"{C.TABLE_CODES[table]} datapoints are read-only: Write Enable "
-                          f"'{self.value('write')}' ignored", "Write Enable + or ++ on FC02/FC04, ignored,")
+                self.warn(
+                    self.cell("write") or self.record.cells[0],
+                    f"{C.TABLE_CODES[table]} datapoints are read-only: Write Enable '{self.value('write')}' ignored",
+                    "Write Enable + or ++ on FC02/FC04, ignored,",
+                )
             return
         if not writable:
             fn.access = "read"
         elif multiple:
             fn.write_multiple = True
 
-    def limits(self, fn: Function, native: C.Native, scale: tuple[float, float] | None,
-               minimum: object, maximum: object) -> None:
+    def limits(
+        self, fn: Function, native: C.Native, scale: tuple[float, float] | None, minimum: object, maximum: object
+    ) -> None:
         text = native.format == "STRING"
         if scale is not None and scale != (1.0, 0.0):
             if native.format in ("BIT", "STRING"):
-                self.warn(self.cell("native_1") or self.cell("a") or self.cell("multiplier") or self.record.cells[0],
-                          f"scaling ignored: a {native.name} value is not a number",
-                          "scaling ignored on a BIT or string datapoint")
+                self.warn(
+                    self.cell("native_1") or self.cell("a") or self.cell("multiplier") or self.record.cells[0],
+                    f"scaling ignored: a {native.name} value is not a number",
+                    "scaling ignored on a BIT or string datapoint",
+                )
             else:
                 fn.multiplier = scale[0] if scale[0] != 1 else None
                 fn.offset = scale[1] if scale[1] != 0 else None
@@ -353,27 +396,36 @@ class RowReader:
             if not isinstance(value, float):
                 continue
             if text:
-                self.warn(self.cell("range_min" if key == "minimum" else "range_max") or self.record.cells[0],
-                          f"Range ignored: a {native.name} string has no order to bound",
-                          "Range ignored on a string datapoint")
+                self.warn(
+                    self.cell("range_min" if key == "minimum" else "range_max") or self.record.cells[0],
+                    f"Range ignored: a {native.name} string has no order to bound",
+                    "Range ignored on a string datapoint",
+                )
                 continue
             setattr(fn, key, value)
 
 
-def text_cell(cell: Cell, value: str, report: Reporter) -> str | None:
+def text_cell(cell: Cell, value: str, report: Collector) -> str | None:
     """A text cell's value (a name, a description, a Block Name, a product line's): without the `'` mdl
     export puts before a text a spreadsheet would take for a formula (a note says so); None, with an
     error at the cell, if it holds a character MDL (XML) cannot carry."""
     plain = C.unmarked(value)
     if plain is not None:
-        report.warn(cell.line, cell.col, f"'{value[:40]}' read as '{plain[:40]}': a leading ' marks a text that a "
-                                         "spreadsheet would take for a formula (mdl export writes it)",
-                    "a leading ' (the mark mdl export puts before a text a spreadsheet would run as a formula) "
-                    "removed", "note")
+        report.note(
+            f"'{value[:40]}' read as '{plain[:40]}': a leading ' marks a text that a spreadsheet would "
+            "take for a formula (mdl export writes it)",
+            cell.line,
+            cell.col,
+            kind="a leading ' (the mark mdl export puts before a text a spreadsheet would run as a formula) removed",
+        )
         value = plain
     bad = unwritable(value)
     if bad:
-        report.error(cell.line, cell.col, f"'{value[:40]}' holds the character {bad}, which MDL (XML) cannot carry")
+        report.error(
+            line=cell.line,
+            col=cell.col,
+            message=f"'{value[:40]}' holds the character {bad}, which MDL (XML) cannot carry",
+        )
         return None
     return value
 
@@ -389,8 +441,9 @@ def _function_code(text: str) -> int:
     m = _FUNCTION_CODE.fullmatch(text)
     code = int(m.group(1)) if m else None
     if code in C.WRITE_CODES:
-        raise CellError(f"'{text}' is a write function code: give the read one (FC01-FC04); the write code "
-                         "follows from it")
+        raise CellError(
+            f"'{text}' is a write function code: give the read one (FC01-FC04); the write code follows from it"
+        )
     if code not in C.FUNCTION_TABLES:
         raise CellError(f"'{text[:40]}' is not FC01, FC02, FC03 or FC04")
     return code

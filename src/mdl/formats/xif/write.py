@@ -58,8 +58,11 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
 
     kept = _datapoints(resolved, notes)
     for point, base in _restore_names(kept):
-        notes.note_for(point.rf, "written with its name in its block (a .mod needs names unique only within a block)",
-                       f"as '{base}'")
+        notes.note_for(
+            point.rf,
+            "written with its name in its block (a .mod needs names unique only within a block)",
+            f"as '{base}'",
+        )
     refused: list[Diagnostic] = []
 
     def text(rf: ResolvedFunction | None, value: str, what: str, prose: bool = False) -> str:
@@ -79,33 +82,42 @@ def export_xif(resolved: ResolvedDevice, settings: Settings) -> Export:
             if point.cells.get(key):
                 point.cells[key] = text(point.rf, point.cells[key], what, prose=key == "description")
         if _product_like(point.cells.get(C.EXPORT_COLUMNS[0], "")):
-            notes.note_for(point.rf, f"its {C.CURRENT[C.EXPORT_COLUMNS[0]]} starts with #: written in quotes, so that "
-                                     "the row is not read as a product line")
+            notes.note_for(
+                point.rf,
+                f"its {C.CURRENT[C.EXPORT_COLUMNS[0]]} starts with #: written in quotes, so that "
+                "the row is not read as a product line",
+            )
     rows = [[point.cells.get(key, "") for key in C.EXPORT_COLUMNS] for point in kept]
 
     program_id = device.program_id
     if program_id is None:
         program_id = _placeholder_id(device.name)
-        notes.device_warning(f"the description has no program_id: wrote the placeholder {program_id}; a SmartServer "
-                             "needs your device type's program ID there")
+        notes.device_warning(
+            f"the description has no program_id: wrote the placeholder {program_id}; a SmartServer "
+            "needs your device type's program ID there"
+        )
     if device.tests:
         notes.device_warning(f"{len(device.tests)} test scenario(s) not written: a .mod file has none")
     if device.max_registers is not None:
         notes.device_warning(f"max_registers {device.max_registers} not written: a .mod file has no such setting")
     if settings.connection is not None or settings.unit != 1 or settings.interval_given:
-        notes.device_warning("the connection, --unit and --interval are not written: a .mod file describes the device "
-                             "type, and the SmartServer sets those when a device is provisioned")
+        notes.device_warning(
+            "the connection, --unit and --interval are not written: a .mod file describes the device "
+            "type, and the SmartServer sets those when a device is provisioned"
+        )
     if source is None or Path(source).stem != device.name:
-        notes.note(f"the device name '{device.name}' is not in the file: a .mod file's name (without .mod) is the "
-                   "XIF's name")
+        notes.note(
+            f"the device name '{device.name}' is not in the file: a .mod file's name (without .mod) is the XIF's name"
+        )
 
     lines = [_row(["#filetype", C.FILETYPE], datapoint=False)]
     identity = {"program_id": program_id, "description": device.description}
     for line, attr in C.PRODUCT_LINE_NAMES:
         value = identity.get(attr, getattr(device, attr, None))
         if value:
-            lines.append(_row([f"#{line}", text(None, value, f"#{line}", prose=attr == "description")],
-                              datapoint=False))
+            lines.append(
+                _row([f"#{line}", text(None, value, f"#{line}", prose=attr == "description")], datapoint=False)
+            )
     if refused:
         raise MdlError(refused)
     lines.append(_row([C.CURRENT[key] for key in C.EXPORT_COLUMNS]))
@@ -125,8 +137,12 @@ def _datapoints(resolved: ResolvedDevice, notes: Notes) -> list[_Datapoint]:
             continue
         other = taken.get(point.slot)
         if other is not None:
-            notes.warn(rf, "not exported: it starts on the same register as a datapoint before it, and a .mod file "
-                           "lists each address once", f"'{other}'")
+            notes.warn(
+                rf,
+                "not exported: it starts on the same register as a datapoint before it, and a .mod file "
+                "lists each address once",
+                f"'{other}'",
+            )
             continue
         taken[point.slot] = rf.name
         for why, detail in point.lost:
@@ -143,16 +159,27 @@ def _text(value: str, what: str, prose: bool) -> tuple[str, list[tuple[str, str,
     bad = C.line_break(value)
     if bad is not None:
         if not prose:
-            return value, said, (f"its {what} '{value[:40]}' holds a line break ({bad}), which would start a new row "
-                                 f"of the .mod file: change the {what} (a .mod cell cannot carry one)")
+            return (
+                value,
+                said,
+                (
+                    f"its {what} '{value[:40]}' holds a line break ({bad}), which would start a new row "
+                    f"of the .mod file: change the {what} (a .mod cell cannot carry one)"
+                ),
+            )
         value = _one_line(value)
         said.append((f"its {what} holds line breaks: written on one line, with spaces", bad, "note"))
     elif prose:
         value = value.strip()
     if C.marked(value):
-        said.append((f"its {what} written behind a {C.TEXT_MARK}, so that a spreadsheet does not run it as a formula "
-                     f"(CSV injection); mdl import reads it back without the {C.TEXT_MARK}",
-                     f"'{C.TEXT_MARK}{value[:40]}'", "warning"))
+        said.append(
+            (
+                f"its {what} written behind a {C.TEXT_MARK}, so that a spreadsheet does not run it as a formula "
+                f"(CSV injection); mdl import reads it back without the {C.TEXT_MARK}",
+                f"'{C.TEXT_MARK}{value[:40]}'",
+                "warning",
+            )
+        )
         value = C.TEXT_MARK + value
     return value, said, None
 
@@ -165,6 +192,7 @@ def _product_like(cell: str) -> bool:
 def _row(cells: list[str], datapoint: bool = True) -> str:
     """One CSV record as Excel writes it: a cell in quotes where it holds a comma, a quote or a line
     break (a quote inside doubled); a datapoint's first cell also where it starts with `#`."""
+
     def needs_quotes(i: int, cell: str) -> bool:
         return any(ch in cell for ch in ',"\r\n') or (datapoint and i == 0 and _product_like(cell))
 
@@ -183,6 +211,7 @@ def _restore_names(points: list[_Datapoint]) -> list[tuple[_Datapoint, str]]:
     in MDL (names are unique in a device, SPEC 3), while a .mod needs them unique only within a block.
     A name `NAME_N` is written `NAME` where another block has a datapoint `NAME` and this block has
     none. Returns (the datapoint, its datapoint name) of each one renamed, to be said."""
+
     def block(p: _Datapoint) -> tuple[str, str]:
         return p.cells.get("block", ""), p.cells.get("block_index", "")
 
@@ -209,19 +238,24 @@ def _restore_names(points: list[_Datapoint]) -> list[tuple[_Datapoint, str]]:
 def _datapoint(rf: ResolvedFunction) -> _Datapoint:
     fn, lay = rf.fn, rf.layout
     if fn.bits is not None:
-        raise _Inexpressible("a datapoint reads whole registers, and a .mod file has no column for bits of one",
-                             bits_detail(fn))
+        raise _Inexpressible(
+            "a datapoint reads whole registers, and a .mod file has no column for bits of one", bits_detail(fn)
+        )
     if fn.factor is not None:
-        raise _Inexpressible("a datapoint's scaling is two constant points, and a .mod file cannot name a scale "
-                             "register", factor_detail(fn))
+        raise _Inexpressible(
+            "a datapoint's scaling is two constant points, and a .mod file cannot name a scale register",
+            factor_detail(fn),
+        )
     if fn.expression is not None:
         raise _Inexpressible("it is computed by an expression, which XIF cannot express")
     if fn.read_function_code is not None:
         raise _Inexpressible("its value comes from a read fragment, which XIF cannot express")
     first = lay.addresses[0]
     if lay.addresses != tuple(range(first, first + len(lay.addresses))):
-        raise _Inexpressible("its registers do not follow each other, and a datapoint reads consecutive registers",
-                             f"registers {' '.join(map(str, lay.addresses))}")
+        raise _Inexpressible(
+            "its registers do not follow each other, and a datapoint reads consecutive registers",
+            f"registers {' '.join(map(str, lay.addresses))}",
+        )
     native, length, byte_order = _native(lay)
     cells = {
         "name": fn.name,
@@ -250,16 +284,25 @@ def _datapoint(rf: ResolvedFunction) -> _Datapoint:
     if fn.marker:
         cells["marker"] = str(fn.marker[0])
         if len(fn.marker) > 1:
-            point.lost.append(("marker values after the first not written: a datapoint holds one marker value",
-                               f"marker {' '.join(map(str, fn.marker[1:]))}"))
+            point.lost.append(
+                (
+                    "marker values after the first not written: a datapoint holds one marker value",
+                    f"marker {' '.join(map(str, fn.marker[1:]))}",
+                )
+            )
     if fn.values:
         point.lost.append(("its enumeration (values) is not written: the datapoint reads the number", None))
     if fn.not_implemented:
-        point.lost.append(("not_implemented not written: the datapoint reads those values as numbers",
-                           " ".join(fn.not_implemented)))
+        point.lost.append(
+            ("not_implemented not written: the datapoint reads those values as numbers", " ".join(fn.not_implemented))
+        )
     if fn.units:
-        point.lost.append(("units not written: a .mod file has no units column (a SmartServer takes them from the "
-                           "IAP type)", f"'{fn.units}'"))
+        point.lost.append(
+            (
+                "units not written: a .mod file has no units column (a SmartServer takes them from the IAP type)",
+                f"'{fn.units}'",
+            )
+        )
     kept = [attr for attr in ("immutable", "system", "fetch_group") if getattr(fn, attr) is not None]
     if kept:
         point.lost.append(("not written: a .mod file has no such column", ", ".join(kept)))
@@ -278,8 +321,10 @@ def _native(lay: Layout) -> tuple[C.Native, int | None, str]:
             return types["CHAR8"], n, byte_order
         if lay.kind == "int" and n == 1:
             return types["SINT8" if lay.signed else "UINT8"], None, byte_order
-        raise _Inexpressible("its value is made of bytes of several registers, which no native type reads",
-                             f"{'upper' if lay.unit == 'high' else 'lower'} bytes of {n} registers")
+        raise _Inexpressible(
+            "its value is made of bytes of several registers, which no native type reads",
+            f"{'upper' if lay.unit == 'high' else 'lower'} bytes of {n} registers",
+        )
     if lay.kind == "string":
         return types["CHAR8_2"], 2 * n, lay.byte_order
     if lay.kind == "float" and lay.bits == 16 * n:
@@ -306,13 +351,14 @@ def _blocks(fn: Function, cells: dict[str, str], lost: list[Lost]) -> None:
     cells["block"] = labels[0]
     rest = labels[1:]
     if rest and rest[0].startswith(labels[0] + "[") and rest[0].endswith("]"):
-        index = rest[0][len(labels[0]) + 1:-1]
+        index = rest[0][len(labels[0]) + 1 : -1]
         if index.isascii() and index.isdigit():
             cells["block_index"] = str(int(index))
             rest = rest[1:]
     if rest:
-        lost.append(("block labels after the first not written: a datapoint is in one block",
-                     ", ".join(repr(r) for r in rest)))
+        lost.append(
+            ("block labels after the first not written: a datapoint is in one block", ", ".join(repr(r) for r in rest))
+        )
 
 
 def _access(fn: Function, cells: dict[str, str], lost: list[Lost]) -> None:
