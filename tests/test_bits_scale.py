@@ -291,22 +291,15 @@ def _write_with_driver(driver, flavour: str, proxy) -> dict[str, list[int]]:
     return codes
 
 
-# ---- targets that do not carry them yet
-
-
-@pytest.mark.parametrize("lang", ["cpp", "c"])
-def test_compiled_targets_refuse_cleanly_until_they_carry_them(lang, tmp_path):
-    proc = cli("gen", DEVICE, "--lang", lang, "-o", tmp_path)
-    assert_clean_error(proc, 1, "function 'alarm'", "does not carry <bits> yet", "function 'w'")
-    assert list(tmp_path.iterdir()) == []  # nothing half written
+# ---- exports: what each carries is tests/test_bits_scale_exports.py (the C++ and C drivers:
+# tests/test_bits_scale_native.py)
 
 
 def test_exports_leave_them_out_with_a_warning(tmp_path):
     for to in ("xif", "wise", "telegraf", "homeassistant"):
         proc = cli("export", DEVICE, "--to", to, "-o", tmp_path / f"out.{to}")
         assert proc.returncode == 0, proc.stderr
-        assert "function 'alarm'" in proc.stderr or "'alarm'" in proc.stderr, (to, proc.stderr)
-        assert "carr" in proc.stderr, to
+        assert "'mode' (bits 4-5)" in proc.stderr, (to, proc.stderr)  # no export carries a range of bits
 
 
 def test_function_22_over_rtu_framing_checks_and_accepts_its_echo(sim_factory):

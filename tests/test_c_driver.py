@@ -35,10 +35,7 @@ from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
-# the C and C++ drivers refuse bits and scale registers until they carry them (issue 21; the refusal is
-# tested in tests/test_bits_scale.py): that device is read through mdl read and Python only, for now
-NOT_YET = {"flags_and_scale.xml"}
-XML_DEVICES = [p for p in sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml")) if p.name not in NOT_YET]
+XML_DEVICES = [p for p in sorted(DATA.glob("*.xml")) + sorted(EXAMPLE.parent.glob("*/*.xml"))]
 DEVICES = [*XML_DEVICES, HEAT_PUMP]
 
 

@@ -6,9 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
-from mdl.diagnostics import Diagnostic, MdlError
 from mdl.resolve import ResolvedDevice
-from mdl.resolve.checks import position
 
 
 @dataclass(frozen=True)
@@ -65,19 +63,3 @@ def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple
         splits += [SplitRow(table_names[s.table], s.start, s.count, s.start - req.start) for s in smaller]
     return groups, splits
 
-
-def refuse_packed(resolved: ResolvedDevice, language: str) -> None:
-    """MdlError naming every function with `bits`, `scale_exponent` or `scale_by`, for a target that does
-    not carry them yet (docs/bits-and-scale.md): no driver is written that would read them wrongly."""
-    found = []
-    for f in resolved.functions:
-        fn = f.fn
-        element = "bits" if fn.bits is not None else "scale_exponent" if fn.scale_exponent is not None else \
-            "scale_by" if fn.scale_by is not None else None
-        if element is not None:
-            line, col = position(fn, element, line=fn.line)
-            found.append(Diagnostic(resolved.device.source, line, col,
-                                    f"function '{fn.name}': the {language} driver does not carry <{element}> yet "
-                                    "(the Python driver and mdl read/write do)"))
-    if found:
-        raise MdlError(found)

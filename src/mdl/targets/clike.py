@@ -14,6 +14,7 @@ from typing import Generic, Protocol, TypeVar
 from mdl.lang.cfrag.tree import int_range
 from mdl.model import Function
 from mdl.targets.base import Run
+from mdl.values import ir
 
 _INT_TYPE = re.compile(r"(u?)int(8|16|32|64)_t")
 
@@ -135,7 +136,10 @@ class Printing(Generic[F]):
     encode_key: Callable[[F], Hashable | None]
     print_decoder: Callable[[F], str]
     print_encoder: Callable[[F], str]
-    expression: Callable[[F], bool]  # whether its decoder is an expression's (takes parameters)
+    expression: Callable[[F], bool]  # whether its decoder takes parameters (an expression's, a scaled value's factor)
+    # whether its write is more than encoding a value and writing its run (bits: the registers are read
+    # and merged, or written with function 22; a scale factor is read first): no shared write_<j>
+    own_write: Callable[[F], bool] = lambda f: False
 
 
 def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
@@ -178,7 +182,7 @@ def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
             out.encoders.append(e)
             for f in group:
                 f.encoder, f.encode_text = str(e.k), ""
-                if len(f.runs) == 1:
+                if len(f.runs) == 1 and not printing.own_write(f):
                     writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
     for (k, multiple), group in writers.items():
         if len(group) > 1:
@@ -187,3 +191,23 @@ def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
             for f in group:
                 f.writer = w.j
     return out
+
+
+@dataclass(frozen=True)
+class MergeRow:
+    """A register of a function with bits, as its write changes it (ir.Merge): `index` in its registers,
+    its `address`, `mask` the function's bits in it (0: none) and `keep` the others (~mask)."""
+
+    index: int
+    address: int
+    mask: int
+    keep: int
+
+
+def merge_rows(codec: ir.Codec) -> list[MergeRow]:
+    """The registers a write of a function with bits merges its bits into (none without bits)."""
+    merge = ir.find_step(codec.encode, ir.Merge)
+    if merge is None:
+        return []
+    return [MergeRow(i, address, mask, ~mask & 0xFFFF)
+            for i, (address, mask) in enumerate(zip(codec.addresses, merge.masks, strict=True))]

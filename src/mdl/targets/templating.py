@@ -19,6 +19,7 @@ from mdl import __version__
 from mdl.diagnostics import error
 from mdl.fileio import remove_leftovers, would_change, write_atomic
 from mdl.lang.cfrag.cemit import float_literal, literal
+from mdl.values.ir import MAX_EXPONENT
 
 # each target's templates are under <target>/templates/ here
 TARGETS_DIR = Path(__file__).resolve().parent
@@ -228,6 +229,7 @@ def environment() -> jinja2.Environment:
     env.filters["cstring"] = cstring
     env.filters["each"] = each
     env.globals["generation"] = GENERATION
+    env.globals["max_exponent"] = MAX_EXPONENT  # of scale_exponent (docs/bits-and-scale.md)
     return env
 
 

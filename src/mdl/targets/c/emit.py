@@ -22,9 +22,9 @@ from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.ops import OpKind
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
-from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
+from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.c import expressions
-from mdl.targets.clike import Printing, Shared, int_bounds
+from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
 from mdl.values import ir
 
@@ -91,6 +91,9 @@ class CFunction:
     encode_text: str = ""
     reader: int | None = None  # read_<reader> reads its one run and decodes it, if shared
     writer: int | None = None  # write_<writer> encodes a value and writes its one run, if shared
+    factor: CFunction | None = None  # the function whose value scales it (scale_exponent, scale_by)
+    merge: list[MergeRow] = field(default_factory=list)  # bits: the registers its write merges into
+    mask_write: bool = False  # bits written with function 22 (Mask Write Register)
 
     @property
     def fn(self) -> Any:
@@ -168,7 +171,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             wt=c_type(codec.write_type, rd.stem),
             text_size=text_size, nullable=vt.nullable, expr=expr, decode=codec.decode, encode=codec.encode,
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
-            slots=list(rd.slots_of(rf)) if codec.decode else [])
+            slots=list(rd.slots_of(rf)) if codec.decode else [], merge=merge_rows(codec),
+            mask_write=rf.fn.mask_write)
         for step in codec.decode or ():
             if isinstance(step, ir.Fragment):
                 f.read_fragment = f"frag_read_{rf.ident}"
@@ -183,6 +187,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
         out[rf.name] = f
     for f in out.values():
         f.deps = [out[d] for d in f.rf.deps]
+        f.factor = out[f.fn.factor] if f.fn.factor is not None else None
         f.steps = [out[g.name] for g in rd.closure([f.rf.name])] if f.deps else [f]
     # each expression after the functions it names (whatever their order in the file), so that the
     # text capacity of each text or list parameter is known: its buffers hold its longest value
@@ -221,13 +226,20 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     runtime = []
     if raw_total or any(f.n for f in readable):
         runtime.append((RUNTIME / "read_table.c").read_text(encoding="utf-8"))
-    writers = {bool(f.fn.write_multiple) for f in functions if f.encode is not None}  # FC15/FC16 only, or not
+    if not runtime and any(f.merge and not f.mask_write for f in functions):  # bits read before they are written
+        runtime.append((RUNTIME / "read_table.c").read_text(encoding="utf-8"))
+    # FC15/FC16 only, or not (function 22 is neither)
+    writers = {bool(f.fn.write_multiple) for f in functions if f.encode is not None and not f.mask_write}
     if False in writers:
         runtime.append((RUNTIME / "write_table.c").read_text(encoding="utf-8"))
     if True in writers:
         runtime.append((RUNTIME / "write_multiple.c").read_text(encoding="utf-8"))
+    if any(f.mask_write and f.encode is not None for f in functions):
+        runtime.append((RUNTIME / "mask_write.c").read_text(encoding="utf-8"))
     if runtime:  # what requests share (a driver of register-less expressions sends none)
         runtime.insert(0, (RUNTIME / "modbus_io.c").read_text(encoding="utf-8"))
+    if any(f.factor is not None and f.fn.scale_exponent is not None for f in functions):
+        runtime.append((RUNTIME / "power_of_ten.c").read_text(encoding="utf-8"))
     includes = set(BASE_INCLUDES)
     if fragments:
         runtime.append(helpers_source([c for _, c in fragments], "c"))
@@ -281,11 +293,11 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared[CFuncti
         _decode_key, _encode_key,
         lambda f: decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment) if f.expr is None else "",
         lambda f: encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment),
-        lambda f: f.expr is not None))
+        lambda f: f.expr is not None,
+        lambda f: bool(f.merge) or f.factor is not None))
 
 
 def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
-    refuse_packed(rd, "C")
     ctx = context(rd, source_name)
     env = environment()
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name

@@ -24,8 +24,8 @@ from mdl.lang.expr.fields import plain_type
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
-from mdl.targets.base import Run, Target, plan_rows, refuse_packed, runs_at
-from mdl.targets.clike import Printing, Shared, int_bounds
+from mdl.targets.base import Run, Target, plan_rows, runs_at
+from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
 from mdl.targets.templating import SharedRendering, ctext, double_literal, generation_macro
@@ -107,6 +107,9 @@ class CppFunction:
     encode_text: str = ""
     reader: int | None = None  # read_<reader>_ reads its one run and decodes it, if shared
     writer: int | None = None  # write_<writer>_ encodes a value and writes its one run, if shared
+    factor: CppFunction | None = None  # the function whose value scales it (scale_exponent, scale_by)
+    merge: list[MergeRow] = field(default_factory=list)  # bits: the registers its write merges into
+    mask_write: bool = False  # bits written with function 22 (Mask Write Register)
 
     @property
     def reads_device(self) -> bool:
@@ -118,7 +121,7 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
     read_fragment = ir.find_step(codec.decode, ir.Fragment)
     write_fragment = ir.find_step(codec.encode, ir.Fragment)
     # SPEC 5: T is double wherever a fragment applies, for the read and the write alike
-    t = "double" if fn.write_function_code and fn.writable else value_type(codec.value_type)
+    t = "double" if fn.write_function_code and fn.writable and not fn.mask_write else value_type(codec.value_type)
     expression = ir.find_step(codec.decode, ir.Expression)
     if expression is not None:
         decode_lines = []  # printed once its parameters' types are known (_functions)
@@ -137,7 +140,7 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
         status=read_fragment is not None, decode_lines=decode_lines,
         encode_lines=write_fragment.tree.c("c++").body() if write_fragment is not None else [],
         range_tests=range_tests(ir.find_step(codec.encode, ir.CheckRange), wt) if codec.encode is not None else [],
-        int_bits=codec.write_type.bits)
+        int_bits=codec.write_type.bits, merge=merge_rows(codec), mask_write=fn.mask_write)
 
 
 def param_type(g: CppFunction) -> str:
@@ -156,7 +159,12 @@ def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     ident_of = {f.name: f.ident for f in resolved.functions}
     out = {f.ident: _function(resolved, f, ident_of) for f in resolved.functions}
     for f in out.values():
-        if f.deps:
+        if f.fn.factor is not None:  # its decoder and encoder take the factor's value as a double
+            f.factor = out[ident_of[f.fn.factor]]
+            f.steps = [out[g.ident] for g in resolved.closure([f.fn.name])]
+            f.dep_types = ["double"]
+            f.dep_args = [f"factor_of(%s{f.factor.ident})"]
+        elif f.deps:
             f.steps = [out[g.ident] for g in resolved.closure([f.fn.name])]
             f.dep_types = [param_type(out[d]) for d in f.deps]
             # a value of another type is converted where it is passed, spelled out
@@ -222,6 +230,9 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "fragments": bool(fragments), "runtime": runtime,
         "needed": needed, "fragment_reads": [f for f in readable if f.status],
         "writes_multiple": any(f.writable and f.fn.write_multiple for f in functions),  # FC15/FC16 only
+        "mask_writes": any(f.writable and f.mask_write for f in functions),  # FC22
+        "factors": any(f.factor is not None for f in functions),
+        "exponents": any(f.factor is not None and f.fn.scale_exponent is not None for f in functions),
         "includes": sorted(set(BASE_INCLUDES) | set(runtime_includes)),
         "header_includes": sorted({"array", "cstddef", "cstdint"}
                                   | ({"optional"} if any("std::optional" in t for t in types) else set())
@@ -266,11 +277,11 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared[CppFu
         lambda f: decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip(),
         lambda f: encode_body(f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines,
                               f.int_bits).rstrip(),
-        lambda f: f.expr))
+        lambda f: f.expr or f.factor is not None,
+        lambda f: bool(f.merge) or f.factor is not None))
 
 
 def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
-    refuse_packed(resolved, "C++")
     ctx = context(resolved, source_name)
     env = environment()
     ctx["shared"] = share(ctx["functions"], env)
