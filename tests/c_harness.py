@@ -55,12 +55,22 @@ def compile_driver(c_file: Path, compiler: str, flags: tuple[str, ...] = ()) -> 
     path = tool(compiler)
     cflags, _ = modbus_flags()
     header = c_file.with_suffix(".h")
-    key = hashlib.sha256(b"\0".join([compiler.encode(), *(f.encode() for f in flags), header.name.encode(),
-                                      header.read_bytes(), c_file.read_bytes()])).hexdigest()
+    key = hashlib.sha256(
+        b"\0".join(
+            [
+                compiler.encode(),
+                *(f.encode() for f in flags),
+                header.name.encode(),
+                header.read_bytes(),
+                c_file.read_bytes(),
+            ]
+        )
+    ).hexdigest()
     if key not in _objects:
         obj = _cache_dir() / f"{key}.o"
-        proc = subprocess.run([path, *STRICT, "-O0", *flags, *cflags, "-c", str(c_file), "-o", str(obj)],
-                              capture_output=True, text=True)
+        proc = subprocess.run(
+            [path, *STRICT, "-O0", *flags, *cflags, "-c", str(c_file), "-o", str(obj)], capture_output=True, text=True
+        )
         assert proc.returncode == 0, f"{compiler} {c_file.name}:\n{proc.stderr}"
         _objects[key] = obj
     return _objects[key]
@@ -112,8 +122,10 @@ def _put(f: cgen.CFunction, value: str, has: str | None) -> str:
     if f.t == "char":
         put = f"put_s({name}, {value});"
     elif f.t.startswith("struct"):
-        put = (f'{{ size_t k; printf("%s l:", {name}); for (k = 0; k < ({value}).count; ++k) {{ '
-               f'if (k) printf(","); put_hex(({value}).items[k]); }} printf("\\n"); }}')
+        put = (
+            f'{{ size_t k; printf("%s l:", {name}); for (k = 0; k < ({value}).count; ++k) {{ '
+            f'if (k) printf(","); put_hex(({value}).items[k]); }} printf("\\n"); }}'
+        )
     elif f.t == "bool":
         put = f"put_b({name}, {value});"
     elif f.t in ("float", "double"):
@@ -162,8 +174,9 @@ def harness_source(device: Device, stem: str) -> str:
     reads = [f for f in fns if f.decode is not None]
     poison_all = "".join(f"        {_poison(f, 'v.' + f.ident)}\n" for f in reads)
     check_all = "".join(f"                {_still_poison(f, 'v.' + f.ident)}\n" for f in reads)
-    put_all = "".join(f"                {_put(f, 'v.' + f.ident, ('v.has_' + f.ident) if f.nullable else None)}\n"
-                      for f in reads)
+    put_all = "".join(
+        f"                {_put(f, 'v.' + f.ident, ('v.has_' + f.ident) if f.nullable else None)}\n" for f in reads
+    )
     read_cases = []
     for f in reads:
         decl = f"char x[{f.text_size}];" if f.is_text else f"{f.t} x;"
@@ -172,10 +185,14 @@ def harness_source(device: Device, stem: str) -> str:
             f"        if (strcmp(name, {cstring(f.fn.name)}) == 0) {{ {decl} {_poison(f, 'x')} "
             f"if ({stem}_read_{f.ident}(ctx, {arg}) == -1) {{ const int e = errno; {_still_poison(f, 'x')} "
             f"if (e == ENODATA) put_null({cstring(f.fn.name)}); else error_(e); }} "
-            f"else {{ {_put(f, 'x', None)} }} }}\n")
+            f"else {{ {_put(f, 'x', None)} }} }}\n"
+        )
     write_cases = "".join(
         f"        if (strcmp(name, {cstring(f.fn.name)}) == 0) {{ if ({stem}_write_{f.ident}(ctx, {_parse(f)}) == -1) "
-        f'error_(errno); else printf("ok\\n"); }}\n' for f in fns if f.encode is not None)
+        f'error_(errno); else printf("ok\\n"); }}\n'
+        for f in fns
+        if f.encode is not None
+    )
     return f"""#include "{stem}.h"
 
 #include <errno.h>
@@ -247,7 +264,10 @@ def build(device: Device, workdir: Path, source_name: str = "harness.xml") -> Pa
     if shutil.which("clang") or shutil.which("clang-14"):
         compile_driver(c_file, "clang")
     exe = workdir / "c_harness"
-    proc = subprocess.run([gcc, "-std=c99", "-O0", *cflags, "-o", str(exe), str(workdir / "c_harness.c"), str(obj),
-                           *libs, "-lm"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [gcc, "-std=c99", "-O0", *cflags, "-o", str(exe), str(workdir / "c_harness.c"), str(obj), *libs, "-lm"],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     return exe

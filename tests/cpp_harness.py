@@ -95,12 +95,14 @@ def compile_driver(cc: Path, compiler: str) -> Path:
     compiler_path = tool(compiler)
     cflags, _ = modbus_flags()
     header = cc.with_suffix(".h")
-    key = hashlib.sha256(b"\0".join([compiler.encode(), header.name.encode(), header.read_bytes(),
-                                      cc.read_bytes()])).hexdigest()
+    key = hashlib.sha256(
+        b"\0".join([compiler.encode(), header.name.encode(), header.read_bytes(), cc.read_bytes()])
+    ).hexdigest()
     if key not in _objects:
         obj = _cache_dir() / f"{key}.o"
-        proc = subprocess.run([compiler_path, *STRICT, "-O0", *cflags, "-c", str(cc), "-o", str(obj)],
-                              capture_output=True, text=True)
+        proc = subprocess.run(
+            [compiler_path, *STRICT, "-O0", *cflags, "-c", str(cc), "-o", str(obj)], capture_output=True, text=True
+        )
         assert proc.returncode == 0, f"{compiler} {cc.name}:\n{proc.stderr}"
         _objects[key] = obj
     return _objects[key]
@@ -111,8 +113,21 @@ def clang_tidy(cc: Path) -> subprocess.CompletedProcess[str]:
     tidy = tool("clang-tidy")
     cflags, _ = modbus_flags()
     header_filter = "^" + re.sub(r"([][.^$|(){}*+?\\])", r"\\\1", str(cc.parent.resolve())) + "/"
-    return subprocess.run([tidy, "--quiet", f"--config-file={TIDY_CONFIG}", f"--header-filter={header_filter}",
-                           str(cc), "--", "-std=c++17", *cflags], capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [
+            tidy,
+            "--quiet",
+            f"--config-file={TIDY_CONFIG}",
+            f"--header-filter={header_filter}",
+            str(cc),
+            "--",
+            "-std=c++17",
+            *cflags,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 _PRINT = r"""
@@ -170,9 +185,12 @@ static void error(int e) { std::printf("error %d %s\n", e, modbus_strerror(e)); 
 
 
 def _parse(t: str) -> str:
-    return {"std::string": "unhex(text)", "bool": "text == \"1\"", "double": "std::strtod(text.c_str(), nullptr)",
-            "float": "std::strtof(text.c_str(), nullptr)"}.get(
-        t, f"static_cast<{t}>(std::strto{'ull' if t.startswith('u') else 'll'}(text.c_str(), nullptr, 10))")
+    return {
+        "std::string": "unhex(text)",
+        "bool": 'text == "1"',
+        "double": "std::strtod(text.c_str(), nullptr)",
+        "float": "std::strtof(text.c_str(), nullptr)",
+    }.get(t, f"static_cast<{t}>(std::strto{'ull' if t.startswith('u') else 'll'}(text.c_str(), nullptr, 10))")
 
 
 def harness_source(device: Device, stem: str) -> str:
@@ -186,10 +204,15 @@ def harness_source(device: Device, stem: str) -> str:
     read_cases = "".join(
         f"        if (name == {cstring(f.fn.name)}) {{ {f.rt} x; poison(&x); if (dev.read_{f.ident}(&x) == -1) "
         f"{{ const int e = errno; still_poison({cstring(f.fn.name)}, x); error(e); }} "
-        f"else put({cstring(f.fn.name)}, x); }}\n" for f in reads)
+        f"else put({cstring(f.fn.name)}, x); }}\n"
+        for f in reads
+    )
     write_cases = "".join(
         f"        if (name == {cstring(f.fn.name)}) {{ if (dev.write_{f.ident}({_parse(f.t)}) == -1) "
-        f'error(errno); else std::printf("ok\\n"); }}\n' for f in fns if f.writable)
+        f'error(errno); else std::printf("ok\\n"); }}\n'
+        for f in fns
+        if f.writable
+    )
     return f"""#include "{stem}.h"
 
 #include <cerrno>
@@ -271,8 +294,9 @@ def build(device: Device, workdir: Path, sanitize: bool = False, source_name: st
         if shutil.which("clang++") or shutil.which("clang++-14"):
             compile_driver(cc, "clang++")  # without clang++, the tests that need it say so
         flags = ["-O0"]
-    proc = subprocess.run([gxx, *STRICT, *flags, *cflags, "-o", str(exe), *sources, *libs],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [gxx, *STRICT, *flags, *cflags, "-o", str(exe), *sources, *libs], capture_output=True, text=True
+    )
     assert proc.returncode == 0, proc.stderr
     return exe
 
@@ -286,13 +310,15 @@ class Harness:
     """A running harness on a TCP port (int) or `rtu(device)`, `with` it or `close()` it. Every `ask` is
     bounded: a harness that has not answered within `ask_timeout` seconds is killed and the ask fails."""
 
-    def __init__(self, exe: Path, where: int | str, timeout_ms: int | None = None, unit: int = 1,
-                 ask_timeout: float = 60):
+    def __init__(
+        self, exe: Path, where: int | str, timeout_ms: int | None = None, unit: int = 1, ask_timeout: float = 60
+    ):
         env = {**os.environ, "ASAN_OPTIONS": "detect_leaks=1", "UBSAN_OPTIONS": "print_stacktrace=1"}
         args = [str(exe), str(where), str(timeout_ms or 0), str(unit)]
         self.ask_timeout = ask_timeout
-        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, text=True, env=env)
+        self.proc = subprocess.Popen(
+            args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+        )
 
     def __enter__(self) -> Harness:
         return self
@@ -346,10 +372,13 @@ class Harness:
                 out[name] = None
                 continue
             kind, _, text = value.partition(":")
-            out[name] = {"i": int, "f": float, "b": lambda t: t == "1",
-                         "s": lambda t: bytes.fromhex(t).decode("utf-8", "replace"),
-                         "l": lambda t: [bytes.fromhex(x).decode("utf-8", "replace") for x in t.split(",")] if t else []
-                         }[kind](text)
+            out[name] = {
+                "i": int,
+                "f": float,
+                "b": lambda t: t == "1",
+                "s": lambda t: bytes.fromhex(t).decode("utf-8", "replace"),
+                "l": lambda t: [bytes.fromhex(x).decode("utf-8", "replace") for x in t.split(",")] if t else [],
+            }[kind](text)
         return out
 
     def close(self) -> str:

@@ -16,26 +16,54 @@ from refusing_proxy import refusing_proxy
 from mdl.sources.mdlxml import device_to_xml, load_device
 
 DEVICE = DATA / "flags_and_scale.xml"
-SETS = {"w_sf": "-1", "w": "123.4", "mode": "cool", "alarm": "1", "fan_speed": "50", "energy": "105",
-        "status_high": "45"}
+SETS = {
+    "w_sf": "-1",
+    "w": "123.4",
+    "mode": "cool",
+    "alarm": "1",
+    "fan_speed": "50",
+    "energy": "105",
+    "status_high": "45",
+}
 READ_AFTER_SETS = {
-    "alarm": True, "mode": "cool", "fan_speed": 50.0, "enabled": False, "status_high": 45, "low_flag": False,
-    "w_sf": -1, "w": 123.4, "wmax_lim_pct": 0.0, "wmax_lim_pct_sf": -2, "energy_scale": 10, "energy": 105.0,
+    "alarm": True,
+    "mode": "cool",
+    "fan_speed": 50.0,
+    "enabled": False,
+    "status_high": 45,
+    "low_flag": False,
+    "w_sf": -1,
+    "w": 123.4,
+    "wmax_lim_pct": 0.0,
+    "wmax_lim_pct_sf": -2,
+    "energy_scale": 10,
+    "energy": 105.0,
     "suns": 0x53756E53,
 }
 # written in this order, each through every writer; the raw registers then hold exactly these bits
-WRITES = {"mode": 3, "alarm": True, "fan_speed": 37.5, "enabled": True, "status_high": 33, "low_flag": True,
-          "wmax_lim_pct": 55.5}
+WRITES = {
+    "mode": 3,
+    "alarm": True,
+    "fan_speed": 37.5,
+    "enabled": True,
+    "status_high": 33,
+    "low_flag": True,
+    "wmax_lim_pct": 55.5,
+}
 
 
 def _xml(functions: str) -> str:
-    return (f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
-            f"  <name>Bad</name>\n  <description>test</description>\n{functions}</device>\n")
+    return (
+        f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
+        f"  <name>Bad</name>\n  <description>test</description>\n{functions}</device>\n"
+    )
 
 
 def _fn(name: str, address: int, body: str) -> str:
-    return (f"  <function>\n    <name>{name}</name>\n    <description>{name}</description>\n"
-            f"    <addresses>{address}</addresses>\n{body}  </function>\n")
+    return (
+        f"  <function>\n    <name>{name}</name>\n    <description>{name}</description>\n"
+        f"    <addresses>{address}</addresses>\n{body}  </function>\n"
+    )
 
 
 def _read(sim, *names: str) -> dict:
@@ -56,45 +84,83 @@ def _raw(sim, start: int, count: int) -> list[int]:
 # ---- schema, model, validate
 
 BAD = {
-    "bits outside the format": (_fn("a", 1, "    <format>UINT16</format>\n    <bits>3-16</bits>\n"),
-                                "bits 3-16 are outside the 16-bit value"),
-    "bits of an 8-bit format": (_fn("a", 1, "    <format>UINT8</format>\n    <bits>8</bits>\n"),
-                                "outside the 8-bit value"),
+    "bits outside the format": (
+        _fn("a", 1, "    <format>UINT16</format>\n    <bits>3-16</bits>\n"),
+        "bits 3-16 are outside the 16-bit value",
+    ),
+    "bits of an 8-bit format": (
+        _fn("a", 1, "    <format>UINT8</format>\n    <bits>8</bits>\n"),
+        "outside the 8-bit value",
+    ),
     "bits of a float": (_fn("a", 1, "    <format>FLOAT32</format>\n    <bits>1</bits>\n"), "format FLOAT32 has none"),
-    "bits of a string": (_fn("a", 1, "    <count>2</count>\n    <format>STRING</format>\n    <bits>1</bits>\n"),
-                         "format STRING has none"),
+    "bits of a string": (
+        _fn("a", 1, "    <count>2</count>\n    <format>STRING</format>\n    <bits>1</bits>\n"),
+        "format STRING has none",
+    ),
     "bits of a BIT": (_fn("a", 1, "    <format>BIT</format>\n    <bits>0</bits>\n"), "a BIT has none"),
-    "bits with a read fragment": (_fn("a", 1, "    <format>UINT16</format>\n    <read_function_code>arg = r1;"
-                                             "</read_function_code>\n    <bits>1</bits>\n"), "read_function_code"),
-    "one bit scaled": (_fn("a", 1, "    <format>UINT16</format>\n    <multiplier>2</multiplier>\n"
-                                   "    <bits>1</bits>\n"), "one bit is a boolean"),
-    "function 22 without bits": (_fn("a", 1, "    <format>UINT16</format>\n"
-                                             "    <write_function_code>22</write_function_code>\n"), "needs <bits>"),
-    "a missing factor": (_fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>nope</scale_exponent>\n"),
-                         "scale_exponent names no function 'nope'"),
-    "scaled by itself": (_fn("a", 1, "    <format>INT16</format>\n    <scale_by>a</scale_by>\n"),
-                         "names the function itself"),
-    "a float factor": (_fn("sf", 2, "    <format>INT16</format>\n    <multiplier>0.5</multiplier>\n")
-                       + _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n"),
-                       "'sf' is not an integer"),
-    "a scaled factor (a cycle)": (_fn("b", 2, "    <format>INT16</format>\n    <scale_by>a</scale_by>\n")
-                                  + _fn("a", 1, "    <format>INT16</format>\n    <scale_by>b</scale_by>\n"),
-                                  "is itself scaled by"),
-    "a write-only factor": (_fn("sf", 2, "    <format>INT16</format>\n    <access>write</access>\n")
-                            + _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n"),
-                            "cannot be read"),
-    "a scaled float": (_fn("sf", 2, "    <format>INT16</format>\n")
-                       + _fn("a", 1, "    <format>FLOAT32</format>\n    <scale_exponent>sf</scale_exponent>\n"),
-                       "format FLOAT32 cannot be scaled"),
-    "both scales": (_fn("sf", 2, "    <format>INT16</format>\n")
-                    + _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n"
-                                  "    <scale_by>sf</scale_by>\n"), "cannot both apply"),
-    "initial of the wrong size": (_fn("a", 1, "    <format>UINT32</format>\n    <initial>1</initial>\n"),
-                                  "initial gives 1 value(s) for 2 register(s)"),
-    "initial too large": (_fn("a", 1, "    <format>UINT16</format>\n    <initial>65536</initial>\n"),
-                          "initial value 65536 is outside 0..65535"),
-    "a role that is no name": (_fn("a", 1, "    <format>UINT16</format>\n    <role>power w</role>\n"),
-                               "Element"),  # the XSD's pattern
+    "bits with a read fragment": (
+        _fn(
+            "a",
+            1,
+            "    <format>UINT16</format>\n    <read_function_code>arg = r1;</read_function_code>\n    <bits>1</bits>\n",
+        ),
+        "read_function_code",
+    ),
+    "one bit scaled": (
+        _fn("a", 1, "    <format>UINT16</format>\n    <multiplier>2</multiplier>\n    <bits>1</bits>\n"),
+        "one bit is a boolean",
+    ),
+    "function 22 without bits": (
+        _fn("a", 1, "    <format>UINT16</format>\n    <write_function_code>22</write_function_code>\n"),
+        "needs <bits>",
+    ),
+    "a missing factor": (
+        _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>nope</scale_exponent>\n"),
+        "scale_exponent names no function 'nope'",
+    ),
+    "scaled by itself": (
+        _fn("a", 1, "    <format>INT16</format>\n    <scale_by>a</scale_by>\n"),
+        "names the function itself",
+    ),
+    "a float factor": (
+        _fn("sf", 2, "    <format>INT16</format>\n    <multiplier>0.5</multiplier>\n")
+        + _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n"),
+        "'sf' is not an integer",
+    ),
+    "a scaled factor (a cycle)": (
+        _fn("b", 2, "    <format>INT16</format>\n    <scale_by>a</scale_by>\n")
+        + _fn("a", 1, "    <format>INT16</format>\n    <scale_by>b</scale_by>\n"),
+        "is itself scaled by",
+    ),
+    "a write-only factor": (
+        _fn("sf", 2, "    <format>INT16</format>\n    <access>write</access>\n")
+        + _fn("a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n"),
+        "cannot be read",
+    ),
+    "a scaled float": (
+        _fn("sf", 2, "    <format>INT16</format>\n")
+        + _fn("a", 1, "    <format>FLOAT32</format>\n    <scale_exponent>sf</scale_exponent>\n"),
+        "format FLOAT32 cannot be scaled",
+    ),
+    "both scales": (
+        _fn("sf", 2, "    <format>INT16</format>\n")
+        + _fn(
+            "a", 1, "    <format>INT16</format>\n    <scale_exponent>sf</scale_exponent>\n    <scale_by>sf</scale_by>\n"
+        ),
+        "cannot both apply",
+    ),
+    "initial of the wrong size": (
+        _fn("a", 1, "    <format>UINT32</format>\n    <initial>1</initial>\n"),
+        "initial gives 1 value(s) for 2 register(s)",
+    ),
+    "initial too large": (
+        _fn("a", 1, "    <format>UINT16</format>\n    <initial>65536</initial>\n"),
+        "initial value 65536 is outside 0..65535",
+    ),
+    "a role that is no name": (
+        _fn("a", 1, "    <format>UINT16</format>\n    <role>power w</role>\n"),
+        "Element",
+    ),  # the XSD's pattern
     "bits that are no range": (_fn("a", 1, "    <format>UINT16</format>\n    <bits>1-2-3</bits>\n"), "Element"),
 }
 
@@ -202,8 +268,7 @@ def test_mdl_write_refuses_before_sending_what_does_not_fit(sim_factory):
         proc = cli("write", DEVICE, "--host", proxy.host, "--port", proxy.port, "w=5")
         assert_clean_error(proc, 1, "w=5", "scale factor has no value", "'w_sf' reads null")
         assert 6 not in proxy.codes[before:] and 16 not in proxy.codes[before:]  # only the factor was read
-        proc = cli("write", DEVICE, "--host", proxy.host, "--port", proxy.port, "wmax_lim_pct=100",
-                   "wmax_lim_pct_sf=3")
+        proc = cli("write", DEVICE, "--host", proxy.host, "--port", proxy.port, "wmax_lim_pct=100", "wmax_lim_pct_sf=3")
         assert proc.returncode == 0, proc.stderr  # each value checked with the factor it then has
     assert _read(sim, "mode", "w", "wmax_lim_pct") == {"mode": "heat", "w": None, "wmax_lim_pct": 10000 * 1000.0}
     assert _raw(sim, 202, 1) == [10000]

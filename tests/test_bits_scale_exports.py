@@ -25,8 +25,21 @@ FLAGS = DATA / "flags_and_scale.xml"
 BITS = {"alarm", "mode", "fan_speed", "enabled", "status_high", "low_flag"}
 SCALED = {"w", "wmax_lim_pct", "energy"}
 # every bit of register 100 in use, 101-102 a little-endian-word UINT32, SunSpec-style factors
-RAW = {"holding": {"100": 0b1000_1010_0010_0001, "101": 0x8000, "102": 0x0007, "103": 0x8000,
-                   "200": 0xFFFE, "201": 1234, "202": 4321, "203": 0xFFFF, "210": 10, "211": 0, "212": 77}}
+RAW = {
+    "holding": {
+        "100": 0b1000_1010_0010_0001,
+        "101": 0x8000,
+        "102": 0x0007,
+        "103": 0x8000,
+        "200": 0xFFFE,
+        "201": 1234,
+        "202": 4321,
+        "203": 0xFFFF,
+        "210": 10,
+        "211": 0,
+        "212": 77,
+    }
+}
 
 
 def start(sim_factory, tmp_path, path, raw: dict):
@@ -47,6 +60,7 @@ def with_bits(xml: str, bits: str) -> str:
 
 
 # --- VOLTTRON: scale_reg_pow_10 ------------------------------------------------------------------------------
+
 
 def test_volttron_reads_scale_exponent_through_scale_reg_pow_10(sim_factory, tmp_path):
     sim = start(sim_factory, tmp_path, FLAGS, RAW)
@@ -85,18 +99,24 @@ def test_volttron_limits_the_export_warns_of_are_real(sim_factory, tmp_path):
 
 # --- Home Assistant: binary_sensor on bit 0 of a register ----------------------------------------------------
 
+
 def test_home_assistant_binary_sensor_reads_bit_0_of_a_register(sim_factory, tmp_path, write_device):
-    path = write_device(with_bits(fn_xml("b0", "10", format="UINT16"), "0")
-                        + with_bits(fn_xml("lo32", "11 12", format="UINT32"), "0")  # bit 0: register 12
-                        + with_bits(fn_xml("swapped", "13", format="UINT16", byte_order="little"), "8")
-                        + with_bits(fn_xml("b3", "14", format="UINT16"), "3"))
+    path = write_device(
+        with_bits(fn_xml("b0", "10", format="UINT16"), "0")
+        + with_bits(fn_xml("lo32", "11 12", format="UINT32"), "0")  # bit 0: register 12
+        + with_bits(fn_xml("swapped", "13", format="UINT16", byte_order="little"), "8")
+        + with_bits(fn_xml("b3", "14", format="UINT16"), "3")
+    )
     for raw, state in (({"10": 0xFFFE, "12": 0xFFFE, "13": 0xFFFE}, False), ({"10": 1, "12": 1, "13": 1}, True)):
         sim = start(sim_factory, tmp_path, path, {"holding": {**raw, "11": 1, "14": 8}})
         proc = run_mdl("export", path, "--to", "homeassistant", *sim.connection)
         assert proc.returncode == 0, proc.stderr
         hub = yaml.safe_load(proc.stdout)[0]
         assert [(b["name"], b["address"], b["input_type"]) for b in hub["binary_sensors"]] == [
-            ("b0", 10, "holding"), ("lo32", 12, "holding"), ("swapped", 13, "holding")]
+            ("b0", 10, "holding"),
+            ("lo32", 12, "holding"),
+            ("swapped", 13, "holding"),
+        ]
         expected = mdl_read(path, sim)
         assert expected["b0"] is expected["lo32"] is expected["swapped"] is state and expected["b3"] is True
         shown = through_home_assistant(tmp_path, proc.stdout)["binary_sensors"]
@@ -117,15 +137,20 @@ def test_home_assistant_leaves_out_what_it_cannot_read():
 
 # --- Telegraf: BIT fields -------------------------------------------------------------------------------------
 
+
 def test_telegraf_bit_fields_read_mdl_values(sim_factory, tmp_path, write_device):
-    path = write_device(with_bits(fn_xml("b0", "10", format="UINT16"), "0")
-                        + with_bits(fn_xml("b15", "10", format="UINT16"), "15")
-                        + with_bits(fn_xml("hi", "11 12", format="UINT32", word_order="little"), "20")  # reg 12 bit 4
-                        + with_bits(fn_xml("sw", "13", format="UINT16", byte_order="little"), "3")  # wire bit 11
-                        + with_bits(fn_xml("sw_range", "13", format="UINT16", byte_order="little"), "0-3")
-                        + fn_xml("plain", "14", format="UINT16"))
-    for raw in ({"10": 0x8000, "11": 0xFFFF, "12": 0x0010, "13": 0x0800, "14": 7},
-                {"10": 0x7FFF, "11": 0x0000, "12": 0xFFEF, "13": 0xF7FF, "14": 9}):
+    path = write_device(
+        with_bits(fn_xml("b0", "10", format="UINT16"), "0")
+        + with_bits(fn_xml("b15", "10", format="UINT16"), "15")
+        + with_bits(fn_xml("hi", "11 12", format="UINT32", word_order="little"), "20")  # reg 12 bit 4
+        + with_bits(fn_xml("sw", "13", format="UINT16", byte_order="little"), "3")  # wire bit 11
+        + with_bits(fn_xml("sw_range", "13", format="UINT16", byte_order="little"), "0-3")
+        + fn_xml("plain", "14", format="UINT16")
+    )
+    for raw in (
+        {"10": 0x8000, "11": 0xFFFF, "12": 0x0010, "13": 0x0800, "14": 7},
+        {"10": 0x7FFF, "11": 0x0000, "12": 0xFFEF, "13": 0xF7FF, "14": 9},
+    ):
         sim = start(sim_factory, tmp_path, path, {"holding": raw})
         proc = run_mdl("export", path, "--to", "telegraf", *sim.connection)
         assert proc.returncode == 0, proc.stderr
@@ -145,13 +170,13 @@ def test_telegraf_bit_fields_read_mdl_values(sim_factory, tmp_path, write_device
 def test_telegraf_leaves_out_ranges_and_scaled_values():
     proc = cli("export", FLAGS, "--to", "telegraf", "--host", "192.0.2.10")
     assert proc.returncode == 0, proc.stderr
-    assert named(proc.stderr, "Telegraf", "no field type takes a range of them") == {"mode", "fan_speed",
-                                                                                       "status_high"}
+    assert named(proc.stderr, "Telegraf", "no field type takes a range of them") == {"mode", "fan_speed", "status_high"}
     assert named(proc.stderr, "Telegraf", "multiplies by another register") == SCALED
     assert_one_per_kind(proc.stderr)
 
 
 # --- XIF, WISE, SenML: what the formats carry, one warning per kind -------------------------------------------
+
 
 @pytest.mark.parametrize("to", ["xif", "wise"])
 def test_xif_and_wise_leave_bits_and_scale_out_in_one_warning_each(to):
@@ -220,16 +245,19 @@ def test_toolkit_bitsetbit_is_imported_as_bits(sim_factory, tmp_path):
 
 # --- random descriptions ------------------------------------------------------------------------------------
 
-_FUNCTION = st.fixed_dictionaries({
-    "format": st.sampled_from(["UINT16", "INT16", "UINT32", "INT32", "UINT8"]),
-    "bits": st.sampled_from(["0", "3", "7", "8", "15", "0-3", "4-7", "12-15", None]),
-}, optional={
-    "register_type": st.sampled_from(["holding", "input"]),
-    "byte_order": st.sampled_from(["big", "little"]),
-    "word_order": st.sampled_from(["big", "little"]),
-    "access": st.sampled_from(["read", "read_write"]),
-    "scaled": st.sampled_from(["scale_exponent", "scale_by"]),
-})
+_FUNCTION = st.fixed_dictionaries(
+    {
+        "format": st.sampled_from(["UINT16", "INT16", "UINT32", "INT32", "UINT8"]),
+        "bits": st.sampled_from(["0", "3", "7", "8", "15", "0-3", "4-7", "12-15", None]),
+    },
+    optional={
+        "register_type": st.sampled_from(["holding", "input"]),
+        "byte_order": st.sampled_from(["big", "little"]),
+        "word_order": st.sampled_from(["big", "little"]),
+        "access": st.sampled_from(["read", "read_write"]),
+        "scaled": st.sampled_from(["scale_exponent", "scale_by"]),
+    },
+)
 
 
 def _xml(specs: list[dict]) -> tuple[str, set[str]]:
@@ -249,8 +277,10 @@ def _xml(specs: list[dict]) -> tuple[str, set[str]]:
 
 
 @settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(_FUNCTION, min_size=1, max_size=4), st.sampled_from(["xif", "wise", "homeassistant", "telegraf",
-                                                                     "volttron"]))
+@given(
+    st.lists(_FUNCTION, min_size=1, max_size=4),
+    st.sampled_from(["xif", "wise", "homeassistant", "telegraf", "volttron"]),
+)
 def test_random_bits_and_scale_export_or_are_named(tmp_path, write_device, specs, to):
     """Every function with bits or a scale register is carried or named in a warning; one warning per kind."""
     functions, special = _xml(specs)

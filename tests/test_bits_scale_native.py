@@ -198,8 +198,13 @@ def _bits_writes_land(h: Harness, client, evaluator: Evaluator, f, raw) -> None:
     width = high - low + 1
     kind = f.codec.write_type.kind
     for raw_value in (0, 1, (1 << width) - 1, (1 << width) // 3):
-        value = bool(raw_value & 1) if width == 1 else raw_value if kind == "int" else \
-            raw_value * f.fn.eff_multiplier + f.fn.eff_offset
+        value = (
+            bool(raw_value & 1)
+            if width == 1
+            else raw_value
+            if kind == "int"
+            else raw_value * f.fn.eff_multiplier + f.fn.eff_offset
+        )
         _load(client, raw)
         current = _regs(client, f.layout.addresses)
         assert h.ask(f"write {f.name} {_text(value)}") == ["ok"], (f.name, value)
@@ -233,19 +238,23 @@ def _scaled_write(h: Harness, client, evaluator: Evaluator, f, factor, value: fl
 EDGES = {
     "write-only bits, one byte": [
         Function("low", "low byte bits", [1], format="UINT8", bits="1-3", access="write"),
-        Function("flag", "a flag written with 16", [2], format="UINT16", bits="9", write_multiple=True)],
+        Function("flag", "a flag written with 16", [2], format="UINT16", bits="9", write_multiple=True),
+    ],
     "only function 22": [Function("on", "on", [1], format="UINT16", bits="3", write_function_code="22")],
     "function 22 over two registers": [
-        Function("mid", "mid", [1, 2], format="UINT32", bits="12-19", write_function_code="22")],
+        Function("mid", "mid", [1, 2], format="UINT32", bits="12-19", write_function_code="22")
+    ],
     "scale_by only, wide factors": [
         Function("big", "a UINT64 factor", [10], format="UINT64"),
         Function("v", "scaled", [20], format="INT32", scale_by="big", offset=-1.5, access="write"),
         Function("field", "a factor of bits", [30], format="UINT16", bits="4-7"),
-        Function("u", "scaled by bits", [31], format="UINT16", multiplier=0.25, scale_by="field")],
+        Function("u", "scaled by bits", [31], format="UINT16", multiplier=0.25, scale_by="field"),
+    ],
     "an exponent with a multiplier": [
         Function("sf", "sf", [1], format="INT16", not_implemented=["0x8000"]),
         Function("a", "a", [2], format="INT16", multiplier=0.1, scale_exponent="sf"),
-        Function("b", "b", [3], format="UINT16", multiplier=3.0, scale_exponent="sf", access="read")],
+        Function("b", "b", [3], format="UINT16", multiplier=3.0, scale_exponent="sf", access="read"),
+    ],
 }
 
 

@@ -112,8 +112,7 @@ def test_all_tables_values_and_writes_both_ways(tmp_path, sim_factory):
         assert got["setpoint"] == 23.5 and got["label"] == "Kitchen" and got["big"] == -42
         assert h.values(f"write label {b'abcdefghi'.hex()}") == {"error": 22}  # 9 bytes do not fit 8
         # mdl write writes, C reads
-        proc = run_mdl("write", ALL, "--host", sim.host, "--port", sim.port, "setpoint=19.5", "label=Den",
-                       "big=-7")
+        proc = run_mdl("write", ALL, "--host", sim.host, "--port", sim.port, "setpoint=19.5", "label=Den", "big=-7")
         assert proc.returncode == 0, proc.stderr
         assert h.values("read setpoint") == {"setpoint": 19.5}
         assert h.values("read label") == {"label": "Den"}
@@ -122,20 +121,33 @@ def test_all_tables_values_and_writes_both_ways(tmp_path, sim_factory):
 
 
 def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_device, sim_factory):
-    described = load_device(write_device(
-        fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
-        + fn_xml("b", "12", format="UINT16") + fn_xml("c", "40", format="INT16"), name="Planned"))
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
-                          name="Planned", filename="actual.xml")
+    described = load_device(
+        write_device(
+            fn_xml("a", "10", format="UINT16")
+            + fn_xml("cmd", "11", format="UINT16", access="write")
+            + fn_xml("b", "12", format="UINT16")
+            + fn_xml("c", "40", format="INT16"),
+            name="Planned",
+        )
+    )
+    actual = write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"), name="Planned", filename="actual.xml"
+    )
     exe = build(described, tmp_path)
     sim = sim_factory(actual, "--set", "a=7", "--set", "b=9")
     with Harness(exe, sim.port) as h:
         assert h.values("read c") == {"error": MODBUS_ENOBASE + 2}  # EMBXILADD
         assert h.values("read a") == {"a": 7}
         assert h.values() == {"error": MODBUS_ENOBASE + 2}
-    device2 = load_device(write_device(fn_xml("a", "10", format="UINT16")
-                                       + fn_xml("cmd", "11", format="UINT16", access="write")
-                                       + fn_xml("b", "12", format="UINT16"), name="Planned", filename="p2.xml"))
+    device2 = load_device(
+        write_device(
+            fn_xml("a", "10", format="UINT16")
+            + fn_xml("cmd", "11", format="UINT16", access="write")
+            + fn_xml("b", "12", format="UINT16"),
+            name="Planned",
+            filename="p2.xml",
+        )
+    )
     (tmp_path / "p2").mkdir()
     with Harness(build(device2, tmp_path / "p2"), sim.port) as h:
         assert h.values() == {"a": 7, "b": 9}
@@ -150,16 +162,20 @@ def test_unreachable_device(tmp_path):
 
 # ---- differential: random registers, the C driver, the Python driver and mdl read ----
 
+
 @pytest.fixture(scope="module")
 def diff_setup(tmp_path_factory):
     with served_device(tmp_path_factory, DIFF_FUNCTIONS + BITS, "Diff Device", build) as served:
         yield served
 
 
-@settings(max_examples=25, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
-       bits=st.lists(st.booleans(), min_size=2, max_size=2))
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+)
+@given(
+    regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
+    bits=st.lists(st.booleans(), min_size=2, max_size=2),
+)
 def test_c_and_python_agree_on_random_registers(diff_setup, regs, bits):
     _, module, client, h, _ = diff_setup
     load_registers(client, regs, bits)
@@ -293,6 +309,7 @@ def test_fragment_writes_agree_with_python(fragment_setup):
 
 # ---- hostile text: names, descriptions and units stay inside comments and string literals ----
 
+
 def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device, sim_factory):
     """`*/`, `/*`, `??/` (C99 has trigraphs), quotes, a `#define` after a line break, a final backslash
     and non-ASCII, in the device's name and a function's description and units, and function names
@@ -305,10 +322,14 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device, 
     from cpp_harness import modbus_flags
 
     nasty = 'x */ int evil_symbol; /* \\ " ??/ &#10;#define evil_macro 1&#10;// next\\'
-    path = write_device(fn_xml("t", "1", format="UINT16", units=nasty).replace(
-        "<description>t</description>", f"<description>{nasty}</description>")
-        + fn_xml("splice ??/", "2", format="UINT16") + fn_xml("splice \\", "3", format="UINT16"),
-        name=f"Dev {nasty} &#176;")
+    path = write_device(
+        fn_xml("t", "1", format="UINT16", units=nasty).replace(
+            "<description>t</description>", f"<description>{nasty}</description>"
+        )
+        + fn_xml("splice ??/", "2", format="UINT16")
+        + fn_xml("splice \\", "3", format="UINT16"),
+        name=f"Dev {nasty} &#176;",
+    )
     exe = build(load_device(path), tmp_path)
     nm = subprocess.run(["nm", str(exe)], capture_output=True, text=True).stdout
     symbols = {line.split()[-1] for line in nm.splitlines() if line.strip()}
@@ -316,8 +337,10 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device, 
     header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
     driver = next(p for p in tmp_path.glob("*.c") if p.name != "c_harness.c").read_text(encoding="utf-8")
     stem = next(tmp_path.glob("*.h")).stem
-    assert (f'#define {stem.upper()}_DEVICE_NAME "Dev x */ int evil_symbol; /* \\\\ \\" \\?\\?/ \\012#define '
-            f'evil_macro 1\\012// next\\\\ \\302\\260"\n') in header
+    assert (
+        f'#define {stem.upper()}_DEVICE_NAME "Dev x */ int evil_symbol; /* \\\\ \\" \\?\\?/ \\012#define '
+        f'evil_macro 1\\012// next\\\\ \\302\\260"\n'
+    ) in header
     # in comments: UTF-8 as written, `*/`, `/*` and `??/` broken by a space, a final backslash made U+FF3C
     text = 'x * / int evil_symbol; / * \\ " ?? / #define evil_macro 1 // next'
     assert f" * Driver for Dev {text}\\ \u00b0: test\n" in header
@@ -330,8 +353,9 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device, 
     spliced = tmp_path / "spliced.c"
     spliced.write_text("/* splice */\n// splice ??/\nint evil_symbol;\n")
     cflags, _ = modbus_flags()
-    proc = subprocess.run([tool("gcc"), *STRICT, "-fsyntax-only", *cflags, str(spliced)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [tool("gcc"), *STRICT, "-fsyntax-only", *cflags, str(spliced)], capture_output=True, text=True
+    )
     assert proc.returncode != 0 and "trigraph" in proc.stderr, proc.stderr
     # served under a plain name: `mdl sim` prints the device's name, line breaks and all, in its banner
     served = tmp_path / "served.xml"
@@ -356,16 +380,35 @@ def _hostile_toolkit() -> str:
         return "; ".join(f"{i} -> '{label}'" for i, label in enumerate(labels))
 
     schema = {
-        "description": 'Hostile */ ??/ "q" \\ \u00b0', "schemaFeatureLevel": 2,
-        "blocks": [{"id": "Status", "description": "Block */ /* ??/", "fields": [
-            {"id": "Mode", "description": "Mode */ #define evil_macro 1 ??/", "unit": "x */ ??/",
-             "expression": f"enum(hr:0 ; {mapping(MODE_LABELS)})"},
-            {"id": "Alarms", "description": "Active alarms \\",
-             "expression": f"bitset(hr:1 ; {mapping(ALARM_LABELS)})"},
-        ]}],
-        "tests": [{"id": f"S{mode}", "description": f"mode {mode}",
-                   "input": [{"firstAddress": "hr:0", "rawValues": f"{mode:04X} {alarms:04X}"}]}
-                  for mode, alarms in ((0, 0b0001), (1, 0b0010), (2, 0b0100), (3, 0b1111))],
+        "description": 'Hostile */ ??/ "q" \\ \u00b0',
+        "schemaFeatureLevel": 2,
+        "blocks": [
+            {
+                "id": "Status",
+                "description": "Block */ /* ??/",
+                "fields": [
+                    {
+                        "id": "Mode",
+                        "description": "Mode */ #define evil_macro 1 ??/",
+                        "unit": "x */ ??/",
+                        "expression": f"enum(hr:0 ; {mapping(MODE_LABELS)})",
+                    },
+                    {
+                        "id": "Alarms",
+                        "description": "Active alarms \\",
+                        "expression": f"bitset(hr:1 ; {mapping(ALARM_LABELS)})",
+                    },
+                ],
+            }
+        ],
+        "tests": [
+            {
+                "id": f"S{mode}",
+                "description": f"mode {mode}",
+                "input": [{"firstAddress": "hr:0", "rawValues": f"{mode:04X} {alarms:04X}"}],
+            }
+            for mode, alarms in ((0, 0b0001), (1, 0b0010), (2, 0b0100), (3, 0b1111))
+        ],
     }
     return yaml.safe_dump(schema, allow_unicode=True, sort_keys=False)
 

@@ -38,10 +38,34 @@ from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"
-ALL_SETTINGS = ["--set", "setpoint=21.5", "--set", "mode=Cool", "--set", "label=Hall", "--set", "energy=1234.567",
-                "--set", "power=-12.5", "--set", "big=-5000000000", "--set", "temp_offset=-10",
-                "--set", "serial=305419896", "--set", "low_byte=-3", "--set", "high_byte=200", "--set", "pump=1",
-                "--set", "flow=12.3", "--set", "door_open=1"]
+ALL_SETTINGS = [
+    "--set",
+    "setpoint=21.5",
+    "--set",
+    "mode=Cool",
+    "--set",
+    "label=Hall",
+    "--set",
+    "energy=1234.567",
+    "--set",
+    "power=-12.5",
+    "--set",
+    "big=-5000000000",
+    "--set",
+    "temp_offset=-10",
+    "--set",
+    "serial=305419896",
+    "--set",
+    "low_byte=-3",
+    "--set",
+    "high_byte=200",
+    "--set",
+    "pump=1",
+    "--set",
+    "flow=12.3",
+    "--set",
+    "door_open=1",
+]
 
 
 def same(a, b) -> bool:
@@ -56,7 +80,7 @@ def same(a, b) -> bool:
 
 
 def assert_same_values(cpp: dict, py: dict):
-    assert set(cpp) == set(py), (set(cpp) ^ set(py))
+    assert set(cpp) == set(py), set(cpp) ^ set(py)
     for name in py:
         assert same(cpp[name], py[name]), (name, cpp[name], py[name])
 
@@ -77,8 +101,13 @@ def _python_values(path, sim, module_name):
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
     try:
-        cls = next(getattr(module, n) for n in module.__all__ if not n.startswith("Async") and n[0].isupper()
-                   and n not in ("DeviceError", "CommunicationError", "ModbusExceptionError", "ValueRangeError"))
+        cls = next(
+            getattr(module, n)
+            for n in module.__all__
+            if not n.startswith("Async")
+            and n[0].isupper()
+            and n not in ("DeviceError", "CommunicationError", "ModbusExceptionError", "ValueRangeError")
+        )
         return cls(client).read_all()
     finally:
         client.close()
@@ -103,8 +132,17 @@ def test_all_tables_compile_run_and_agree_with_python(all_tables_cpp, sim_factor
 
 def test_examples_compile_and_read(sim_factory, tmp_path):
     exe = build(load_device(EXAMPLE / "temco_tstat.xml"), tmp_path, source_name="temco_tstat.xml")
-    sim = sim_factory(EXAMPLE / "temco_tstat.xml", "--set", "room_temperature=21.5", "--set", "serial_number=80012345",
-                      "--set", "firmware_version=4.6", "--set", "occupancy=1")
+    sim = sim_factory(
+        EXAMPLE / "temco_tstat.xml",
+        "--set",
+        "room_temperature=21.5",
+        "--set",
+        "serial_number=80012345",
+        "--set",
+        "firmware_version=4.6",
+        "--set",
+        "occupancy=1",
+    )
     h = Harness(exe, sim.port)
     try:
         values = h.values()
@@ -114,8 +152,17 @@ def test_examples_compile_and_read(sim_factory, tmp_path):
         assert h.values("write occupied_setpoint 40") == {"error": 22}  # EINVAL: above the maximum
     finally:
         h.close()
-    proc = run_mdl("read", EXAMPLE / "temco_tstat.xml", "--host", sim.host, "--port", sim.port, "occupied_setpoint",
-                   "--format", "json")
+    proc = run_mdl(
+        "read",
+        EXAMPLE / "temco_tstat.xml",
+        "--host",
+        sim.host,
+        "--port",
+        sim.port,
+        "occupied_setpoint",
+        "--format",
+        "json",
+    )
     assert json.loads(proc.stdout) == {"occupied_setpoint": 23.5}
 
 
@@ -132,11 +179,18 @@ def test_sanitizers_find_nothing(sim_factory, tmp_path):
 
 
 def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_device, sim_factory):
-    described = load_device(write_device(
-        fn_xml("a", "10", format="UINT16") + fn_xml("cmd", "11", format="UINT16", access="write")
-        + fn_xml("b", "12", format="UINT16") + fn_xml("c", "40", format="INT16"), name="Planned"))
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"),
-                          name="Planned", filename="actual.xml")
+    described = load_device(
+        write_device(
+            fn_xml("a", "10", format="UINT16")
+            + fn_xml("cmd", "11", format="UINT16", access="write")
+            + fn_xml("b", "12", format="UINT16")
+            + fn_xml("c", "40", format="INT16"),
+            name="Planned",
+        )
+    )
+    actual = write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("b", "12", format="UINT16"), name="Planned", filename="actual.xml"
+    )
     exe = build(described, tmp_path)
     sim = sim_factory(actual, "--set", "a=7", "--set", "b=9")
     h = Harness(exe, sim.port)
@@ -146,9 +200,15 @@ def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_dev
         assert h.values() == {"error": MODBUS_ENOBASE + 2}  # c cannot be read at all
     finally:
         h.close()
-    device2 = load_device(write_device(fn_xml("a", "10", format="UINT16")
-                                       + fn_xml("cmd", "11", format="UINT16", access="write")
-                                       + fn_xml("b", "12", format="UINT16"), name="Planned", filename="p2.xml"))
+    device2 = load_device(
+        write_device(
+            fn_xml("a", "10", format="UINT16")
+            + fn_xml("cmd", "11", format="UINT16", access="write")
+            + fn_xml("b", "12", format="UINT16"),
+            name="Planned",
+            filename="p2.xml",
+        )
+    )
     (tmp_path / "p2").mkdir()
     exe2 = build(device2, tmp_path / "p2")
     h = Harness(exe2, sim.port)
@@ -162,12 +222,20 @@ def test_modbus_exception_sets_errno_and_read_all_falls_back(tmp_path, write_dev
 def test_functions_sharing_registers_share_their_smaller_request(tmp_path, write_device, sim_factory):
     """After exception 2 a group is read as one request per distinct run of registers, however many
     functions read it (the Toolkit's QuickTestDevice has five functions on one coil)."""
-    described = load_device(write_device(
-        fn_xml("a", "10", format="UINT16") + fn_xml("a_again", "10", format="UINT16")
-        + fn_xml("cmd", "11", format="UINT16", access="write") + fn_xml("b", "12 13", format="UINT32")
-        + fn_xml("b_low", "13", format="UINT16") + fn_xml("b_again", "12 13", format="INT32"), name="Shared"))
-    actual = write_device(fn_xml("a", "10", format="UINT16") + fn_xml("b", "12 13", format="UINT32"),
-                          name="Shared", filename="actual.xml")
+    described = load_device(
+        write_device(
+            fn_xml("a", "10", format="UINT16")
+            + fn_xml("a_again", "10", format="UINT16")
+            + fn_xml("cmd", "11", format="UINT16", access="write")
+            + fn_xml("b", "12 13", format="UINT32")
+            + fn_xml("b_low", "13", format="UINT16")
+            + fn_xml("b_again", "12 13", format="INT32"),
+            name="Shared",
+        )
+    )
+    actual = write_device(
+        fn_xml("a", "10", format="UINT16") + fn_xml("b", "12 13", format="UINT32"), name="Shared", filename="actual.xml"
+    )
     exe = build(described, tmp_path)
     splits = re.findall(r"^    \{(kHolding, \d+, \d+), \d+\},$", (tmp_path / "shared.cc").read_text(), re.M)
     assert splits == ["kHolding, 10, 1", "kHolding, 12, 2", "kHolding, 13, 1"]
@@ -215,8 +283,14 @@ def _diff_functions() -> tuple[str, int]:
         out.append(xml)
         from mdl.model import Function
 
-        fn = Function(name, name, [addr], length=fields.get("length"),
-                      count=int(fields["count"]) if "count" in fields else None, format=fields.get("format"))
+        fn = Function(
+            name,
+            name,
+            [addr],
+            length=fields.get("length"),
+            count=int(fields["count"]) if "count" in fields else None,
+            format=fields.get("format"),
+        )
         addr += len(layout(fn).addresses)
 
     for fmt in INTS:
@@ -244,8 +318,9 @@ def _diff_functions() -> tuple[str, int]:
 
 
 DIFF_FUNCTIONS, DIFF_REGISTERS = _diff_functions()
-BITS = (fn_xml("coil_a", "0", format="BIT", register_type="coil")
-        + fn_xml("coil_b", "1", format="BIT", register_type="coil"))
+BITS = fn_xml("coil_a", "0", format="BIT", register_type="coil") + fn_xml(
+    "coil_b", "1", format="BIT", register_type="coil"
+)
 
 
 @contextmanager
@@ -283,15 +358,18 @@ def diff_setup(tmp_path_factory):
 
 def load_registers(client, regs, bits):
     for start in range(0, len(regs), 120):
-        assert not client.write_registers(start, regs[start:start + 120], device_id=1).isError()
+        assert not client.write_registers(start, regs[start : start + 120], device_id=1).isError()
     for i, b in enumerate(bits):
         assert not client.write_coil(i, b, device_id=1).isError()
 
 
-@settings(max_examples=25, deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
-       bits=st.lists(st.booleans(), min_size=2, max_size=2))
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+)
+@given(
+    regs=st.lists(st.integers(0, 0xFFFF), min_size=DIFF_REGISTERS, max_size=DIFF_REGISTERS),
+    bits=st.lists(st.booleans(), min_size=2, max_size=2),
+)
 def test_cpp_python_agree_on_random_registers(diff_setup, regs, bits):
     _, module, client, h, _ = diff_setup
     load_registers(client, regs, bits)
@@ -349,11 +427,22 @@ def test_scaled_and_string_writes_round_trip(diff_setup):
 
 # ---- fragments: every one test_cfrag.py proves the Python translation on against gcc ----
 
-FRAGMENT_READS = "".join(fn_xml(f"rd{i}", str(4 * i), format="UINT16", count="4", read_function_code=_xml_text(code))
-                         for i, code in enumerate(CFRAG_READS))
+FRAGMENT_READS = "".join(
+    fn_xml(f"rd{i}", str(4 * i), format="UINT16", count="4", read_function_code=_xml_text(code))
+    for i, code in enumerate(CFRAG_READS)
+)
 FRAGMENT_WRITE_BASE = 4 * len(CFRAG_READS)
-FRAGMENT_WRITES = "".join(fn_xml(f"wr{i}", str(FRAGMENT_WRITE_BASE + 2 * i), format="UINT16", count="2", access="write",
-                                 write_function_code=_xml_text(code)) for i, (code, _) in enumerate(CFRAG_WRITES))
+FRAGMENT_WRITES = "".join(
+    fn_xml(
+        f"wr{i}",
+        str(FRAGMENT_WRITE_BASE + 2 * i),
+        format="UINT16",
+        count="2",
+        access="write",
+        write_function_code=_xml_text(code),
+    )
+    for i, (code, _) in enumerate(CFRAG_WRITES)
+)
 EDOM, ERANGE = 33, 34
 
 
@@ -367,8 +456,9 @@ def fragment_setup(tmp_path_factory):
 def _register_sets(n: int) -> list[list[int]]:
     rng = random.Random(3)
     edges = [[value] * n for value in (0, 1, 0x7FFF, 0x8000, 0xFFFF)]
-    return edges + [[rng.choice([0, 1, 2, 0x7FFF, 0x8000, 0xFFFF, rng.randrange(65536)]) for _ in range(n)]
-                    for _ in range(6)]
+    return edges + [
+        [rng.choice([0, 1, 2, 0x7FFF, 0x8000, 0xFFFF, rng.randrange(65536)]) for _ in range(n)] for _ in range(6)
+    ]
 
 
 def test_fragment_reads_agree_with_python(fragment_setup):
@@ -383,7 +473,7 @@ def test_fragment_reads_agree_with_python(fragment_setup):
                 python = {"error": (EDOM, ERANGE)}
             cpp = h.values(f"read rd{i}")
             if "error" in cpp:
-                assert cpp["error"] in python.get("error", ()), (code, regs[4 * i:4 * i + 4], cpp, python)
+                assert cpp["error"] in python.get("error", ()), (code, regs[4 * i : 4 * i + 4], cpp, python)
             else:
                 assert_same_values(cpp, python)
 
@@ -427,17 +517,36 @@ def test_example_program_builds_with_make_and_reads_the_simulator(tmp_path, sim_
     proc = subprocess.run(make, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "-m mdl gen" in proc.stdout
-    sim = sim_factory(EXAMPLE / "temco_tstat.xml", "--set", "room_temperature=21.5", "--set", "serial_number=80012345",
-                      "--set", "fan_speed=2")
-    run = subprocess.run([str(work / "build" / "tstat_reader"), "127.0.0.1", str(sim.port), "22.5"],
-                         capture_output=True, text=True, timeout=30)
+    sim = sim_factory(
+        EXAMPLE / "temco_tstat.xml",
+        "--set",
+        "room_temperature=21.5",
+        "--set",
+        "serial_number=80012345",
+        "--set",
+        "fan_speed=2",
+    )
+    run = subprocess.run(
+        [str(work / "build" / "tstat_reader"), "127.0.0.1", str(sim.port), "22.5"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert run.returncode == 0, run.stderr
-    assert run.stdout.splitlines() == ["room temperature: 21.5", "serial number: 80012345",
-                                       "occupied setpoint: 22.5", "fan speed: 2"]
+    assert run.stdout.splitlines() == [
+        "room temperature: 21.5",
+        "serial number: 80012345",
+        "occupied setpoint: 22.5",
+        "fan speed: 2",
+    ]
     again = subprocess.run(make, capture_output=True, text=True)
     assert "g++" not in again.stdout  # nothing to rebuild
-    bad = subprocess.run([str(work / "build" / "tstat_reader"), "127.0.0.1", str(sim.port), "45"],
-                         capture_output=True, text=True, timeout=30)
+    bad = subprocess.run(
+        [str(work / "build" / "tstat_reader"), "127.0.0.1", str(sim.port), "45"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert bad.returncode == 1 and "Invalid argument" in bad.stderr
 
 
@@ -445,15 +554,19 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device):
     import subprocess
 
     nasty = 'x */ int evil_symbol; /* \\ " ??/ &#10;// next\\'
-    path = write_device(fn_xml("t", "1", format="UINT16", units=nasty).replace(
-        "<description>t</description>", f"<description>{nasty}</description>")
-        + fn_xml("splice ??/", "2", format="UINT16") + fn_xml("splice \\", "3", format="UINT16"),
-        name=f"Dev {nasty} &#176;")
+    path = write_device(
+        fn_xml("t", "1", format="UINT16", units=nasty).replace(
+            "<description>t</description>", f"<description>{nasty}</description>"
+        )
+        + fn_xml("splice ??/", "2", format="UINT16")
+        + fn_xml("splice \\", "3", format="UINT16"),
+        name=f"Dev {nasty} &#176;",
+    )
     exe = build(load_device(path), tmp_path)
     nm = subprocess.run(["nm", "-C", str(exe)], capture_output=True, text=True).stdout
     assert "evil_symbol" not in nm
     header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
-    assert "kDeviceName = \"Dev x */ int evil_symbol; /* \\\\ \\\" \\?\\?/ \\012// next\\\\ \\302\\260\"" in header
+    assert 'kDeviceName = "Dev x */ int evil_symbol; /* \\\\ \\" \\?\\?/ \\012// next\\\\ \\302\\260"' in header
     # in comments: UTF-8 as written, `*/`, `/*` and `??/` broken by a space, a final backslash made U+FF3C
     text = 'x * / int evil_symbol; / * \\ " ?? / // next'
     assert f" * Driver for Dev {text}\\ \u00b0: test\n" in header
@@ -462,14 +575,18 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device):
     assert "\n// splice ?? /\n" in driver.read_text() and "\n// splice \uff3c\n" in driver.read_text()
     # where trigraphs count (before C++17, or with -trigraphs), `??/` ending a line would splice the next one
     gxx, cflags, _ = toolchain()
-    proc = subprocess.run([gxx, *STRICT, "-trigraphs", "-fsyntax-only", *cflags, str(driver)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [gxx, *STRICT, "-trigraphs", "-fsyntax-only", *cflags, str(driver)], capture_output=True, text=True
+    )
     assert proc.returncode == 0, proc.stderr
 
 
 def test_descriptions_reach_comments_as_utf8(tmp_path, write_device):
-    path = write_device(fn_xml("t", "1", format="INT16", multiplier="0.1", units="&#176;C").replace(
-        "<description>t</description>", "<description>Temperature in &#176;C, &#177;0.5 K</description>"))
+    path = write_device(
+        fn_xml("t", "1", format="INT16", multiplier="0.1", units="&#176;C").replace(
+            "<description>t</description>", "<description>Temperature in &#176;C, &#177;0.5 K</description>"
+        )
+    )
     build(load_device(path), tmp_path)
     header = next(tmp_path.glob("*.h")).read_text(encoding="utf-8")
     assert "    /** Read Temperature in \u00b0C, \u00b10.5 K [\u00b0C] */\n" in header
@@ -492,8 +609,7 @@ def _driver(device, source_name: str, directory: Path) -> Path:
 
 
 @pytest.mark.parametrize("compiler", COMPILERS)
-@pytest.mark.parametrize("source", GOLDEN_DRIVERS + TEST_DEVICES,
-                         ids=lambda p: f"{p.parent.name}/{p.name}")
+@pytest.mark.parametrize("source", GOLDEN_DRIVERS + TEST_DEVICES, ids=lambda p: f"{p.parent.name}/{p.name}")
 def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
     """The golden drivers and those of the test devices (build() compiles every other driver the tests
     generate the same way, with both compilers)."""
@@ -502,8 +618,9 @@ def test_drivers_compile_without_a_warning(compiler, source, tmp_path):
 
 
 @pytest.mark.exhaustive  # clang-tidy takes seconds a driver: CI runs it, a quick local run need not
-@pytest.mark.parametrize("driver", ["all_tables", "temco_tstat", "formats", "fragments", "expressions",
-                                    "flags_and_scale"])
+@pytest.mark.parametrize(
+    "driver", ["all_tables", "temco_tstat", "formats", "fragments", "expressions", "flags_and_scale"]
+)
 def test_clang_tidy_finds_nothing(driver, tmp_path):
     if driver == "flags_and_scale":  # bits, function 22, scale_exponent and scale_by (issue 21)
         source = DATA / "flags_and_scale.xml"
@@ -531,13 +648,16 @@ def test_the_clang_tidy_checks_are_the_documented_ones():
     assert all(f"`{c}`" in doc for c in checks), [c for c in checks if f"`{c}`" not in doc]
 
 
-@pytest.mark.parametrize("statement, compiles", [
-    ("static_cast<void>(dev.read_all(&values));", True),
-    ("if (dev.read_all(&values) == -1) { return 1; }", True),
-    ("dev.read_all(&values);", False),
-    ("dev.read_serial(&serial);", False),
-    ("dev.write_mode(2);", False),
-])
+@pytest.mark.parametrize(
+    "statement, compiles",
+    [
+        ("static_cast<void>(dev.read_all(&values));", True),
+        ("if (dev.read_all(&values) == -1) { return 1; }", True),
+        ("dev.read_all(&values);", False),
+        ("dev.read_serial(&serial);", False),
+        ("dev.write_mode(2);", False),
+    ],
+)
 def test_an_ignored_status_does_not_compile(statement, compiles, tmp_path):
     import subprocess
 
@@ -553,8 +673,11 @@ int main() {{
     return static_cast<int>(serial) + (values.pump ? 1 : 0);
 }}
 """)
-    proc = subprocess.run([gxx, *STRICT, "-fsyntax-only", *cflags, f"-I{GOLDEN_DRIVERS[0].parent}", str(program)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [gxx, *STRICT, "-fsyntax-only", *cflags, f"-I{GOLDEN_DRIVERS[0].parent}", str(program)],
+        capture_output=True,
+        text=True,
+    )
     assert (proc.returncode == 0) == compiles, proc.stderr
     assert compiles or "nodiscard" in proc.stderr
 
@@ -600,9 +723,22 @@ def test_read_all_allocates_nothing(tmp_path, sim_factory):
     gxx, cflags, libs = toolchain()
     (tmp_path / "count.cc").write_text(COUNT_ALLOCATIONS)
     exe = tmp_path / "count"
-    proc = subprocess.run([gxx, "-std=c++17", "-O0", *cflags, f"-I{GOLDEN_DRIVERS[0].parent}", "-o", str(exe),
-                           str(tmp_path / "count.cc"), str(compile_driver(GOLDEN_DRIVERS[0], "g++")), *libs],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            gxx,
+            "-std=c++17",
+            "-O0",
+            *cflags,
+            f"-I{GOLDEN_DRIVERS[0].parent}",
+            "-o",
+            str(exe),
+            str(tmp_path / "count.cc"),
+            str(compile_driver(GOLDEN_DRIVERS[0], "g++")),
+            *libs,
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     sim = sim_factory(ALL, *ALL_SETTINGS)
     run = subprocess.run([str(exe), str(sim.port)], capture_output=True, text=True, timeout=30)

@@ -200,7 +200,8 @@ def test_the_rules_on_known_lines():
             "Writes <stem>.h/.cc; read/write and 0.9b/1.0; see [the guide](docs/user-guide.md), "
             "[gone](docs/gone.md), https://example.com/a/b.py, `formats/<name>/read.py`.",  # 7
             "mdl.targets.render, mdl.values.ir.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
-            "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, `.ssh/`",  # 9
+            "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, "
+            "`.ssh/`",  # 9
         ]
     )
     assert missing(ROOT / "README.md", text) == [

@@ -52,7 +52,8 @@ def test_exports_match_the_golden_files(name):
     assert on_disk == sorted(got), "regenerate: python3 tests/test_export_golden.py --regen"
     for relative, text in got.items():
         assert (folder / relative).read_text(encoding="utf-8") == text, (
-            f"{name}/{relative} changed; if intended: python3 tests/test_export_golden.py --regen")
+            f"{name}/{relative} changed; if intended: python3 tests/test_export_golden.py --regen"
+        )
 
 
 def expected_files() -> dict[Path, str]:

@@ -46,7 +46,9 @@ def class_errors(hubs):
     return errors
 """
 
-SCHEMA = CLASS_CHECK + r"""
+SCHEMA = (
+    CLASS_CHECK
+    + r"""
 import json, logging, sys
 from homeassistant.util.yaml import load_yaml
 from homeassistant.components.modbus import CONFIG_SCHEMA
@@ -66,6 +68,7 @@ kept = [[len(hub.get(kind, [])) for kind in KINDS] for hub in valid["modbus"]]
 print(json.dumps({"given": given, "kept": kept, "logged": logged, "valid": valid,
                   "class_errors": class_errors(valid["modbus"])}, default=str))
 """
+)
 
 # Home Assistant's own entities on the exported hub: the schema fills the defaults, a ModbusHub connects,
 # each switch is turned as asked (then updated: verify reads it back), each sensor and binary sensor
@@ -108,12 +111,44 @@ ALL_TABLES_RAW = {
     "coil": {"0": 1, "1": 0, "5": 1},
     "discrete": {"0": 0, "1": 1},
     "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
-    "holding": {"50": 65535, "52": 7, "100": 0xFF38, "101": 2, "102": 0x4142, "103": 0x4320, "104": 0, "105": 0,
-                "200": 0xFFFF, "201": 0xFFFE, "202": 0x1234, "203": 0x5678, "300": 101, "400": 0x1122,
-                "401": 0x3344, "402": 0x7F85, "403": 0xC812},
+    "holding": {
+        "50": 65535,
+        "52": 7,
+        "100": 0xFF38,
+        "101": 2,
+        "102": 0x4142,
+        "103": 0x4320,
+        "104": 0,
+        "105": 0,
+        "200": 0xFFFF,
+        "201": 0xFFFE,
+        "202": 0x1234,
+        "203": 0x5678,
+        "300": 101,
+        "400": 0x1122,
+        "401": 0x3344,
+        "402": 0x7F85,
+        "403": 0xC812,
+    },
 }
-TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "137": 0x0103, "128": 2,
-                         "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
+TEMCO_RAW = {
+    "holding": {
+        "6": 0xAB07,
+        "7": 0x0112,
+        "121": 0xFF06,
+        "140": 455,
+        "137": 0x0103,
+        "128": 2,
+        "255": 1,
+        "256": 0,
+        "257": 1,
+        "258": 0,
+        "259": 1,
+        "345": 215,
+        "346": 180,
+        "348": 205,
+    }
+}
 
 
 def export(path, *extra) -> subprocess.CompletedProcess:
@@ -138,8 +173,12 @@ def through_home_assistant(tmp_path, text: str, turns: dict | None = None) -> di
     path = configuration(tmp_path / "entities", text)
     config_dir = tmp_path / "ha_config"
     config_dir.mkdir(exist_ok=True)
-    proc = subprocess.run([str(python), "-c", ENTITIES, str(path), json.dumps(turns or {}), str(config_dir)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [str(python), "-c", ENTITIES, str(path), json.dumps(turns or {}), str(config_dir)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return json.loads(proc.stdout.strip().splitlines()[-1])
 
@@ -151,9 +190,14 @@ def validate(tmp_path, text: str) -> subprocess.CompletedProcess:
 
 
 @pytest.mark.parametrize("path", [ALL_TABLES, TEMCO])
-@pytest.mark.parametrize("connection", [("--host", "192.0.2.10", "--port", "1502"),
-                                        ("--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E"),
-                                        ("--host", "192.0.2.10", "--framer", "rtu")])
+@pytest.mark.parametrize(
+    "connection",
+    [
+        ("--host", "192.0.2.10", "--port", "1502"),
+        ("--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E"),
+        ("--host", "192.0.2.10", "--framer", "rtu"),
+    ],
+)
 def test_home_assistant_schema_accepts_the_export(tmp_path, path, connection):
     text = export(path, *connection, "--unit", "3", "--interval", "30").stdout
     proc = validate(tmp_path, text)
@@ -177,7 +221,9 @@ def test_home_assistant_schema_refuses_a_broken_export(tmp_path):
     assert proc.returncode != 0 and "illegal" in proc.stderr, proc.stderr[-2000:]
 
 
-SCHEMA_MANY = CLASS_CHECK + r"""
+SCHEMA_MANY = (
+    CLASS_CHECK
+    + r"""
 import json, logging, sys
 from homeassistant.util.yaml import load_yaml
 from homeassistant.components.modbus import CONFIG_SCHEMA
@@ -198,6 +244,7 @@ for path in sys.argv[1:]:
     print(json.dumps({"path": path, "given": given, "kept": kept, "logged": list(logged),
                       "class_errors": class_errors(valid["modbus"])}))
 """
+)
 
 
 def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
@@ -211,10 +258,17 @@ def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
     from mdl.sources.loading import load_resolved
 
     rng = random.Random(13)
-    kinds = [{"format": "UINT16"}, {"format": "INT32"}, {"format": "BIT"}, {"format": "BIT", "register_type": "coil"},
-             {"format": "BIT", "register_type": "discrete"}, {"format": "BIT", "register_type": "input"},
-             {"format": "UINT8", "length": "Lower byte"}, {"format": "UINT8", "length": "Upper byte"},
-             {"format": "INT16", "register_type": "input"}]
+    kinds = [
+        {"format": "UINT16"},
+        {"format": "INT32"},
+        {"format": "BIT"},
+        {"format": "BIT", "register_type": "coil"},
+        {"format": "BIT", "register_type": "discrete"},
+        {"format": "BIT", "register_type": "input"},
+        {"format": "UINT8", "length": "Lower byte"},
+        {"format": "UINT8", "length": "Upper byte"},
+        {"format": "INT16", "register_type": "input"},
+    ]
     paths = []
     for case in range(30):
         functions = ""
@@ -271,11 +325,28 @@ def test_every_unit_spelling_is_one_home_assistant_accepts(tmp_path):
     state_class it takes, Volts as V, kWh a counter (total_increasing)."""
     from mdl.engines import ha_units
 
-    spellings = sorted({*ha_units.CLASSES, *ha_units._SYMBOLS, *ha_units._WORDS, *ha_units._GUESSED,
-                        *ha_units._HUMIDITY, "Volts", "Amps", "Kilowatt Hours"})
+    spellings = sorted(
+        {
+            *ha_units.CLASSES,
+            *ha_units._SYMBOLS,
+            *ha_units._WORDS,
+            *ha_units._GUESSED,
+            *ha_units._HUMIDITY,
+            "Volts",
+            "Amps",
+            "Kilowatt Hours",
+        }
+    )
     path = tmp_path / "units.xml"
-    path.write_text(device_xml("".join(fn_xml(f"f{i}", i, format="UINT16", access="read", units=_xml_text(unit))
-                                       for i, unit in enumerate(spellings))), encoding="ascii")
+    path.write_text(
+        device_xml(
+            "".join(
+                fn_xml(f"f{i}", i, format="UINT16", access="read", units=_xml_text(unit))
+                for i, unit in enumerate(spellings)
+            )
+        ),
+        encoding="ascii",
+    )
     proc = export(path, "--host", "192.0.2.10")
     result = json.loads(validate(tmp_path, proc.stdout).stdout.strip().splitlines()[-1])
     assert result["class_errors"] == [] and result["logged"] == [], result
@@ -296,10 +367,28 @@ def test_home_assistant_version_is_the_pinned_one():
 
 # --- the YAML's own meaning, as Home Assistant reads it -------------------------------------------------
 
-_COUNT = {"int16": 1, "uint16": 1, "float16": 1, "int32": 2, "uint32": 2, "float32": 2, "int64": 4, "uint64": 4,
-          "float64": 4}
-_STRUCT = {"int16": "h", "uint16": "H", "float16": "e", "int32": "i", "uint32": "I", "float32": "f", "int64": "q",
-           "uint64": "Q", "float64": "d"}
+_COUNT = {
+    "int16": 1,
+    "uint16": 1,
+    "float16": 1,
+    "int32": 2,
+    "uint32": 2,
+    "float32": 2,
+    "int64": 4,
+    "uint64": 4,
+    "float64": 4,
+}
+_STRUCT = {
+    "int16": "h",
+    "uint16": "H",
+    "float16": "e",
+    "int32": "i",
+    "uint32": "I",
+    "float32": "f",
+    "int64": "q",
+    "uint64": "Q",
+    "float64": "d",
+}
 
 
 def ha_sensor_state(client: ModbusTcpClient, sensor: dict) -> str | None:
@@ -414,8 +503,11 @@ def test_home_assistant_own_entities_show_mdl_read_values(sim_factory, tmp_path,
     assert checked == entities
 
 
-BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
-          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+BITREG = (
+    fn_xml("flag", "10", format="BIT")
+    + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+    + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little")
+)
 
 
 def test_a_bit_in_a_register_shows_mdl_read_value(sim_factory, tmp_path, write_device):
@@ -445,8 +537,10 @@ def test_a_bit_in_a_register_shows_mdl_read_value(sim_factory, tmp_path, write_d
     finally:
         client.close()
     # the control: Home Assistant's own binary_sensor on the same registers says off
-    bit0 = [{"name": "flag", "address": 10, "input_type": "holding", "device_address": 1},
-            {"name": "ro_flag", "address": 11, "input_type": "input", "device_address": 1}]
+    bit0 = [
+        {"name": "flag", "address": 10, "input_type": "holding", "device_address": 1},
+        {"name": "ro_flag", "address": 11, "input_type": "input", "device_address": 1},
+    ]
     control = [{**{k: v for k, v in hub.items() if k not in ("sensors", "switches")}, "binary_sensors": bit0}]
     shown = through_home_assistant(tmp_path, yaml.safe_dump(control))["binary_sensors"]
     assert shown == {"flag": False, "ro_flag": False}
@@ -463,8 +557,9 @@ def test_switches_write_with_mdl_function_codes(sim_factory, tmp_path, write_dev
     coil, holding (6) or holdings (16) for a bit in a register, as the function's write_multiple says;
     behind a proxy that refuses the other pair, through Home Assistant's own switch."""
     extra = {"write_multiple": "true"} if multiple else {}
-    path = write_device(fn_xml("relay", "3", format="BIT", register_type="coil", **extra)
-                        + fn_xml("flag", "10", format="BIT", **extra))
+    path = write_device(
+        fn_xml("relay", "3", format="BIT", register_type="coil", **extra) + fn_xml("flag", "10", format="BIT", **extra)
+    )
     sim = sim_factory(path)
     refused = {5, 6} if multiple else {15, 16}
     with refusing_proxy(sim.host, sim.port, refused=refused) as proxy:
@@ -535,10 +630,11 @@ def test_not_implemented_reads_as_none(sim_factory, tmp_path):
 
 
 def test_nan_value_is_what_home_assistant_unpacks(write_device):
-    path = write_device(fn_xml("t", "0", format="INT16", not_implemented="0x8000 0x7FFF", access="read")
-                        + fn_xml("u", "1", format="INT16", not_implemented="0xFFFF", access="read")
-                        + fn_xml("w", "2", format="UINT32", word_order="little", not_implemented="0x0000FFFF",
-                                 access="read"))
+    path = write_device(
+        fn_xml("t", "0", format="INT16", not_implemented="0x8000 0x7FFF", access="read")
+        + fn_xml("u", "1", format="INT16", not_implemented="0xFFFF", access="read")
+        + fn_xml("w", "2", format="UINT32", word_order="little", not_implemented="0x0000FFFF", access="read")
+    )
     proc = export(path)
     sensors = {s["name"]: s for s in yaml.safe_load(proc.stdout)[0]["sensors"]}
     assert sensors["t"]["nan_value"] == -32768  # int16 0x8000, as struct unpacks it
@@ -552,17 +648,25 @@ def test_nan_value_is_what_home_assistant_unpacks(write_device):
 
 def test_home_assistant_warnings_and_refusal(tmp_path, write_device):
     proc = export(ALL_TABLES, "--interval", "2.5")
-    for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("mode", "enumeration"),
-                           ("label", "NUL padding"), ("setpoint", "modbus.write_register"), ("power", "2 decimal"),
-                           ("alarm_reset", "write-only")]:
+    for name, fragment in [
+        ("status_bit", "read fragment"),
+        ("flow", "read fragment"),
+        ("mode", "enumeration"),
+        ("label", "NUL padding"),
+        ("setpoint", "modbus.write_register"),
+        ("power", "2 decimal"),
+        ("alarm_reset", "write-only"),
+    ]:
         assert name in named(proc.stderr, "Home Assistant", fragment), (name, proc.stderr)
     assert "--interval 2.5 becomes 3" in proc.stderr
     assert "scan_interval 3 is under 5 seconds" in proc.stderr
     assert "note: Home Assistant: no connection given" in proc.stderr
-    only_fragments = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
-                                         access="read"))
-    assert_clean_error(run_mdl("export", only_fragments, "--to", "homeassistant"), 1,
-                       "Home Assistant can hold none of this description's functions")
+    only_fragments = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;", access="read"))
+    assert_clean_error(
+        run_mdl("export", only_fragments, "--to", "homeassistant"),
+        1,
+        "Home Assistant can hold none of this description's functions",
+    )
 
 
 def test_home_assistant_export_is_deterministic():

@@ -29,17 +29,75 @@ ALL_TABLES_RAW = {
     "coil": {"0": 1, "1": 0, "5": 1},
     "discrete": {"0": 0, "1": 1},
     "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
-    "holding": {"50": 65535, "52": 7, "100": 0xFF38, "101": 2, "102": 0x4142, "103": 0x4320, "104": 0, "105": 0,
-                "200": 0xFFFF, "201": 0xFFFE, "202": 0x1234, "203": 0x5678, "300": 101, "400": 0x1122,
-                "401": 0x3344, "402": 0x7F85, "403": 0xC812},
+    "holding": {
+        "50": 65535,
+        "52": 7,
+        "100": 0xFF38,
+        "101": 2,
+        "102": 0x4142,
+        "103": 0x4320,
+        "104": 0,
+        "105": 0,
+        "200": 0xFFFF,
+        "201": 0xFFFE,
+        "202": 0x1234,
+        "203": 0x5678,
+        "300": 101,
+        "400": 0x1122,
+        "401": 0x3344,
+        "402": 0x7F85,
+        "403": 0xC812,
+    },
 }
-TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "137": 0x0103, "128": 2,
-                         "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
+TEMCO_RAW = {
+    "holding": {
+        "6": 0xAB07,
+        "7": 0x0112,
+        "121": 0xFF06,
+        "140": 455,
+        "137": 0x0103,
+        "128": 2,
+        "255": 1,
+        "256": 0,
+        "257": 1,
+        "258": 0,
+        "259": 1,
+        "345": 215,
+        "346": 180,
+        "348": 205,
+    }
+}
 
-TYPES = {"INT8L", "INT8H", "UINT8L", "UINT8H", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64",
-         "FLOAT32", "FLOAT64", "STRING", "BIT"}
-LENGTH = {"INT8L": 1, "INT8H": 1, "UINT8L": 1, "UINT8H": 1, "INT16": 1, "UINT16": 1, "INT32": 2, "UINT32": 2,
-          "FLOAT32": 2, "INT64": 4, "UINT64": 4, "FLOAT64": 4}
+TYPES = {
+    "INT8L",
+    "INT8H",
+    "UINT8L",
+    "UINT8H",
+    "INT16",
+    "UINT16",
+    "INT32",
+    "UINT32",
+    "INT64",
+    "UINT64",
+    "FLOAT32",
+    "FLOAT64",
+    "STRING",
+    "BIT",
+}
+LENGTH = {
+    "INT8L": 1,
+    "INT8H": 1,
+    "UINT8L": 1,
+    "UINT8H": 1,
+    "INT16": 1,
+    "UINT16": 1,
+    "INT32": 2,
+    "UINT32": 2,
+    "FLOAT32": 2,
+    "INT64": 4,
+    "UINT64": 4,
+    "FLOAT64": 4,
+}
 
 
 def export(path, *extra):
@@ -49,6 +107,7 @@ def export(path, *extra):
 
 
 # --- the sections' documented meaning -------------------------------------------------------------------
+
 
 def to_host16(register: int, order: str) -> int:
     """A register as Telegraf's 16-bit converters see it: ABCD/CDAB as sent, DCBA/BADC bytes swapped."""
@@ -63,8 +122,8 @@ def raw_bytes(registers: list[int], order: str) -> bytes:
     if order == "DCBA":
         return wire[::-1]
     if order == "BADC":  # most significant word first, each word's bytes swapped
-        return b"".join(wire[i:i + 2][::-1] for i in range(0, len(wire), 2))
-    return b"".join(wire[i:i + 2] for i in reversed(range(0, len(wire), 2)))  # CDAB: least significant word first
+        return b"".join(wire[i : i + 2][::-1] for i in range(0, len(wire), 2))
+    return b"".join(wire[i : i + 2] for i in reversed(range(0, len(wire), 2)))  # CDAB: least significant word first
 
 
 def decode(field: dict, registers: list[int], order: str):
@@ -72,7 +131,8 @@ def decode(field: dict, registers: list[int], order: str):
     if kind.startswith(("INT8", "UINT8")):
         data = registers[0].to_bytes(2, "big")
         index = {("ABCD", True): 1, ("ABCD", False): 0, ("DCBA", True): 0, ("DCBA", False): 1}[
-            (order, kind.endswith("L"))]
+            (order, kind.endswith("L"))
+        ]
         value = data[index]
         return value - 256 if kind.startswith("INT") and value > 127 else value
     if kind == "BIT":  # type_conversions_bit.go: the register converted as a 16-bit one, then v >> bit & 1
@@ -125,8 +185,12 @@ def telegraf_gather(config: dict, host: str, port: int) -> tuple[dict, list[tupl
                 assert field["address"] <= reach, (field, reach)
                 reach = max(reach, field["address"] + n)
             count = reach - start
-            method = {"coil": client.read_coils, "discrete": client.read_discrete_inputs,
-                      "holding": client.read_holding_registers, "input": client.read_input_registers}[table]
+            method = {
+                "coil": client.read_coils,
+                "discrete": client.read_discrete_inputs,
+                "holding": client.read_holding_registers,
+                "input": client.read_input_registers,
+            }[table]
             reply = method(start, count=count, device_id=request["slave_id"])
             assert not reply.isError(), (table, start, count, reply)
             sent.append((table, start, count))
@@ -138,7 +202,7 @@ def telegraf_gather(config: dict, host: str, port: int) -> tuple[dict, list[tupl
                 if bits:
                     values[field["name"]] = bool(data[at])
                     continue
-                value = decode(field, data[at:at + n], request["byte_order"])
+                value = decode(field, data[at : at + n], request["byte_order"])
                 if field.get("scale"):
                     value = float(value) * field["scale"]
                 values[field["name"]] = value
@@ -223,15 +287,20 @@ def test_one_section_per_plan_request(tmp_path):
     config = tomllib.loads(export(TEMCO, "--host", "h").stdout)
     sections = config["inputs"]["modbus"][0]["request"]
     resolved = load_resolved(TEMCO)
-    readable = [g for g in resolved.plan if any(n not in ("serial_number", "firmware_version", "occupancy")
-                                                for n in g.request.functions)]
+    readable = [
+        g
+        for g in resolved.plan
+        if any(n not in ("serial_number", "firmware_version", "occupancy") for n in g.request.functions)
+    ]
     assert len(sections) == len(readable)
 
 
 def test_omit_fillers_keep_a_request_whole(sim_factory, tmp_path, write_device):
-    path = write_device(fn_xml("a", "0", format="UINT16") + fn_xml("frag", "1", format="UINT16",
-                                                                   read_function_code="arg = r1 * 2;", access="read")
-                        + fn_xml("b", "2", format="INT32", word_order="little"))
+    path = write_device(
+        fn_xml("a", "0", format="UINT16")
+        + fn_xml("frag", "1", format="UINT16", read_function_code="arg = r1 * 2;", access="read")
+        + fn_xml("b", "2", format="INT32", word_order="little")
+    )
     config = tomllib.loads(export(path, "--host", "h").stdout)
     (section,) = config["inputs"]["modbus"][0]["request"]
     assert section["byte_order"] == "CDAB"
@@ -244,22 +313,46 @@ def test_omit_fillers_keep_a_request_whole(sim_factory, tmp_path, write_device):
 
 
 def test_a_request_of_mixed_byte_orders_becomes_sections(write_device):
-    path = write_device(fn_xml("a", "0", format="INT32") + fn_xml("b", "2", format="INT32", byte_order="little")
-                        + fn_xml("c", "4", format="UINT16"))
+    path = write_device(
+        fn_xml("a", "0", format="INT32")
+        + fn_xml("b", "2", format="INT32", byte_order="little")
+        + fn_xml("c", "4", format="UINT16")
+    )
     sections = tomllib.loads(export(path, "--host", "h").stdout)["inputs"]["modbus"][0]["request"]
     assert [(s["byte_order"], [f["name"] for f in s["fields"]]) for s in sections] == [
-        ("ABCD", ["a"]), ("BADC", ["b"]), ("ABCD", ["c"])]
+        ("ABCD", ["a"]),
+        ("BADC", ["b"]),
+        ("ABCD", ["c"]),
+    ]
 
 
-_FORMATS = [("INT16", 1), ("UINT16", 1), ("INT32", 2), ("UINT32", 2), ("FLOAT32", 2), ("INT64", 4), ("UINT64", 4),
-            ("FLOAT64", 4)]
+_FORMATS = [
+    ("INT16", 1),
+    ("UINT16", 1),
+    ("INT32", 2),
+    ("UINT32", 2),
+    ("FLOAT32", 2),
+    ("INT64", 4),
+    ("UINT64", 4),
+    ("FLOAT64", 4),
+]
 
 
 @settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(st.sampled_from(_FORMATS), st.sampled_from(["big", "little"]),
-                          st.sampled_from(["big", "little"]), st.sampled_from([None, 0.1, 0.5, 3.0]),
-                          st.sampled_from(["Full word", "Lower byte", "Upper byte"])), min_size=1, max_size=6),
-       st.randoms(use_true_random=False))
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(_FORMATS),
+            st.sampled_from(["big", "little"]),
+            st.sampled_from(["big", "little"]),
+            st.sampled_from([None, 0.1, 0.5, 3.0]),
+            st.sampled_from(["Full word", "Lower byte", "Upper byte"]),
+        ),
+        min_size=1,
+        max_size=6,
+    ),
+    st.randoms(use_true_random=False),
+)
 def test_random_layouts_read_alike(sim_factory, tmp_path_factory, functions, rng):
     """Random formats, orders and scalings in one device: Telegraf's reading is mdl's."""
     tmp = tmp_path_factory.mktemp("t")
@@ -288,8 +381,11 @@ def test_random_layouts_read_alike(sim_factory, tmp_path_factory, functions, rng
         sim.stop()
 
 
-BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
-          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+BITREG = (
+    fn_xml("flag", "10", format="BIT")
+    + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+    + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little")
+)
 
 
 def test_a_bit_in_a_register_reads_true_for_any_nonzero_value(sim_factory, tmp_path, write_device):
@@ -321,9 +417,11 @@ def test_divisions_are_divisions(sim_factory, tmp_path, write_device):
     """A multiplier 1/d is a division in mdl (87 at 0.1 reads 8.7); Telegraf's field scale would multiply
     (87 * 0.1 = 8.700000000000001): the export divides in processors.starlark, bit for bit as mdl."""
     assert 87 * 0.1 != 8.7 == 87 / 10
-    path = write_device(fn_xml("t", "0", format="INT16", multiplier="0.1")
-                        + fn_xml("u", "1", format="UINT16", multiplier="0.001", offset="-40")
-                        + fn_xml("v", "2", format="UINT16", multiplier="0.3"))
+    path = write_device(
+        fn_xml("t", "0", format="INT16", multiplier="0.1")
+        + fn_xml("u", "1", format="UINT16", multiplier="0.001", offset="-40")
+        + fn_xml("v", "2", format="UINT16", multiplier="0.3")
+    )
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps({"holding": {"0": 87, "1": 12345, "2": 7}}))
     sim = sim_factory(path, "--registers", registers)
@@ -339,8 +437,21 @@ def test_divisions_are_divisions(sim_factory, tmp_path, write_device):
 
 
 def test_telegraf_connection_forms():
-    serial = tomllib.loads(export(ALL_TABLES, "--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E",
-                                  "--unit", "5", "--interval", "2.5").stdout)["inputs"]["modbus"][0]
+    serial = tomllib.loads(
+        export(
+            ALL_TABLES,
+            "--serial",
+            "/dev/ttyUSB0",
+            "--baud",
+            "9600",
+            "--parity",
+            "E",
+            "--unit",
+            "5",
+            "--interval",
+            "2.5",
+        ).stdout
+    )["inputs"]["modbus"][0]
     assert serial["controller"] == "file:///dev/ttyUSB0" and serial["transmission_mode"] == "RTU"
     assert (serial["baud_rate"], serial["parity"], serial["data_bits"], serial["stop_bits"]) == (9600, "E", 8, 1)
     assert serial["slave_id"] == 5 and serial["interval"] == "2.5s"
@@ -352,24 +463,32 @@ def test_telegraf_connection_forms():
 
 def test_telegraf_warnings_and_refusal(write_device):
     proc = export(ALL_TABLES)
-    for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("alarm_reset", "only reads"),
-                           ("voltage", "not implemented"), ("label", "trailing spaces")]:
-        assert any(f"'{name}'" in line.split(": Telegraf: ")[0] and fragment in line
-                   for line in proc.stderr.splitlines()), (name, proc.stderr)
+    for name, fragment in [
+        ("status_bit", "read fragment"),
+        ("flow", "read fragment"),
+        ("alarm_reset", "only reads"),
+        ("voltage", "not implemented"),
+        ("label", "trailing spaces"),
+    ]:
+        assert any(
+            f"'{name}'" in line.split(": Telegraf: ")[0] and fragment in line for line in proc.stderr.splitlines()
+        ), (name, proc.stderr)
     assert "note: Telegraf: no connection given" in proc.stderr
-    only_expressions = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
-                                           access="read") + fn_xml("g", "1", format="UINT16", access="write"))
+    only_expressions = write_device(
+        fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;", access="read")
+        + fn_xml("g", "1", format="UINT16", access="write")
+    )
     proc = run_mdl("export", only_expressions, "--to", "telegraf")
-    assert_clean_error(proc, 1, "Telegraf can hold none of this description's functions", "read fragment",
-                       "only reads")
+    assert_clean_error(proc, 1, "Telegraf can hold none of this description's functions", "read fragment", "only reads")
     assert proc.stdout == ""
 
 
 @pytest.mark.parametrize("engine", ["telegraf", "homeassistant", "volttron"])
 def test_a_description_of_expressions_only_is_refused(tmp_path, engine):
     """The Toolkit heat pump computes every field with an expression: no engine can hold any of it."""
-    proc = run_mdl("export", EXAMPLE.parent / "toolkit_heat_pump" / "heat_pump.yaml", "--to", engine,
-                   "-o", tmp_path / "out")
+    proc = run_mdl(
+        "export", EXAMPLE.parent / "toolkit_heat_pump" / "heat_pump.yaml", "--to", engine, "-o", tmp_path / "out"
+    )
     assert_clean_error(proc, 1, "can hold none of this description's functions", "expression")
     assert not (tmp_path / "out").exists()
 
@@ -378,23 +497,40 @@ def test_telegraf_export_is_deterministic():
     assert export(TEMCO, "--host", "h").stdout == export(TEMCO, "--host", "h").stdout
 
 
-_FUNCTION = st.fixed_dictionaries({
-    "format": st.sampled_from(["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64", "FLOAT32",
-                               "FLOAT64", "STRING", "BIT"]),
-    "register_type": st.sampled_from(["holding", "input", "coil", "discrete"]),
-}, optional={
-    "length": st.sampled_from(["Lower byte", "Upper byte", "Full word"]),
-    "count": st.integers(1, 5),
-    "multiplier": st.sampled_from([0.1, 0.001, 2.0, -1.0, 1e-07, 0.3]),
-    "offset": st.sampled_from([-40.0, 0.5, 0.0]),
-    "byte_order": st.sampled_from(["big", "little"]),
-    "word_order": st.sampled_from(["big", "little"]),
-    "access": st.sampled_from(["read", "write", "read_write"]),
-    "not_implemented": st.sampled_from(["0x8000", "0xFFFF 0x0000", "0x0000"]),
-    "values": st.just({0: "Off", 1: "On"}),
-    "read_function_code": st.just("arg = r1 * 2;"),
-    "write_multiple": st.just("true"),
-})
+_FUNCTION = st.fixed_dictionaries(
+    {
+        "format": st.sampled_from(
+            [
+                "INT8",
+                "UINT8",
+                "INT16",
+                "UINT16",
+                "INT32",
+                "UINT32",
+                "INT64",
+                "UINT64",
+                "FLOAT32",
+                "FLOAT64",
+                "STRING",
+                "BIT",
+            ]
+        ),
+        "register_type": st.sampled_from(["holding", "input", "coil", "discrete"]),
+    },
+    optional={
+        "length": st.sampled_from(["Lower byte", "Upper byte", "Full word"]),
+        "count": st.integers(1, 5),
+        "multiplier": st.sampled_from([0.1, 0.001, 2.0, -1.0, 1e-07, 0.3]),
+        "offset": st.sampled_from([-40.0, 0.5, 0.0]),
+        "byte_order": st.sampled_from(["big", "little"]),
+        "word_order": st.sampled_from(["big", "little"]),
+        "access": st.sampled_from(["read", "write", "read_write"]),
+        "not_implemented": st.sampled_from(["0x8000", "0xFFFF 0x0000", "0x0000"]),
+        "values": st.just({0: "Off", 1: "On"}),
+        "read_function_code": st.just("arg = r1 * 2;"),
+        "write_multiple": st.just("true"),
+    },
+)
 
 
 @settings(max_examples=40, deadline=None)

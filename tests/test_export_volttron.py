@@ -48,12 +48,46 @@ ALL_TABLES_RAW = {
     "coil": {"0": 1, "1": 0, "5": 0},
     "discrete": {"0": 0, "1": 1},
     "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
-    "holding": {"50": 65535, "52": 7, "100": 0xFF38, "101": 2, "102": 0x4142, "103": 0x4320, "104": 0, "105": 0,
-                "200": 0xFFFF, "201": 0xFFFE, "202": 0x1234, "203": 0x5678, "300": 100, "400": 0x1122,
-                "401": 0x3344, "402": 0x7F85, "403": 0xC812, "110": 0x0008, "111": 123},
+    "holding": {
+        "50": 65535,
+        "52": 7,
+        "100": 0xFF38,
+        "101": 2,
+        "102": 0x4142,
+        "103": 0x4320,
+        "104": 0,
+        "105": 0,
+        "200": 0xFFFF,
+        "201": 0xFFFE,
+        "202": 0x1234,
+        "203": 0x5678,
+        "300": 100,
+        "400": 0x1122,
+        "401": 0x3344,
+        "402": 0x7F85,
+        "403": 0xC812,
+        "110": 0x0008,
+        "111": 123,
+    },
 }
-TEMCO_RAW = {"holding": {"6": 0xAB07, "7": 0x0112, "121": 0xFF06, "140": 455, "137": 0x0103, "128": 2,
-                         "255": 1, "256": 0, "257": 1, "258": 0, "259": 1, "345": 215, "346": 180, "348": 205}}
+TEMCO_RAW = {
+    "holding": {
+        "6": 0xAB07,
+        "7": 0x0112,
+        "121": 0xFF06,
+        "140": 455,
+        "137": 0x0103,
+        "128": 2,
+        "255": 1,
+        "256": 0,
+        "257": 1,
+        "258": 0,
+        "259": 1,
+        "345": 215,
+        "346": 180,
+        "348": 205,
+    }
+}
 
 
 def export(path, out, *extra):
@@ -70,8 +104,12 @@ def mdl_read(path, sim) -> dict:
 
 def run_volttron(folder, stem, writes=None) -> subprocess.CompletedProcess:
     python = require(VOLTTRON)
-    return subprocess.run([str(python), "-c", DRIVER, str(folder), stem, json.dumps(writes or {})],
-                          capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [str(python), "-c", DRIVER, str(folder), stem, json.dumps(writes or {})],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def through_volttron(folder, stem, writes=None) -> dict:
@@ -108,10 +146,13 @@ def enum_values(path) -> dict[str, dict[int, str] | None]:
     return {f.name: f.fn.values for f in load_resolved(path).functions}
 
 
-@pytest.mark.parametrize(("path", "raw", "exported"), [
-    (ALL_TABLES, ALL_TABLES_RAW, 17),
-    (TEMCO, TEMCO_RAW, 14),
-])
+@pytest.mark.parametrize(
+    ("path", "raw", "exported"),
+    [
+        (ALL_TABLES, ALL_TABLES_RAW, 17),
+        (TEMCO, TEMCO_RAW, 14),
+    ],
+)
 def test_volttron_reads_what_mdl_reads(sim_factory, tmp_path, path, raw, exported):
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps(raw))
@@ -133,16 +174,24 @@ def test_writes_through_volttron_land_in_the_simulator(sim_factory, tmp_path):
     sim = sim_factory(ALL_TABLES, "--registers", registers)
     out = tmp_path / "volttron"
     export(ALL_TABLES, out, *sim.connection)
-    writes = {"pump": False, "fan": True, "setpoint": 22, "serial": 0x0A0B0C0D, "low_byte": -5, "high_byte": 200,
-              "big": -2, "gap_low": 4321, "label": "XYZ"}
+    writes = {
+        "pump": False,
+        "fan": True,
+        "setpoint": 22,
+        "serial": 0x0A0B0C0D,
+        "low_byte": -5,
+        "high_byte": 200,
+        "big": -2,
+        "gap_low": 4321,
+        "label": "XYZ",
+    }
     result = through_volttron(out, "all_tables", writes)
     expected = mdl_read(ALL_TABLES, sim)
     for point, value in writes.items():
         assert expected[point] == value, (point, expected[point], value)
     with pytest.raises(AssertionError, match="required argument is not an integer"):
         through_volttron(out, "all_tables", {"setpoint": 21.5})  # as the export warns: integers only
-    assert_same_values({k: v for k, v in result["after"].items() if k in expected}, expected,
-                       enum_values(ALL_TABLES))
+    assert_same_values({k: v for k, v in result["after"].items() if k in expected}, expected, enum_values(ALL_TABLES))
 
 
 def test_volttron_files_and_warnings(tmp_path):
@@ -158,11 +207,20 @@ def test_volttron_files_and_warnings(tmp_path):
     assert rows["serial"]["Type"] == "<I" and rows["serial"]["Mixed Endian"] == "TRUE"  # BADC
     assert rows["low_byte"]["Type"] == ">xb" and rows["high_byte"]["Type"] == ">Bx"
     assert rows["door_open"]["Writable"] == "FALSE" and rows["door_open"]["Table"] == "discrete_input_contacts"
-    for name, fragment in [("status_bit", "read fragment"), ("flow", "read fragment"), ("temp_offset", "offset"),
-                           ("voltage", "not implemented"), ("mode", "enumeration"), ("setpoint", "minimum/maximum"),
-                           ("alarm_reset", "write-only"), ("label", "NUL"), ("setpoint", "integers only")]:
-        assert any(f"'{name}'" in line.split(": VOLTTRON: ")[0] and fragment in line
-                   for line in proc.stderr.splitlines()), (name, proc.stderr)
+    for name, fragment in [
+        ("status_bit", "read fragment"),
+        ("flow", "read fragment"),
+        ("temp_offset", "offset"),
+        ("voltage", "not implemented"),
+        ("mode", "enumeration"),
+        ("setpoint", "minimum/maximum"),
+        ("alarm_reset", "write-only"),
+        ("label", "NUL"),
+        ("setpoint", "integers only"),
+    ]:
+        assert any(
+            f"'{name}'" in line.split(": VOLTTRON: ")[0] and fragment in line for line in proc.stderr.splitlines()
+        ), (name, proc.stderr)
     assert "status_bit" not in rows and "temp_offset" not in rows
 
 
@@ -177,13 +235,15 @@ def test_volttron_serial_connection_and_default_note(tmp_path):
 
 
 def test_volttron_refuses_what_it_cannot_hold(tmp_path, write_device):
-    only_expressions = write_device(fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;",
-                                           access="read"))
+    only_expressions = write_device(
+        fn_xml("f", "0", format="UINT16", read_function_code="arg = r1 + 1;", access="read")
+    )
     proc = run_mdl("export", only_expressions, "--to", "volttron", "-o", tmp_path / "x")
     assert_clean_error(proc, 1, "VOLTTRON can hold none of this description's functions", "read fragment")
     assert not (tmp_path / "x").exists()
-    proc = run_mdl("export", ALL_TABLES, "--to", "volttron", "-o", tmp_path / "y", "--host", "h", "--port", "1",
-                   "--framer", "rtu")
+    proc = run_mdl(
+        "export", ALL_TABLES, "--to", "volttron", "-o", tmp_path / "y", "--host", "h", "--port", "1", "--framer", "rtu"
+    )
     assert_clean_error(proc, 1, "not RTU framing over TCP")
 
 
@@ -210,8 +270,11 @@ def test_volttron_export_is_deterministic(tmp_path):
         assert file.read_bytes() == (tmp_path / "b" / file.name).read_bytes()
 
 
-BITREG = (fn_xml("flag", "10", format="BIT") + fn_xml("ro_flag", "11", format="BIT", register_type="input")
-          + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little"))
+BITREG = (
+    fn_xml("flag", "10", format="BIT")
+    + fn_xml("ro_flag", "11", format="BIT", register_type="input")
+    + fn_xml("lo", "12", length="Lower byte", format="UINT8", byte_order="little")
+)
 
 
 def test_a_bit_in_a_register_is_left_out(sim_factory, tmp_path, write_device):
@@ -243,15 +306,23 @@ def test_writes_use_the_function_codes_the_driver_has(sim_factory, tmp_path, wri
     """The driver writes one coil with function 5 (write_multiple cannot change it: warned), and every register
     with 16 when write_multiple_registers is true, else with 6. The export sets it false where every writable
     register is one int16/uint16 that mdl writes with 6; a proxy records what the driver sends."""
-    single = write_device(fn_xml("sp", "7", format="UINT16") + fn_xml("neg", "8", format="INT16")
-                          + fn_xml("relay", "3", format="BIT", register_type="coil"), filename="single.xml")
-    multiple = write_device(fn_xml("sp", "7", format="UINT16", write_multiple="true")
-                            + fn_xml("neg", "8", format="INT16")
-                            + fn_xml("relay", "3", format="BIT", register_type="coil", write_multiple="true"),
-                            filename="multiple.xml")
+    single = write_device(
+        fn_xml("sp", "7", format="UINT16")
+        + fn_xml("neg", "8", format="INT16")
+        + fn_xml("relay", "3", format="BIT", register_type="coil"),
+        filename="single.xml",
+    )
+    multiple = write_device(
+        fn_xml("sp", "7", format="UINT16", write_multiple="true")
+        + fn_xml("neg", "8", format="INT16")
+        + fn_xml("relay", "3", format="BIT", register_type="coil", write_multiple="true"),
+        filename="multiple.xml",
+    )
     writes = {"sp": 1234, "neg": -5, "relay": True}
-    for path, flag, codes in ((single, False, {"sp": 6, "neg": 6, "relay": 5}),
-                              (multiple, True, {"sp": 16, "neg": 16, "relay": 5})):
+    for path, flag, codes in (
+        (single, False, {"sp": 6, "neg": 6, "relay": 5}),
+        (multiple, True, {"sp": 16, "neg": 16, "relay": 5}),
+    ):
         sim = sim_factory(path)
         with refusing_proxy(sim.host, sim.port) as proxy:
             out = tmp_path / path.stem
@@ -280,8 +351,13 @@ def test_byte_orders_all_four(sim_factory, tmp_path, write_device):
     for fmt, words in (("INT32", 2), ("UINT32", 2), ("FLOAT32", 2), ("INT64", 4), ("FLOAT64", 4), ("INT16", 1)):
         for byte_order in ("big", "little"):
             for word_order in ("big", "little"):
-                functions += fn_xml(f"{fmt}_{byte_order}_{word_order}".lower(), address, format=fmt,
-                                    byte_order=byte_order, word_order=word_order)
+                functions += fn_xml(
+                    f"{fmt}_{byte_order}_{word_order}".lower(),
+                    address,
+                    format=fmt,
+                    byte_order=byte_order,
+                    word_order=word_order,
+                )
                 for i in range(words):
                     raw[str(address + i)] = (0x4111 + 0x1357 * (address + i)) & 0xFFFF
                 address += words
@@ -295,4 +371,3 @@ def test_byte_orders_all_four(sim_factory, tmp_path, write_device):
     expected = mdl_read(path, sim)
     assert len(got) == len(expected) == 24
     assert_same_values(got, expected, {})
-

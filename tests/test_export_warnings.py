@@ -25,8 +25,10 @@ from mdl.engines.ha_units import CLASSES, ha_unit
 
 ENGINES = {"homeassistant": "Home Assistant", "telegraf": "Telegraf", "volttron": "VOLTTRON"}
 CASES = [EXAMPLE / "temco_tstat.xml", DATA / "all_tables.xml"]
-_LINE = re.compile(r"^(?P<file>.*?)(?::(?P<line>\d+))?: (?P<severity>warning|note): "
-                   r"(?P<subject>functions? '.*?): (?P<engine>Home Assistant|Telegraf|VOLTTRON): (?P<kind>.*)$")
+_LINE = re.compile(
+    r"^(?P<file>.*?)(?::(?P<line>\d+))?: (?P<severity>warning|note): "
+    r"(?P<subject>functions? '.*?): (?P<engine>Home Assistant|Telegraf|VOLTTRON): (?P<kind>.*)$"
+)
 _BARE = re.compile(r"^(?P<file>.*?)(?::(?P<line>\d+))?: (?P<severity>warning|note): (?P<rest>functions? '.*)$")
 _DETAIL = re.compile(r" \([^()]*\)")
 
@@ -82,15 +84,23 @@ def _bare(text: str) -> dict | None:
         elif not quoted:
             depth += {"(": 1, ")": -1}.get(ch, 0)
             if depth == 0 and rest.startswith(": ", i):
-                return {**{k: m[k] for k in ("file", "line", "severity")}, "subject": rest[:i], "engine": None,
-                        "kind": rest[i + 2:]}
+                return {
+                    **{k: m[k] for k in ("file", "line", "severity")},
+                    "subject": rest[:i],
+                    "engine": None,
+                    "kind": rest[i + 2 :],
+                }
     return None
 
 
 def named(stderr: str, engine: str, fragment: str, severity: str = "warning") -> set[str]:
     """The functions named by the engine's warnings (or notes) that hold `fragment`."""
-    return {name for d in said(stderr) if d["engine"] == engine and d["severity"] == severity
-            and fragment in d["kind"] for name in d["names"]}
+    return {
+        name
+        for d in said(stderr)
+        if d["engine"] == engine and d["severity"] == severity and fragment in d["kind"]
+        for name in d["names"]
+    }
 
 
 def export(path: Path, engine: str, tmp_path: Path, *extra: str):
@@ -127,28 +137,36 @@ def test_a_thermostat_to_home_assistant_is_a_few_warnings(tmp_path):
 
 def test_a_meter_of_floats_says_the_precision_once(tmp_path, write_device):
     """The issue's other flood: ten floats, each "shows a float with 2 decimal places"."""
-    path = write_device("".join(fn_xml(f"v{i}", f"{2 * i} {2 * i + 1}", format="FLOAT32", access="read",
-                                       units="Volts") for i in range(10)))
+    path = write_device(
+        "".join(
+            fn_xml(f"v{i}", f"{2 * i} {2 * i + 1}", format="FLOAT32", access="read", units="Volts") for i in range(10)
+        )
+    )
     proc = export(path, "homeassistant", tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert_one_per_kind(proc.stderr)
     (floats,) = [line for line in proc.stderr.splitlines() if ": warning: " in line]
     assert "shows a float with 2 decimal places" in floats
     assert named(proc.stderr, "Home Assistant", "2 decimal places") == {f"v{i}" for i in range(10)}
-    assert named(proc.stderr, "Home Assistant", "units written in Home Assistant's spelling", "note") == \
-        {f"v{i}" for i in range(10)}
+    assert named(proc.stderr, "Home Assistant", "units written in Home Assistant's spelling", "note") == {
+        f"v{i}" for i in range(10)
+    }
     assert proc.stderr.count("'Volts' as 'V'") == 1  # one detail for the functions that share it
 
 
 def test_details_go_with_their_functions(tmp_path, write_device):
-    path = write_device(fn_xml("a", "0", format="UINT16", not_implemented="0xFFFF", access="read")
-                        + fn_xml("b", "1", format="UINT16", not_implemented="0xFFFF", access="read")
-                        + fn_xml("c", "2", format="UINT16", not_implemented="0x8000", access="read"))
+    path = write_device(
+        fn_xml("a", "0", format="UINT16", not_implemented="0xFFFF", access="read")
+        + fn_xml("b", "1", format="UINT16", not_implemented="0xFFFF", access="read")
+        + fn_xml("c", "2", format="UINT16", not_implemented="0x8000", access="read")
+    )
     proc = export(path, "telegraf", tmp_path)
     assert proc.returncode == 0, proc.stderr
     (line,) = [text for text in proc.stderr.splitlines() if "not implemented" in text]
-    assert line.startswith(f"{path}:{_function_line(path, 'a')}: warning: functions 'a', 'b' (0xFFFF), 'c' (0x8000): "
-                           "Telegraf: no 'not implemented' value"), line
+    assert line.startswith(
+        f"{path}:{_function_line(path, 'a')}: warning: functions 'a', 'b' (0xFFFF), 'c' (0x8000): "
+        "Telegraf: no 'not implemented' value"
+    ), line
 
 
 def _function_line(path: Path, name: str) -> int:
@@ -192,8 +210,9 @@ def _meter(write_device) -> Path:
     address = 0
     for name, (units, fmt, _) in METER.items():
         count = 2 if fmt.endswith("32") else 1
-        functions += fn_xml(name, " ".join(str(address + i) for i in range(count)), format=fmt, units=units,
-                            access="read")
+        functions += fn_xml(
+            name, " ".join(str(address + i) for i in range(count)), format=fmt, units=units, access="read"
+        )
         address += count
     return write_device(functions)
 
@@ -219,9 +238,11 @@ def test_units_device_class_and_state_class(tmp_path, write_device):
 def test_a_text_sensor_has_no_unit_and_an_enumeration_no_class(tmp_path, write_device):
     """Home Assistant takes a sensor with a unit for a number (it refuses text then); an enumeration's number
     is a state, not a measurement."""
-    path = write_device(fn_xml("label", "0", count="4", format="STRING", units="V", access="read")
-                        + fn_xml("mode", "5", format="UINT16", units="V", access="read", values={1: "Auto", 2: "Man"})
-                        + fn_xml("volts", "6", format="UINT16", units="V", access="read"))
+    path = write_device(
+        fn_xml("label", "0", count="4", format="STRING", units="V", access="read")
+        + fn_xml("mode", "5", format="UINT16", units="V", access="read", values={1: "Auto", 2: "Man"})
+        + fn_xml("volts", "6", format="UINT16", units="V", access="read")
+    )
     proc = export(path, "homeassistant", tmp_path)
     assert proc.returncode == 0, proc.stderr
     sensors = {s["name"]: s for s in yaml.safe_load(proc.stdout)[0]["sensors"]}
@@ -241,9 +262,11 @@ def test_home_assistant_classes_are_ones_it_accepts():
 
 
 FUZZ = int(os.environ.get("MDL_FUZZ_WARNINGS", "50"))  # a longer run by hand: MDL_FUZZ_WARNINGS=500
-UNITS = st.one_of(st.sampled_from(sorted(CLASSES)), st.sampled_from(["Volts", "AMPS", "kwh", "%rh", "C", "m", "m3",
-                                                                     "deg C", "kilowatt hours", " V ", "v", "MW"]),
-                  st.text(max_size=6))
+UNITS = st.one_of(
+    st.sampled_from(sorted(CLASSES)),
+    st.sampled_from(["Volts", "AMPS", "kwh", "%rh", "C", "m", "m3", "deg C", "kilowatt hours", " V ", "v", "MW"]),
+    st.text(max_size=6),
+)
 
 
 @settings(max_examples=4 * FUZZ, deadline=None)
@@ -260,16 +283,30 @@ def test_fuzz_unit_spellings(units):
         assert found.unit in accepted_units and found.state_class in states
 
 
-KINDS = [{"format": "UINT16"}, {"format": "INT32", "units": "kWh"}, {"format": "BIT", "register_type": "coil"},
-         {"format": "BIT"}, {"format": "UINT8", "length": "Lower byte"}, {"format": "INT16", "register_type": "input",
-                                                                           "units": "Volts"},
-         {"format": "UINT16", "not_implemented": "0xFFFF"}, {"format": "UINT16", "multiplier": "0.1", "offset": "-40"},
-         {"format": "UINT16", "read_function_code": "arg = r1 + 1;"}, {"format": "UINT16", "units": "furlongs"}]
+KINDS = [
+    {"format": "UINT16"},
+    {"format": "INT32", "units": "kWh"},
+    {"format": "BIT", "register_type": "coil"},
+    {"format": "BIT"},
+    {"format": "UINT8", "length": "Lower byte"},
+    {"format": "INT16", "register_type": "input", "units": "Volts"},
+    {"format": "UINT16", "not_implemented": "0xFFFF"},
+    {"format": "UINT16", "multiplier": "0.1", "offset": "-40"},
+    {"format": "UINT16", "read_function_code": "arg = r1 + 1;"},
+    {"format": "UINT16", "units": "furlongs"},
+]
 
 
 @settings(max_examples=FUZZ, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(st.sampled_from(range(len(KINDS))), st.sampled_from(["read", "write", "read_write"]),
-                          st.integers(0, 30)), min_size=1, max_size=12))
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(range(len(KINDS))), st.sampled_from(["read", "write", "read_write"]), st.integers(0, 30)
+        ),
+        min_size=1,
+        max_size=12,
+    )
+)
 def test_fuzz_every_export_says_each_kind_once(tmp_path_factory, functions):
     """Random descriptions: every engine export says each kind once, naming each function at most once in it,
     and Home Assistant gets only the classes it accepts."""
@@ -302,11 +339,16 @@ def test_fuzz_every_export_says_each_kind_once(tmp_path_factory, functions):
 def test_a_function_with_two_details_is_named_once(tmp_path, write_device):
     """A BIT in a holding register is a sensor and a switch in Home Assistant: both can share their register
     with an earlier entity, each with its own detail; the function is named once, with both."""
-    path = write_device(fn_xml("word", "0", format="UINT16", access="read") + fn_xml("bit1", "0", format="BIT")
-                        + fn_xml("bit2", "0", format="BIT"))
+    path = write_device(
+        fn_xml("word", "0", format="UINT16", access="read")
+        + fn_xml("bit1", "0", format="BIT")
+        + fn_xml("bit2", "0", format="BIT")
+    )
     proc = export(path, "homeassistant", tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert_one_per_kind(proc.stderr)
     (line,) = [text for text in proc.stderr.splitlines() if "shares its register" in text]
-    assert (": warning: functions 'bit1' (holding 0, device_address 1: 'word'), 'bit2' (holding 0, device_address 1: "
-            "'word'; holding 0, device_address 1: 'bit1'): Home Assistant: shares its register") in line, line
+    assert (
+        ": warning: functions 'bit1' (holding 0, device_address 1: 'word'), 'bit2' (holding 0, device_address 1: "
+        "'word'; holding 0, device_address 1: 'bit1'): Home Assistant: shares its register"
+    ) in line, line

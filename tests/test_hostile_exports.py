@@ -28,21 +28,50 @@ from mdl.sources.loading import load_resolved
 tomllib = pytest.importorskip("tomllib" if __import__("sys").version_info >= (3, 11) else "tomli")
 
 # texts that end a comment, a string, a line or a cell early in one format or another
-HOSTILE = ["a\nb", "a\rb", "a\r\nb", "a\x85b", "a\u2028b", "a\u2029b", 'say "hi"', "back\\slash", "end ]]",
-           "[[outputs.exec]]", "# hash", "=x", "k = v", "a;b", "x,y", "tab\there", "del\x7f", "csi\x9b",
-           "'quoted'", "!secret pw", "{{ states('x') }}", "bom\ufeff", "rlo\u202e", "\\u0041", "%(x)s", "---",
-           "... end", "[Platform]", "- item", "&amp;"]
+HOSTILE = [
+    "a\nb",
+    "a\rb",
+    "a\r\nb",
+    "a\x85b",
+    "a\u2028b",
+    "a\u2029b",
+    'say "hi"',
+    "back\\slash",
+    "end ]]",
+    "[[outputs.exec]]",
+    "# hash",
+    "=x",
+    "k = v",
+    "a;b",
+    "x,y",
+    "tab\there",
+    "del\x7f",
+    "csi\x9b",
+    "'quoted'",
+    "!secret pw",
+    "{{ states('x') }}",
+    "bom\ufeff",
+    "rlo\u202e",
+    "\\u0041",
+    "%(x)s",
+    "---",
+    "... end",
+    "[Platform]",
+    "- item",
+    "&amp;",
+]
 # a device name that, written raw into a header comment, would add a Telegraf output and a Home Assistant
 # shell command, a WISE section and an INI key
-INJECTING_NAME = ('Evil\n[[outputs.exec]]\n  commands = ["touch /tmp/pwned"]\nshell_command:\n  pwn: touch /tmp/pwned'
-                  '\r[Coils]\u2028numberOfB=1\u2029B0=0,x\x85# done')
+INJECTING_NAME = (
+    'Evil\n[[outputs.exec]]\n  commands = ["touch /tmp/pwned"]\nshell_command:\n  pwn: touch /tmp/pwned'
+    "\r[Coils]\u2028numberOfB=1\u2029B0=0,x\x85# done"
+)
 FORMULA = ("=", "+", "-", "@", "\t", "\r")
 
 
 def xml_text(text: str) -> str:
     """`text` as MDL XML writes it: ASCII, everything else (and markup, controls) as character references."""
-    return "".join(ch if ch.isascii() and ch.isprintable() and ch not in "&<>" else f"&#x{ord(ch):X};"
-                   for ch in text)
+    return "".join(ch if ch.isascii() and ch.isprintable() and ch not in "&<>" else f"&#x{ord(ch):X};" for ch in text)
 
 
 @dataclass
@@ -57,18 +86,22 @@ def write_device(path: Path, name: str, functions: list[Fn]) -> Path:
     """A 1.0 description: each function one holding UINT16 register, at addresses 0, 1, 2..."""
     body = ""
     for address, fn in enumerate(functions):
-        body += (f"  <function>\n    <name>{xml_text(fn.name)}</name>\n"
-                 f"    <description>{xml_text(fn.description)}</description>\n"
-                 f"    <addresses>{address}</addresses>\n    <format>UINT16</format>\n")
+        body += (
+            f"  <function>\n    <name>{xml_text(fn.name)}</name>\n"
+            f"    <description>{xml_text(fn.description)}</description>\n"
+            f"    <addresses>{address}</addresses>\n    <format>UINT16</format>\n"
+        )
         if fn.units is not None:
             body += f"    <units>{xml_text(fn.units)}</units>\n"
         if fn.values:
             inner = "".join(f'<value key="{k}">{xml_text(v)}</value>' for k, v in fn.values.items())
             body += f"    <values>{inner}</values>\n"
         body += "  </function>\n"
-    path.write_text(f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
-                    f"  <name>{xml_text(name)}</name>\n  <description>hostile</description>\n{body}</device>\n",
-                    encoding="ascii")
+    path.write_text(
+        f'<?xml version="1.0" encoding="US-ASCII"?>\n<device xmlns="{MDL_NS}" version="1.0">\n'
+        f"  <name>{xml_text(name)}</name>\n  <description>hostile</description>\n{body}</device>\n",
+        encoding="ascii",
+    )
     return path
 
 
@@ -81,10 +114,12 @@ def export(path: Path, fmt: str, *extra: object):
 def only_newlines(text: str) -> None:
     """The text breaks lines at its own \\n only: no \\r, NEL, U+2028... that a reader could take as one."""
     assert text.splitlines() == text.split("\n")[:-1] and text.endswith("\n"), [
-        line for line in text.split("\n") if len(line.splitlines()) > 1]
+        line for line in text.split("\n") if len(line.splitlines()) > 1
+    ]
 
 
 # --- checks shared with the fuzz test (tests/fuzz/test_fuzz_exports.py) ---------------------------------------
+
 
 def check_telegraf(path: Path, text: str) -> None:
     resolved = load_resolved(path)
@@ -94,8 +129,12 @@ def check_telegraf(path: Path, text: str) -> None:
     (plugin,) = doc["inputs"]["modbus"]
     assert plugin["name"] == resolved.name
     assert set(doc.get("processors", {})) <= {"enum"}
-    labels = {(m["field"], k): v for p in doc.get("processors", {}).get("enum", [])
-              for m in p["mapping"] for k, v in m["value_mappings"].items()}
+    labels = {
+        (m["field"], k): v
+        for p in doc.get("processors", {}).get("enum", [])
+        for m in p["mapping"]
+        for k, v in m["value_mappings"].items()
+    }
     assert labels == {(f.ident, str(k)): v for f in resolved.functions for k, v in (f.fn.values or {}).items()}
     fields = [fld["name"] for req in plugin["request"] for fld in req["fields"] if "name" in fld]
     assert sorted(fields) == sorted(f.ident for f in resolved.functions)
@@ -108,8 +147,9 @@ def check_homeassistant(path: Path, text: str) -> None:
     assert isinstance(doc, list) and len(doc) == 1  # the list of hubs that `modbus: !include` reads
     hub = doc[0]
     assert set(hub) == {"name", "type", "host", "port", "timeout", "sensors"}, sorted(hub)
-    assert [(s["name"], s.get("unit_of_measurement")) for s in hub["sensors"]] == \
-        [(f.name, ha_unit(f.fn.units).unit if f.fn.units else None) for f in resolved.functions]
+    assert [(s["name"], s.get("unit_of_measurement")) for s in hub["sensors"]] == [
+        (f.name, ha_unit(f.fn.units).unit if f.fn.units else None) for f in resolved.functions
+    ]
 
 
 def spreadsheet(text: str) -> str:
@@ -135,18 +175,23 @@ def check_volttron(path: Path, folder: Path, warnings: str) -> None:
     assert [row[9] for row in rows[1:]] == [spreadsheet(" ".join(f.fn.description.split())) for f in fns]
     assert registry[1:] == [[spreadsheet(f.name), f.ident] for f in fns]
     for f in fns:  # every cell changed is said, naming the function
-        for column, text in (("Units", f.fn.units or ""), ("Description", " ".join(f.fn.description.split())),
-                             ("Volttron Point Name", f.name)):
+        for column, text in (
+            ("Units", f.fn.units or ""),
+            ("Description", " ".join(f.fn.description.split())),
+            ("Volttron Point Name", f.name),
+        ):
             if text.startswith(FORMULA):
                 said = f"VOLTTRON: its {column} cell starts with {text[0]!r}"
-                assert any(_quoted(f.name) in line.split(": VOLTTRON: ")[0] and said in line
-                           for line in warnings.splitlines()), (f.name, said, warnings)
+                assert any(
+                    _quoted(f.name) in line.split(": VOLTTRON: ")[0] and said in line for line in warnings.splitlines()
+                ), (f.name, said, warnings)
     for row in rows[1:] + registry[1:]:
         assert not any(cell.startswith(FORMULA) for cell in row), row
 
 
 def _quoted(name: str) -> str:
     from mdl.diagnostics import one_line
+
     return f"'{one_line(name)}'"
 
 
@@ -178,8 +223,10 @@ def check_wise(path: Path, out: Path, warnings: str) -> None:
     assert len(got) == len(resolved.functions)
     for f, name in zip(resolved.functions, got, strict=True):
         if name != f.name:  # only the characters a line cannot hold are changed, and that is said
-            assert name == (WISE_BREAKS.sub("_", f.name).strip() or "unnamed") or \
-                re.fullmatch(r".*_[0-9]+", name), (f.name, name)
+            assert name == (WISE_BREAKS.sub("_", f.name).strip() or "unnamed") or re.fullmatch(r".*_[0-9]+", name), (
+                f.name,
+                name,
+            )
             assert f"{_quoted(f.name)} (as {_quoted(name)})" in warnings, (f.name, name, warnings)
     for key, row in parser["Holding Registers"].items():
         if key != "numberOfR":
@@ -188,8 +235,7 @@ def check_wise(path: Path, out: Path, warnings: str) -> None:
 
 def run_all(path: Path, tmp: Path) -> None:
     """Every text export of `path`, each read back by its format's parser and checked."""
-    for fmt, check in (("telegraf", check_telegraf), ("homeassistant", check_homeassistant),
-                       ("senml", check_senml)):
+    for fmt, check in (("telegraf", check_telegraf), ("homeassistant", check_homeassistant), ("senml", check_senml)):
         proc = export(path, fmt)
         assert proc.returncode == 0, (fmt, proc.stderr)
         check(path, proc.stdout)
@@ -204,6 +250,7 @@ def run_all(path: Path, tmp: Path) -> None:
 
 
 # --- the tests --------------------------------------------------------------------------------------------------
+
 
 def test_hostile_device_passes_validate(tmp_path):
     """A control: the hostile descriptions are valid MDL, so a user can hand them to export."""
@@ -262,8 +309,11 @@ def test_toml_escapes_what_tomllib_refuses_raw(tmp_path):
 @pytest.mark.parametrize("start", FORMULA)
 def test_volttron_neutralises_formulas(tmp_path, start):
     name = f"{start}cmd|' /C calc'!A0"
-    path = write_device(tmp_path / "d.xml", "Dev", [Fn(name, description=f"{start}SUM(A1)", units=f"{start}V"),
-                                                    Fn("plain", description="a = b", units="V")])
+    path = write_device(
+        tmp_path / "d.xml",
+        "Dev",
+        [Fn(name, description=f"{start}SUM(A1)", units=f"{start}V"), Fn("plain", description="a = b", units="V")],
+    )
     folder = tmp_path / "out"
     proc = export(path, "volttron", "-o", folder)
     assert proc.returncode == 0, proc.stderr
@@ -275,8 +325,19 @@ def test_volttron_neutralises_formulas(tmp_path, start):
 
 
 def test_wise_names_cannot_add_keys_or_sections(tmp_path):
-    names = ["a\nR9=0,evil", "b\r[Coils]", "c\x85numberOfR=9", "d\u2028e", "f=g", "[Coils]", "; not", "# not",
-             "x,1,2,3,4,5,6", 'q"uote', " pad "]
+    names = [
+        "a\nR9=0,evil",
+        "b\r[Coils]",
+        "c\x85numberOfR=9",
+        "d\u2028e",
+        "f=g",
+        "[Coils]",
+        "; not",
+        "# not",
+        "x,1,2,3,4,5,6",
+        'q"uote',
+        " pad ",
+    ]
     path = write_device(tmp_path / "d.xml", "Dev\n[Coils]\nB0=0,x", [Fn(n, units=n) for n in names])
     out = tmp_path / "Modbus.ini"
     proc = export(path, "wise", "-o", out)
@@ -295,8 +356,10 @@ def test_wise_lua_column_cannot_break_its_line(tmp_path):
     out = tmp_path / "Modbus.ini"
     proc = export(path, "wise", "-o", out)
     assert proc.returncode == 0, proc.stderr
-    assert "function 't' (" in proc.stderr and \
-        "): written, losing the Lua conversion its description keeps (quotes and control characters" in proc.stderr
+    assert (
+        "function 't' (" in proc.stderr
+        and "): written, losing the Lua conversion its description keeps (quotes and control characters" in proc.stderr
+    )
     check_wise(path, out, proc.stderr)
 
 
@@ -312,8 +375,11 @@ def test_file_name_cannot_end_the_header_comment(tmp_path):
 def test_nothing_exportable_is_a_clean_error(tmp_path):
     """A control for the fuzz test's refusal: an export that can hold nothing exits 1, naming the file."""
     path = tmp_path / "d.xml"
-    path.write_text(f'<?xml version="1.0"?>\n<device xmlns="{MDL_NS}" version="1.0"><name>a\u2028</name>'
-                    "<description>d</description></device>\n", encoding="utf-8")
+    path.write_text(
+        f'<?xml version="1.0"?>\n<device xmlns="{MDL_NS}" version="1.0"><name>a\u2028</name>'
+        "<description>d</description></device>\n",
+        encoding="utf-8",
+    )
     assert_clean_error(export(path, "telegraf"), 1, "Telegraf can hold none of this description's functions")
 
 

@@ -30,11 +30,18 @@ HANG_GUARD = 120  # seconds: only stops a hang from eating the machine; no test 
 
 def run_capped(*args: object, input: bytes | None = None) -> subprocess.CompletedProcess[str]:
     """`mdl ARGS` as a user runs it, with 1 GB of address space (a regression to unbounded memory fails)."""
+
     def cap() -> None:
         resource.setrlimit(resource.RLIMIT_AS, (MEMORY_CAP, MEMORY_CAP))
 
-    proc = subprocess.run(mdl_cmd(*args), input=input, capture_output=True, timeout=HANG_GUARD, preexec_fn=cap,
-                          env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    proc = subprocess.run(
+        mdl_cmd(*args),
+        input=input,
+        capture_output=True,
+        timeout=HANG_GUARD,
+        preexec_fn=cap,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
     return subprocess.CompletedProcess(proc.args, proc.returncode, proc.stdout.decode(), proc.stderr.decode())
 
 
@@ -53,6 +60,7 @@ def raw_file(tmp_path: Path, tables: dict) -> Path:
 
 # --- issue 28: the agent's comma split ---------------------------------------------------------------------
 
+
 def test_a_quote_in_a_name_reads_the_columns_the_agent_reads(tmp_path, sim_factory):
     """`R0=0,Temp "a,0,100,0.1,C,1`: the agent's strtok gives the name `Temp "a` and a FLOAT32 (datatype 1)
     scaled by 0.1 in C, 0..100; mdl reads the same registers the same way."""
@@ -62,8 +70,13 @@ def test_a_quote_in_a_name_reads_the_columns_the_agent_reads(tmp_path, sim_facto
     assert proc.returncode == 0, proc.stderr
     text = out.read_text()
     assert re.search(r"<name>Temp &quot;a</name>|<name>Temp \"a</name>", text), text
-    for element in ("<format>FLOAT32</format>", "<multiplier>0.1</multiplier>", "<units>C</units>",
-                    "<minimum>0</minimum>", "<maximum>100</maximum>"):
+    for element in (
+        "<format>FLOAT32</format>",
+        "<multiplier>0.1</multiplier>",
+        "<units>C</units>",
+        "<minimum>0</minimum>",
+        "<maximum>100</maximum>",
+    ):
         assert element in text, (element, text)
     regs = struct.unpack(">HH", struct.pack(">f", 512.0))
     sim = sim_factory(ini, "--registers", raw_file(tmp_path, {"holding": {0: regs[0], 1: regs[1]}}))
@@ -86,23 +99,33 @@ def test_a_name_with_quotes_generates_drivers(tmp_path):
         pytest.skip("no C/C++ compiler or pkg-config")
     flags = subprocess.run(["pkg-config", "--cflags", "libmodbus"], capture_output=True, text=True).stdout.split()
     for compiler, source in (("g++", "*.cc"), ("gcc", "*.c")):
-        done = subprocess.run([compiler, "-fsyntax-only", *flags, str(next(gen.glob(source)))], capture_output=True,
-                              text=True, timeout=HANG_GUARD)
+        done = subprocess.run(
+            [compiler, "-fsyntax-only", *flags, str(next(gen.glob(source)))],
+            capture_output=True,
+            text=True,
+            timeout=HANG_GUARD,
+        )
         assert done.returncode == 0, done.stderr
 
 
-@pytest.mark.parametrize("line, col, fragment", [
-    ("R0=0,T,,,0.1,C,1", 8, "R0: the min field is empty: the agent (C strtok) skips an empty field"),
-    ("R0=0,T,0,100,,C,1", 14, "R0: the precision field is empty"),
-    ("R0=,T,0,100,1,C,1", 4, "R0: the offset field is empty"),
-    ("R0=0,T,0,100,1,V,,\"modbus_val*2\"", 18, "R0: the datatype field is empty"),
-    ("R0=0,T,0,9,1,V,0,\"modbus_val*2,5\"", 18,
-     "R0: the agent runs 'modbus_val*2' as this line's Lua conversion (the column up to its first comma"),
-    ("R0=0,T,0,9,1,V,0,\"\"modbus_val*2\"", 18, "R0: the agent runs 'modbus_val*2'"),
-    ("R0=0,T,0,9,1,V,0,\"\"\"", 18, "R0: the Lua column '\"\"\"' has nothing between quotes for the agent"),
-    ("R0=0,T,0,9,1,V,0,\" \"", 18, "R0: the Lua column is only spaces"),
-    ("R0=0,\"Temp, inside\",0,100,0.1,C,1", 13, "R0: min must be a number, not 'inside\"'"),
-])
+@pytest.mark.parametrize(
+    "line, col, fragment",
+    [
+        ("R0=0,T,,,0.1,C,1", 8, "R0: the min field is empty: the agent (C strtok) skips an empty field"),
+        ("R0=0,T,0,100,,C,1", 14, "R0: the precision field is empty"),
+        ("R0=,T,0,100,1,C,1", 4, "R0: the offset field is empty"),
+        ('R0=0,T,0,100,1,V,,"modbus_val*2"', 18, "R0: the datatype field is empty"),
+        (
+            'R0=0,T,0,9,1,V,0,"modbus_val*2,5"',
+            18,
+            "R0: the agent runs 'modbus_val*2' as this line's Lua conversion (the column up to its first comma",
+        ),
+        ('R0=0,T,0,9,1,V,0,""modbus_val*2"', 18, "R0: the agent runs 'modbus_val*2'"),
+        ('R0=0,T,0,9,1,V,0,"""', 18, 'R0: the Lua column \'"""\' has nothing between quotes for the agent'),
+        ('R0=0,T,0,9,1,V,0," "', 18, "R0: the Lua column is only spaces"),
+        ('R0=0,"Temp, inside",0,100,0.1,C,1', 13, "R0: min must be a number, not 'inside\"'"),
+    ],
+)
 def test_lines_the_agent_reads_otherwise_are_refused_with_their_position(tmp_path, line, col, fragment):
     ini = wise(tmp_path, f"[Holding Registers]\nnumberOfR=1\n{line}\n")
     assert_clean_error(cli("import", ini), 1, f"{ini}:5:{col}: error: {fragment}")
@@ -121,12 +144,15 @@ def test_a_lua_column_with_a_comma_that_is_not_arithmetic_is_kept_and_says_so(tm
     ini = wise(tmp_path, '[Input Registers]\nnumberOfIR=1\nIR0=0,R,0,5,1,V,0,"math.pow(modbus_val,1/2)"\n')
     proc = cli("import", ini)
     assert proc.returncode == 0, proc.stderr
-    assert (f"{ini}:5:19: warning: IR0 'R': the Lua column 'math.pow(modbus_val,1/2)' is not plain arithmetic "
-            "on modbus_val: kept in the description (export writes it back), not applied; the agent reads the "
-            "column only up to its first comma") in proc.stderr
+    assert (
+        f"{ini}:5:19: warning: IR0 'R': the Lua column 'math.pow(modbus_val,1/2)' is not plain arithmetic "
+        "on modbus_val: kept in the description (export writes it back), not applied; the agent reads the "
+        "column only up to its first comma"
+    ) in proc.stderr
 
 
 # --- issue 27: bounded time and memory, summed-up diagnostics -----------------------------------------------
+
 
 def test_a_wise_file_over_the_size_limit_is_refused_before_reading(tmp_path):
     ini = tmp_path / "big.ini"
@@ -154,8 +180,9 @@ def test_too_many_wise_entries_are_refused_with_the_first_one_past_the_limit(tmp
     ini.write_text("\n".join(lines) + "\n")
     proc = run_capped("import", ini, "-o", tmp_path / "out.xml")
     first_past = 4 + half + 2 + (MAX_ENTRIES - half) + 1  # the line of entry number MAX_ENTRIES + 1
-    assert_clean_error(proc, 1, f"{ini}:{first_past}:1: error: IB{MAX_ENTRIES - half}: more than "
-                                f"{MAX_ENTRIES:,} entries in the file")
+    assert_clean_error(
+        proc, 1, f"{ini}:{first_past}:1: error: IB{MAX_ENTRIES - half}: more than {MAX_ENTRIES:,} entries in the file"
+    )
     assert not (tmp_path / "out.xml").exists()
 
 
@@ -167,10 +194,14 @@ def test_repeated_wise_errors_are_summed_up_by_kind(tmp_path):
     body += "R20000=x,bad\n"
     ini = wise(tmp_path, body)
     proc = run_capped("import", ini)
-    assert_clean_error(proc, 1, f"{ini}:15:5: error: R10: offset 0 of the holding table is already R0's (line 5)",
-                       f"{ini}:20:5: error: R15: offset 5 of the holding table is already R5's (line 10); and "
-                       f"{n - 10 - SHOWN_PER_KIND - 1:,} more like it (lines 21, 22, 23, 24, 25, ...)",
-                       f"{ini}:20005:1: error: R20000 is beyond numberOfR={n}")
+    assert_clean_error(
+        proc,
+        1,
+        f"{ini}:15:5: error: R10: offset 0 of the holding table is already R0's (line 5)",
+        f"{ini}:20:5: error: R15: offset 5 of the holding table is already R5's (line 10); and "
+        f"{n - 10 - SHOWN_PER_KIND - 1:,} more like it (lines 21, 22, 23, 24, 25, ...)",
+        f"{ini}:20005:1: error: R20000 is beyond numberOfR={n}",
+    )
     assert len(proc.stderr.splitlines()) <= 3 * (SHOWN_PER_KIND + 1)
 
 
@@ -191,9 +222,16 @@ def _toolkit(fields: int, tests: int) -> str:
         out += [f"      - id: 'F{i}'", f"        expression: 'int16(hr:{i})'"]
     out.append("tests:")
     for t in range(tests):
-        out += [f"  - id: 'T{t}'", "    input:", "      - firstRegisterAddress: 'hr:0'",
-                f"        registers: '{t % 2:04x}'", "    blocks:", "      - id: 'Main'", "        expected:",
-                "          F0: 1"]
+        out += [
+            f"  - id: 'T{t}'",
+            "    input:",
+            "      - firstRegisterAddress: 'hr:0'",
+            f"        registers: '{t % 2:04x}'",
+            "    blocks:",
+            "      - id: 'Main'",
+            "        expected:",
+            "          F0: 1",
+        ]
     return "\n".join(out) + "\n"
 
 
@@ -238,24 +276,38 @@ def test_mdl_test_compiles_a_device_once_for_all_its_scenarios(tmp_path, monkeyp
 def test_a_long_chain_of_fields_is_refused_in_linear_time(tmp_path):
     """3,000 fields each naming the one before: the chain is refused past the depth limit, each field once or
     twice, with its position (the check of which fields already had an error was quadratic: 90 s here)."""
-    lines = ["description: 'chain'", "blocks:", "  - id: 'Main'", "    fields:",
-             "      - id: 'F0'", "        expression: 'int16(hr:0)'"]
+    lines = [
+        "description: 'chain'",
+        "blocks:",
+        "  - id: 'Main'",
+        "    fields:",
+        "      - id: 'F0'",
+        "        expression: 'int16(hr:0)'",
+    ]
     for i in range(1, 3000):
         lines += [f"      - id: 'F{i}'", f"        expression: 'F{i - 1} + 1'"]
     path = tmp_path / "chain.yaml"
     path.write_text("\n".join(lines) + "\n")
     proc = run_capped("import", path)
-    assert_clean_error(proc, 1, f"{path}:134:22: error: field 'F64' of block 'Main': fields refer to each other "
-                                "more than 64 deep")
+    assert_clean_error(
+        proc, 1, f"{path}:134:22: error: field 'F64' of block 'Main': fields refer to each other more than 64 deep"
+    )
     assert len(proc.stderr.splitlines()) < 2 * 3000
 
 
-@pytest.mark.parametrize("yaml_text, fragment", [
-    ("description: &a 'x'\nblocks: *a\n", ":2:9: error: YAML aliases are not supported"),
-    ("description: 'x'\nblocks: " + "[" * 5000 + "]" * 5000 + "\n", "error: YAML nested more than 32 levels deep"),
-    ("description: 'x'\nblocks:\n  - id: 'M'\n    fields:\n      - id: 'F'\n        expression: '"
-     + " + ".join(["int16(hr:0)"] * 20000) + "'\n", "error: field 'F' of block 'M': the expression nests more than"),
-])
+@pytest.mark.parametrize(
+    "yaml_text, fragment",
+    [
+        ("description: &a 'x'\nblocks: *a\n", ":2:9: error: YAML aliases are not supported"),
+        ("description: 'x'\nblocks: " + "[" * 5000 + "]" * 5000 + "\n", "error: YAML nested more than 32 levels deep"),
+        (
+            "description: 'x'\nblocks:\n  - id: 'M'\n    fields:\n      - id: 'F'\n        expression: '"
+            + " + ".join(["int16(hr:0)"] * 20000)
+            + "'\n",
+            "error: field 'F' of block 'M': the expression nests more than",
+        ),
+    ],
+)
 def test_toolkit_bombs_are_refused_with_a_position(tmp_path, yaml_text, fragment):
     path = tmp_path / "bomb.yaml"
     path.write_text(yaml_text)
@@ -266,8 +318,10 @@ def test_toolkit_bombs_are_refused_with_a_position(tmp_path, yaml_text, fragment
 def test_a_huge_scalar_within_the_limit_imports(tmp_path):
     """A 1.5 MB description is just text: imported, not refused, in bounded memory."""
     path = tmp_path / "desc.yaml"
-    path.write_text("description: '" + "d" * 1_500_000 + "'\nblocks:\n  - id: 'M'\n    fields:\n"
-                    "      - id: 'F'\n        expression: 'int16(hr:0)'\n")
+    path.write_text(
+        "description: '" + "d" * 1_500_000 + "'\nblocks:\n  - id: 'M'\n    fields:\n"
+        "      - id: 'F'\n        expression: 'int16(hr:0)'\n"
+    )
     proc = run_capped("import", path, "-o", tmp_path / "out.xml")
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "out.xml").stat().st_size > 1_500_000

@@ -52,8 +52,10 @@ def test_cells_past_the_heading_are_one_warning_naming_the_rows(tmp_path):
     proc = cli("import", path, "-o", tmp_path / "out.xml")
     assert proc.returncode == 0, proc.stderr
     col = rows(1, ",x,y").index(",x") + 2
-    assert stderr_lines(proc) == [f"{path}:4:{col}: warning: cells beyond the heading's {WIDTH} columns, ignored, "
-                                  "on 3,000 rows (first at lines 4, 5, 6, ...)"]
+    assert stderr_lines(proc) == [
+        f"{path}:4:{col}: warning: cells beyond the heading's {WIDTH} columns, ignored, "
+        "on 3,000 rows (first at lines 4, 5, 6, ...)"
+    ]
 
 
 def test_a_few_cells_past_the_heading_are_each_said_at_their_cell(tmp_path):
@@ -80,17 +82,24 @@ def test_every_kind_of_warning_is_bounded(tmp_path):
 def test_errors_stop_being_listed_after_the_first_hundred(tmp_path):
     path = write(tmp_path, HEAD + HEADING + "\n" + "".join(f"B,p{i},N,x{i},FC03,UINT16,-,\n" for i in range(5000)))
     proc = cli("import", path, "-o", tmp_path / "out.xml")
-    assert_clean_error(proc, 1, f"{path}:4:8: error: Address 'x0' is not a whole number",
-                       f"{path}:{4 + MAX_ERRORS}:10: error: {5000 - MAX_ERRORS:,} more errors not shown (first at "
-                       f"lines {4 + MAX_ERRORS}, {5 + MAX_ERRORS}, {6 + MAX_ERRORS}, ...)")
+    assert_clean_error(
+        proc,
+        1,
+        f"{path}:4:8: error: Address 'x0' is not a whole number",
+        f"{path}:{4 + MAX_ERRORS}:10: error: {5000 - MAX_ERRORS:,} more errors not shown (first at "
+        f"lines {4 + MAX_ERRORS}, {5 + MAX_ERRORS}, {6 + MAX_ERRORS}, ...)",
+    )
     assert len(stderr_lines(proc)) == MAX_ERRORS + 1
     assert not (tmp_path / "out.xml").exists()
 
 
 # -- stated limits, never a traceback ------------------------------------------------------------
 def test_more_datapoints_than_the_limit_are_refused_at_the_first_row_past_it(tmp_path):
-    text = HEAD + "Datapoint Name,Modicon,Address,Function Code,Native Type,Write Enable\n" + "".join(
-        f"p{i},N,{i % 65536},FC0{3 + i // 65536},,-\n" for i in range(MAX_DATAPOINTS + 5))
+    text = (
+        HEAD
+        + "Datapoint Name,Modicon,Address,Function Code,Native Type,Write Enable\n"
+        + "".join(f"p{i},N,{i % 65536},FC0{3 + i // 65536},,-\n" for i in range(MAX_DATAPOINTS + 5))
+    )
     path = write(tmp_path, text, "big.mod")
     proc = run_mdl("import", path, "-o", tmp_path / "out.xml", timeout=300)
     assert_clean_error(proc, 1, f"{path}:{MAX_DATAPOINTS + 4}:1: error: more than {MAX_DATAPOINTS:,} datapoints")
@@ -146,8 +155,9 @@ def test_a_text_cell_xml_cannot_carry_is_refused_at_its_cell(tmp_path, column, c
     path = write(tmp_path, HEAD + HEADING + "\n" + ",".join(cells) + "\n")
     col = len(",".join(cells[:at])) + (2 if at else 1)
     proc = cli("import", path)
-    assert_clean_error(proc, 1, f"{path}:4:{col}: error: 'a", f"holds the character U+{ord(char):04X}, which MDL "
-                                                              "(XML) cannot carry")
+    assert_clean_error(
+        proc, 1, f"{path}:4:{col}: error: 'a", f"holds the character U+{ord(char):04X}, which MDL (XML) cannot carry"
+    )
 
 
 def test_a_product_line_xml_cannot_carry_is_refused_at_its_cell(tmp_path):
@@ -161,9 +171,13 @@ def hostile_device(texts: list[str]) -> str:
     """A function named and labelled with each text, and one described with each (a description is
     stripped of spaces at its ends, by every reader: those starting with a tab are not compared)."""
     fns = "".join(fn_xml(xml_text(f"{t}n{i}"), i, block_label=xml_text(f"{t}b")) for i, t in enumerate(texts))
-    fns += "".join(fn_xml(f"plain{i}", 100 + i, block_label="B").replace(
-        f"<description>plain{i}</description>", f"<description>{xml_text(t)}d</description>")
-        for i, t in enumerate(texts) if not t[:1].isspace())
+    fns += "".join(
+        fn_xml(f"plain{i}", 100 + i, block_label="B").replace(
+            f"<description>plain{i}</description>", f"<description>{xml_text(t)}d</description>"
+        )
+        for i, t in enumerate(texts)
+        if not t[:1].isspace()
+    )
     return device_xml(fns)
 
 
@@ -172,7 +186,7 @@ def xml_text(text: str) -> str:
 
 
 def test_formula_cells_are_written_behind_a_quote_mark_and_read_back_without_it(tmp_path):
-    texts = [*TRIGGERS[:-1], "'=", "''", "'+", "=HYPERLINK(\"http://x\",\"y\")", "-2+3"]
+    texts = [*TRIGGERS[:-1], "'=", "''", "'+", '=HYPERLINK("http://x","y")', "-2+3"]
     source = tmp_path / "hostile.xml"
     source.write_text(hostile_device(texts))
     mod = tmp_path / "hostile.mod"
@@ -191,15 +205,20 @@ def test_formula_cells_are_written_behind_a_quote_mark_and_read_back_without_it(
     again = cli("import", mod)
     assert again.returncode == 0, again.stderr
     assert functions_of(again.stdout) == functions_of(source.read_text())
-    assert "a leading ' (the mark mdl export puts before a text a spreadsheet would run as a formula) removed" \
+    assert (
+        "a leading ' (the mark mdl export puts before a text a spreadsheet would run as a formula) removed"
         in again.stderr
+    )
 
 
 def test_identity_starting_with_a_formula_is_marked_and_comes_back(tmp_path):
     source = tmp_path / "d.xml"
-    source.write_text(device_xml(fn_xml("a", 1)).replace(
-        "<description>test</description>",
-        "<description>=1+1</description><manufacturer>@SUM(A1)</manufacturer><product>+x</product>"))
+    source.write_text(
+        device_xml(fn_xml("a", 1)).replace(
+            "<description>test</description>",
+            "<description>=1+1</description><manufacturer>@SUM(A1)</manufacturer><product>+x</product>",
+        )
+    )
     mod = tmp_path / "d.mod"
     proc = cli("export", source, "--to", "xif", "-o", mod)
     assert proc.returncode == 0, proc.stderr
@@ -222,8 +241,7 @@ def test_a_line_break_in_a_name_label_or_identity_is_refused_naming_it(tmp_path,
     source.write_text(xml)
     out = tmp_path / "d.mod"
     proc = cli("export", source, "--to", "xif", "-o", out)
-    subject = "its #manufacturer" if where == "manufacturer" else \
-        f"function '{'f' if where != 'name' else 'a'}"
+    subject = "its #manufacturer" if where == "manufacturer" else f"function '{'f' if where != 'name' else 'a'}"
     assert_clean_error(proc, 1, subject, f"holds a line break (U+{ord(brk[0]):04X}), which would start a new row")
     assert not out.exists()
 
@@ -231,11 +249,15 @@ def test_a_line_break_in_a_name_label_or_identity_is_refused_naming_it(tmp_path,
 def test_commas_quotes_and_line_breaks_never_make_a_row_or_a_cell(tmp_path):
     nasty, maker = 'x,"y",\n#program_ID,1\u2028z', 'A, "B"'
     source = tmp_path / "d.xml"
-    fns = fn_xml("a,\"b\"", 1, block_label='" ,#c') + fn_xml("two", 2, block_label="B").replace(
-        "<description>two</description>", f"<description>{xml_text(nasty)}</description>")
-    source.write_text(device_xml(fns).replace(
-        "<description>test</description>", f"<description>{xml_text(nasty)}</description>"
-        f"<manufacturer>{xml_text(maker)}</manufacturer>"))
+    fns = fn_xml('a,"b"', 1, block_label='" ,#c') + fn_xml("two", 2, block_label="B").replace(
+        "<description>two</description>", f"<description>{xml_text(nasty)}</description>"
+    )
+    source.write_text(
+        device_xml(fns).replace(
+            "<description>test</description>",
+            f"<description>{xml_text(nasty)}</description><manufacturer>{xml_text(maker)}</manufacturer>",
+        )
+    )
     mod = tmp_path / "d.mod"
     proc = cli("export", source, "--to", "xif", "-o", mod)
     assert proc.returncode == 0, proc.stderr
@@ -249,7 +271,9 @@ def test_commas_quotes_and_line_breaks_never_make_a_row_or_a_cell(tmp_path):
     device = tree_to_device(etree.fromstring(xml.encode("ascii"), secure_parser()).getroottree())
     assert device.manufacturer == 'A, "B"' and device.description == 'x,"y", #program_ID,1 z'
     assert [(fn.name, fn.block_labels, fn.description) for fn in device.functions] == [
-        ('a,"b"', ['" ,#c'], 'a,"b"'), ("two", ["B"], 'x,"y", #program_ID,1 z')]
+        ('a,"b"', ['" ,#c'], 'a,"b"'),
+        ("two", ["B"], 'x,"y", #program_ID,1 z'),
+    ]
 
 
 # -- issue 28: block labels starting with # --------------------------------------------------------
@@ -261,8 +285,9 @@ def test_block_labels_starting_with_hash_survive_the_round_trip(tmp_path):
     proc = cli("export", source, "--to", "xif", "-o", mod)
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr.count("starts with #: written in quotes") == 1  # one note naming them all (issue 20)
-    assert f"functions {', '.join(repr(f'f{i}') for i in range(len(labels)))}: its Block Name starts with #" \
-        in proc.stderr, proc.stderr
+    assert (
+        f"functions {', '.join(repr(f'f{i}') for i in range(len(labels)))}: its Block Name starts with #" in proc.stderr
+    ), proc.stderr
     again = cli("import", mod)
     assert again.returncode == 0 and "warning" not in again.stderr, again.stderr
     assert functions_of(again.stdout) == functions_of(source.read_text())
@@ -276,8 +301,10 @@ def test_an_unknown_product_line_is_skipped_with_a_warning(tmp_path, line):
     path = write(tmp_path, HEAD + HEADING + "\n" + rows(1) + line + "\n")
     proc = cli("import", path)
     assert proc.returncode == 0, proc.stderr
-    assert f"{path}:5:1: warning: '{line.split(',')[0]}' is not a product line of a Modbus XIF file; the line is " \
-           "ignored" in proc.stderr
+    assert (
+        f"{path}:5:1: warning: '{line.split(',')[0]}' is not a product line of a Modbus XIF file; the line is "
+        "ignored" in proc.stderr
+    )
 
 
 def test_a_quoted_hash_before_the_heading_is_still_a_product_line(tmp_path):

@@ -58,8 +58,10 @@ def imported(tmp_path_factory):
 def test_imported_mdl_validates_and_passes(imported):
     proc = cli("validate", *imported)
     assert proc.returncode == 0, proc.stderr
-    assert all("valid MDL 1.0 (extensions:" in line and "expression" in line and "tests" in line
-               for line in proc.stdout.splitlines())
+    assert all(
+        "valid MDL 1.0 (extensions:" in line and "expression" in line and "tests" in line
+        for line in proc.stdout.splitlines()
+    )
     proc = cli("test", *imported)
     assert proc.returncode == 0, proc.stdout
     assert proc.stdout.splitlines()[-1] == f"{TOTAL_SCENARIOS} passed, 0 failed"
@@ -73,8 +75,10 @@ def test_failures_are_reported_with_scenario_field_expected_and_got(tmp_path):
     path.write_text(text)
     proc = cli("test", path)
     assert proc.returncode == 1
-    assert (f"{path}: test 'Float: Normal values': Float32_NI: expected ['1234.568'], got ['1234.5670166015625']"
-            in proc.stdout)
+    assert (
+        f"{path}: test 'Float: Normal values': Float32_NI: expected ['1234.568'], got ['1234.5670166015625']"
+        in proc.stdout
+    )
     assert proc.stdout.splitlines()[-1] == "4 passed, 1 failed"
 
 
@@ -82,13 +86,17 @@ def _python_device(device, workdir: Path):
     name = f"{stem(device.name)}.py"
     (workdir / name).write_text(render(device, "ref.xml", "python")[name])
     module = import_generated(workdir / name, f"tk_{stem(device.name)}")
-    return next(getattr(module, n) for n in module.__all__ if not n.startswith("Async") and n[0].isupper()
-                and not n.endswith("Error"))
+    return next(
+        getattr(module, n)
+        for n in module.__all__
+        if not n.startswith("Async") and n[0].isupper() and not n.endswith("Error")
+    )
 
 
 @pytest.mark.compile  # builds generated C++/C (tests/conftest.py TIERS)
-@pytest.mark.parametrize("yaml_file", [*(pytest.param(f, marks=reference) for f in FILES), HEAT_PUMP],
-                         ids=lambda p: p.stem)
+@pytest.mark.parametrize(
+    "yaml_file", [*(pytest.param(f, marks=reference) for f in FILES), HEAT_PUMP], ids=lambda p: p.stem
+)
 def test_scenarios_through_generated_drivers(yaml_file, tmp_path):
     """One simulator per file serves scenario k at unit k (k = 1, 2, ...); the Python driver and the C++
     harness read every unit."""
@@ -124,8 +132,21 @@ def test_mdl_read_evaluates_expressions(sim_factory, tmp_path):
     mdl_file = tmp_path / "q.xml"
     assert cli("import", path, "-o", mdl_file).returncode == 0
     sim = sim_factory(mdl_file, "--scenario", "Normal values")
-    proc = run_mdl("read", mdl_file, "--host", sim.host, "--port", sim.port, "MyEnum", "MyBitset1",
-                   "Boolean Field Reference", "CombinedNumerical", "MyFloatNI", "--format", "json")
+    proc = run_mdl(
+        "read",
+        mdl_file,
+        "--host",
+        sim.host,
+        "--port",
+        sim.port,
+        "MyEnum",
+        "MyBitset1",
+        "Boolean Field Reference",
+        "CombinedNumerical",
+        "MyFloatNI",
+        "--format",
+        "json",
+    )
     assert proc.returncode == 0, proc.stderr
     values = json.loads(proc.stdout)
     assert values["MyEnum"] == "Manual" and values["MyBitset1"] == ["Zero", "One", "Two", "Bit 3", "Bit 12"]
@@ -157,16 +178,19 @@ blocks:
     return path
 
 
-@pytest.mark.parametrize("expression, col, message", [
-    ("int16(hr:0 ++ 1", 12, "expected ')'"),
-    ("Good + Nosuch", 8, "unknown field 'Nosuch'"),
-    ("int16(hr:0, ir:1)", 13, "mix register tables"),
-    ("utf8(hr:0#126)", 1, "at most 125"),
-    ("int32(hr:0#2; 0xDEAD)", 1, "'not implemented' value of 1 register(s) for 2"),
-    ("int32(hr:0)", 7, "int32 needs 2 registers, got 1"),
-    ("concat('a') * 2", 1, "arithmetic needs numbers"),
-    ("hexstring(hr:0, hr:2)", 11, "consecutive"),
-])
+@pytest.mark.parametrize(
+    "expression, col, message",
+    [
+        ("int16(hr:0 ++ 1", 12, "expected ')'"),
+        ("Good + Nosuch", 8, "unknown field 'Nosuch'"),
+        ("int16(hr:0, ir:1)", 13, "mix register tables"),
+        ("utf8(hr:0#126)", 1, "at most 125"),
+        ("int32(hr:0#2; 0xDEAD)", 1, "'not implemented' value of 1 register(s) for 2"),
+        ("int32(hr:0)", 7, "int32 needs 2 registers, got 1"),
+        ("concat('a') * 2", 1, "arithmetic needs numbers"),
+        ("hexstring(hr:0, hr:2)", 11, "consecutive"),
+    ],
+)
 def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, message):
     path = _schema(tmp_path, expression)
     col += 21  # the expression's text starts in column 22 of its line, after the quote
@@ -176,8 +200,12 @@ def test_expression_errors_name_file_line_and_column(tmp_path, expression, col, 
 
 def test_sim_reports_expression_errors(tmp_path):
     path = _schema(tmp_path, "Good + Nosuch")
-    assert_clean_error(run_mdl("sim", path, "--port", "0"), 1,
-                       f"{path}:8:29: error: field 'Bad' of block 'Main':", "unknown field 'Nosuch'")
+    assert_clean_error(
+        run_mdl("sim", path, "--port", "0"),
+        1,
+        f"{path}:8:29: error: field 'Bad' of block 'Main':",
+        "unknown field 'Nosuch'",
+    )
 
 
 def test_mdl_validate_lists_every_expression_problem(tmp_path):
@@ -202,5 +230,4 @@ def test_bad_yaml(tmp_path):
     path.write_text("- just\n- a list\n")
     assert_clean_error(cli("test", path), 1, "not a Modbus Schema Toolkit file")
     assert_clean_error(cli("import", tmp_path / "none.yaml"), 1, "no such file")
-    assert_clean_error(run_mdl("sim", HEAT_PUMP, "--port", "0", "--scenario", "nope"), 1,
-                       "no test scenario 'nope'")
+    assert_clean_error(run_mdl("sim", HEAT_PUMP, "--port", "0", "--scenario", "nope"), 1, "no test scenario 'nope'")

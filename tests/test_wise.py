@@ -40,6 +40,7 @@ def raw_file(tmp_path, tables: dict) -> Path:
 
 # --- the guide's example ----------------------------------------------------------------------------------
 
+
 def test_seed_example_imports_to_mdl(tmp_path):
     out = tmp_path / "wise.xml"
     proc = cli("import", SEED, "-o", out)
@@ -48,28 +49,51 @@ def test_seed_example_imports_to_mdl(tmp_path):
     assert cli("validate", out).stdout.startswith(f"{out}: valid MDL 1.0")
     text = out.read_text()
     assert "<name>WISE-4012E</name>" in text
-    assert re.search(r"<name>Voltage0</name>.*?<addresses>0</addresses>.*?<format>UINT16</format>.*?"
-                     r"<block_label>Analog Input</block_label>.*?<multiplier>0.001</multiplier>.*?<units>V</units>.*?"
-                     r"<register_type>input</register_type>.*?<minimum>0</minimum>.*?<maximum>5</maximum>", text, re.S)
-    assert re.search(r"<name>LED1</name>.*?<addresses>17</addresses>.*?<format>BIT</format>.*?"
-                     r"<register_type>coil</register_type>", text, re.S)
+    assert re.search(
+        r"<name>Voltage0</name>.*?<addresses>0</addresses>.*?<format>UINT16</format>.*?"
+        r"<block_label>Analog Input</block_label>.*?<multiplier>0.001</multiplier>.*?<units>V</units>.*?"
+        r"<register_type>input</register_type>.*?<minimum>0</minimum>.*?<maximum>5</maximum>",
+        text,
+        re.S,
+    )
+    assert re.search(
+        r"<name>LED1</name>.*?<addresses>17</addresses>.*?<format>BIT</format>.*?"
+        r"<register_type>coil</register_type>",
+        text,
+        re.S,
+    )
 
 
 def test_seed_example_reads_volts_from_millivolts(sim_factory, tmp_path):
     """The guide's values: 4645 mV and 4659 mV read 4.645 V and 4.659 V; the switches and LEDs as bits."""
     raw = raw_file(tmp_path, {"input": {0: 4645, 1: 4659}, "discrete": {0: 1}, "coil": {16: 1, 17: 1}})
     sim = sim_factory(SEED, "--registers", raw)
-    assert read_json(SEED, sim) == {"Switch0": True, "Switch1": False, "LED0": True, "LED1": True,
-                                    "Voltage0": 4.645, "Voltage1": 4.659}
+    assert read_json(SEED, sim) == {
+        "Switch0": True,
+        "Switch1": False,
+        "LED0": True,
+        "LED1": True,
+        "Voltage0": 4.645,
+        "Voltage1": 4.659,
+    }
     proc = cli("read", SEED, *sim.connection, "--format", "senml")
     assert json.loads(proc.stdout) == {
-        "Digital Input": {"bn": "Digital Input", "e": [{"n": "Switch0", "bv": True, "asm": "r"},
-                                                       {"n": "Switch1", "bv": False, "asm": "r"}]},
-        "Digital Output": {"bn": "Digital Output", "e": [{"n": "LED0", "bv": True, "asm": "rw"},
-                                                         {"n": "LED1", "bv": True, "asm": "rw"}]},
-        "Analog Input": {"bn": "Analog Input", "e": [
-            {"n": "Voltage0", "v": 4.645, "u": "V", "min": 0, "max": 5, "asm": "r"},
-            {"n": "Voltage1", "v": 4.659, "u": "V", "min": 0, "max": 5, "asm": "r"}]}}
+        "Digital Input": {
+            "bn": "Digital Input",
+            "e": [{"n": "Switch0", "bv": True, "asm": "r"}, {"n": "Switch1", "bv": False, "asm": "r"}],
+        },
+        "Digital Output": {
+            "bn": "Digital Output",
+            "e": [{"n": "LED0", "bv": True, "asm": "rw"}, {"n": "LED1", "bv": True, "asm": "rw"}],
+        },
+        "Analog Input": {
+            "bn": "Analog Input",
+            "e": [
+                {"n": "Voltage0", "v": 4.645, "u": "V", "min": 0, "max": 5, "asm": "r"},
+                {"n": "Voltage1", "v": 4.659, "u": "V", "min": 0, "max": 5, "asm": "r"},
+            ],
+        },
+    }
     assert '"max": 5,' in proc.stdout  # the guide's numbers: 5, not 5.0
     # the imported MDL reads the same; writing an LED and a value past the range
     xml = tmp_path / "wise.xml"
@@ -80,23 +104,54 @@ def test_seed_example_reads_volts_from_millivolts(sim_factory, tmp_path):
 
 # --- the shipped agent's form -------------------------------------------------------------------------------
 
+
 def test_agent_sample_form_and_a_name_in_two_sections(sim_factory, tmp_path):
     proc = cli("import", HANDLER)
     assert proc.returncode == 0, proc.stderr
     names = re.findall(r"<name>(.*?)</name>", proc.stdout)
-    assert names == ["WISE-4012E", "Switch0", "Switch1", "Switch2", "LED0", "LED1", "LED2", "Data0", "Data1", "Data2",
-                     "Data0_2", "Data1_2", "Data2_2"]
+    assert names == [
+        "WISE-4012E",
+        "Switch0",
+        "Switch1",
+        "Switch2",
+        "LED0",
+        "LED1",
+        "LED2",
+        "Data0",
+        "Data1",
+        "Data2",
+        "Data0_2",
+        "Data1_2",
+        "Data2_2",
+    ]
     assert "'Data0' is also the name of line 32 ([Input Registers]): this one is named 'Data0_2'" in proc.stderr
     assert "agent_handler.ini:38: note:" in proc.stderr and "warning" not in proc.stderr
     raw = raw_file(tmp_path, {"input": {0: 7, 2: 65535}, "holding": {0: 8, 1: 9}, "coil": {2: 1}, "discrete": {1: 1}})
     sim = sim_factory(HANDLER, "--registers", raw)
-    assert read_json(HANDLER, sim) == {"Switch0": False, "Switch1": True, "Switch2": False, "LED0": False,
-                                       "LED1": False, "LED2": True, "Data0": 7, "Data1": 0, "Data2": 65535,
-                                       "Data0_2": 8, "Data1_2": 9, "Data2_2": 0}
+    assert read_json(HANDLER, sim) == {
+        "Switch0": False,
+        "Switch1": True,
+        "Switch2": False,
+        "LED0": False,
+        "LED1": False,
+        "LED2": True,
+        "Data0": 7,
+        "Data1": 0,
+        "Data2": 65535,
+        "Data0_2": 8,
+        "Data1_2": 9,
+        "Data2_2": 0,
+    }
     senml = json.loads(cli("read", HANDLER, *sim.connection, "--format", "senml").stdout)
     assert list(senml) == ["Discrete Inputs", "Coils", "Input Registers", "Holding Registers"]
-    assert senml["Holding Registers"]["e"][0] == {"n": "Data0_2", "v": 8, "u": "V", "min": -1000000, "max": 1000000,
-                                                  "asm": "rw"}
+    assert senml["Holding Registers"]["e"][0] == {
+        "n": "Data0_2",
+        "v": 8,
+        "u": "V",
+        "min": -1000000,
+        "max": 1000000,
+        "asm": "rw",
+    }
 
 
 def _float_regs(value: float, letters: str) -> list[int]:
@@ -111,8 +166,10 @@ def test_every_datatype_and_the_lua_column(sim_factory, tmp_path):
     precision as a multiplier, plain Lua arithmetic as scaling, other Lua kept as a comment."""
     proc = cli("import", DATATYPES)
     assert proc.returncode == 0, proc.stderr
-    assert ("agent_datatypes.ini:30:27: warning: R1 'Rooted': the Lua column 'math.pow(modbus_val,1/2)+10-2.5' is "
-            "not plain arithmetic on modbus_val") in proc.stderr
+    assert (
+        "agent_datatypes.ini:30:27: warning: R1 'Rooted': the Lua column 'math.pow(modbus_val,1/2)+10-2.5' is "
+        "not plain arithmetic on modbus_val"
+    ) in proc.stderr
     assert "<description>Rooted (WISE Lua conversion, not applied: math.pow(modbus_val,1/2)+10-2.5)" in proc.stdout
     regs: dict[int, int] = {0: 54321}
     for address, letters in ((2, "ABCD"), (4, "DCBA"), (6, "BADC"), (8, "CDAB")):
@@ -124,19 +181,31 @@ def test_every_datatype_and_the_lua_column(sim_factory, tmp_path):
     raw = raw_file(tmp_path, {"input": regs, "holding": {0: 100, 1: 25, 2: 40000}})
     sim = sim_factory(DATATYPES, "--registers", raw)
     assert read_json(DATATYPES, sim) == {
-        "U16": 54321, "F_ABCD": -12.25, "F_DCBA": -12.25, "F_BADC": -12.25, "F_CDAB": -12.25,
-        "U32_ABCD": 123.456, "U32_CDAB": 123.456, "I32_ABCD": -1.23, "I32_CDAB": -1.23,
+        "U16": 54321,
+        "F_ABCD": -12.25,
+        "F_DCBA": -12.25,
+        "F_BADC": -12.25,
+        "F_CDAB": -12.25,
+        "U32_ABCD": 123.456,
+        "U32_CDAB": 123.456,
+        "I32_ABCD": -1.23,
+        "I32_CDAB": -1.23,
         "Scaled": 95.0,  # ("modbus_val*2-10") * 0.5, as the agent runs the Lua before the precision
-        "Rooted": 0.025, "U16_2": 40000}  # precision 0 means 1
+        "Rooted": 0.025,
+        "U16_2": 40000,
+    }  # precision 0 means 1
 
 
-@pytest.mark.parametrize("text, value", [
-    ('0,x,0,100,0.1,V,0,"(modbus_val+40)/2"', 12.0),  # (200 + 40) / 2 * 0.1
-    ('0,x,0,100,1,V,0,modbus_val-4', 196.0),  # an offset makes a float (SPEC 2.3)
-    ('0,x,0,100,2,V,0,"modbus_val - -1"', 402.0),
-    ('0,x,0,100,1,V,0,""', 200),
-    ('0,x,0,100,1,V,0,"modbus_val--1"', 200),  # `--` starts a Lua comment: kept as text, not applied
-])
+@pytest.mark.parametrize(
+    "text, value",
+    [
+        ('0,x,0,100,0.1,V,0,"(modbus_val+40)/2"', 12.0),  # (200 + 40) / 2 * 0.1
+        ("0,x,0,100,1,V,0,modbus_val-4", 196.0),  # an offset makes a float (SPEC 2.3)
+        ('0,x,0,100,2,V,0,"modbus_val - -1"', 402.0),
+        ('0,x,0,100,1,V,0,""', 200),
+        ('0,x,0,100,1,V,0,"modbus_val--1"', 200),  # `--` starts a Lua comment: kept as text, not applied
+    ],
+)
 def test_lua_arithmetic(sim_factory, tmp_path, text, value):
     ini = tmp_path / "Modbus.ini"
     ini.write_text(f"[Platform]\nName=L\n[Holding Registers]\nnumberOfR=1\nR0={text}\n")
@@ -150,41 +219,68 @@ def test_bad_input_reports_every_line():
     assert_clean_error(proc, 1)
     errors = [line for line in proc.stderr.splitlines() if ": error: " in line]
     assert [e.split(": error: ")[0] for e in errors] == [
-        f"{WISE / 'bad.ini'}:{where}" for where in ("5:12", "12:1", "16:22", "17:5", "18:13", "21:1")]
-    for fragment in ("numberOfDI=3 but [Digital Input] has no DI2", "B1 is beyond numberOfB=1",
-                     "datatype '9' is outside 0-8", "IR1: offset 0 of the input table is already IR0's (line 16)",
-                     "min must be a number, not 'zero'", "[Holding Registers] has no numberOfR"):
+        f"{WISE / 'bad.ini'}:{where}" for where in ("5:12", "12:1", "16:22", "17:5", "18:13", "21:1")
+    ]
+    for fragment in (
+        "numberOfDI=3 but [Digital Input] has no DI2",
+        "B1 is beyond numberOfB=1",
+        "datatype '9' is outside 0-8",
+        "IR1: offset 0 of the input table is already IR0's (line 16)",
+        "min must be a number, not 'zero'",
+        "[Holding Registers] has no numberOfR",
+    ):
         assert fragment in proc.stderr
     assert proc.stdout == ""
 
 
-@pytest.mark.parametrize("body, message", [  # the body starts on line 3, after [Platform] and Name
-    ("[Coils]\nnumberOfB=x\nB0=0,a\n", ":4:11: error: numberOfB must be a whole number, not 'x'"),
-    ("[Coils]\nnumberOfB=1\nB0=0,a\nB0=1,b\n", ":6:1: error: B0 appears twice (first on line 5)"),
-    ("[Coils]\nnumberOfB=1\nB0=70000,a\n", ":5:4: error: B0: the offset must be a wire address 0..65535, not '70000'"),
-    ("[Coils]\nnumberOfB=1\nB0=1\n", ":5:4: error: B0: no name"),
-    ("[Coils]\nnumberOfB=1\nB0=0,a\n[Coils]\n", ":6:1: error: section [Coils] appears twice (first on line 3)"),
-    ("[Coils]\nnumberOfB=1\nB0=0,a\n[Digital Output]\nnumberOfDO=1\nDO0=0,b\n",
-     ":8:5: error: DO0: offset 0 of the coil table is already B0's (line 5)"),
-    ("[Input Registers]\nnumberOfIR=1\nIR0=0,a,0,1e999,1,V,0\n", ":5:11: error: IR0: max 1e999 is too large"),
-    ("[Input Registers]\nnumberOfIR=1\nIR0=0,a,0,1,1,V,-1\n", ":5:17: error: IR0: datatype '-1' is outside 0-8"),
-    ("[Input Registers]\nnumberOfIR=999999\nIR0=0,a\n", ":4:12: error: numberOfIR=999999 but [Input Registers] has 1"),
-    ("[Input Registers]\nnumberOfIR=4\nIR1=0,a\n", ":4:12: error: numberOfIR=4 but [Input Registers] has no IR0, "
-                                                   "IR2..IR3"),
-    ("garbage\n", ":3:1: error: not a [section], a key=value line or a comment"),
-    # every register of a 32-bit datatype counts, not only its offset
-    ("[Holding Registers]\nnumberOfR=3\nR0=0,A,0,0,1,V,1\nR1=1,B,0,0,1,V,0\nR2=3,C,,,,,5\n",
-     ":6:4: error: R1: reads register 1 of the holding table; register 1 is already read by R0 (line 5: "
-     "registers 0-1)"),
-    ("[Holding Registers]\nnumberOfR=2\nR0=1,A,0,0,1,V,0\nR1=0,B,0,0,1,V,7\n",
-     ":6:4: error: R1: reads registers 0-1 of the holding table; register 1 is already read by R0 (line 5: "
-     "register 1)"),
-    ("[Analog Output]\nnumberOfAO=1\nAO0=10,A,0,0,1,V,8\n[Holding Registers]\nnumberOfR=1\nR0=11,B,0,0,1,V,2\n",
-     ":8:4: error: R0: reads registers 11-12 of the holding table; register 11 is already read by AO0 (line 5: "
-     "registers 10-11)"),
-    ("[Input Registers]\nnumberOfIR=1\nIR0=65535,a,0,1,1,V,5\n",
-     ":5:5: error: IR0: datatype 5 reads two registers, and offset 65535 is the table's last (65535)"),
-])
+@pytest.mark.parametrize(
+    "body, message",
+    [  # the body starts on line 3, after [Platform] and Name
+        ("[Coils]\nnumberOfB=x\nB0=0,a\n", ":4:11: error: numberOfB must be a whole number, not 'x'"),
+        ("[Coils]\nnumberOfB=1\nB0=0,a\nB0=1,b\n", ":6:1: error: B0 appears twice (first on line 5)"),
+        (
+            "[Coils]\nnumberOfB=1\nB0=70000,a\n",
+            ":5:4: error: B0: the offset must be a wire address 0..65535, not '70000'",
+        ),
+        ("[Coils]\nnumberOfB=1\nB0=1\n", ":5:4: error: B0: no name"),
+        ("[Coils]\nnumberOfB=1\nB0=0,a\n[Coils]\n", ":6:1: error: section [Coils] appears twice (first on line 3)"),
+        (
+            "[Coils]\nnumberOfB=1\nB0=0,a\n[Digital Output]\nnumberOfDO=1\nDO0=0,b\n",
+            ":8:5: error: DO0: offset 0 of the coil table is already B0's (line 5)",
+        ),
+        ("[Input Registers]\nnumberOfIR=1\nIR0=0,a,0,1e999,1,V,0\n", ":5:11: error: IR0: max 1e999 is too large"),
+        ("[Input Registers]\nnumberOfIR=1\nIR0=0,a,0,1,1,V,-1\n", ":5:17: error: IR0: datatype '-1' is outside 0-8"),
+        (
+            "[Input Registers]\nnumberOfIR=999999\nIR0=0,a\n",
+            ":4:12: error: numberOfIR=999999 but [Input Registers] has 1",
+        ),
+        (
+            "[Input Registers]\nnumberOfIR=4\nIR1=0,a\n",
+            ":4:12: error: numberOfIR=4 but [Input Registers] has no IR0, IR2..IR3",
+        ),
+        ("garbage\n", ":3:1: error: not a [section], a key=value line or a comment"),
+        # every register of a 32-bit datatype counts, not only its offset
+        (
+            "[Holding Registers]\nnumberOfR=3\nR0=0,A,0,0,1,V,1\nR1=1,B,0,0,1,V,0\nR2=3,C,,,,,5\n",
+            ":6:4: error: R1: reads register 1 of the holding table; register 1 is already read by R0 (line 5: "
+            "registers 0-1)",
+        ),
+        (
+            "[Holding Registers]\nnumberOfR=2\nR0=1,A,0,0,1,V,0\nR1=0,B,0,0,1,V,7\n",
+            ":6:4: error: R1: reads registers 0-1 of the holding table; register 1 is already read by R0 (line 5: "
+            "register 1)",
+        ),
+        (
+            "[Analog Output]\nnumberOfAO=1\nAO0=10,A,0,0,1,V,8\n[Holding Registers]\nnumberOfR=1\nR0=11,B,0,0,1,V,2\n",
+            ":8:4: error: R0: reads registers 11-12 of the holding table; register 11 is already read by AO0 (line 5: "
+            "registers 10-11)",
+        ),
+        (
+            "[Input Registers]\nnumberOfIR=1\nIR0=65535,a,0,1,1,V,5\n",
+            ":5:5: error: IR0: datatype 5 reads two registers, and offset 65535 is the table's last (65535)",
+        ),
+    ],
+)
 def test_bad_lines(tmp_path, body, message):
     ini = tmp_path / "Modbus.ini"
     ini.write_text("[Platform]\nName=x\n" + body)
@@ -193,17 +289,22 @@ def test_bad_lines(tmp_path, body, message):
 
 def test_warnings_and_notes(tmp_path):
     ini = tmp_path / "dev.ini"
-    ini.write_bytes("[Platform]\nSlaveIP=10.0.0.1\n[Misc]\nx=1\n[Input Registers]\nnumberOfIR=2\nIR0=0,t,9,1,1,\xb0C\n"
-                    "IR1=1,z,0,0,1,V\nfoo=3\n[Coils]\nnumberOfB=1\nB0=0,a,extra\n".encode("cp1252"))
+    ini.write_bytes(
+        "[Platform]\nSlaveIP=10.0.0.1\n[Misc]\nx=1\n[Input Registers]\nnumberOfIR=2\nIR0=0,t,9,1,1,\xb0C\n"
+        "IR1=1,z,0,0,1,V\nfoo=3\n[Coils]\nnumberOfB=1\nB0=0,a,extra\n".encode("cp1252")
+    )
     proc = cli("import", ini, "--from", "wise")
     assert proc.returncode == 0, proc.stderr
-    for fragment in ("note: not UTF-8: read as cp1252", "dev.ini:2: note: [Platform] SlaveIP=10.0.0.1",
-                     "dev.ini:1: note: no [Platform] Name: the device is named 'dev'",
-                     "dev.ini:3:1: warning: unknown section [Misc]",
-                     "dev.ini:7:9: warning: IR0 't': min 9 is above max 1",
-                     "dev.ini:8:9: note: IR1 'z': min and max are both 0: read as no range",
-                     "dev.ini:9:1: warning: [Input Registers] has no key 'foo'",
-                     "dev.ini:12:8: warning: B0: a bit line is offset,name"):
+    for fragment in (
+        "note: not UTF-8: read as cp1252",
+        "dev.ini:2: note: [Platform] SlaveIP=10.0.0.1",
+        "dev.ini:1: note: no [Platform] Name: the device is named 'dev'",
+        "dev.ini:3:1: warning: unknown section [Misc]",
+        "dev.ini:7:9: warning: IR0 't': min 9 is above max 1",
+        "dev.ini:8:9: note: IR1 'z': min and max are both 0: read as no range",
+        "dev.ini:9:1: warning: [Input Registers] has no key 'foo'",
+        "dev.ini:12:8: warning: B0: a bit line is offset,name",
+    ):
         assert fragment in proc.stderr
     assert "<units>&#176;C</units>" in proc.stdout and "<minimum>1</minimum>" in proc.stdout
     assert "<maximum>9</maximum>" in proc.stdout
@@ -214,20 +315,27 @@ def test_standard_input():
     proc = cli("import", "-", "--from", "wise", input=SEED.read_text())
     assert proc.returncode == 0, proc.stderr
     assert "<name>WISE-4012E</name>" in proc.stdout
-    assert_clean_error(cli("import", "-", "--from", "wise", input="[Coils]\nnumberOfB=2\n"), 1,
-                       "<stdin>:2:11: error: numberOfB=2 but [Coils] has no B0..B1")
+    assert_clean_error(
+        cli("import", "-", "--from", "wise", input="[Coils]\nnumberOfB=2\n"),
+        1,
+        "<stdin>:2:11: error: numberOfB=2 but [Coils] has no B0..B1",
+    )
 
 
 # --- export ------------------------------------------------------------------------------------------------
 
+
 def test_export_writes_the_agent_form(tmp_path):
     ALL = DATA / "all_tables.xml"
-    proc = cli("export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3",
-               "--interval", "5")
+    proc = cli(
+        "export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3", "--interval", "5"
+    )
     assert proc.returncode == 0, proc.stderr
     text = proc.stdout
-    assert "[Platform]\nName=All Tables\nProtocol=Modbus_TCP\nClientIP=192.0.2.10\nClientPort=1502\nUnitID=3\n" \
-           "Interval=5\nLog=0\n" in text
+    assert (
+        "[Platform]\nName=All Tables\nProtocol=Modbus_TCP\nClientIP=192.0.2.10\nClientPort=1502\nUnitID=3\n"
+        "Interval=5\nLog=0\n" in text
+    )
     assert "[Coils]\nnumberOfB=3\nB0=0,pump\nB1=1,fan\nB2=5,alarm_reset\n" in text
     assert "IR0=0,energy,0,4294967.295,0.001,kWh,6\n" in text
     assert 'R4=300,temp_offset,-40,32727.5,1, ,0,"modbus_val*0.5-40"\n' in text
@@ -236,22 +344,29 @@ def test_export_writes_the_agent_form(tmp_path):
     for d in said(proc.stderr):
         for name in d["names"]:
             warned[name] = warned.get(name, "") + f"{d['subject']}: {d['kind']}\n"
-    for name, why in (("label", "not written: text"), ("flow", "not written: read by a C fragment"),
-                      ("big", "(64 bits): not written: a value of neither 16 nor 32 bits"),
-                      ("serial", "(UINT32 with byte order little and word order big): not written"),
-                      ("low_byte", "(lower), 'high_byte' (upper): not written: a byte of a register"),
-                      ("mode", "written, losing its enumeration"),
-                      ("voltage", "(0xFFFF): written, losing its not_implemented"),
-                      ("setpoint", "(INT16): written, losing a signed format"),
-                      ("alarm_reset", "(write, coil): written, losing its access")):
+    for name, why in (
+        ("label", "not written: text"),
+        ("flow", "not written: read by a C fragment"),
+        ("big", "(64 bits): not written: a value of neither 16 nor 32 bits"),
+        ("serial", "(UINT32 with byte order little and word order big): not written"),
+        ("low_byte", "(lower), 'high_byte' (upper): not written: a byte of a register"),
+        ("mode", "written, losing its enumeration"),
+        ("voltage", "(0xFFFF): written, losing its not_implemented"),
+        ("setpoint", "(INT16): written, losing a signed format"),
+        ("alarm_reset", "(write, coil): written, losing its access"),
+    ):
         assert why in warned[name], (name, warned[name])
     # each function's warning names its line in the description, as the engine exports do
     assert f"{ALL}:98: warning: function 'label': not written: text" in proc.stderr
     assert f"{ALL}:91: warning: function 'mode': written, losing its enumeration" in proc.stderr
     assert f"{ALL}:81: warning: functions 'setpoint', 'temp_offset' (INT16): written, losing a signed" in proc.stderr
     assert f"{ALL}: note: " not in proc.stderr and "written without the device's" not in proc.stderr
-    assert cli("export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3",
-               "--interval", "5").stdout == text  # deterministic
+    assert (
+        cli(
+            "export", ALL, "--to", "wise", "--host", "192.0.2.10", "--port", "1502", "--unit", "3", "--interval", "5"
+        ).stdout
+        == text
+    )  # deterministic
     out = tmp_path / "Modbus.ini"
     assert cli("export", ALL, "--to", "wise", "-o", out).returncode == 0
     assert "ClientIP=127.0.0.1\nClientPort=502\nUnitID=1\nInterval=60\n" in out.read_text()
@@ -260,11 +375,27 @@ def test_export_writes_the_agent_form(tmp_path):
 
 
 def test_export_serial_and_odd_settings():
-    proc = cli("export", SEED, "--to", "wise", "--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E",
-               "--unit", "7", "--interval", "0.4")
+    proc = cli(
+        "export",
+        SEED,
+        "--to",
+        "wise",
+        "--serial",
+        "/dev/ttyUSB0",
+        "--baud",
+        "9600",
+        "--parity",
+        "E",
+        "--unit",
+        "7",
+        "--interval",
+        "0.4",
+    )
     assert proc.returncode == 0, proc.stderr
-    assert ("Protocol=Modbus_RTU\nSlavePort=/dev/ttyUSB0\nBaud=9600\nParity=Even\nDataBits=8\nStopBits=1\nSlaveID=7\n"
-            "Interval=1\n") in proc.stdout
+    assert (
+        "Protocol=Modbus_RTU\nSlavePort=/dev/ttyUSB0\nBaud=9600\nParity=Even\nDataBits=8\nStopBits=1\nSlaveID=7\n"
+        "Interval=1\n"
+    ) in proc.stdout
     assert "Interval=1 for --interval 0.4" in proc.stderr
     assert "block labels 'Analog Input', 'Digital Input', 'Digital Output' are not kept" in proc.stderr
     proc = cli("export", SEED, "--to", "wise", "--host", "10.0.0.2", "--framer", "rtu")
@@ -275,25 +406,33 @@ def test_export_serial_and_odd_settings():
 
 def test_export_names_and_clashes(write_device):
     path = write_device(
-        fn_xml("a, \"b\"", "0", format="UINT16") + fn_xml("a_ _b_", "1", format="UINT16")
-        + fn_xml("again", "0", format="INT16", register_type="holding") + fn_xml("pair", "10 11", format="FLOAT32")
-        + fn_xml("reversed", "21 20", format="UINT32") + fn_xml("apart", "30 32", format="UINT32")
-        + fn_xml("shown", "40", format="UINT16", precision="2", units="a,b"))
+        fn_xml('a, "b"', "0", format="UINT16")
+        + fn_xml("a_ _b_", "1", format="UINT16")
+        + fn_xml("again", "0", format="INT16", register_type="holding")
+        + fn_xml("pair", "10 11", format="FLOAT32")
+        + fn_xml("reversed", "21 20", format="UINT32")
+        + fn_xml("apart", "30 32", format="UINT32")
+        + fn_xml("shown", "40", format="UINT16", precision="2", units="a,b")
+    )
     proc = cli("export", path, "--to", "wise")
     assert proc.returncode == 0, proc.stderr
     assert "R0=0,a_ _b_,0,65535,1, ,0\nR1=1,a_ _b__2,0,65535,1, ,0\nR2=10,pair," in proc.stdout
     assert "R3=20,reversed,0,4294967295,1, ,6\nR4=40,shown,0,65535,1,a_b,0\n" in proc.stdout
-    assert f"{path}:5: warning: functions 'a, \"b\"' (as 'a_ _b_'), 'a_ _b_' (as 'a_ _b__2'): written under " \
-        "another name" in proc.stderr  # one warning for the kind, at its first function's line
-    for fragment in ("function 'again' (holding 0: 'a, \"b\"'): not written: its offset is taken",
-                     "function 'apart' (registers 30 and 32): not written: registers not next to each other",
-                     "function 'shown' (precision): written, losing fields a Modbus.ini line has not",
-                     "function 'shown' ('a,b'): written, losing the commas, quotes and control characters of its "
-                     "unit"):
+    assert (
+        f"{path}:5: warning: functions 'a, \"b\"' (as 'a_ _b_'), 'a_ _b_' (as 'a_ _b__2'): written under "
+        "another name" in proc.stderr
+    )  # one warning for the kind, at its first function's line
+    for fragment in (
+        "function 'again' (holding 0: 'a, \"b\"'): not written: its offset is taken",
+        "function 'apart' (registers 30 and 32): not written: registers not next to each other",
+        "function 'shown' (precision): written, losing fields a Modbus.ini line has not",
+        "function 'shown' ('a,b'): written, losing the commas, quotes and control characters of its unit",
+    ):
         assert fragment in proc.stderr, fragment
 
 
 # --- round trips -------------------------------------------------------------------------------------------
+
 
 def _descriptions(tmp_path) -> list[Path]:
     files = sorted(ROOT.glob("examples/**/*.xml")) + sorted(DATA.glob("*.xml"))
@@ -343,15 +482,21 @@ def test_32_bit_entries_side_by_side_and_every_clash_reported(tmp_path):
     """32-bit entries next to each other import; every entry reading another's register is an error, all
     reported at once (a bit table's entries read one bit each)."""
     ini = tmp_path / "Modbus.ini"
-    ini.write_text("[Platform]\nName=x\n[Coils]\nnumberOfB=2\nB0=0,c0,0,0,1,V,1\nB1=1,c1\n"
-                   "[Input Registers]\nnumberOfIR=3\nIR0=0,a,0,1,1,V,1\nIR1=2,b,0,1,1,V,8\nIR2=4,c,0,1,1,V,0\n")
+    ini.write_text(
+        "[Platform]\nName=x\n[Coils]\nnumberOfB=2\nB0=0,c0,0,0,1,V,1\nB1=1,c1\n"
+        "[Input Registers]\nnumberOfIR=3\nIR0=0,a,0,1,1,V,1\nIR1=2,b,0,1,1,V,8\nIR2=4,c,0,1,1,V,0\n"
+    )
     assert cli("import", ini).returncode == 0  # c0's text after its name is ignored: no datatype on a bit line
     text = ini.read_text().replace("IR2=4", "IR2=3") + "[Holding Registers]\nnumberOfR=2\nR0=0,d\nR1=0,e\n"
     ini.write_text(text)
     proc = cli("import", ini)
-    assert_clean_error(proc, 1, f"{ini}:11:5: error: IR2: reads register 3 of the input table; register 3 is "
-                                "already read by IR1 (line 10: registers 2-3)",
-                       f"{ini}:15:4: error: R1: offset 0 of the holding table is already R0's (line 14)")
+    assert_clean_error(
+        proc,
+        1,
+        f"{ini}:11:5: error: IR2: reads register 3 of the input table; register 3 is "
+        "already read by IR1 (line 10: registers 2-3)",
+        f"{ini}:15:4: error: R1: offset 0 of the holding table is already R0's (line 14)",
+    )
 
 
 LUA = WISE / "lua.ini"
@@ -368,26 +513,33 @@ def test_lua_kept_in_the_description_goes_back_into_the_lua_column(tmp_path):
     xml = tmp_path / "lua.xml"
     proc = cli("import", LUA, "-o", xml)
     assert proc.returncode == 0, proc.stderr
-    assert (f"{LUA}:5:23: warning: R0 'Temp': the Lua column 'math.floor(modbus_val/10)' is not plain arithmetic on "
-            "modbus_val: kept in the description (export writes it back), not applied") in proc.stderr
+    assert (
+        f"{LUA}:5:23: warning: R0 'Temp': the Lua column 'math.floor(modbus_val/10)' is not plain arithmetic on "
+        "modbus_val: kept in the description (export writes it back), not applied"
+    ) in proc.stderr
     assert _kept_description(xml.read_text()) == [f"Temp {LUA_NOTE}math.floor(modbus_val/10))"]
     back = tmp_path / "back.ini"
     proc = cli("export", xml, "--to", "wise", "-o", back)
     assert proc.returncode == 0, proc.stderr
     assert 'R0=0,Temp,0,100,1,C,0,"math.floor(modbus_val/10)"\n' in back.read_text()
-    assert (f"{xml}:5: warning: function 'Temp' ('math.floor(modbus_val/10)'): written with the Lua conversion its "
-            "description keeps: the agent applies it, mdl does not") in proc.stderr
+    assert (
+        f"{xml}:5: warning: function 'Temp' ('math.floor(modbus_val/10)'): written with the Lua conversion its "
+        "description keeps: the agent applies it, mdl does not"
+    ) in proc.stderr
     again = cli("import", back)
     assert again.returncode == 0, again.stderr
     assert _kept_description(again.stdout) == _kept_description(xml.read_text())
 
 
-@pytest.mark.parametrize("name, column, lua", [
-    ("Rooted", '"math.pow(modbus_val,1/2)+10-2.5"', "math.pow(modbus_val,1/2)+10-2.5"),  # a comma inside quotes
-    ("T (x)", '"modbus_val > 100 and (1) or (0)"', "modbus_val > 100 and (1) or (0)"),  # parentheses everywhere
-    ("On", "modbus_val..'V'", "modbus_val..'V'"),  # unquoted
-    ("Commented", '"math.floor(modbus_val) -- rounds down"', "math.floor(modbus_val) -- rounds down"),
-])
+@pytest.mark.parametrize(
+    "name, column, lua",
+    [
+        ("Rooted", '"math.pow(modbus_val,1/2)+10-2.5"', "math.pow(modbus_val,1/2)+10-2.5"),  # a comma inside quotes
+        ("T (x)", '"modbus_val > 100 and (1) or (0)"', "modbus_val > 100 and (1) or (0)"),  # parentheses everywhere
+        ("On", "modbus_val..'V'", "modbus_val..'V'"),  # unquoted
+        ("Commented", '"math.floor(modbus_val) -- rounds down"', "math.floor(modbus_val) -- rounds down"),
+    ],
+)
 def test_lua_round_trips_exactly(tmp_path, name, column, lua):
     ini = tmp_path / "Modbus.ini"
     ini.write_text(f"[Platform]\nName=L\n[Input Registers]\nnumberOfIR=1\nIR0=7,{name},0,10,0.1,V,1,{column}\n")
@@ -402,16 +554,20 @@ def test_lua_round_trips_exactly(tmp_path, name, column, lua):
 def test_lua_in_a_description_with_an_offset_a_bit_or_a_quote(write_device):
     """The Lua column holds both the kept conversion and the offset (the agent runs the Lua on the raw
     value, then multiplies by the precision); what cannot be written is a warning naming the function."""
+
     def kept(xml: str, name: str, lua: str) -> str:
         return xml.replace(f"<description>{name}</description>", f"<description>{name} {LUA_NOTE}{lua})</description>")
 
-    functions = (kept(fn_xml("scaled", "0", format="UINT16", multiplier="0.5", offset="3"), "scaled",
-                      "math.floor(modbus_val/10)")
-                 + kept(fn_xml("neg", "1", format="UINT16", offset="-2"), "neg", "math.abs(modbus_val)")
-                 + kept(fn_xml("switch", "0", format="BIT", register_type="coil"), "switch", "modbus_val")
-                 + kept(fn_xml("quoted", "2", format="UINT16"), "quoted", 'modbus_val..&quot;V&quot;')
-                 + kept(fn_xml("comment", "3", format="UINT16", offset="1"), "comment", "f(modbus_val) -- x")
-                 + fn_xml("plain", "4", format="UINT16").replace("<description>plain", "<description>plain (note)"))
+    functions = (
+        kept(
+            fn_xml("scaled", "0", format="UINT16", multiplier="0.5", offset="3"), "scaled", "math.floor(modbus_val/10)"
+        )
+        + kept(fn_xml("neg", "1", format="UINT16", offset="-2"), "neg", "math.abs(modbus_val)")
+        + kept(fn_xml("switch", "0", format="BIT", register_type="coil"), "switch", "modbus_val")
+        + kept(fn_xml("quoted", "2", format="UINT16"), "quoted", "modbus_val..&quot;V&quot;")
+        + kept(fn_xml("comment", "3", format="UINT16", offset="1"), "comment", "f(modbus_val) -- x")
+        + fn_xml("plain", "4", format="UINT16").replace("<description>plain", "<description>plain (note)")
+    )
     path = write_device(functions)
     proc = cli("export", path, "--to", "wise")
     assert proc.returncode == 0, proc.stderr
@@ -421,14 +577,16 @@ def test_lua_in_a_description_with_an_offset_a_bit_or_a_quote(write_device):
     assert "R2=2,quoted,0,65535,1, ,0\n" in proc.stdout
     assert 'R3=3,comment,1,65536,1, ,0,"modbus_val+1"\n' in proc.stdout
     assert "R4=4,plain,0,65535,1, ,0\n" in proc.stdout
-    for fragment in ("functions 'scaled' ('math.floor(modbus_val/10)'), 'neg' ('math.abs(modbus_val)'): written "
-                     "with the Lua conversion its description keeps",
-                     "function 'switch' ('modbus_val'): written, losing the Lua conversion its description keeps "
-                     "(a bit line has no Lua column)",
-                     "function 'quoted' ('modbus_val..\"V\"'): written, losing the Lua conversion its description "
-                     "keeps (quotes and control characters",
-                     "function 'comment' ('f(modbus_val) -- x'): written, losing the Lua conversion its description "
-                     "keeps (its `--` comment"):
+    for fragment in (
+        "functions 'scaled' ('math.floor(modbus_val/10)'), 'neg' ('math.abs(modbus_val)'): written "
+        "with the Lua conversion its description keeps",
+        "function 'switch' ('modbus_val'): written, losing the Lua conversion its description keeps "
+        "(a bit line has no Lua column)",
+        "function 'quoted' ('modbus_val..\"V\"'): written, losing the Lua conversion its description "
+        "keeps (quotes and control characters",
+        "function 'comment' ('f(modbus_val) -- x'): written, losing the Lua conversion its description "
+        "keeps (its `--` comment",
+    ):
         assert fragment in proc.stderr, fragment
     assert "'plain'" not in proc.stderr
 
@@ -437,15 +595,18 @@ def test_lua_holding_the_note_itself_is_not_guessed(tmp_path):
     """A name or Lua text holding the note's own opening: where the Lua starts is not clear, so it is not
     written back, and a warning says so (rather than writing a piece of it)."""
     ini = tmp_path / "Modbus.ini"
-    ini.write_text("[Platform]\nName=L\n[Holding Registers]\nnumberOfR=1\n"
-                   f'R0=0,a,0,1,1,V,0,"f(modbus_val) {LUA_NOTE}x)"\n')  # a name cannot hold it: it has a comma
+    ini.write_text(
+        f'[Platform]\nName=L\n[Holding Registers]\nnumberOfR=1\nR0=0,a,0,1,1,V,0,"f(modbus_val) {LUA_NOTE}x)"\n'
+    )  # a name cannot hold it: it has a comma
     xml = tmp_path / "l.xml"
     assert cli("import", ini, "-o", xml).returncode == 0
     proc = cli("export", xml, "--to", "wise")
     assert proc.returncode == 0, proc.stderr
     assert "R0=0,a,0,1,1,V,0\n" in proc.stdout
-    assert f"{xml}:5: warning: function 'a': written, losing the Lua conversion its description keeps (it holds " \
-           f"'{LUA_NOTE}' twice" in proc.stderr
+    assert (
+        f"{xml}:5: warning: function 'a': written, losing the Lua conversion its description keeps (it holds "
+        f"'{LUA_NOTE}' twice" in proc.stderr
+    )
 
 
 @settings(max_examples=200, deadline=None)
@@ -479,9 +640,45 @@ def test_wise_round_trip_keeps_the_file(tmp_path):
 
 # --- fuzzing the reader ------------------------------------------------------------------------------------
 
-PIECES = ["\n", "\r\n", "\r", "[", "]", "=", ",", '"', "#", ";", " ", "\t", "\x00", "\ufeff", "[Platform]", "Name=",
-          "[Coils]", "[Holding Registers]", "[Analog Input]", "numberOfR=", "numberOfB=2", "R0=", "B1=", "AI0=",
-          "0", "1", "65536", "-1", "1e999", "nan", "0.001", "9", "modbus_val", "modbus_val*2-10", "((((", "--", "é"]
+PIECES = [
+    "\n",
+    "\r\n",
+    "\r",
+    "[",
+    "]",
+    "=",
+    ",",
+    '"',
+    "#",
+    ";",
+    " ",
+    "\t",
+    "\x00",
+    "\ufeff",
+    "[Platform]",
+    "Name=",
+    "[Coils]",
+    "[Holding Registers]",
+    "[Analog Input]",
+    "numberOfR=",
+    "numberOfB=2",
+    "R0=",
+    "B1=",
+    "AI0=",
+    "0",
+    "1",
+    "65536",
+    "-1",
+    "1e999",
+    "nan",
+    "0.001",
+    "9",
+    "modbus_val",
+    "modbus_val*2-10",
+    "((((",
+    "--",
+    "é",
+]
 SEEDS = [SEED.read_text(), HANDLER.read_text(), DATATYPES.read_text(), (WISE / "bad.ini").read_text()]
 
 
@@ -491,7 +688,7 @@ def mangled(draw: st.DrawFn) -> str:
     for _ in range(draw(st.integers(1, 8))):
         at = draw(st.integers(0, len(text)))
         cut = draw(st.integers(0, 12))
-        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut:]
+        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut :]
     return text
 
 

@@ -70,6 +70,7 @@ def registers(tmp_path: Path, tables: dict) -> Path:
 
 # -- import: the shapes of real files -----------------------------------------------------------------
 
+
 def test_example_meter_imports_cleanly_with_identity_and_marker(tmp_path):
     out = tmp_path / "meter.xml"
     proc = run_mdl("import", METER, "-o", out)
@@ -78,7 +79,12 @@ def test_example_meter_imports_cleanly_with_identity_and_marker(tmp_path):
     assert proc.returncode == 0 and "valid MDL 1.0" in proc.stdout, proc.stdout + proc.stderr
     device = load_any(out)
     assert (device.name, device.manufacturer, device.product, device.product_version, device.program_id) == (
-        "meter", "Example Metering", "EM-340 Three-Phase Meter", "2.1.4", "9F00960528040F01")
+        "meter",
+        "Example Metering",
+        "EM-340 Three-Phase Meter",
+        "2.1.4",
+        "9F00960528040F01",
+    )
     assert device.description == "Three-phase energy meter (Modbus RTU over RS-485)"
     fns = by_name(device)
     assert fns["Model Code"].marker == [340] and fns["Model Code"].register_type == "input"
@@ -135,8 +141,11 @@ def test_export_gives_back_the_names_import_changed(tmp_path):
     proc = cli("export", xml, "--to", "xif")
     assert proc.returncode == 0, proc.stderr
     rows = list(csv.DictReader(line for line in proc.stdout.splitlines() if not line.startswith("#")))
-    voltages = [(r["Block Name"], r["Block Index"], r["Datapoint Name"], r["Description"]) for r in rows
-                if r["Datapoint Name"].startswith("Voltage")]
+    voltages = [
+        (r["Block Name"], r["Block Index"], r["Datapoint Name"], r["Description"])
+        for r in rows
+        if r["Datapoint Name"].startswith("Voltage")
+    ]
     assert [v[2] for v in voltages] == ["Voltage", "Voltage", "Voltage"]
     assert len({v[:2] for v in voltages}) == 3
     again = tmp_path / "again.mod"
@@ -176,9 +185,16 @@ def test_modicon_number_with_a_matching_function_code_is_said(tmp_path):
 
 def test_what_is_read_differently_is_said(tmp_path):
     heading = "Datapoint Name,Address,Native Type,ASCII Length,Write Enable,Function Code,Bit Order,Byte Order"
-    path = write(tmp_path, xif("Label,10,CHAR16,6,-,FC03,,", "Count,20,uint32,,-,FC04,,little",
-                               "Flags,30,UINT16,,-,FC04,big,", heading=heading,
-                               head="#filetype,Modbus_xif\n#Product Name,Test box\n"))
+    path = write(
+        tmp_path,
+        xif(
+            "Label,10,CHAR16,6,-,FC03,,",
+            "Count,20,uint32,,-,FC04,,little",
+            "Flags,30,UINT16,,-,FC04,big,",
+            heading=heading,
+            head="#filetype,Modbus_xif\n#Product Name,Test box\n",
+        ),
+    )
     proc = cli("import", path)
     assert proc.returncode == 0, proc.stderr
     assert f"{path}:4:10: warning: CHAR16 read as the low byte of each register" in proc.stderr
@@ -194,17 +210,34 @@ def test_what_is_read_differently_is_said(tmp_path):
 
 # -- values read from mdl sim of an imported file ---------------------------------------------------
 
+
 def float_words(value: float, fmt: str = ">f") -> list[int]:
     data = struct.pack(fmt, value)
-    return [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
+    return [int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2)]
 
 
 def test_values_of_an_imported_meter_from_mdl_sim(sim_factory, tmp_path):
     energy = 1234567  # tenths of a kWh, low word first
-    regs = registers(tmp_path, {
-        "input": {11: 340, 0: 2301, 1: 0, 2: (-1520) & 0xFFFF, 3: 0xFFFF, 14: (-870) & 0xFFFF, 15: 4998,
-                  40: float_words(1234.5)[0], 41: float_words(1234.5)[1], 52: energy & 0xFFFF, 53: energy >> 16},
-        "holding": {768: 200}, "discrete": {0: 1}})
+    regs = registers(
+        tmp_path,
+        {
+            "input": {
+                11: 340,
+                0: 2301,
+                1: 0,
+                2: (-1520) & 0xFFFF,
+                3: 0xFFFF,
+                14: (-870) & 0xFFFF,
+                15: 4998,
+                40: float_words(1234.5)[0],
+                41: float_words(1234.5)[1],
+                52: energy & 0xFFFF,
+                53: energy >> 16,
+            },
+            "holding": {768: 200},
+            "discrete": {0: 1},
+        },
+    )
     sim = sim_factory(METER, "--registers", regs)
     values = read_json(METER, sim)
     assert values["Model Code"] == 340
@@ -226,12 +259,24 @@ def test_values_of_an_imported_meter_from_mdl_sim(sim_factory, tmp_path):
 def test_values_of_legacy_and_excel_files_from_one_sim(sim_factory, tmp_path):
     legacy = registers(tmp_path, {"coil": {2: 1, 17: 1}, "input": {0: 0x0002, 1: 0x0001, 100: 450, 210: 0x4150}})
     excel = tmp_path / "excel.json"
-    excel.write_text(json.dumps({
-        "input": {"0": 5563, "1": 1, "2": 2, "100": 256},
-        "holding": {"3000": float_words(10.0625)[0], "3001": float_words(10.0625)[1],
-                    "3022": float_words(231.5)[0], "3023": float_words(231.5)[1],
-                    "3084": (-500) & 0xFFFF, "3204": 123456 & 0xFFFF, "3205": 123456 >> 16, "2025": 150},
-        "coil": {"0": 1}}))
+    excel.write_text(
+        json.dumps(
+            {
+                "input": {"0": 5563, "1": 1, "2": 2, "100": 256},
+                "holding": {
+                    "3000": float_words(10.0625)[0],
+                    "3001": float_words(10.0625)[1],
+                    "3022": float_words(231.5)[0],
+                    "3023": float_words(231.5)[1],
+                    "3084": (-500) & 0xFFFF,
+                    "3204": 123456 & 0xFFFF,
+                    "3205": 123456 >> 16,
+                    "2025": 150,
+                },
+                "coil": {"0": 1},
+            }
+        )
+    )
     sim = sim_factory([LEGACY, EXCEL], "--unit", "3", "--unit", "4", "--registers", legacy, "--registers", excel)
     proc = run_mdl("read", LEGACY, *sim.connection, "--unit", "3", "--format", "json")
     values = json.loads(proc.stdout)
@@ -250,7 +295,7 @@ def test_values_of_legacy_and_excel_files_from_one_sim(sim_factory, tmp_path):
 def test_values_of_strings_and_bytes_from_mdl_sim(sim_factory, tmp_path):
     def text_words(text: str, swapped: bool = False) -> list[int]:
         data = text.encode("ascii") + b"\0" * (len(text) % 2)
-        words = [int.from_bytes(data[i:i + 2], "big") for i in range(0, len(data), 2)]
+        words = [int.from_bytes(data[i : i + 2], "big") for i in range(0, len(data), 2)]
         return [((w & 0xFF) << 8) | (w >> 8) for w in words] if swapped else words
 
     total = struct.pack("<i", -123456)  # the whole value little-endian
@@ -263,37 +308,62 @@ def test_values_of_strings_and_bytes_from_mdl_sim(sim_factory, tmp_path):
     inputs.update(zip(range(160, 164), float_words(1234.5678, ">d"), strict=True))
     sim = sim_factory(TEXTS, "--registers", registers(tmp_path, {"holding": holding, "input": inputs}))
     values = read_json(TEXTS, sim)
-    assert values == {"Name": "PUMP-07A", "Name Swapped": "Hello", "Tag": "AB12", "Low Byte": 0xAB,
-                      "High Byte": 0x12, "Signed Byte": -2, "Counter": counter, "Double": 1234.5678,
-                      "Signed Total": -123456}
+    assert values == {
+        "Name": "PUMP-07A",
+        "Name Swapped": "Hello",
+        "Tag": "AB12",
+        "Low Byte": 0xAB,
+        "High Byte": 0x12,
+        "Signed Byte": -2,
+        "Counter": counter,
+        "Double": 1234.5678,
+        "Signed Total": -123456,
+    }
 
 
 # -- bad input: exit 1, file and line, every bad row -----------------------------------------------
 
-@pytest.mark.parametrize("text, fragments", [
-    ("#program_ID,1\n" + HEADING + "\nB,P,0,UINT16,x,+,FC03,,\n", [":1: error: not a Modbus XIF file"]),
-    ("#filetype,Modbus_xif\n#program_ID,9F0096052804DB01\n", ["error: no datapoint list"]),
-    ("#filetype,Modbus_xif\nB,P,0,UINT16,x,+,FC03,,\n", [":2: error: no datapoint list: this line should name"]),
-    (xif("B,P,0,INT128,x,+,FC03,,"), [":4:7: error: Native Type: unknown native type 'INT128'"]),
-    (xif("P,0,UINT16", heading="Datapoint Name,Address,Native Type"),
-     [":3: error: the datapoint heading has no 'Write Enable' / 'Direction' column"]),
-    (xif("B,P,0,UINT16,x,+,FC03,,", heading=HEADING.replace("Address,", "Register,")),
-     ["no 'Address' column", "column 'Register' is not a Modbus XIF column"]),
-    (xif("P,0,UINT16,+,FC03,0,10,0", heading="Datapoint Name,Address,Native Type,Write Enable,Function Code,"
-                                              "Native Value 1,Native Value 2,Scaled Value 1"),
-     [":4:", "scaling needs all four", "Scaled Value 2 is missing"]),
-    (xif("B,P,7,UINT16,x,+,FC03,,", "B,Q,7,SINT16,x,-,FC03,,"),
-     [":5:5: error: datapoint 'Q': address 7 of the holding table is also datapoint 'P' (line 4)"]),
-    (xif("B,P,0,UINT16,x,+,FC05,,"), ["'FC05' is a write function code"]),
-    (xif("B,P,0,UINT16,x,+,,,"), ["Function Code is blank and Address 0 is not a Modicon address"]),
-    (xif("B,P,0,UINT16,x,maybe,FC03,,"), ["Write Enable 'maybe' must be -, + or ++"]),
-    (xif("B,P,0,UINT16,x,+,FC01,,"), ["a coil (FC01) holds one bit (use BIT)"]),
-    (xif('B,"P,0,UINT16,x,+,FC03,,'), [":4:3: error: a quoted cell is never closed"]),
-    (xif("B,P,0,CHAR8_2,x,-,FC03,,"), ["Native Type CHAR8_2 needs an ASCII Length"]),
-    (xif("B,P,40001,UINT16,x,+,FC04,,,Y", heading=HEADING + ",Modicon"),
-     ["Modicon address 40001 is a holding but the Function Code reads the input table"]),
-    (xif("B,P,70000,UINT16,x,+,FC03,,"), ["Address 70000 is over 65535"]),
-])
+
+@pytest.mark.parametrize(
+    "text, fragments",
+    [
+        ("#program_ID,1\n" + HEADING + "\nB,P,0,UINT16,x,+,FC03,,\n", [":1: error: not a Modbus XIF file"]),
+        ("#filetype,Modbus_xif\n#program_ID,9F0096052804DB01\n", ["error: no datapoint list"]),
+        ("#filetype,Modbus_xif\nB,P,0,UINT16,x,+,FC03,,\n", [":2: error: no datapoint list: this line should name"]),
+        (xif("B,P,0,INT128,x,+,FC03,,"), [":4:7: error: Native Type: unknown native type 'INT128'"]),
+        (
+            xif("P,0,UINT16", heading="Datapoint Name,Address,Native Type"),
+            [":3: error: the datapoint heading has no 'Write Enable' / 'Direction' column"],
+        ),
+        (
+            xif("B,P,0,UINT16,x,+,FC03,,", heading=HEADING.replace("Address,", "Register,")),
+            ["no 'Address' column", "column 'Register' is not a Modbus XIF column"],
+        ),
+        (
+            xif(
+                "P,0,UINT16,+,FC03,0,10,0",
+                heading="Datapoint Name,Address,Native Type,Write Enable,Function Code,"
+                "Native Value 1,Native Value 2,Scaled Value 1",
+            ),
+            [":4:", "scaling needs all four", "Scaled Value 2 is missing"],
+        ),
+        (
+            xif("B,P,7,UINT16,x,+,FC03,,", "B,Q,7,SINT16,x,-,FC03,,"),
+            [":5:5: error: datapoint 'Q': address 7 of the holding table is also datapoint 'P' (line 4)"],
+        ),
+        (xif("B,P,0,UINT16,x,+,FC05,,"), ["'FC05' is a write function code"]),
+        (xif("B,P,0,UINT16,x,+,,,"), ["Function Code is blank and Address 0 is not a Modicon address"]),
+        (xif("B,P,0,UINT16,x,maybe,FC03,,"), ["Write Enable 'maybe' must be -, + or ++"]),
+        (xif("B,P,0,UINT16,x,+,FC01,,"), ["a coil (FC01) holds one bit (use BIT)"]),
+        (xif('B,"P,0,UINT16,x,+,FC03,,'), [":4:3: error: a quoted cell is never closed"]),
+        (xif("B,P,0,CHAR8_2,x,-,FC03,,"), ["Native Type CHAR8_2 needs an ASCII Length"]),
+        (
+            xif("B,P,40001,UINT16,x,+,FC04,,,Y", heading=HEADING + ",Modicon"),
+            ["Modicon address 40001 is a holding but the Function Code reads the input table"],
+        ),
+        (xif("B,P,70000,UINT16,x,+,FC03,,"), ["Address 70000 is over 65535"]),
+    ],
+)
 def test_bad_input_is_refused_with_file_and_line(tmp_path, text, fragments):
     path = write(tmp_path, text)
     proc = cli("import", path)
@@ -303,9 +373,17 @@ def test_bad_input_is_refused_with_file_and_line(tmp_path, text, fragments):
 
 
 def test_every_bad_row_is_reported(tmp_path):
-    path = write(tmp_path, xif("B,A,0,UINT16,x,+,FC03,,", "B,B,1,WORD,x,+,FC03,,", "B,C,2,UINT16,x,+,FC03,abc,",
-                               "B,D,x2,UINT16,x,+,FC03,,", "B,E,0,UINT16,x,-,FC03,,",
-                               "B,F,9,UINT16,x,+,FC03,,"))
+    path = write(
+        tmp_path,
+        xif(
+            "B,A,0,UINT16,x,+,FC03,,",
+            "B,B,1,WORD,x,+,FC03,,",
+            "B,C,2,UINT16,x,+,FC03,abc,",
+            "B,D,x2,UINT16,x,+,FC03,,",
+            "B,E,0,UINT16,x,-,FC03,,",
+            "B,F,9,UINT16,x,+,FC03,,",
+        ),
+    )
     proc = cli("import", path)
     assert_clean_error(proc, 1)
     errors = [line for line in proc.stderr.splitlines() if ": error: " in line]
@@ -327,6 +405,7 @@ def test_read_xif_refuses_with_mdl_error_naming_the_file(tmp_path):
 
 # -- export ------------------------------------------------------------------------------------------
 
+
 def test_export_writes_current_columns_product_lines_and_rows(tmp_path):
     mdl_file = tmp_path / "meter.xml"
     assert cli("import", METER, "-o", mdl_file).returncode == 0
@@ -334,19 +413,37 @@ def test_export_writes_current_columns_product_lines_and_rows(tmp_path):
     proc = cli("export", mdl_file, "--to", "xif", "-o", out)
     assert proc.returncode == 0, proc.stderr
     lines = out.read_text().splitlines()
-    assert lines[:6] == ["#filetype,Modbus_xif", "#program_ID,9F00960528040F01", "#version,2.1.4",
-                         "#product_name,EM-340 Three-Phase Meter", "#manufacturer,Example Metering",
-                         "#description,Three-phase energy meter (Modbus RTU over RS-485)"]
+    assert lines[:6] == [
+        "#filetype,Modbus_xif",
+        "#program_ID,9F00960528040F01",
+        "#version,2.1.4",
+        "#product_name,EM-340 Three-Phase Meter",
+        "#manufacturer,Example Metering",
+        "#description,Three-phase energy meter (Modbus RTU over RS-485)",
+    ]
     heading = lines[6].split(",")
-    assert {"Datapoint Name", "Native Type", "Write Enable", "Function Code", "Marker Value", "Native Value 1",
-            "Scaled Value 2", "Word Order", "Byte Order", "Precision", "Range Min", "Block Index"} <= set(heading)
+    assert {
+        "Datapoint Name",
+        "Native Type",
+        "Write Enable",
+        "Function Code",
+        "Marker Value",
+        "Native Value 1",
+        "Scaled Value 2",
+        "Word Order",
+        "Byte Order",
+        "Precision",
+        "Range Min",
+        "Block Index",
+    } <= set(heading)
     assert not {"Point Name", "Direction", "Modbus datatype", "A'"} & set(heading)
     rows = [dict(zip(heading, line.split(","), strict=True)) for line in lines[7:]]
     row = {r["Datapoint Name"]: r for r in rows}
     assert row["Demand Period"]["Write Enable"] == "++" and row["Model Code"]["Marker Value"] == "340"
     assert (row["Voltage L2"]["Block Name"], row["Voltage L2"]["Block Index"]) == ("Phase", "1")
-    assert [row["Power Factor"][k] for k in ("Native Value 1", "Native Value 2", "Scaled Value 1",
-                                             "Scaled Value 2")] == ["0", "1000", "0", "1"]
+    assert [
+        row["Power Factor"][k] for k in ("Native Value 1", "Native Value 2", "Scaled Value 1", "Scaled Value 2")
+    ] == ["0", "1000", "0", "1"]
     assert row["Reset Energy"]["Function Code"] == "FC01" and row["Phase Sequence OK"]["Write Enable"] == "-"
     assert "warning" not in proc.stderr, proc.stderr
     again = cli("export", mdl_file, "--to", "xif")
@@ -372,10 +469,17 @@ def test_export_names_each_function_it_cannot_express(tmp_path):
 
 
 def test_two_point_scaling_round_trips_exactly(tmp_path):
-    rows = ["A,0,SINT16,+,FC03,0,10,-40,-39", "B,1,UINT16,+,FC03,3,7,0.3,0.7", "C,2,UINT16,+,FC03,0,3,0,1",
-            "D,3,SINT32,+,FC03,-7,13,1e-3,2.5e2", "E,4,FLOAT32,+,FC03,1,2,1,1.000001"]
-    heading = "Datapoint Name,Address,Native Type,Write Enable,Function Code," \
-              "Native Value 1,Native Value 2,Scaled Value 1,Scaled Value 2"
+    rows = [
+        "A,0,SINT16,+,FC03,0,10,-40,-39",
+        "B,1,UINT16,+,FC03,3,7,0.3,0.7",
+        "C,2,UINT16,+,FC03,0,3,0,1",
+        "D,3,SINT32,+,FC03,-7,13,1e-3,2.5e2",
+        "E,4,FLOAT32,+,FC03,1,2,1,1.000001",
+    ]
+    heading = (
+        "Datapoint Name,Address,Native Type,Write Enable,Function Code,"
+        "Native Value 1,Native Value 2,Scaled Value 1,Scaled Value 2"
+    )
     first = read_xif(write(tmp_path, xif(*rows, heading=heading)))
     assert [(f.multiplier, f.offset) for f in first.functions][:3] == [(0.1, -40), (0.1, None), (1 / 3, None)]
     again = read_xif(write(tmp_path, export_xif(resolve(first), Settings()).text or "", "again.mod"))
@@ -385,11 +489,63 @@ def test_two_point_scaling_round_trips_exactly(tmp_path):
 # -- fuzz --------------------------------------------------------------------------------------------
 
 SEEDS = [METER.read_text(), LEGACY.read_text(), EXCEL.read_text(), TEXTS.read_text()]
-PIECES = [",", ",,", "\n", "\r\n", "\r", '"', '""', "#", "#filetype,Modbus_xif\n", "#program_ID,", "FC01", "FC03",
-          "FC05", "FC", "40001", "400001", "00001", "30001", "65535", "65536", "99999999999999", "-1", "1e999", "nan",
-          "BIT", "FLOAT", "CHAR8", "CHAR8_2", "CHAR16", "UINT64", "SINT8", "++", "+", "-", "R", "RW", "little",
-          "big", "Y", "N", "0x10", "1.5", "\u00b2", "\u0663", "\x00", "\ufeff", "Datapoint Name", "Address",
-          "Native Type", "Write Enable", "Native Value 1", "Scaled Value 2", "A'", "Marker Value", "ASCII Length"]
+PIECES = [
+    ",",
+    ",,",
+    "\n",
+    "\r\n",
+    "\r",
+    '"',
+    '""',
+    "#",
+    "#filetype,Modbus_xif\n",
+    "#program_ID,",
+    "FC01",
+    "FC03",
+    "FC05",
+    "FC",
+    "40001",
+    "400001",
+    "00001",
+    "30001",
+    "65535",
+    "65536",
+    "99999999999999",
+    "-1",
+    "1e999",
+    "nan",
+    "BIT",
+    "FLOAT",
+    "CHAR8",
+    "CHAR8_2",
+    "CHAR16",
+    "UINT64",
+    "SINT8",
+    "++",
+    "+",
+    "-",
+    "R",
+    "RW",
+    "little",
+    "big",
+    "Y",
+    "N",
+    "0x10",
+    "1.5",
+    "\u00b2",
+    "\u0663",
+    "\x00",
+    "\ufeff",
+    "Datapoint Name",
+    "Address",
+    "Native Type",
+    "Write Enable",
+    "Native Value 1",
+    "Scaled Value 2",
+    "A'",
+    "Marker Value",
+    "ASCII Length",
+]
 
 
 @st.composite
@@ -399,7 +555,7 @@ def mangled(draw: st.DrawFn) -> str:
     for _ in range(draw(st.integers(1, 6))):
         at = draw(st.integers(0, len(text)))
         cut = draw(st.integers(0, 6))
-        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut:]
+        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut :]
     return text
 
 

@@ -64,9 +64,16 @@ def read_all(path: Path, connection: list[str], unit: int) -> dict:
 def inexpressible(device: Device) -> set[str]:
     """Functions with something SPEC 7 lists XIF cannot express: an expression, a fragment, an
     enumeration, "not implemented" values, write-only access."""
-    return {fn.name for fn in device.functions
-            if fn.expression is not None or fn.read_function_code or fn.write_function_code or fn.values
-            or fn.not_implemented or fn.access == "write"}
+    return {
+        fn.name
+        for fn in device.functions
+        if fn.expression is not None
+        or fn.read_function_code
+        or fn.write_function_code
+        or fn.values
+        or fn.not_implemented
+        or fn.access == "write"
+    }
 
 
 @pytest.mark.parametrize("source", DESCRIPTIONS, ids=_rel)
@@ -106,9 +113,29 @@ def test_every_description_of_the_repository_is_covered():
 
 
 def _value_fields(device: Device) -> list[tuple]:
-    return [(fn.name, fn.description, fn.addresses, fn.register_type, fn.format, fn.length, fn.count,
-             fn.byte_order, fn.word_order, fn.multiplier, fn.offset, fn.access, fn.minimum, fn.maximum,
-             fn.marker, fn.precision, fn.write_multiple, fn.block_labels) for fn in device.functions]
+    return [
+        (
+            fn.name,
+            fn.description,
+            fn.addresses,
+            fn.register_type,
+            fn.format,
+            fn.length,
+            fn.count,
+            fn.byte_order,
+            fn.word_order,
+            fn.multiplier,
+            fn.offset,
+            fn.access,
+            fn.minimum,
+            fn.maximum,
+            fn.marker,
+            fn.precision,
+            fn.write_multiple,
+            fn.block_labels,
+        )
+        for fn in device.functions
+    ]
 
 
 def test_xif_to_mdl_to_xif_to_mdl_keeps_every_value(tmp_path, sim_factory):
@@ -124,7 +151,12 @@ def test_xif_to_mdl_to_xif_to_mdl_keeps_every_value(tmp_path, sim_factory):
         assert _value_fields(dev2) == _value_fields(dev1), mod
         assert [rf.codec for rf in second.functions] == [rf.codec for rf in first.functions], mod
         assert (dev2.description, dev2.manufacturer, dev2.product, dev2.product_version, dev2.program_id) == (
-            dev1.description, dev1.manufacturer, dev1.product, dev1.product_version, dev1.program_id)
+            dev1.description,
+            dev1.manufacturer,
+            dev1.product,
+            dev1.product_version,
+            dev1.program_id,
+        )
         raw = tmp_path / f"{i}.json"
         raw.write_text(json.dumps(random_registers(first, _rel(mod))))
         firsts.append(mod)
@@ -140,5 +172,4 @@ def test_xif_to_mdl_to_xif_to_mdl_keeps_every_value(tmp_path, sim_factory):
 
 
 def test_every_mod_file_of_the_repository_is_covered():
-    assert {p.name for p in MOD_FILES} >= {"meter.mod", "adam4150_legacy.mod", "excel_meter.mod",
-                                           "strings_bytes.mod"}
+    assert {p.name for p in MOD_FILES} >= {"meter.mod", "adam4150_legacy.mod", "excel_meter.mod", "strings_bytes.mod"}

@@ -44,17 +44,37 @@ def devices(draw) -> tuple[Device, dict[tuple[str, int], int]]:
         multiplier = None if one else draw(st.sampled_from(MULTIPLIERS))
         offset = None if one else draw(st.sampled_from([None, 0.0, 5.0, -2.5]))
         text = f"{low}" if one else (f"{low}-{high}" if draw(st.booleans()) else f"{high}-{low}")
-        functions.append(Function(f"f{i}", "flag", [10], format=fmt, bits=text, multiplier=multiplier, offset=offset,
-                                  word_order=word_order, byte_order=byte_order,
-                                  write_function_code="22" if draw(st.booleans()) and width == 16 else None))
+        functions.append(
+            Function(
+                f"f{i}",
+                "flag",
+                [10],
+                format=fmt,
+                bits=text,
+                multiplier=multiplier,
+                offset=offset,
+                word_order=word_order,
+                byte_order=byte_order,
+                write_function_code="22" if draw(st.booleans()) and width == 16 else None,
+            )
+        )
     exponent = draw(st.booleans())
     factor_fmt = "INT16" if exponent else draw(st.sampled_from(["UINT16", "INT16", "UINT32"]))
-    functions.append(Function("sf", "factor", [20], format=factor_fmt,
-                              not_implemented=["0x8000"] if draw(st.booleans()) else None))
+    functions.append(
+        Function("sf", "factor", [20], format=factor_fmt, not_implemented=["0x8000"] if draw(st.booleans()) else None)
+    )
     value_fmt = draw(st.sampled_from(["INT16", "UINT16", "INT32", "UINT32"]))
-    functions.append(Function("scaled", "scaled", [30], format=value_fmt,
-                              multiplier=draw(st.sampled_from(MULTIPLIERS)), offset=draw(st.sampled_from([None, 1.5])),
-                              **{"scale_exponent" if exponent else "scale_by": "sf"}))
+    functions.append(
+        Function(
+            "scaled",
+            "scaled",
+            [30],
+            format=value_fmt,
+            multiplier=draw(st.sampled_from(MULTIPLIERS)),
+            offset=draw(st.sampled_from([None, 1.5])),
+            **{"scale_exponent" if exponent else "scale_by": "sf"},
+        )
+    )
     device = Device("Fuzz", "fuzz", functions, version="1.0")
     raw = {("holding", a): draw(st.integers(0, 0xFFFF)) for a in (*range(10, 14), 20, 21, *range(30, 32))}
     if exponent and draw(st.booleans()):
@@ -149,8 +169,13 @@ def test_the_xml_writer_and_reader_keep_them(tmp_path_factory, case, role, initi
 def test_any_bits_text_is_a_range_or_refused_with_a_position(text):
     fn = Function("a", "a", [1], format="UINT32", bits=text)
     found = fn.bit_range
-    problems = [d for d in __import__("mdl.resolve.checks", fromlist=["check_device"]).check_device(
-        Device("D", "d", [fn], version="1.0")) if d.severity == "error"]
+    problems = [
+        d
+        for d in __import__("mdl.resolve.checks", fromlist=["check_device"]).check_device(
+            Device("D", "d", [fn], version="1.0")
+        )
+        if d.severity == "error"
+    ]
     if found is None:
         assert any("is not N or N-M" in d.message for d in problems)
     else:

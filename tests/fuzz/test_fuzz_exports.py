@@ -18,19 +18,61 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from test_hostile_exports import FORMULA, HOSTILE, Fn, export, run_all, write_device
 
-PIECES = ["\n", "\r", "\r\n", "\x85", "\u2028", "\u2029", "\x0b", "\x0c", '"', "'", "\\", "\\n", "]]", "[[", "[",
-          "]", "#", "=", ";", ",", ":", "- ", "!", "&", "{{", "%", "\t", " ", "\x7f", "\x9b", "\ufeff", "\u202e",
-          "\xa0", "é", "°C", "\U0001F600", "[Coils]", "numberOfR=", "[[outputs.exec]]", "shell_command:", *FORMULA,
-          *HOSTILE]
+PIECES = [
+    "\n",
+    "\r",
+    "\r\n",
+    "\x85",
+    "\u2028",
+    "\u2029",
+    "\x0b",
+    "\x0c",
+    '"',
+    "'",
+    "\\",
+    "\\n",
+    "]]",
+    "[[",
+    "[",
+    "]",
+    "#",
+    "=",
+    ";",
+    ",",
+    ":",
+    "- ",
+    "!",
+    "&",
+    "{{",
+    "%",
+    "\t",
+    " ",
+    "\x7f",
+    "\x9b",
+    "\ufeff",
+    "\u202e",
+    "\xa0",
+    "é",
+    "°C",
+    "\U0001f600",
+    "[Coils]",
+    "numberOfR=",
+    "[[outputs.exec]]",
+    "shell_command:",
+    *FORMULA,
+    *HOSTILE,
+]
 
 
 # characters an XML 1.0 document can hold (as character references): no surrogates, no U+FFFE/U+FFFF, of C0 only
 # tab, line feed and carriage return; astral ones too
-CHARS = st.characters(min_codepoint=0x20, max_codepoint=0xFFFD, blacklist_categories=("Cs",)) \
-    | st.sampled_from("\t\n\r\U0001F600\U000E0001\U0010FFFD")
+CHARS = st.characters(min_codepoint=0x20, max_codepoint=0xFFFD, blacklist_categories=("Cs",)) | st.sampled_from(
+    "\t\n\r\U0001f600\U000e0001\U0010fffd"
+)
 TEXT = st.lists(st.one_of(st.sampled_from(PIECES), st.text(CHARS, max_size=3)), max_size=5).map("".join)
-FUNCTION = st.builds(Fn, name=TEXT, description=TEXT, units=st.none() | TEXT,
-                     values=st.dictionaries(st.integers(0, 9), TEXT, max_size=2))
+FUNCTION = st.builds(
+    Fn, name=TEXT, description=TEXT, units=st.none() | TEXT, values=st.dictionaries(st.integers(0, 9), TEXT, max_size=2)
+)
 DEVICES = st.tuples(TEXT, st.lists(FUNCTION, min_size=1, max_size=4, unique_by=lambda f: f.name))
 
 
@@ -47,8 +89,11 @@ def _check(name: str, functions: list[Fn]) -> str:
         return "exported"
 
 
-@settings(max_examples=int(os.environ.get("MDL_FUZZ_EXPORTS", "150")), deadline=None,
-          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@settings(
+    max_examples=int(os.environ.get("MDL_FUZZ_EXPORTS", "150")),
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 @given(DEVICES)
 @example(("a\x85\n[[outputs.exec]]", [Fn("=1+1", "-x", "\u2028", {1: '"]]\\'})]))
 @example(("", [Fn("", "", "")]))

@@ -22,11 +22,42 @@ from hypothesis import strategies as st
 from mdl import engines, formats
 
 EXAMPLES = int(os.environ.get("MDL_FUZZ_FORMATS", "150"))
-SUFFIXES = [".mod", ".MOD", ".Mod", ".yaml", ".YML", ".yml", ".ini", ".INI", ".xml", ".csv", ".txt", "", ".mod.ini",
-            ".yaml.mod"]
-LINES = ["#filetype,Modbus_xif", "# FileType , MODBUS_XIF", "#filetype,modbus_xi", "#filetype;Modbus_xif",
-         "[Platform]", "  [PLATFORM]  ", "[Platform", "[Coils]", "Name=x", "<?xml version='1.0'?>", "description: x",
-         "", " ", "\t", "\ufeff", "é", "\x00", "\xff\xfe"]
+SUFFIXES = [
+    ".mod",
+    ".MOD",
+    ".Mod",
+    ".yaml",
+    ".YML",
+    ".yml",
+    ".ini",
+    ".INI",
+    ".xml",
+    ".csv",
+    ".txt",
+    "",
+    ".mod.ini",
+    ".yaml.mod",
+]
+LINES = [
+    "#filetype,Modbus_xif",
+    "# FileType , MODBUS_XIF",
+    "#filetype,modbus_xi",
+    "#filetype;Modbus_xif",
+    "[Platform]",
+    "  [PLATFORM]  ",
+    "[Platform",
+    "[Coils]",
+    "Name=x",
+    "<?xml version='1.0'?>",
+    "description: x",
+    "",
+    " ",
+    "\t",
+    "\ufeff",
+    "é",
+    "\x00",
+    "\xff\xfe",
+]
 TEXTS = st.lists(st.sampled_from(LINES) | st.text(max_size=12), max_size=6).map("\n".join)
 PREFIXES = st.sampled_from([b"", b"\xef\xbb\xbf", b"\n\n", b"  ", b"\xff"])
 
@@ -38,7 +69,7 @@ def rule(name: str, data: bytes) -> str | None:
         return "xif"
     if suffix in (".yaml", ".yml"):
         return "schema"
-    text = data[:64 * 1024].decode("utf-8-sig", errors="replace")
+    text = data[: 64 * 1024].decode("utf-8-sig", errors="replace")
     first = text.lstrip().split("\n", 1)[0].strip().lower().replace(" ", "")
     if first.startswith("#filetype,modbus_xif"):
         return "xif"
@@ -65,8 +96,13 @@ def test_the_registry_guesses_as_spec_1_says(suffix, prefix, text):
 def test_a_file_name_decides_before_the_file_and_xif_before_wise(tmp_path):
     """A control of the rule's order, which the random files reach only now and then."""
     both = b"#filetype,Modbus_xif\n[Platform]\n"
-    cases = {"a.yaml": (both, "schema"), "a.mod": (b"[Platform]\n", "xif"), "a.ini": (both, "xif"),
-             "b.ini": (b"; x\n[platform]\n", "wise"), "a.xml": (b"<device/>", None)}
+    cases = {
+        "a.yaml": (both, "schema"),
+        "a.mod": (b"[Platform]\n", "xif"),
+        "a.ini": (both, "xif"),
+        "b.ini": (b"; x\n[platform]\n", "wise"),
+        "a.xml": (b"<device/>", None),
+    }
     for name, (data, expected) in cases.items():
         (tmp_path / name).write_bytes(data)
         assert formats.guess_format(tmp_path / name) == expected == rule(name, data), name

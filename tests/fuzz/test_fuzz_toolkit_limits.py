@@ -48,11 +48,11 @@ def hostile(draw: st.DrawFn) -> str:
         big = draw(st.sampled_from(["x", "9", " + int16(hr:0)", "(", "\\\\", "'"])) * max(1, size // 10)
         big = big.replace('"', "")
         if where == "description":
-            return "description: \"" + big.replace("\\", "/") + "\"\n" + HEAD + _field(0, "int16(hr:0)")
+            return 'description: "' + big.replace("\\", "/") + '"\n' + HEAD + _field(0, "int16(hr:0)")
         if where == "expression":
             return HEAD + _field(0, "int16(hr:0)" + big.replace("\\", "/").replace("'", ""))
         if where == "unit":
-            return HEAD + _field(0, "int16(hr:0)", f"        unit: \"{big.replace(chr(92), '/')}\"\n")
+            return HEAD + _field(0, "int16(hr:0)", f'        unit: "{big.replace(chr(92), "/")}"\n')
         return HEAD + f"      - id: '{big.replace(chr(39), 'q')}'\n        expression: 'int16(hr:0)'\n"
     if kind == "many":
         n = draw(st.integers(0, 1500))
@@ -63,12 +63,17 @@ def hostile(draw: st.DrawFn) -> str:
     n = draw(st.integers(0, 300))
     tests = "tests:\n" + "".join(
         f"  - id: 'T{t}'\n    input:\n      - firstRegisterAddress: 'hr:0'\n        registers: '{t % 3:04x}'\n"
-        "    blocks:\n      - id: 'M'\n        expected:\n          F0: 1\n" for t in range(n))
+        "    blocks:\n      - id: 'M'\n        expected:\n          F0: 1\n"
+        for t in range(n)
+    )
     return HEAD + _field(0, "int16(hr:0)") + tests
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                                                 HealthCheck.too_slow, HealthCheck.data_too_large])
+@settings(
+    max_examples=120,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 @given(hostile())
 def test_hostile_toolkit_files_import_or_are_refused(tmp_path_factory, monkeypatch, text):
     monkeypatch.setattr(toolkit, "MAX_FILE_BYTES", SMALL_LIMIT)
@@ -92,8 +97,11 @@ def test_hostile_toolkit_files_import_or_are_refused(tmp_path_factory, monkeypat
 
 @pytest.mark.parametrize("anchors", [1, 3])
 def test_aliases_are_refused_wherever_they_are(tmp_path, anchors):
-    text = "description: 'x'\nlol0: &a0 ['lol']\n" + "".join(
-        f"lol{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]\n" for i in range(1, anchors)) + HEAD
+    text = (
+        "description: 'x'\nlol0: &a0 ['lol']\n"
+        + "".join(f"lol{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]\n" for i in range(1, anchors))
+        + HEAD
+    )
     path = tmp_path / "alias.yaml"
     path.write_text(text + _field(0, "int16(hr:0)"))
     if anchors == 1:  # an anchor without an alias is plain YAML: read, the unknown key ignored

@@ -19,13 +19,22 @@ from mdl.diagnostics import MdlError
 from mdl.formats.wise.read import read_wise
 from mdl.formats.wise.sections import DATA_TYPES
 
-NAMES = ["Temp", 'Temp "a', '"quoted"', 'a"b"c', ' spaced ', '"', "x'y", "T\\1"]
+NAMES = ["Temp", 'Temp "a', '"quoted"', 'a"b"c', " spaced ", '"', "x'y", "T\\1"]
 NUMBERS = ["0", "5", "100", "-3", "0.1", "1e2", " 7 ", "0.001", " "]
 UNITS = ["V", "C", " ", "kWh", '"u"']
 TYPES = ["0", "1", "2", "4", "5", "8", "9", "x"]
 # the agent's eighth token -> the scaling it applies (a, b), or None: no conversion; absent: kept, not applied
-LUA = ['"modbus_val*2"', "modbus_val+1", '""', '"math.floor(modbus_val)"', '"math.pow(modbus_val,2)"',
-       '"modbus_val*2,5"', '""modbus_val*2"', '" "', '"""']
+LUA = [
+    '"modbus_val*2"',
+    "modbus_val+1",
+    '""',
+    '"math.floor(modbus_val)"',
+    '"math.pow(modbus_val,2)"',
+    '"modbus_val*2,5"',
+    '""modbus_val*2"',
+    '" "',
+    '"""',
+]
 PLAIN = {'"modbus_val*2"': (2.0, 0.0), "modbus_val+1": (1.0, 1.0), '""': None}
 PIECES = NAMES + NUMBERS + UNITS + TYPES + LUA + ["", "", ",", ",,", '"', ' "a,b" ']
 
@@ -33,10 +42,17 @@ PIECES = NAMES + NUMBERS + UNITS + TYPES + LUA + ["", "", ",", ",,", '"', ' "a,b
 @st.composite
 def register_lines(draw: st.DrawFn) -> str:
     """`offset,name,min,max,precision,unit,datatype[,lua]` mostly well formed, with pieces swapped in."""
-    fields = ["0", draw(st.sampled_from(NAMES)), draw(st.sampled_from(NUMBERS)), draw(st.sampled_from(NUMBERS)),
-              draw(st.sampled_from(NUMBERS)), draw(st.sampled_from(UNITS)), draw(st.sampled_from(TYPES)),
-              draw(st.sampled_from(LUA))]
-    fields = fields[:draw(st.integers(2, len(fields)))]
+    fields = [
+        "0",
+        draw(st.sampled_from(NAMES)),
+        draw(st.sampled_from(NUMBERS)),
+        draw(st.sampled_from(NUMBERS)),
+        draw(st.sampled_from(NUMBERS)),
+        draw(st.sampled_from(UNITS)),
+        draw(st.sampled_from(TYPES)),
+        draw(st.sampled_from(LUA)),
+    ]
+    fields = fields[: draw(st.integers(2, len(fields)))]
     for _ in range(draw(st.integers(0, 3))):
         fields[draw(st.integers(0, len(fields) - 1))] = draw(st.sampled_from(PIECES))
     return ",".join(fields).strip()
@@ -53,9 +69,15 @@ def _agent(value: str) -> dict:
         return float((tok(i) or "").strip() or 0)
 
     low, high = atof(2), atof(3)
-    return {"name": (tok(1) or "").strip(), "low": min(low, high), "high": max(low, high),
-            "precision": atof(4) or 1.0, "unit": (tok(5) or "").strip() or None,
-            "type": DATA_TYPES[int((tok(6) or "").strip() or 0)], "lua": _lua(tok(7))}
+    return {
+        "name": (tok(1) or "").strip(),
+        "low": min(low, high),
+        "high": max(low, high),
+        "precision": atof(4) or 1.0,
+        "unit": (tok(5) or "").strip() or None,
+        "type": DATA_TYPES[int((tok(6) or "").strip() or 0)],
+        "lua": _lua(tok(7)),
+    }
 
 
 def _lua(token: str | None) -> str | None:
@@ -72,14 +94,19 @@ def test_register_lines_read_as_the_agent_reads_them_or_are_refused(tmp_path_fac
         device = read_wise(path)
     except MdlError as exc:
         assert exc.diagnostics, value
-        assert all(d.file == str(path) and d.line == 5 and d.col and d.col >= 4 for d in exc.diagnostics), \
-            (value, [str(d) for d in exc.diagnostics])
+        assert all(d.file == str(path) and d.line == 5 and d.col and d.col >= 4 for d in exc.diagnostics), (
+            value,
+            [str(d) for d in exc.diagnostics],
+        )
         return
     [fn] = device.functions
     agent = _agent(value)
     assert fn.name == agent["name"], value
-    assert (fn.format, fn.byte_order or "big", fn.word_order or "big") == \
-        (agent["type"].format, agent["type"].byte_order, agent["type"].word_order), value
+    assert (fn.format, fn.byte_order or "big", fn.word_order or "big") == (
+        agent["type"].format,
+        agent["type"].byte_order,
+        agent["type"].word_order,
+    ), value
     assert fn.units == agent["unit"], value
     if fn.minimum is None:
         assert agent["low"] == agent["high"] == 0, value

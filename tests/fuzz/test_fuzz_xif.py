@@ -27,13 +27,66 @@ from mdl.model import Device
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser
 
-SEEDS = [(ROOT / "examples" / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),
-         *(p.read_text(encoding="utf-8") for p in sorted((DATA / "xif").glob("*.mod")))]
-PIECES = [",", ",,", "\n", "\r\n", "\r", '"', '""', "#", "#x,", "#filetype,Modbus_xif\n", "#program_ID,", "'",
-          "'=", "=1+1", "+", "-", "@", "\t", "FC01", "FC03", "FC05", "40001", "65536", "99999999999999", "1e999",
-          "BIT", "FLOAT", "CHAR8", "CHAR8_2", "uint32", "SINT8", "++", "R", "little", "big", "Y", "N", "0x10", "\x0c",
-          "\x00", "\x85", "\u2028", "\ufeff", "\u00b2", "Datapoint Name", "Address", "Native Type", "Write Enable",
-          "Native Value 1", "A'", "Marker Value", "ASCII Length", "Bit Order", "Junk"]
+SEEDS = [
+    (ROOT / "examples" / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),
+    *(p.read_text(encoding="utf-8") for p in sorted((DATA / "xif").glob("*.mod"))),
+]
+PIECES = [
+    ",",
+    ",,",
+    "\n",
+    "\r\n",
+    "\r",
+    '"',
+    '""',
+    "#",
+    "#x,",
+    "#filetype,Modbus_xif\n",
+    "#program_ID,",
+    "'",
+    "'=",
+    "=1+1",
+    "+",
+    "-",
+    "@",
+    "\t",
+    "FC01",
+    "FC03",
+    "FC05",
+    "40001",
+    "65536",
+    "99999999999999",
+    "1e999",
+    "BIT",
+    "FLOAT",
+    "CHAR8",
+    "CHAR8_2",
+    "uint32",
+    "SINT8",
+    "++",
+    "R",
+    "little",
+    "big",
+    "Y",
+    "N",
+    "0x10",
+    "\x0c",
+    "\x00",
+    "\x85",
+    "\u2028",
+    "\ufeff",
+    "\u00b2",
+    "Datapoint Name",
+    "Address",
+    "Native Type",
+    "Write Enable",
+    "Native Value 1",
+    "A'",
+    "Marker Value",
+    "ASCII Length",
+    "Bit Order",
+    "Junk",
+]
 ERROR_LINE = re.compile(r"^(?P<file>.+?)(:\d+(:\d+)?)?: error: \S")
 # generous: MAX_ERRORS errors and their count, and SHOWN_EACH messages of each of the reader's kinds
 BOUND = MAX_ERRORS + 1 + SHOWN_EACH * 40
@@ -46,7 +99,7 @@ def mod_texts(draw: st.DrawFn) -> str:
     for _ in range(draw(st.integers(0, 6))):
         at = draw(st.integers(0, len(text)))
         cut = draw(st.integers(0, 6))
-        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut:]
+        text = text[:at] + draw(st.sampled_from(PIECES)) + text[at + cut :]
     lines = text.split("\n")
     if draw(st.booleans()) and len(lines) > 1:
         at = draw(st.integers(1, len(lines) - 1))
@@ -97,17 +150,26 @@ def test_export_then_import_gives_the_same_functions_or_a_refusal(texts, maker, 
     fns = ""
     for i, (name, description, label) in enumerate(texts):
         body = fn_xml(xml_text(f"{name} n{i}"), i, block_label=xml_text(label))
-        fns += body.replace(f"<description>{xml_text(f'{name} n{i}')}</description>",
-                            f"<description>{xml_text(description)}</description>")
-    xml = device_xml(fns).replace("<description>test</description>", f"<description>{xml_text(about)}</description>"
-                                  f"<manufacturer>{xml_text(maker)}</manufacturer>")
+        fns += body.replace(
+            f"<description>{xml_text(f'{name} n{i}')}</description>",
+            f"<description>{xml_text(description)}</description>",
+        )
+    xml = device_xml(fns).replace(
+        "<description>test</description>",
+        f"<description>{xml_text(about)}</description><manufacturer>{xml_text(maker)}</manufacturer>",
+    )
     original = device_of(xml)
     with tempfile.TemporaryDirectory() as tmp:
         source, mod = Path(tmp) / "d.xml", Path(tmp) / "d.mod"
         source.write_text(xml, encoding="ascii")
         proc = cli("export", source, "--to", "xif", "-o", mod)
-        refused = [text for text in [original.manufacturer or ""] + [fn.name for fn in original.functions]
-                   + [label for fn in original.functions for label in fn.block_labels] if C.line_break(text)]
+        refused = [
+            text
+            for text in [original.manufacturer or ""]
+            + [fn.name for fn in original.functions]
+            + [label for fn in original.functions for label in fn.block_labels]
+            if C.line_break(text)
+        ]
         if refused:
             assert proc.returncode == 1 and "holds a line break" in proc.stderr, proc
             assert not mod.exists()
@@ -121,7 +183,9 @@ def test_export_then_import_gives_the_same_functions_or_a_refusal(texts, maker, 
     back = device_of(again.stdout)
     assert back.manufacturer == original.manufacturer and back.description == one_line(original.description)
     assert [(fn.name, fn.block_labels, fn.addresses) for fn in back.functions] == [
-        (fn.name, fn.block_labels, fn.addresses) for fn in original.functions]
+        (fn.name, fn.block_labels, fn.addresses) for fn in original.functions
+    ]
     assert [fn.description for fn in back.functions] == [
-        one_line(fn.description) if one_line(fn.description) != fn.name else fn.name for fn in original.functions]
+        one_line(fn.description) if one_line(fn.description) != fn.name else fn.name for fn in original.functions
+    ]
     event("round trip")

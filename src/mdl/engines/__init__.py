@@ -32,10 +32,13 @@ class Output:
 
 ENGINES = (
     Output("senml", "the WISE guide's SenML capability document", lazy("mdl.engines.senml", "export_capability")),
-    Output("volttron", "VOLTTRON Modbus-TK driver files (a folder)", lazy("mdl.engines.volttron", "export_volttron"),
-           folder=True),
-    Output("homeassistant", "Home Assistant modbus: YAML",
-           lazy("mdl.engines.homeassistant", "export_homeassistant")),
+    Output(
+        "volttron",
+        "VOLTTRON Modbus-TK driver files (a folder)",
+        lazy("mdl.engines.volttron", "export_volttron"),
+        folder=True,
+    ),
+    Output("homeassistant", "Home Assistant modbus: YAML", lazy("mdl.engines.homeassistant", "export_homeassistant")),
     Output("telegraf", "Telegraf [[inputs.modbus]] TOML", lazy("mdl.engines.telegraf", "export_telegraf")),
 )
 

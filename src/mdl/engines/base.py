@@ -131,8 +131,10 @@ def connection_of(settings: Settings, notes: Notes) -> Endpoint:
     if settings.connection is not None:
         return settings.connection
     conn = Endpoint()
-    notes.note(f"no connection given: the configuration names {conn.host}:{conn.port}; give --host/--port or "
-               "--serial for the device's own")
+    notes.note(
+        f"no connection given: the configuration names {conn.host}:{conn.port}; give --host/--port or "
+        "--serial for the device's own"
+    )
     return conn
 
 

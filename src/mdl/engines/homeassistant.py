@@ -68,19 +68,36 @@ if TYPE_CHECKING:
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 
 ENGINE = "Home Assistant"
-_TYPES = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, True): "int32",
-          ("int", 32, False): "uint32", ("int", 64, True): "int64", ("int", 64, False): "uint64",
-          ("float", 32, True): "float32", ("float", 64, True): "float64"}
-_STRUCT = {"int16": "h", "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
-           "float32": "f", "float64": "d"}
+_TYPES = {
+    ("int", 16, True): "int16",
+    ("int", 16, False): "uint16",
+    ("int", 32, True): "int32",
+    ("int", 32, False): "uint32",
+    ("int", 64, True): "int64",
+    ("int", 64, False): "uint64",
+    ("float", 32, True): "float32",
+    ("float", 64, True): "float64",
+}
+_STRUCT = {
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "int64": "q",
+    "uint64": "Q",
+    "float32": "f",
+    "float64": "d",
+}
 FLOAT_PRECISION = 2  # what Home Assistant shows of a float without precision
 MIN_SCAN = 5  # Home Assistant warns of a scan_interval under this many seconds
 # the hub's entity lists, by Home Assistant's platform names, in the order its validator reads them (const.PLATFORMS)
 _PLATFORM = {"binary_sensors": "binary_sensor", "sensors": "sensor", "switches": "switch"}
 _PLATFORM_ORDER = ("binary_sensors", "sensors", "switches")
 _DEFAULTS: dict[str, dict[str, Any]] = {  # the schema's defaults that the validator's key reads (__init__.py)
-    "binary_sensors": {"input_type": "coil"}, "sensors": {"input_type": "holding"},
-    "switches": {"write_type": "holding", "command_on": 1, "command_off": 0}}
+    "binary_sensors": {"input_type": "coil"},
+    "sensors": {"input_type": "holding"},
+    "switches": {"write_type": "holding", "command_on": 1, "command_off": 0},
+}
 Entity = tuple["ResolvedFunction", dict[str, Any]]
 
 
@@ -112,8 +129,12 @@ def ha_type(lay: Layout) -> dict[str, Any] | str:
         code = "b" if lay.signed else "B"
         low = lay.unit == "low" or (lay.unit == "word" and lay.byte_order == "big")
         return {"data_type": "custom", "structure": f">x{code}" if low else f">{code}x", "count": 1}
-    swap = {("big", "big"): None, ("little", "big"): "byte", ("big", "little"): "word",
-            ("little", "little"): "word_byte"}[(lay.byte_order, lay.word_order if n > 1 else "big")]
+    swap = {
+        ("big", "big"): None,
+        ("little", "big"): "byte",
+        ("big", "little"): "word",
+        ("little", "little"): "word_byte",
+    }[(lay.byte_order, lay.word_order if n > 1 else "big")]
     if lay.kind == "string":
         if swap not in (None, "byte"):
             return "text in more than one register never has its words swapped"
@@ -141,8 +162,11 @@ def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
     if not patterns:
         return None
     if len(patterns) > 1:
-        notes.warn(f, "nan_value holds one 'not implemented' value: the first is used, the others read as numbers",
-                   f"{hex_pattern(patterns[0])} used; {', '.join(map(hex_pattern, patterns[1:]))} read as numbers")
+        notes.warn(
+            f,
+            "nan_value holds one 'not implemented' value: the first is used, the others read as numbers",
+            f"{hex_pattern(patterns[0])} used; {', '.join(map(hex_pattern, patterns[1:]))} read as numbers",
+        )
     if kind["data_type"] == "string":
         notes.warn(f, "text has no nan_value: the 'not implemented' value reads as text", hex_pattern(patterns[0]))
         return None
@@ -150,14 +174,20 @@ def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
     if value != value:  # a float NaN: Home Assistant shows none for it anyway
         return None
     if value == 0 or value != int(value):
-        notes.warn(f, "nan_value cannot be 0 or a fraction: the 'not implemented' value reads as a number",
-                   f"{hex_pattern(patterns[0])} unpacks to {value!r}")
+        notes.warn(
+            f,
+            "nan_value cannot be 0 or a fraction: the 'not implemented' value reads as a number",
+            f"{hex_pattern(patterns[0])} unpacks to {value!r}",
+        )
         return None
     number = int(value)
     lay = f.layout
     if lay.kind == "float" or (lay.signed and -(1 << (lay.bits - 1)) <= -number < (1 << (lay.bits - 1))):
-        notes.warn(f, "nan_value also makes its negative read as not implemented (Home Assistant compares both "
-                      "signs)", f"nan_value {number} also makes {-number}")
+        notes.warn(
+            f,
+            "nan_value also makes its negative read as not implemented (Home Assistant compares both signs)",
+            f"nan_value {number} also makes {-number}",
+        )
     return number
 
 
@@ -166,8 +196,9 @@ def _precision(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
         return None
     if f.fn.precision is not None:
         if f.fn.precision < 0:
-            notes.warn(f, "precision cannot round left of the point: whole numbers are shown",
-                       f"precision {f.fn.precision}")
+            notes.warn(
+                f, "precision cannot round left of the point: whole numbers are shown", f"precision {f.fn.precision}"
+            )
             return 0
         return f.fn.precision
     step = scale_of(f)
@@ -207,8 +238,12 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
     if kind["data_type"] == "string":
         notes.warn(f, "the text keeps the NUL padding that mdl strips")
     if f.fn.writable:
-        notes.warn(f, "the modbus integration has no entity that writes a register value: exported as a sensor: "
-                      f"write it with {WRITE_ACTION}", _write_detail(f))
+        notes.warn(
+            f,
+            "the modbus integration has no entity that writes a register value: exported as a sensor: "
+            f"write it with {WRITE_ACTION}",
+            _write_detail(f),
+        )
     return entry
 
 
@@ -217,8 +252,11 @@ def _unit(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> dict[str, 
     (ha_units); a change of spelling and each guess said in a note."""
     units = f.fn.units or ""
     if kind["data_type"] == "string":
-        notes.warn(f, "a unit makes Home Assistant expect a number, and the sensor shows text: written without its "
-                      "unit", repr(units))
+        notes.warn(
+            f,
+            "a unit makes Home Assistant expect a number, and the sensor shows text: written without its unit",
+            repr(units),
+        )
         return {}
     found = ha_unit(units)
     out: dict[str, Any] = {"unit_of_measurement": found.unit}
@@ -231,8 +269,12 @@ def _unit(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> dict[str, 
     if found.state_class is not None:
         out["state_class"] = found.state_class
     else:
-        notes.note_for(f, "a unit Home Assistant does not class: no device_class or state_class (long-term "
-                          "statistics and the Energy dashboard leave the sensor out)", repr(units))
+        notes.note_for(
+            f,
+            "a unit Home Assistant does not class: no device_class or state_class (long-term "
+            "statistics and the Energy dashboard leave the sensor out)",
+            repr(units),
+        )
     for guess in found.guesses:
         notes.note_for(f, guess)
     return out
@@ -245,8 +287,11 @@ def _bit_sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict
     nan_value = _nan_value(f, kind, notes)
     if nan_value is not None:
         entry["nan_value"] = nan_value
-    notes.warn(f, "a bit in a register (true when the register is not 0) is a sensor showing 1 or 0 (max_value: 1): "
-                  "a binary_sensor would read bit 0 only")
+    notes.warn(
+        f,
+        "a bit in a register (true when the register is not 0) is a sensor showing 1 or 0 (max_value: 1): "
+        "a binary_sensor would read bit 0 only",
+    )
     return entry
 
 
@@ -255,15 +300,21 @@ def _register_bit(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> di
     found = register_bit(f)
     if found is None or found[1] != 0 or not f.fn.readable:
         where = f"bit {found[1]} of register {found[0]}" if found is not None else bits_detail(f.fn)
-        notes.warn(f, "a binary_sensor reads bit 0 of a register only, and no sensor takes some bits of one: left out",
-                   where if f.fn.readable else "write-only")
+        notes.warn(
+            f,
+            "a binary_sensor reads bit 0 of a register only, and no sensor takes some bits of one: left out",
+            where if f.fn.readable else "write-only",
+        )
         return None
     if f.fn.writable:
         notes.warn(f, "exported read-only (a binary_sensor): a switch would write the whole register, not its bit")
     patterns = patterns_of(f)
     if patterns:
-        notes.warn(f, "a binary_sensor has no 'not implemented' value: the values that mean it read as a bit",
-                   ", ".join(map(hex_pattern, patterns)))
+        notes.warn(
+            f,
+            "a binary_sensor has no 'not implemented' value: the values that mean it read as a bit",
+            ", ".join(map(hex_pattern, patterns)),
+        )
     return {**base, "address": found[0], "input_type": "input" if f.layout.table == "input" else "holding"}
 
 
@@ -285,16 +336,24 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
     out: dict[str, list[Entity]] = {"sensors": [], "binary_sensors": [], "switches": []}
     scan = whole_seconds(settings, notes)
     if scan < MIN_SCAN:
-        notes.device_warning(f"scan_interval {scan} is under {MIN_SCAN} seconds, which Home Assistant warns "
-                             "may make it unstable")
+        notes.device_warning(
+            f"scan_interval {scan} is under {MIN_SCAN} seconds, which Home Assistant warns may make it unstable"
+        )
     for f in resolved.functions:
         if f.fn.readable and left_out_unreadable(f, notes):
             continue
-        base = {"name": f.name, "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
-                "device_address": settings.unit, "address": f.layout.addresses[0]}
+        base = {
+            "name": f.name,
+            "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
+            "device_address": settings.unit,
+            "address": f.layout.addresses[0],
+        }
         if f.fn.factor is not None:
-            notes.warn(f, "a sensor's scale and offset are constants, and none is read from another register: "
-                          "left out", factor_detail(f.fn))
+            notes.warn(
+                f,
+                "a sensor's scale and offset are constants, and none is read from another register: left out",
+                factor_detail(f.fn),
+            )
             continue
         if f.fn.bits is not None:
             sensor = _register_bit(f, base, notes)
@@ -323,15 +382,20 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
                 out["sensors"].append((f, {**_bit_sensor(f, base, notes), "scan_interval": scan}))
             if writable and f.layout.table == "holding":
                 out["switches"].append((f, {**base, "write_type": _write_type(f), "scan_interval": scan}))
-                notes.warn(f, "the switch writes 1 or 0 and shows the state it last wrote (its verify knows the "
-                              "register values 1 and 0 only)" + ("; the sensor reads the register" if f.fn.readable
-                                                                   else ""))
+                notes.warn(
+                    f,
+                    "the switch writes 1 or 0 and shows the state it last wrote (its verify knows the "
+                    "register values 1 and 0 only)" + ("; the sensor reads the register" if f.fn.readable else ""),
+                )
             elif not f.fn.readable:
                 notes.warn(f, "neither readable nor writable here: left out")
             continue
         if not f.fn.readable:
-            notes.warn(f, f"write-only register: the modbus integration writes it only with {WRITE_ACTION}: "
-                          "left out", _write_detail(f))
+            notes.warn(
+                f,
+                f"write-only register: the modbus integration writes it only with {WRITE_ACTION}: left out",
+                _write_detail(f),
+            )
             continue
         sensor = _sensor(f, base, notes)
         if sensor is not None:
@@ -368,8 +432,12 @@ def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) 
                     detail = f"{table} {entity['address']}, device_address {entity['device_address']}: '{first.name}'"
                 else:
                     what, detail = "its name is taken by another entity of its platform", component
-                notes.warn(f, f"{what}, and Home Assistant loads only the first (\"is duplicate, second entry not "
-                              "loaded!\"): left out", detail)
+                notes.warn(
+                    f,
+                    f'{what}, and Home Assistant loads only the first ("is duplicate, second entry not '
+                    'loaded!"): left out',
+                    detail,
+                )
                 continue
             registers[register] = f
             names.add(name)
@@ -381,8 +449,15 @@ def _hub(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str
     conn = connection_of(settings, notes)
     hub: dict[str, Any] = {"name": resolved.stem}
     if conn.serial is not None:
-        hub.update(type="serial", port=conn.serial, baudrate=conn.baud, bytesize=conn.bytesize, method="rtu",
-                   parity=conn.parity, stopbits=conn.stopbits)
+        hub.update(
+            type="serial",
+            port=conn.serial,
+            baudrate=conn.baud,
+            bytesize=conn.bytesize,
+            method="rtu",
+            parity=conn.parity,
+            stopbits=conn.stopbits,
+        )
     else:
         hub.update(type="rtuovertcp" if conn.rtu else "tcp", host=conn.host, port=conn.port)
     hub["timeout"] = int(conn.timeout) if conn.timeout == int(conn.timeout) else conn.timeout
@@ -397,10 +472,11 @@ def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export
         raise nothing_left(resolved, ENGINE, notes)
     hub.update(entities)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
-    head = (f"# Home Assistant modbus integration: {comment_text(resolved.name)}, from {comment_text(source)} by "
-            "mdl export.\n# A list of modbus hubs: save it as modbus.yaml beside configuration.yaml, which reads it "
-            "with\n#   modbus: !include modbus.yaml\n# (where configuration.yaml already lists hubs under modbus:, "
-            "add this one to them).\n")
-    body = yaml.dump([hub], Dumper=_Dumper, sort_keys=False, allow_unicode=True, default_flow_style=False,
-                     width=100)
+    head = (
+        f"# Home Assistant modbus integration: {comment_text(resolved.name)}, from {comment_text(source)} by "
+        "mdl export.\n# A list of modbus hubs: save it as modbus.yaml beside configuration.yaml, which reads it "
+        "with\n#   modbus: !include modbus.yaml\n# (where configuration.yaml already lists hubs under modbus:, "
+        "add this one to them).\n"
+    )
+    body = yaml.dump([hub], Dumper=_Dumper, sort_keys=False, allow_unicode=True, default_flow_style=False, width=100)
     return Export(text=head + body, warnings=notes.found)

@@ -15,7 +15,15 @@ def export_capability(resolved: ResolvedDevice, settings: Settings) -> Export:
     entry n, u, min, max, asm and no value."""
     warnings: list[Diagnostic] = []
     if settings.connection is not None or settings.interval_given:
-        warnings.append(Diagnostic(None, None, None, "the capability document describes the functions: the "
-                                   "connection options and --interval are not part of it", "note"))
+        warnings.append(
+            Diagnostic(
+                None,
+                None,
+                None,
+                "the capability document describes the functions: the "
+                "connection options and --interval are not part of it",
+                "note",
+            )
+        )
     doc = capability([f.fn for f in resolved.functions], resolved.name)
     return Export(json_text(doc, indent=2), warnings=warnings)

@@ -57,12 +57,18 @@ if TYPE_CHECKING:
 
 ENGINE = "Telegraf"
 ORDERS = ("ABCD", "CDAB", "DCBA", "BADC")  # tried in this order for a section
-_WORD_TYPES = {("int", 16, True): "INT16", ("int", 16, False): "UINT16", ("int", 32, True): "INT32",
-               ("int", 32, False): "UINT32", ("int", 64, True): "INT64", ("int", 64, False): "UINT64",
-               ("float", 32, True): "FLOAT32", ("float", 64, True): "FLOAT64"}
+_WORD_TYPES = {
+    ("int", 16, True): "INT16",
+    ("int", 16, False): "UINT16",
+    ("int", 32, True): "INT32",
+    ("int", 32, False): "UINT32",
+    ("int", 64, True): "INT64",
+    ("int", 64, False): "UINT64",
+    ("float", 32, True): "FLOAT32",
+    ("float", 64, True): "FLOAT64",
+}
 _BYTE_SWAPPED = ("DCBA", "BADC")  # the orders that read each register's bytes swapped
-_ORDER_OF = {("big", "big"): "ABCD", ("little", "little"): "DCBA", ("little", "big"): "BADC",
-             ("big", "little"): "CDAB"}
+_ORDER_OF = {("big", "big"): "ABCD", ("little", "little"): "DCBA", ("little", "big"): "BADC", ("big", "little"): "CDAB"}
 
 
 def field_type(lay: Layout, order: str) -> str | None:
@@ -148,17 +154,24 @@ def _exported(resolved: ResolvedDevice, notes: Notes) -> dict[str, ResolvedFunct
             notes.warn(f, "no field or processor multiplies by another register's value: left out", factor_detail(f.fn))
             continue
         if f.fn.bits is not None and register_bit(f) is None:
-            notes.warn(f, "a BIT field reads one bit, and no field type takes a range of them: left out",
-                       bits_detail(f.fn))
+            notes.warn(
+                f, "a BIT field reads one bit, and no field type takes a range of them: left out", bits_detail(f.fn)
+            )
             continue
         if not _fits_somehow(f):
-            notes.warn(f, "no field type reads its value: left out",
-                       f"a {f.layout.bits}-bit {f.layout.kind} in {len(f.layout.addresses)} registers")
+            notes.warn(
+                f,
+                "no field type reads its value: left out",
+                f"a {f.layout.bits}-bit {f.layout.kind} in {len(f.layout.addresses)} registers",
+            )
             continue
         patterns = patterns_of(f)
         if patterns:
-            notes.warn(f, "no 'not implemented' value: the values that mean it read as numbers",
-                       ", ".join(map(hex_pattern, patterns)))
+            notes.warn(
+                f,
+                "no 'not implemented' value: the values that mean it read as numbers",
+                ", ".join(map(hex_pattern, patterns)),
+            )
         if f.layout.kind == "string":
             notes.warn(f, "a STRING field ends at its first NUL and keeps trailing spaces, which mdl strips")
         out[f.name] = f
@@ -205,8 +218,11 @@ def _fields(order: str, members: list[ResolvedFunction], bits: bool) -> list[str
                     entry["scale"] = step.multiplier
             lines.append(_inline(entry))
         if address not in covered:
-            lines.append(_inline({"address": address, "omit": True} if bits else
-                                 {"address": address, "type": "UINT16", "omit": True}))
+            lines.append(
+                _inline(
+                    {"address": address, "omit": True} if bits else {"address": address, "type": "UINT16", "omit": True}
+                )
+            )
     return lines
 
 
@@ -214,16 +230,25 @@ def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported:
     conn = connection_of(settings, notes)
     out = ["[[inputs.modbus]]", f"  name = {_toml(resolved.name)}"]
     if conn.serial is not None:
-        out += [f"  controller = {_toml('file://' + conn.serial)}", f"  baud_rate = {conn.baud}",
-                f"  data_bits = {conn.bytesize}", f"  parity = {_toml(conn.parity)}", f"  stop_bits = {conn.stopbits}",
-                '  transmission_mode = "RTU"']
+        out += [
+            f"  controller = {_toml('file://' + conn.serial)}",
+            f"  baud_rate = {conn.baud}",
+            f"  data_bits = {conn.bytesize}",
+            f"  parity = {_toml(conn.parity)}",
+            f"  stop_bits = {conn.stopbits}",
+            '  transmission_mode = "RTU"',
+        ]
     else:
         host = f"[{conn.host}]" if ":" in conn.host else conn.host
         out.append(f"  controller = {_toml(f'tcp://{host}:{conn.port}')}")
         if conn.rtu:
             out.append('  transmission_mode = "RTUoverTCP"')
-    out += [f"  slave_id = {settings.unit}", f"  timeout = {_toml(plain_number(conn.timeout) + 's')}",
-            f"  interval = {_toml(plain_number(settings.interval) + 's')}", '  configuration_type = "request"']
+    out += [
+        f"  slave_id = {settings.unit}",
+        f"  timeout = {_toml(plain_number(conn.timeout) + 's')}",
+        f"  interval = {_toml(plain_number(settings.interval) + 's')}",
+        '  configuration_type = "request"',
+    ]
     for group in resolved.plan:
         request = group.request
         members = [exported[name] for name in request.functions if name in exported]
@@ -231,9 +256,15 @@ def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported:
             continue
         bits = request.table in ("coil", "discrete")
         for order, run in _runs(members):
-            out += ["", "  [[inputs.modbus.request]]", f"    slave_id = {settings.unit}",
-                    f"    register = {_toml(request.table)}", f"    byte_order = {_toml(order)}",
-                    f"    measurement = {_toml(resolved.stem)}", "    fields = ["]
+            out += [
+                "",
+                "  [[inputs.modbus.request]]",
+                f"    slave_id = {settings.unit}",
+                f"    register = {_toml(request.table)}",
+                f"    byte_order = {_toml(order)}",
+                f"    measurement = {_toml(resolved.stem)}",
+                "    fields = [",
+            ]
             out += [f"      {line}," for line in _fields(order, run, bits)]
             out.append("    ]")
     return "\n".join(out) + "\n"
@@ -257,14 +288,23 @@ def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction])
     out = []
     order = 0
     measurement = _toml(resolved.stem)
-    divisors = {f.ident: step.divisor for f in exported.values()
-                if (step := scale_of(f)) is not None and step.divisor is not None}
+    divisors = {
+        f.ident: step.divisor
+        for f in exported.values()
+        if (step := scale_of(f)) is not None and step.divisor is not None
+    }
     if divisors:
         order += 1
         listed = "\n".join(f"    {_toml(ident)}: {divisor}," for ident, divisor in divisors.items())
-        out += ["", "# the divisions: value / d where the multiplier is 1/d, as mdl computes them (value * 0.1 can",
-                "# differ from value / 10 in the last digit)", "[[processors.starlark]]", f"  order = {order}",
-                f"  namepass = [{measurement}]", "  source = '''" + _STARLARK.format(divisors=listed) + "'''"]
+        out += [
+            "",
+            "# the divisions: value / d where the multiplier is 1/d, as mdl computes them (value * 0.1 can",
+            "# differ from value / 10 in the last digit)",
+            "[[processors.starlark]]",
+            f"  order = {order}",
+            f"  namepass = [{measurement}]",
+            "  source = '''" + _STARLARK.format(divisors=listed) + "'''",
+        ]
     offsets: dict[float, list[str]] = {}
     for f in exported.values():
         step = scale_of(f)
@@ -272,26 +312,48 @@ def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction])
             offsets.setdefault(step.offset, []).append(f.ident)
     if offsets:
         order += 1
-        out += ["", "# the offsets: value * factor + offset, after the fields' scale and the divisions",
-                "[[processors.scale]]", f"  order = {order}", f"  namepass = [{measurement}]"]
+        out += [
+            "",
+            "# the offsets: value * factor + offset, after the fields' scale and the divisions",
+            "[[processors.scale]]",
+            f"  order = {order}",
+            f"  namepass = [{measurement}]",
+        ]
         for offset, idents in offsets.items():
-            out += ["  [[processors.scale.scaling]]", "    factor = 1.0", f"    offset = {_toml(float(offset))}",
-                    f"    fields = [{', '.join(map(_toml, idents))}]"]
+            out += [
+                "  [[processors.scale.scaling]]",
+                "    factor = 1.0",
+                f"    offset = {_toml(float(offset))}",
+                f"    fields = [{', '.join(map(_toml, idents))}]",
+            ]
     bits = [f for f in exported.values() if _one_bit(f)]
     enums = [f for f in exported.values() if f.fn.values and not _one_bit(f)]
     if bits or enums:
         order += 1
         what = ["the label for each value"] if enums else []
         what += ["a bit in a register: 0 is false, any other value true"] if bits else []
-        out += ["", f"# the enumerations: {'; '.join(what)}", "[[processors.enum]]", f"  order = {order}",
-                f"  namepass = [{measurement}]"]
+        out += [
+            "",
+            f"# the enumerations: {'; '.join(what)}",
+            "[[processors.enum]]",
+            f"  order = {order}",
+            f"  namepass = [{measurement}]",
+        ]
         for f in bits:
-            out += ["  [[processors.enum.mapping]]", f"    field = {_toml(f.ident)}", "    default = true",
-                    "    [processors.enum.mapping.value_mappings]", '      "0" = false']
+            out += [
+                "  [[processors.enum.mapping]]",
+                f"    field = {_toml(f.ident)}",
+                "    default = true",
+                "    [processors.enum.mapping.value_mappings]",
+                '      "0" = false',
+            ]
         for f in enums:
             assert f.fn.values is not None
-            out += ["  [[processors.enum.mapping]]", f"    field = {_toml(f.ident)}",
-                    "    [processors.enum.mapping.value_mappings]"]
+            out += [
+                "  [[processors.enum.mapping]]",
+                f"    field = {_toml(f.ident)}",
+                "    [processors.enum.mapping.value_mappings]",
+            ]
             out += [f"      {_toml(str(key))} = {_toml(label)}" for key, label in f.fn.values.items()]
     return "\n".join(out) + ("\n" if out else "")
 
@@ -307,7 +369,9 @@ def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
     if not exported:
         raise nothing_left(resolved, ENGINE, notes)
     source = Path(resolved.device.source).name if resolved.device.source else "a description"
-    head = (f"# Telegraf modbus input: {comment_text(resolved.name)}, from {comment_text(source)} by mdl export.\n"
-            f"# One request section per request of mdl's read plan. Needs Telegraf {_version(exported)} or newer.\n")
+    head = (
+        f"# Telegraf modbus input: {comment_text(resolved.name)}, from {comment_text(source)} by mdl export.\n"
+        f"# One request section per request of mdl's read plan. Needs Telegraf {_version(exported)} or newer.\n"
+    )
     text = head + _input(resolved, settings, notes, exported) + _processors(resolved, exported)
     return Export(text=text, warnings=notes.found)

@@ -73,16 +73,44 @@ if TYPE_CHECKING:
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 
 ENGINE = "VOLTTRON"
-MAP_COLUMNS = ("Register Name", "Address", "Type", "Units", "Writable", "Default Value", "Transform", "Table",
-               "Mixed Endian", "Description")
+MAP_COLUMNS = (
+    "Register Name",
+    "Address",
+    "Type",
+    "Units",
+    "Writable",
+    "Default Value",
+    "Transform",
+    "Table",
+    "Mixed Endian",
+    "Description",
+)
 REGISTRY_COLUMNS = ("Volttron Point Name", "Register Name")
-TABLES = {"coil": "discrete_output_coils", "discrete": "discrete_input_contacts",
-          "input": "analog_input_registers", "holding": "analog_output_holding_registers"}
-_NAMED = {("int", 16, True): "int16", ("int", 16, False): "uint16", ("int", 32, True): "int32",
-          ("int", 32, False): "uint32", ("int", 64, True): "int64", ("int", 64, False): "uint64",
-          ("float", 32, True): "float"}
-_STRUCT = {("int", 16, True): "h", ("int", 16, False): "H", ("int", 32, True): "i", ("int", 32, False): "I",
-           ("int", 64, True): "q", ("int", 64, False): "Q", ("float", 32, True): "f", ("float", 64, True): "d"}
+TABLES = {
+    "coil": "discrete_output_coils",
+    "discrete": "discrete_input_contacts",
+    "input": "analog_input_registers",
+    "holding": "analog_output_holding_registers",
+}
+_NAMED = {
+    ("int", 16, True): "int16",
+    ("int", 16, False): "uint16",
+    ("int", 32, True): "int32",
+    ("int", 32, False): "uint32",
+    ("int", 64, True): "int64",
+    ("int", 64, False): "uint64",
+    ("float", 32, True): "float",
+}
+_STRUCT = {
+    ("int", 16, True): "h",
+    ("int", 16, False): "H",
+    ("int", 32, True): "i",
+    ("int", 32, False): "I",
+    ("int", 64, True): "q",
+    ("int", 64, False): "Q",
+    ("float", 32, True): "f",
+    ("float", 64, True): "d",
+}
 _PARITY = {"N": "none", "E": "even", "O": "odd"}
 _SINGLE_TYPES = ("int16", "uint16")  # what the driver writes right with function 6 (no struct format, one register)
 
@@ -129,16 +157,26 @@ def _factor_transform(f: ResolvedFunction, notes: Notes) -> str | None:
     step = scale_factor(f)
     assert step is not None
     if not step.exponent:
-        notes.warn(f, "scale_reg(REG) divides the value by the register, where scale_by multiplies: left out",
-                   factor_detail(f.fn))
+        notes.warn(
+            f,
+            "scale_reg(REG) divides the value by the register, where scale_by multiplies: left out",
+            factor_detail(f.fn),
+        )
         return None
     if step.multiplier != 1 or step.offset != 0:
-        notes.warn(f, f"{POW_10}() is the point's one transform, so no multiplier or offset goes with it: left out",
-                   factor_detail(f.fn))
+        notes.warn(
+            f,
+            f"{POW_10}() is the point's one transform, so no multiplier or offset goes with it: left out",
+            factor_detail(f.fn),
+        )
         return None
-    notes.warn(f, f"{POW_10}() rounds to the decimal places of str(10**e): an exponent below -4 rounds the value "
-                  "to a whole number, and a factor mdl reads as null (its not_implemented, or beyond +-22) gives a "
-                  "number", factor_detail(f.fn))
+    notes.warn(
+        f,
+        f"{POW_10}() rounds to the decimal places of str(10**e): an exponent below -4 rounds the value "
+        "to a whole number, and a factor mdl reads as null (its not_implemented, or beyond +-22) gives a "
+        "number",
+        factor_detail(f.fn),
+    )
     return f"{POW_10}({f.fn.factor})"
 
 
@@ -154,12 +192,19 @@ def _transform(f: ResolvedFunction, notes: Notes) -> str | None:
         return None
     m = step.multiplier
     if f.layout.kind == "float":
-        notes.warn(f, "scale(m) rounds to the decimal places of m, which would cut a float: left out",
-                   f"scale({plain_number(m)}): {decimals(m)} places")
+        notes.warn(
+            f,
+            "scale(m) rounds to the decimal places of m, which would cut a float: left out",
+            f"scale({plain_number(m)}): {decimals(m)} places",
+        )
         return None
     if m < 0 or "e" in str(m):
-        notes.warn(f, "scale() cannot take the multiplier (its CSV syntax has no sign and it rounds by the digits "
-                      "of str(m)): left out", f"multiplier {plain_number(m)}")
+        notes.warn(
+            f,
+            "scale() cannot take the multiplier (its CSV syntax has no sign and it rounds by the digits "
+            "of str(m)): left out",
+            f"multiplier {plain_number(m)}",
+        )
         return None
     return f"scale({plain_number(m)})"
 
@@ -168,13 +213,19 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
     if f.fn.readable and left_out_unreadable(f, notes):
         return None
     if f.fn.bits is not None:
-        notes.warn(f, "no VOLTTRON type or transform reads bits of a register (a struct format reads whole bytes): "
-                      "left out", bits_detail(f.fn))
+        notes.warn(
+            f,
+            "no VOLTTRON type or transform reads bits of a register (a struct format reads whole bytes): left out",
+            bits_detail(f.fn),
+        )
         return None
     if bit_in_register(f):
-        notes.warn(f, f"a BIT in the {f.layout.table} registers (true when the register is not 0): the driver's bool "
-                      "type there unpacks one byte and fails the whole poll, and no type or transform tests a "
-                      "register for 0: left out")
+        notes.warn(
+            f,
+            f"a BIT in the {f.layout.table} registers (true when the register is not 0): the driver's bool "
+            "type there unpacks one byte and fails the whole poll, and no type or transform tests a "
+            "register for 0: left out",
+        )
         return None
     found = volttron_type(f.layout)
     if isinstance(found, str):
@@ -194,19 +245,28 @@ def _row(f: ResolvedFunction, notes: Notes) -> dict[str, str] | None:
             return None
         notes.warn(f, "write-only, but VOLTTRON polls every point it knows: it will read this one too")
     if writable and transform.startswith(POW_10):
-        notes.warn(f, f"writes through {POW_10}() take integers only (the driver packs value / 10^e, a float, into "
-                      "the integer register and fails) and cut the raw value where mdl rounds it")
+        notes.warn(
+            f,
+            f"writes through {POW_10}() take integers only (the driver packs value / 10^e, a float, into "
+            "the integer register and fails) and cut the raw value where mdl rounds it",
+        )
     elif writable and transform:
-        notes.warn(f, "writes through scale() take integers only (the driver packs value / m, a float, into the "
-                      "integer register and fails) and cut the raw value where mdl rounds it")
+        notes.warn(
+            f,
+            "writes through scale() take integers only (the driver packs value / m, a float, into the "
+            "integer register and fails) and cut the raw value where mdl rounds it",
+        )
     if writable and f.layout.table == "coil" and write_code(f) == 15:
         notes.warn(f, "write_multiple: the driver writes one coil with function 5, never 15")
     if writable and (f.fn.minimum is not None or f.fn.maximum is not None):
         notes.warn(f, "writes outside minimum/maximum are not refused")
     patterns = patterns_of(f)
     if patterns:
-        notes.warn(f, "no 'not implemented' value: the values that mean it read as numbers",
-                   ", ".join(map(hex_pattern, patterns)))
+        notes.warn(
+            f,
+            "no 'not implemented' value: the values that mean it read as numbers",
+            ", ".join(map(hex_pattern, patterns)),
+        )
     if f.fn.values:
         notes.warn(f, "no enumeration: the number is reported, not its label")
     if f.layout.kind == "string":
@@ -229,10 +289,13 @@ def _cell(f: ResolvedFunction, column: str, text: str, notes: Notes) -> str:
     """A cell of free text that a spreadsheet opening the CSV shows as text, never runs as a formula."""
     cell = spreadsheet_cell(text)
     if cell != text:
-        notes.warn(f, f"its {column} cell starts with {text[0]!r}, which a spreadsheet runs as a formula: written "
-                      "with a single quote in front" + (" (the point's name in VOLTTRON too)"
-                                                        if column == "Volttron Point Name" else ""),
-                   f"{cell[:20]!r}" + ("..." if len(cell) > 20 else ""))
+        notes.warn(
+            f,
+            f"its {column} cell starts with {text[0]!r}, which a spreadsheet runs as a formula: written "
+            "with a single quote in front"
+            + (" (the point's name in VOLTTRON too)" if column == "Volttron Point Name" else ""),
+            f"{cell[:20]!r}" + ("..." if len(cell) > 20 else ""),
+        )
     return cell
 
 
@@ -252,19 +315,27 @@ def _write_multiple_registers(resolved: ResolvedDevice, rows: dict[str, dict[str
     """The config's write_multiple_registers: false (function 6 for each register, as mdl writes one register)
     where every writable register is a named 16-bit type mdl writes with 6; else true (function 16 for
     every register write), with a warning naming the functions mdl would write with 6."""
-    written = [(row["Type"], f) for f in resolved.functions if (row := rows.get(f.ident)) is not None
-               and row["Writable"] == "TRUE" and row["Table"] == TABLES["holding"]]
+    written = [
+        (row["Type"], f)
+        for f in resolved.functions
+        if (row := rows.get(f.ident)) is not None and row["Writable"] == "TRUE" and row["Table"] == TABLES["holding"]
+    ]
     needs = [(vtype, f) for vtype, f in written if write_code(f) == 16 or vtype not in _SINGLE_TYPES]
     if not needs:
         return not written  # nothing to write: the driver's default
     single = [f.name for _, f in written if write_code(f) == 6]
     if single:
         vtype, f = needs[0]
-        why = "mdl writes it with function 16" if write_code(f) == 16 else \
-            f"the driver writes its type {vtype} right with function 16 only"
-        notes.device_warning(f"write_multiple_registers is one setting for the device: true, as '{f.name}' needs "
-                             f"({why}), so function 16 writes what mdl writes with function 6: "
-                             f"{', '.join(single)}")
+        why = (
+            "mdl writes it with function 16"
+            if write_code(f) == 16
+            else f"the driver writes its type {vtype} right with function 16 only"
+        )
+        notes.device_warning(
+            f"write_multiple_registers is one setting for the device: true, as '{f.name}' needs "
+            f"({why}), so function 16 writes what mdl writes with function 6: "
+            f"{', '.join(single)}"
+        )
     return True
 
 
@@ -273,18 +344,36 @@ def _config(resolved: ResolvedDevice, settings: Settings, notes: Notes, multiple
     stem = resolved.stem
     driver: dict[str, object] = {"name": resolved.name}
     if conn.serial is not None:
-        driver.update(device_address=conn.serial, baudrate=conn.baud, bytesize=conn.bytesize,
-                      parity=_PARITY[conn.parity], stopbits=conn.stopbits, xonxoff=0)
+        driver.update(
+            device_address=conn.serial,
+            baudrate=conn.baud,
+            bytesize=conn.bytesize,
+            parity=_PARITY[conn.parity],
+            stopbits=conn.stopbits,
+            xonxoff=0,
+        )
     else:
         if conn.rtu:
-            raise error("VOLTTRON's Modbus-TK driver speaks Modbus TCP or RTU on a serial line, not RTU framing "
-                        "over TCP (--framer rtu)", resolved.device.source)
+            raise error(
+                "VOLTTRON's Modbus-TK driver speaks Modbus TCP or RTU on a serial line, not RTU framing "
+                "over TCP (--framer rtu)",
+                resolved.device.source,
+            )
         driver.update(device_address=conn.host, port=conn.port)
-    driver.update(slave_id=settings.unit, addressing="offset", endian="big", write_multiple_registers=multiple,
-                  register_map=f"config://{stem}_map.csv")
+    driver.update(
+        slave_id=settings.unit,
+        addressing="offset",
+        endian="big",
+        write_multiple_registers=multiple,
+        register_map=f"config://{stem}_map.csv",
+    )
     interval: float | int = int(settings.interval) if settings.interval == int(settings.interval) else settings.interval
-    config = {"driver_config": driver, "driver_type": "modbus_tk", "registry_config": f"config://{stem}.csv",
-              "interval": interval}
+    config = {
+        "driver_config": driver,
+        "driver_type": "modbus_tk",
+        "registry_config": f"config://{stem}.csv",
+        "interval": interval,
+    }
     return json_text(config, indent=4)
 
 
@@ -300,8 +389,11 @@ def _name_factors(resolved: ResolvedDevice, rows: dict[str, dict[str, str]], not
             continue
         factor = by_name[f.fn.factor or ""]
         if factor.ident not in rows:
-            notes.warn(f, "its factor is not exported, and the transform reads the factor's register: left out",
-                       factor_detail(f.fn))
+            notes.warn(
+                f,
+                "its factor is not exported, and the transform reads the factor's register: left out",
+                factor_detail(f.fn),
+            )
             del rows[f.ident]
             continue
         name = renamed.get(factor.ident, factor.ident)
@@ -310,8 +402,12 @@ def _name_factors(resolved: ResolvedDevice, rows: dict[str, dict[str, str]], not
             name = next(c for c in (base, *(f"{base}{i}" for i in range(2, len(taken) + 3))) if c not in taken)
             taken.add(name)
             renamed[factor.ident] = name
-            notes.note_for(factor, "Register Name written without the characters the driver's Transform syntax "
-                                   "does not take (its point keeps its name)", name)
+            notes.note_for(
+                factor,
+                "Register Name written without the characters the driver's Transform syntax "
+                "does not take (its point keeps its name)",
+                name,
+            )
         row["Transform"] = f"{POW_10}({name})"
     for ident, name in renamed.items():
         rows[ident]["Register Name"] = name
@@ -324,10 +420,18 @@ def export_volttron(resolved: ResolvedDevice, settings: Settings) -> Export:
     rows = list(by_ident.values())
     if not rows:
         raise nothing_left(resolved, ENGINE, notes)
-    registry = [{"Volttron Point Name": _cell(f, "Volttron Point Name", f.name, notes),
-                 "Register Name": by_ident[f.ident]["Register Name"]}
-                for f in resolved.functions if f.ident in by_ident]
+    registry = [
+        {
+            "Volttron Point Name": _cell(f, "Volttron Point Name", f.name, notes),
+            "Register Name": by_ident[f.ident]["Register Name"],
+        }
+        for f in resolved.functions
+        if f.ident in by_ident
+    ]
     stem = resolved.stem
-    files = {f"{stem}_map.csv": _csv(MAP_COLUMNS, rows), f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),
-             f"{stem}.config": _config(resolved, settings, notes, _write_multiple_registers(resolved, by_ident, notes))}
+    files = {
+        f"{stem}_map.csv": _csv(MAP_COLUMNS, rows),
+        f"{stem}.csv": _csv(REGISTRY_COLUMNS, registry),
+        f"{stem}.config": _config(resolved, settings, notes, _write_multiple_registers(resolved, by_ident, notes)),
+    }
     return Export(files=files, warnings=notes.found)

@@ -89,8 +89,13 @@ class Notes:
         return [said if isinstance(said, Diagnostic) else self._diagnostic(said) for said in self._said]
 
     def _diagnostic(self, kind: _Kind) -> Diagnostic:
-        return Diagnostic(self.resolved.device.source, kind.functions[0][0].fn.line, None,
-                          f"{subject(kind.functions)}: {self._prefix}{kind.message}", kind.severity)
+        return Diagnostic(
+            self.resolved.device.source,
+            kind.functions[0][0].fn.line,
+            None,
+            f"{subject(kind.functions)}: {self._prefix}{kind.message}",
+            kind.severity,
+        )
 
 
 def subject(functions: list[tuple[ResolvedFunction, str | None]]) -> str:
@@ -104,6 +109,8 @@ def subject(functions: list[tuple[ResolvedFunction, str | None]]) -> str:
     by_detail: dict[str, list[str]] = {}
     for name, said in details.items():
         by_detail.setdefault("; ".join(said), []).append(name)
-    parts = [", ".join(f"'{name}'" for name in names) + (f" ({detail})" if detail else "")
-             for detail, names in by_detail.items()]
+    parts = [
+        ", ".join(f"'{name}'" for name in names) + (f" ({detail})" if detail else "")
+        for detail, names in by_detail.items()
+    ]
     return ("function " if len(details) == 1 else "functions ") + ", ".join(parts)

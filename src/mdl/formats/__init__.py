@@ -62,12 +62,28 @@ class Format:
 
 
 FORMATS = (
-    Format("xif", "SmartServer Modbus XIF (.mod)", lazy("mdl.formats.xif.read", "read_xif"),
-           lazy("mdl.formats.xif.write", "export_xif"), xif.guess, (".mod",)),
-    Format("wise", "WISE-Agent Modbus.ini (the shipped agent's form)", lazy("mdl.formats.wise.read", "read_wise"),
-           lazy("mdl.formats.wise.write", "export_wise"), wise.guess),
-    Format("schema", "Modbus Schema Toolkit YAML", lazy("mdl.formats.schema.read", "read_schema"),
-           suffixes=(".yaml", ".yml"), imported=lazy("mdl.formats.schema.read", "with_registers")),
+    Format(
+        "xif",
+        "SmartServer Modbus XIF (.mod)",
+        lazy("mdl.formats.xif.read", "read_xif"),
+        lazy("mdl.formats.xif.write", "export_xif"),
+        xif.guess,
+        (".mod",),
+    ),
+    Format(
+        "wise",
+        "WISE-Agent Modbus.ini (the shipped agent's form)",
+        lazy("mdl.formats.wise.read", "read_wise"),
+        lazy("mdl.formats.wise.write", "export_wise"),
+        wise.guess,
+    ),
+    Format(
+        "schema",
+        "Modbus Schema Toolkit YAML",
+        lazy("mdl.formats.schema.read", "read_schema"),
+        suffixes=(".yaml", ".yml"),
+        imported=lazy("mdl.formats.schema.read", "with_registers"),
+    ),
 )
 
 

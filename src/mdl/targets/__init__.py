@@ -61,8 +61,10 @@ def shared_header(cpp: str, c: str) -> str:
     """One `<stem>.h` for the C++ and the C driver (SPEC 5 names both `<stem>.h`): C++ code sees the
     C++ driver's declarations, C code the C driver's (docs/c-api.md)."""
     first = cpp.split("\n", 1)[0]
-    return (f"{first}\n// With --lang all, this header serves both drivers: C++ code (<stem>.cc) sees the C++17\n"
-            f"// class, C code (<stem>.c) the C99 functions.\n#ifdef __cplusplus\n{cpp}#else\n{c}#endif\n")
+    return (
+        f"{first}\n// With --lang all, this header serves both drivers: C++ code (<stem>.cc) sees the C++17\n"
+        f"// class, C code (<stem>.c) the C99 functions.\n#ifdef __cplusplus\n{cpp}#else\n{c}#endif\n"
+    )
 
 
 def notes(device: ResolvedDevice, source: Path) -> list[Diagnostic]:
@@ -74,9 +76,17 @@ def notes(device: ResolvedDevice, source: Path) -> list[Diagnostic]:
     if not stem_shortened(device.name):
         return []
     line, col = position(device.device, "name")
-    return [Diagnostic(str(source), line, col, f"the device name makes an identifier longer than {STEM_LIMIT} "
-                       f"characters: the generated files are named {device.stem}.* (and the class "
-                       f"{device.class_name})", "note")]
+    return [
+        Diagnostic(
+            str(source),
+            line,
+            col,
+            f"the device name makes an identifier longer than {STEM_LIMIT} "
+            f"characters: the generated files are named {device.stem}.* (and the class "
+            f"{device.class_name})",
+            "note",
+        )
+    ]
 
 
 def generate(device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:

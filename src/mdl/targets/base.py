@@ -62,4 +62,3 @@ def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple
         groups.append(GroupRow(table_names[req.table], req.start, req.count, group.offset, len(splits), len(smaller)))
         splits += [SplitRow(table_names[s.table], s.start, s.count, s.start - req.start) for s in smaller]
     return groups, splits
-

@@ -166,8 +166,9 @@ def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
     for group in decoding.values():
         if len(group) > 1:
             first = group[0]
-            d = SharedCode(len(out.decoders), group, first.decode_text,
-                           proto=first if printing.expression(first) else None)
+            d = SharedCode(
+                len(out.decoders), group, first.decode_text, proto=first if printing.expression(first) else None
+            )
             out.decoders.append(d)
             one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
             d.reads = one_run[0] if len(one_run) > 1 else None
@@ -209,5 +210,7 @@ def merge_rows(codec: ir.Codec) -> list[MergeRow]:
     merge = ir.find_step(codec.encode, ir.Merge)
     if merge is None:
         return []
-    return [MergeRow(i, address, mask, ~mask & 0xFFFF)
-            for i, (address, mask) in enumerate(zip(codec.addresses, merge.masks, strict=True))]
+    return [
+        MergeRow(i, address, mask, ~mask & 0xFFFF)
+        for i, (address, mask) in enumerate(zip(codec.addresses, merge.masks, strict=True))
+    ]

@@ -48,8 +48,10 @@ def pycomment(text: object) -> str:
 # format characters (zero-width spaces and joiners, word joiner, BOM, soft hyphen, interlinear
 # annotations, tag characters) and the surrogates and noncharacters. A fixed list rather than
 # Python's Unicode tables, so that the same input prints the same bytes under every Python version.
-_HIDDEN = re.compile("[\u00ad\u061c\u180e\u200b-\u200f\u202a-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb"
-                     "\ufffe\uffff\ud800-\udfff\U000e0000-\U000e007f]")
+_HIDDEN = re.compile(
+    "[\u00ad\u061c\u180e\u200b-\u200f\u202a-\u202e\u2060-\u206f\ufeff\ufff9-\ufffb"
+    "\ufffe\uffff\ud800-\udfff\U000e0000-\U000e007f]"
+)
 
 
 def ccomment(text: object) -> str:
@@ -106,7 +108,7 @@ def ctext(text: str, name: str, lang: str) -> tuple[list[str], str]:
     if len(data) <= STRING_LIMIT[lang]:
         return [], cstring(text)
     chars = [_char(byte) for byte in data] + ["0"]
-    rows = [", ".join(chars[i:i + _CHARS_PER_LINE]) for i in range(0, len(chars), _CHARS_PER_LINE)]
+    rows = [", ".join(chars[i : i + _CHARS_PER_LINE]) for i in range(0, len(chars), _CHARS_PER_LINE)]
     qualifier = "constexpr" if lang == "c++" else "const"
     return [f"static {qualifier} char {name}[{len(data) + 1}] = {{", *(f"    {row}," for row in rows), "};"], name
 

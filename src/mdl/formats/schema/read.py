@@ -96,7 +96,7 @@ def _node(event: Event, path: StrPath, text: str) -> _Node:
     if isinstance(event, ScalarEvent):
         start, end = event.start_mark, event.end_mark
         written = event.style in ("'", '"', None)  # a block scalar (| >): positions at its start
-        raw = text[start.index:end.index] if written and start is not None and end is not None else ""
+        raw = text[start.index : end.index] if written and start is not None and end is not None else ""
         return _Text(event.value, line, col, raw, _STYLES.get(event.style, "plain"))
     if isinstance(event, SequenceStartEvent):
         return _List(line, col)
@@ -161,8 +161,12 @@ def load_yaml(path: StrPath) -> _Map:
         mark = getattr(exc, "problem_mark", None)
         if larger and (mark is None or mark.index >= len(text) - _LOOK_AHEAD):
             raise too_large(path, MAX_FILE_BYTES) from None
-        raise error(f"malformed YAML: {getattr(exc, 'problem', None) or exc}", path,
-                    mark.line + 1 if mark else None, mark.column + 1 if mark else None) from None
+        raise error(
+            f"malformed YAML: {getattr(exc, 'problem', None) or exc}",
+            path,
+            mark.line + 1 if mark else None,
+            mark.column + 1 if mark else None,
+        ) from None
     if larger:
         raise too_large(path, MAX_FILE_BYTES)
     if not isinstance(root, _Map):
@@ -223,9 +227,16 @@ def as_bits(rf: ResolvedFunction) -> bool:
         return False
     regs, bit = lowered.ops
     count = regs.data.get("count", 0)
-    if (regs.kind is not OpKind.REGS or bit.kind is not OpKind.BITSETBIT or bit.args != [regs.tmp]
-            or lowered.result != bit.tmp or bit.data.get("ni") or count not in _BITS_FORMATS
-            or regs.data.get("index") != list(range(count)) or rf.layout.addresses != tuple(lowered.addresses)):
+    if (
+        regs.kind is not OpKind.REGS
+        or bit.kind is not OpKind.BITSETBIT
+        or bit.args != [regs.tmp]
+        or lowered.result != bit.tmp
+        or bit.data.get("ni")
+        or count not in _BITS_FORMATS
+        or regs.data.get("index") != list(range(count))
+        or rf.layout.addresses != tuple(lowered.addresses)
+    ):
         return False
     fn = rf.fn
     fn.expression = None
@@ -248,8 +259,12 @@ def read_schema(path: StrPath) -> Device:
     maxregs = _opt(root, "maxRegistersPerModbusRequest", path, _Text)
     if maxregs is not None:
         if not re.fullmatch(r"[0-9]{1,3}", maxregs.value) or not 1 <= int(maxregs.value) <= MAX_REGISTERS:
-            raise error(f"maxRegistersPerModbusRequest must be a whole number from 1 to {MAX_REGISTERS}", path,
-                        maxregs.line, maxregs.col)
+            raise error(
+                f"maxRegistersPerModbusRequest must be a whole number from 1 to {MAX_REGISTERS}",
+                path,
+                maxregs.line,
+                maxregs.col,
+            )
         device.max_registers = int(maxregs.value)
     fields: list[tuple[str, _Node, _Text]] = []
     for block in _need(root, "blocks", path, _List).value:
@@ -281,9 +296,16 @@ def read_schema(path: StrPath) -> Device:
 def _function(name: str, block_id: str, fld: _Node, fid: _Text, expr: _Text, path: Path) -> Function:
     description = _opt(fld, "description", path, _Text)
     unit = _opt(fld, "unit", path, _Text)
-    fn = Function(name, description.value if description else fid.value, [], block_labels=[block_id],
-                  units=unit.value if unit else None, expression=expr.value, line=fid.line,
-                  expression_line=expr.line)
+    fn = Function(
+        name,
+        description.value if description else fid.value,
+        [],
+        block_labels=[block_id],
+        units=unit.value if unit else None,
+        expression=expr.value,
+        line=fid.line,
+        expression_line=expr.line,
+    )
     for key in ("immutable", "system"):
         flag = _opt(fld, key, path, _Text)
         if flag is not None:
@@ -309,8 +331,9 @@ def _scenario(test: _Node, names: dict[tuple[str, str], str], path: Path) -> Sce
         for field_id, values in _need(block, "expected", path, _Map).value.items():
             name = names.get((block_id, field_id))
             if name is None:
-                raise error(f"test '{sc.id}': block '{block_id}' has no field '{field_id}'", path,
-                            values.line, values.col)
+                raise error(
+                    f"test '{sc.id}': block '{block_id}' has no field '{field_id}'", path, values.line, values.col
+                )
             sc.expected[name] = _expected(values, sc.id, path) or None
     return sc
 
@@ -338,11 +361,16 @@ def _scenario_input(item: _Node, path: Path) -> ScenarioInput:
     bits = table in ("coil", "discrete")
     words = raw.value.split()
     for w in words:
-        ok = (len(w) == 4 and (all(c in "0123456789abcdefABCDEF" for c in w) or w == "----" or w.lower() == "xxxx")) \
-            or (bits and set(w.lower()) <= {"0", "1", "-", "x"})
+        ok = (
+            len(w) == 4 and (all(c in "0123456789abcdefABCDEF" for c in w) or w == "----" or w.lower() == "xxxx")
+        ) or (bits and set(w.lower()) <= {"0", "1", "-", "x"})
         if not ok:
-            raise error(f"raw value '{w}' is not 4 hex digits, '----' or 'xxxx'"
-                        + (" (or bits 0, 1, -, x)" if bits else ""), path, raw.line, raw.col)
+            raise error(
+                f"raw value '{w}' is not 4 hex digits, '----' or 'xxxx'" + (" (or bits 0, 1, -, x)" if bits else ""),
+                path,
+                raw.line,
+                raw.col,
+            )
     last = address + (sum(len(w) for w in words) if bits else len(words)) - 1
     if last > MAX_ADDRESS:
         raise error(f"the raw values run past address {MAX_ADDRESS} (to {last})", path, raw.line, raw.col)

@@ -19,8 +19,10 @@ from mdl.formats.wise.sections import LUA_VARIABLE
 MAX_LENGTH = 200  # longer columns are not plain arithmetic as far as the reader is concerned
 MAX_DEPTH = 32  # parentheses and unary minus, nested
 
-_TOKEN = re.compile(r"\s*(?:(?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)|(?P<var>[A-Za-z_][A-Za-z_0-9]*)"
-                    r"|(?P<op>[-+*/()]))")
+_TOKEN = re.compile(
+    r"\s*(?:(?P<num>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)|(?P<var>[A-Za-z_][A-Za-z_0-9]*)"
+    r"|(?P<op>[-+*/()]))"
+)
 
 Affine = tuple[float, float]  # (a, b): a * modbus_val + b
 
@@ -42,7 +44,7 @@ def kept_lua(description: str | None) -> str | None:
     at = description.rfind(KEPT)
     if at < 0:
         return None
-    return description[at + len(KEPT):-1] or None
+    return description[at + len(KEPT) : -1] or None
 
 
 def kept_twice(description: str | None) -> bool:
@@ -148,4 +150,3 @@ class _Parser:
         if tok[0].isdigit() or tok[0] == ".":
             return 0.0, float(tok)
         raise _NotPlain
-

@@ -85,8 +85,9 @@ DEFAULT_DATA_TYPE = DATA_TYPES[0]  # an empty or absent datatype column, as the 
 
 def data_type_of(fmt: str, byte_order: str, word_order: str) -> DataType | None:
     """The datatype that reads a value of MDL format `fmt` in these orders, or None if there is none."""
-    return next((d for d in DATA_TYPES if (d.format, d.byte_order, d.word_order) == (fmt, byte_order, word_order)),
-                None)
+    return next(
+        (d for d in DATA_TYPES if (d.format, d.byte_order, d.word_order) == (fmt, byte_order, word_order)), None
+    )
 
 
 LUA_VARIABLE = "modbus_val"  # the raw value's name in the Lua column

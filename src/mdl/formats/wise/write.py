@@ -51,8 +51,12 @@ if TYPE_CHECKING:
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 
 FLOAT32_MAX = 3.4028234663852886e38
-_RAW_RANGE = {"UINT16": (0, 0xFFFF), "UINT32": (0, 0xFFFFFFFF), "INT32": (-(1 << 31), (1 << 31) - 1),
-              "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX)}
+_RAW_RANGE = {
+    "UINT16": (0, 0xFFFF),
+    "UINT32": (0, 0xFFFFFFFF),
+    "INT32": (-(1 << 31), (1 << 31) - 1),
+    "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX),
+}
 _BREAKS = r"\x00-\x1f\x7f-\x9f\u2028\u2029"  # control characters (C0, DEL, C1 with NEL) and line/paragraph separators
 _UNSAFE = re.compile(f'[,"{_BREAKS}]')  # what would split or end an INI line
 _UNSAFE_LUA = re.compile(f'["{_BREAKS}]')  # what would end the quoted Lua column or its line
@@ -89,8 +93,9 @@ def export_wise(resolved: ResolvedDevice, settings: Settings) -> Export:
     return Export(text, warnings=warnings)
 
 
-def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
-             interval: float) -> tuple[str, list[Diagnostic]]:
+def wise_ini(
+    resolved: ResolvedDevice, connection: Endpoint | None, unit: int, interval: float
+) -> tuple[str, list[Diagnostic]]:
     source = resolved.device.source
     notes = Notes(resolved, "")
 
@@ -99,8 +104,11 @@ def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
 
     lines = _lines(resolved, notes)
     _device_losses(resolved, lines, warn)
-    out = [f"; WISE-Agent Modbus handler configuration for {comment_text(resolved.name)}",
-           f"; written by mdl {__version__}" + (f" from {comment_text(Path(source).name)}" if source else ""), ""]
+    out = [
+        f"; WISE-Agent Modbus handler configuration for {comment_text(resolved.name)}",
+        f"; written by mdl {__version__}" + (f" from {comment_text(Path(source).name)}" if source else ""),
+        "",
+    ]
     out += _platform(resolved.name, connection, unit, interval, warn)
     for section in AGENT_SECTIONS:
         entries = sorted(lines[section.table], key=lambda e: e.offset)
@@ -108,9 +116,12 @@ def wise_ini(resolved: ResolvedDevice, connection: Endpoint | None, unit: int,
             continue
         out += ["", f"[{section.name}]", f"{section.count_key}={len(entries)}"]
         out += [f"{section.tag}{i}=" + ",".join([str(e.offset), e.name, *e.rest]) for i, e in enumerate(entries)]
-    out += ["", ";tag = offset, name, min, max, precision, unit, data type, lua script",
-            ";precision multiplies the raw value; the lua script (on modbus_val) runs before it",
-            ";data type"]
+    out += [
+        "",
+        ";tag = offset, name, min, max, precision, unit, data type, lua script",
+        ";precision multiplies the raw value; the lua script (on modbus_val) runs before it",
+        ";data type",
+    ]
     out += [f";{d.code}->{d.summary} ({d.letters})" for d in DATA_TYPES]
     return "\n".join(out) + "\n", notes.found
 
@@ -127,37 +138,56 @@ def _lines(resolved: ResolvedDevice, notes: Notes) -> dict[str, list[_Line]]:
             continue
         where = (line.table, line.offset)
         if where in taken:
-            notes.warn(rf, "not written: its offset is taken by an entry before it (the agent reads one entry per "
-                           "offset)", f"{line.table} {line.offset}: '{taken[where]}'")
+            notes.warn(
+                rf,
+                "not written: its offset is taken by an entry before it (the agent reads one entry per offset)",
+                f"{line.table} {line.offset}: '{taken[where]}'",
+            )
             continue
         taken[where] = rf.name
         _unique_name(line, lines[line.table], notes)
         for why, detail in line.losses:
             notes.warn(rf, f"written, losing {why}", detail)
         if line.lua is not None:
-            notes.warn(rf, "written with the Lua conversion its description keeps: the agent applies it, mdl does not",
-                       f"'{line.lua}'")
+            notes.warn(
+                rf,
+                "written with the Lua conversion its description keeps: the agent applies it, mdl does not",
+                f"'{line.lua}'",
+            )
         lines[line.table].append(line)
     return lines
 
 
-def _platform(name: str, connection: Endpoint | None, unit: int, interval: float,
-              warn: _Warn) -> list[str]:
+def _platform(name: str, connection: Endpoint | None, unit: int, interval: float, warn: _Warn) -> list[str]:
     out = ["[Platform]", f"Name={_value(name, 'the device name', warn)}"]
     if connection is None:
         connection = Endpoint()
-        warn(f"no --host or --serial: the agent is set to ClientIP={connection.host} "
-             f"ClientPort={connection.port}", "note")
+        warn(
+            f"no --host or --serial: the agent is set to ClientIP={connection.host} ClientPort={connection.port}",
+            "note",
+        )
     if connection.serial is not None:
-        out += ["Protocol=Modbus_RTU", f"SlavePort={_value(connection.serial, '--serial', warn)}",
-                f"Baud={connection.baud}", f"Parity={PARITY.get(connection.parity, connection.parity)}",
-                f"DataBits={connection.bytesize}", f"StopBits={connection.stopbits}", f"SlaveID={unit}"]
+        out += [
+            "Protocol=Modbus_RTU",
+            f"SlavePort={_value(connection.serial, '--serial', warn)}",
+            f"Baud={connection.baud}",
+            f"Parity={PARITY.get(connection.parity, connection.parity)}",
+            f"DataBits={connection.bytesize}",
+            f"StopBits={connection.stopbits}",
+            f"SlaveID={unit}",
+        ]
     else:
         if connection.rtu:
-            warn("the agent speaks Modbus TCP or RTU on a serial port, not RTU frames over TCP: "
-                 "written as Protocol=Modbus_TCP")
-        out += ["Protocol=Modbus_TCP", f"ClientIP={_value(connection.host, '--host', warn)}",
-                f"ClientPort={connection.port}", f"UnitID={unit}"]
+            warn(
+                "the agent speaks Modbus TCP or RTU on a serial port, not RTU frames over TCP: "
+                "written as Protocol=Modbus_TCP"
+            )
+        out += [
+            "Protocol=Modbus_TCP",
+            f"ClientIP={_value(connection.host, '--host', warn)}",
+            f"ClientPort={connection.port}",
+            f"UnitID={unit}",
+        ]
     seconds = max(1, round(interval))
     if seconds != interval:
         warn(f"the agent polls every whole number of seconds: Interval={seconds} for --interval {interval:g}")
@@ -195,16 +225,30 @@ def _line(rf: ResolvedFunction) -> _Line:
         losses.append(("the commas, quotes and control characters of its unit", repr(fn.units)))
         unit = _UNSAFE.sub("_", fn.units or "").strip()
     if lua is not None and kept_twice(fn.description):
-        losses.append((f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
-                       "starts is not clear)", None))
+        losses.append(
+            (
+                f"the Lua conversion its description keeps (it holds '{KEPT}' twice: where the Lua text "
+                "starts is not clear)",
+                None,
+            )
+        )
         lua = None
     elif lua is not None and _UNSAFE_LUA.search(lua):
-        losses.append(("the Lua conversion its description keeps (quotes and control characters cannot be "
-                       "written in the Lua column)", repr(lua)))
+        losses.append(
+            (
+                "the Lua conversion its description keeps (quotes and control characters cannot be "
+                "written in the Lua column)",
+                repr(lua),
+            )
+        )
         lua = None
     elif lua is not None and add != 0 and "--" in lua:
-        losses.append(("the Lua conversion its description keeps (its `--` comment would hide the offset the Lua "
-                       "column adds)", f"'{lua}'"))
+        losses.append(
+            (
+                "the Lua conversion its description keeps (its `--` comment would hide the offset the Lua column adds)",
+                f"'{lua}'",
+            )
+        )
         lua = None
     rest = [_number(low), _number(high), _number(multiplier if add == 0 else 1.0), unit or " ", str(dtype.code)]
     column = _lua_column(lua, multiplier, add)
@@ -235,8 +279,9 @@ def _data_type(fn: Function, lay: Layout, losses: list[Lost]) -> tuple[int, Data
         if lay.bits == 8:
             losses.append(("an 8-bit format (the agent reads the whole 16-bit register, unsigned)", fmt))
         elif lay.signed:
-            losses.append(("a signed format (the agent reads the register unsigned: a negative value reads 65536 "
-                           "higher)", fmt))
+            losses.append(
+                ("a signed format (the agent reads the register unsigned: a negative value reads 65536 higher)", fmt)
+            )
         return lay.addresses[0], DATA_TYPES[0]
     if len(lay.addresses) != 2:
         raise _Skip("a value of neither 16 nor 32 bits: WISE reads 16 or 32 bits", f"{lay.bits} bits")
@@ -249,8 +294,10 @@ def _data_type(fn: Function, lay: Layout, losses: list[Lost]) -> tuple[int, Data
     kind = "FLOAT32" if lay.kind == "float" else "INT32" if lay.signed else "UINT32"
     dtype = data_type_of(kind, lay.byte_order, word_order)
     if dtype is None:
-        raise _Skip("no WISE datatype reads its byte and word order",
-                    f"{kind} with byte order {lay.byte_order} and word order {word_order}")
+        raise _Skip(
+            "no WISE datatype reads its byte and word order",
+            f"{kind} with byte order {lay.byte_order} and word order {word_order}",
+        )
     return first, dtype
 
 
@@ -265,8 +312,11 @@ def _losses(fn: Function) -> list[Lost]:
         out.append(("its write fragment", None))
     if fn.table not in READ_ONLY_TABLES and fn.eff_access != "read_write":
         out.append(("its access (the agent reads and writes the table)", f"{fn.eff_access}, {fn.table}"))
-    lost = [name for name in ("precision", "marker", "write_multiple", "immutable", "system", "fetch_group")
-            if getattr(fn, name) is not None]
+    lost = [
+        name
+        for name in ("precision", "marker", "write_multiple", "immutable", "system", "fetch_group")
+        if getattr(fn, name) is not None
+    ]
     if lost:
         out.append(("fields a Modbus.ini line has not", ", ".join(lost)))
     return out
@@ -281,8 +331,12 @@ def _unique_name(line: _Line, section: list[_Line], notes: Notes) -> None:
         n += 1
         name = f"{base}_{n}"
     if name != line.name:
-        notes.warn(line.rf, "written under another name (a name in a Modbus.ini has no commas, quotes, control "
-                            "characters or line breaks and is unique in its section)", f"as '{name}'")
+        notes.warn(
+            line.rf,
+            "written under another name (a name in a Modbus.ini has no commas, quotes, control "
+            "characters or line breaks and is unique in its section)",
+            f"as '{name}'",
+        )
     line.name = name
 
 
@@ -295,11 +349,19 @@ def _device_losses(resolved: ResolvedDevice, lines: dict[str, list[_Line]], warn
         lost.append(f"its {len(device.tests)} test scenario{'s' * (len(device.tests) != 1)}")
     if lost:
         warn("written without the device's " + ", ".join(lost) + " (a Modbus.ini has none)")
-    relabelled = sorted({line.fn.block for entries in lines.values() for line in entries
-                         if line.fn.block and line.fn.block != agent_section(line.table).name})
+    relabelled = sorted(
+        {
+            line.fn.block
+            for entries in lines.values()
+            for line in entries
+            if line.fn.block and line.fn.block != agent_section(line.table).name
+        }
+    )
     if relabelled:
-        warn("block labels " + ", ".join(f"'{b}'" for b in relabelled) + " are not kept: the agent's sections "
-             "are its tables ([Coils], [Holding Registers]...)")
+        warn(
+            "block labels " + ", ".join(f"'{b}'" for b in relabelled) + " are not kept: the agent's sections "
+            "are its tables ([Coils], [Holding Registers]...)"
+        )
 
 
 def _number(value: float) -> str:

@@ -148,10 +148,15 @@ def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
     bounds, and a test no value of its type can fail is left out (-Wtype-limits; clike.int_bounds)."""
     bounds = int_bounds(step.minimum, step.maximum, t)
     if bounds is None:
-        return RangeCheck(None if step.minimum is None else c_double(step.minimum),
-                          None if step.maximum is None else c_double(step.maximum))
-    return RangeCheck(None if bounds.low is None else int_literal(bounds.low, t),
-                      None if bounds.high is None else int_literal(bounds.high, t), bounds.never)
+        return RangeCheck(
+            None if step.minimum is None else c_double(step.minimum),
+            None if step.maximum is None else c_double(step.maximum),
+        )
+    return RangeCheck(
+        None if bounds.low is None else int_literal(bounds.low, t),
+        None if bounds.high is None else int_literal(bounds.high, t),
+        bounds.never,
+    )
 
 
 def _functions(rd: ResolvedDevice) -> list[CFunction]:
@@ -167,12 +172,21 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             assert isinstance(step, ir.Expression)
             expr = expressions.CExpression(rf.ident, step.lowered, list_type)
         f = CFunction(
-            rf=rf, ident=rf.ident, n=len(rf.layout.addresses), t=c_type(vt, rd.stem),
+            rf=rf,
+            ident=rf.ident,
+            n=len(rf.layout.addresses),
+            t=c_type(vt, rd.stem),
             wt=c_type(codec.write_type, rd.stem),
-            text_size=text_size, nullable=vt.nullable, expr=expr, decode=codec.decode, encode=codec.encode,
+            text_size=text_size,
+            nullable=vt.nullable,
+            expr=expr,
+            decode=codec.decode,
+            encode=codec.encode,
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
-            slots=list(rd.slots_of(rf)) if codec.decode else [], merge=merge_rows(codec),
-            mask_write=rf.fn.mask_write)
+            slots=list(rd.slots_of(rf)) if codec.decode else [],
+            merge=merge_rows(codec),
+            mask_write=rf.fn.mask_write,
+        )
         for step in codec.decode or ():
             if isinstance(step, ir.Fragment):
                 f.read_fragment = f"frag_read_{rf.ident}"
@@ -248,15 +262,26 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     if exprs:
         runtime.append(expressions.runtime(exprs))
         includes |= {"stdio.h", "stdlib.h"}
-    list_bits = max([16 * op.data["count"] for e in exprs for op in e.lowered.ops if op.kind is OpKind.BITSET],
-                    default=0)
+    list_bits = max(
+        [16 * op.data["count"] for e in exprs for op in e.lowered.ops if op.kind is OpKind.BITSET], default=0
+    )
     return {
-        "device": rd.device, "version": __version__, "source": source_name, "stem": file_stem,
+        "device": rd.device,
+        "version": __version__,
+        "source": source_name,
+        "stem": file_stem,
         "generation_macro": generation_macro(file_stem),
-        "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H", "functions": functions, "readable": readable,
-        "groups": groups, "splits": splits, "raw_total": raw_total, "runtime": runtime,
-        "fragments": [(name, c.function(name)) for name, c in fragments], "includes": sorted(includes),
-        "c_double": c_double, "list_bits": list_bits,
+        "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H",
+        "functions": functions,
+        "readable": readable,
+        "groups": groups,
+        "splits": splits,
+        "raw_total": raw_total,
+        "runtime": runtime,
+        "fragments": [(name, c.function(name)) for name, c in fragments],
+        "includes": sorted(includes),
+        "c_double": c_double,
+        "list_bits": list_bits,
         # a name too long for a C99 string literal is a char array defined in the .c (templating.ctext)
         "device_name": ctext(rd.device.name, f"{file_stem}_device_name", "c"),
     }
@@ -289,12 +314,17 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared[CFuncti
     steps = env.get_template("c/templates/steps.j2").module
     decoder = SharedRendering(steps.decoder)  # type: ignore[attr-defined]
     encoder = SharedRendering(steps.encoder)  # type: ignore[attr-defined]
-    return clike.share(functions, Printing(
-        _decode_key, _encode_key,
-        lambda f: decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment) if f.expr is None else "",
-        lambda f: encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment),
-        lambda f: f.expr is not None,
-        lambda f: bool(f.merge) or f.factor is not None))
+    return clike.share(
+        functions,
+        Printing(
+            _decode_key,
+            _encode_key,
+            lambda f: decoder(f.rf.decode_shape, f.decode, f.t, f.read_fragment) if f.expr is None else "",
+            lambda f: encoder(f.rf.encode_shape, f.encode, f.wt, f.range_check, f.round_check, f.write_fragment),
+            lambda f: f.expr is not None,
+            lambda f: bool(f.merge) or f.factor is not None,
+        ),
+    )
 
 
 def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
@@ -303,8 +333,10 @@ def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name
     env.globals.update(ctx)
     env.globals["shared"] = share(ctx["functions"], env)
-    return {f"{ctx['stem']}.h": env.get_template("c/templates/device.h.j2").render(),
-            f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render()}
+    return {
+        f"{ctx['stem']}.h": env.get_template("c/templates/device.h.j2").render(),
+        f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render(),
+    }
 
 
 TARGET = Target("c", render_resolved)

@@ -29,8 +29,12 @@ LONG_TEXT = 20  # -9223372036854775808
 DOUBLE_TEXT = 26  # Java's Double.toString, at most -1.2345678901234567E-308
 MAX_LIST_BITS = 16 * MAX_REGISTERS
 _REGISTER_TEXT: dict[OpKind, Callable[[int], int]] = {
-    OpKind.HEXSTRING: lambda n: 10 * n - 1, OpKind.UTF8: lambda n: 6 * n, OpKind.EUI48: lambda n: 17,
-    OpKind.IPV4ADDR: lambda n: 15, OpKind.IPV6ADDR: lambda n: 5 * n - 1}
+    OpKind.HEXSTRING: lambda n: 10 * n - 1,
+    OpKind.UTF8: lambda n: 6 * n,
+    OpKind.EUI48: lambda n: 17,
+    OpKind.IPV4ADDR: lambda n: 15,
+    OpKind.IPV6ADDR: lambda n: 5 * n - 1,
+}
 
 
 def _texts(labels: list[str], tmp: str) -> tuple[list[str], str]:
@@ -91,8 +95,9 @@ class CExpression:
             return max([len(v.encode("utf-8")) for v in d["mapping"].values()] + [21 + 10 * d["count"] - 1])
         if op.kind is OpKind.CONCAT:
             sizes = {"long": LONG_TEXT, "double": DOUBLE_TEXT, "bool": 5}
-            return sum(caps[a] if t in ("string", "list") else sizes[t]
-                       for a, t in zip(op.args, d["types"], strict=True))
+            return sum(
+                caps[a] if t in ("string", "list") else sizes[t] for a, t in zip(op.args, d["types"], strict=True)
+            )
         return _REGISTER_TEXT[op.kind](d["count"])
 
     def body(self) -> list[str]:
@@ -110,10 +115,19 @@ class CExpression:
         res = self.lowered.result
         t = self.lowered.type
         value = res if not res.startswith("p") or t in ("string", "list") else res
-        store = {"string": f"memcpy(out, {value}, strlen({value}) + 1U);",
-                 "list": f"*out = {'*' if res.startswith('p') else ''}{value};"}.get(t, f"*out = {value};")
-        return lines + [f"if (!{res}_has) {{", "    *has = false;", "    return 0;", "}", store,
-                        "*has = true;", "return 0;"]
+        store = {
+            "string": f"memcpy(out, {value}, strlen({value}) + 1U);",
+            "list": f"*out = {'*' if res.startswith('p') else ''}{value};",
+        }.get(t, f"*out = {value};")
+        return lines + [
+            f"if (!{res}_has) {{",
+            "    *has = false;",
+            "    return 0;",
+            "}",
+            store,
+            "*has = true;",
+            "return 0;",
+        ]
 
     def _lines(self, op: Op, caps: dict[str, int]) -> list[str]:
         return PRINTER[op.kind](self, op, caps)
@@ -136,24 +150,37 @@ def _lit(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, v = op.tmp, op.data["value"]
     if op.type == "string":
         decl, text = ctext(str(v), f"{t}_text", "c")
-        return [*decl, f"char {t}[{caps[t] + 1}];", f"const bool {t}_has = true;",
-                f"memcpy({t}, {text}, {caps[t] + 1}U);"]
-    text = ("true" if v else "false") if op.type == "bool" else c_int64(int(v)) if op.type == "long" \
+        return [
+            *decl,
+            f"char {t}[{caps[t] + 1}];",
+            f"const bool {t}_has = true;",
+            f"memcpy({t}, {text}, {caps[t] + 1}U);",
+        ]
+    text = (
+        ("true" if v else "false")
+        if op.type == "bool"
+        else c_int64(int(v))
+        if op.type == "long"
         else double_literal(float(v), parenthesized=True)
+    )
     return [f"const {C_TYPES[op.type]} {t} = {text};", f"const bool {t}_has = true;"]
 
 
 def _regs(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, d = op.tmp, op.data
     present = " && ".join(f"present[{i}]" for i in d["index"])
-    return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
-            f"const bool {t}_has = {present};"]
+    return [
+        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
+        f"const bool {t}_has = {present};",
+    ]
 
 
 def _const(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, d = op.tmp, op.data
-    return [f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"0x{w:04X}U" for w in d["words"]) + "};",
-            f"const bool {t}_has = true;"]
+    return [
+        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"0x{w:04X}U" for w in d["words"]) + "};",
+        f"const bool {t}_has = true;",
+    ]
 
 
 def _swap(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
@@ -179,12 +206,17 @@ def _label(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, a = op.tmp, op.args[0]
     false_text, true_text = op.data["labels"]
     (f_decl, f), (tr_decl, tr) = ctext(false_text, f"{t}_f", "c"), ctext(true_text, f"{t}_t", "c")
-    return [*e.declare(op, caps), *f_decl, *tr_decl,
-            f"if ({a}_has) {{ x_copy({t}, {a} ? {tr} : {f}); {t}_has = true; }}"]
+    return [
+        *e.declare(op, caps),
+        *f_decl,
+        *tr_decl,
+        f"if ({a}_has) {{ x_copy({t}, {a} ? {tr} : {f}); {t}_has = true; }}",
+    ]
 
 
 def _unary(value: Callable[[Op, str], str]) -> Print:
     """An operation of one argument `a`: `value(op, a)` where `a` is there."""
+
     def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, a = op.tmp, op.args[0]
         return [*e.declare(op, caps), f"if ({a}_has) {{ {t} = {value(op, a)}; {t}_has = true; }}"]
@@ -194,6 +226,7 @@ def _unary(value: Callable[[Op, str], str]) -> Print:
 
 def _binary(value: Callable[[Op, str, str], str]) -> Print:
     """An operation of two arguments: `value(op, a, b)` where both are there."""
+
     def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, (a, b) = op.tmp, op.args
         return [*e.declare(op, caps), f"if ({a}_has && {b}_has) {{ {t} = {value(op, a, b)}; {t}_has = true; }}"]
@@ -203,19 +236,20 @@ def _binary(value: Callable[[Op, str, str], str]) -> Print:
 
 def _arith(op: Op, a: str, b: str) -> str:
     if op.type == "long":
-        return f"x_{ {'+': 'add', '-': 'sub', '*': 'mul'}[op.data['op']]}({a}, {b})"
+        return f"x_{ {'+': 'add', '-': 'sub', '*': 'mul'}[op.data['op']] }({a}, {b})"
     return f"{a} {op.data['op']} {b}"
 
 
 def _register(body: Callable[[Op, str, str, int], list[str]]) -> Print:
     """A register function: `body(op, t, a, count)` where its registers are there and none of its "not
     implemented" values; it sets `t` (and `t_has`)."""
+
     def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, a, d = op.tmp, op.args[0], op.data
         guard = f"{a}_has" + "".join(
-            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"])
-        return [*e.declare(op, caps), f"if ({guard}) {{",
-                *("    " + line for line in body(op, t, a, d["count"])), "}"]
+            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"]
+        )
+        return [*e.declare(op, caps), f"if ({guard}) {{", *("    " + line for line in body(op, t, a, d["count"])), "}"]
 
     return lines
 
@@ -233,50 +267,61 @@ def _enum(op: Op, t: str, a: str, n: int) -> list[str]:
     items = sorted(op.data["mapping"].items())
     keys = ", ".join(c_int64(k) for k, _ in items) or "0"
     decls, labels = _texts([v for _, v in items], t)
-    return [*decls, f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
-            f"static const char *const labels[{max(len(items), 1)}] = {{{labels}}};",
-            f"x_enum({a}, {n}U, keys, labels, {len(items)}U, {t});", f"{t}_has = true;"]
+    return [
+        *decls,
+        f"static const int64_t keys[{max(len(items), 1)}] = {{{keys}}};",
+        f"static const char *const labels[{max(len(items), 1)}] = {{{labels}}};",
+        f"x_enum({a}, {n}U, keys, labels, {len(items)}U, {t});",
+        f"{t}_has = true;",
+    ]
 
 
 def _bitset(op: Op, t: str, a: str, n: int) -> list[str]:
     decls, labels = _texts(_labels(op.data["mapping"], 16 * n), t)
-    return [*decls, f"static const char *const labels[{16 * n}] = {{{labels}}};",
-            f"x_bitset({a}, {n}U, labels, {t}.items, &{t}.count);", f"{t}_has = true;"]
+    return [
+        *decls,
+        f"static const char *const labels[{16 * n}] = {{{labels}}};",
+        f"x_bitset({a}, {n}U, labels, {t}.items, &{t}.count);",
+        f"{t}_has = true;",
+    ]
 
 
 # the statements of each operation kind (mdl.lang.expr.ops says what each computes)
-PRINTER: Mapping[OpKind, Print] = printer({
-    OpKind.LIT: _lit,
-    OpKind.REGS: _regs,
-    OpKind.CONST: _const,
-    OpKind.SWAPBYTES: _swap,
-    OpKind.SWAPENDIAN: _swap,
-    OpKind.CONCAT: _concat,
-    OpKind.BIT: _unary(lambda op, a: f"{a}[0] != 0U"),
-    OpKind.LABEL: _label,
-    OpKind.TODOUBLE: _unary(lambda op, a: f"(double){a}"),
-    OpKind.NEG: _unary(lambda op, a: f"x_sub(0, {a})" if op.type == "long" else f"-{a}"),
-    OpKind.ARITH: _binary(_arith),
-    OpKind.DIV: _binary(lambda op, a, b: f"{a} / {b}"),
-    OpKind.POW: _binary(lambda op, a, b: f"pow({a}, {b})"),
-    OpKind.INT16: _int(True),
-    OpKind.UINT16: _int(False),
-    OpKind.INT32: _int(True),
-    OpKind.UINT32: _int(False),
-    OpKind.INT64: _int(True),
-    OpKind.UINT64: _int(False),
-    OpKind.IEEE754_32: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
-    OpKind.IEEE754_64: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
-    OpKind.UTF8: _register(_call),
-    OpKind.HEXSTRING: _register(_call),
-    OpKind.EUI48: _register(_call),
-    OpKind.IPV4ADDR: _register(_call),
-    OpKind.IPV6ADDR: _register(_call),
-    OpKind.ENUM: _register(_enum),
-    OpKind.BITSET: _register(_bitset),
-    OpKind.BITSETBIT: _register(lambda op, t, a, n: [f"{t} = x_bit({a}, {n}U, {op.data['bit']}U);",
-                                                     f"{t}_has = true;"]),
-})
+PRINTER: Mapping[OpKind, Print] = printer(
+    {
+        OpKind.LIT: _lit,
+        OpKind.REGS: _regs,
+        OpKind.CONST: _const,
+        OpKind.SWAPBYTES: _swap,
+        OpKind.SWAPENDIAN: _swap,
+        OpKind.CONCAT: _concat,
+        OpKind.BIT: _unary(lambda op, a: f"{a}[0] != 0U"),
+        OpKind.LABEL: _label,
+        OpKind.TODOUBLE: _unary(lambda op, a: f"(double){a}"),
+        OpKind.NEG: _unary(lambda op, a: f"x_sub(0, {a})" if op.type == "long" else f"-{a}"),
+        OpKind.ARITH: _binary(_arith),
+        OpKind.DIV: _binary(lambda op, a, b: f"{a} / {b}"),
+        OpKind.POW: _binary(lambda op, a, b: f"pow({a}, {b})"),
+        OpKind.INT16: _int(True),
+        OpKind.UINT16: _int(False),
+        OpKind.INT32: _int(True),
+        OpKind.UINT32: _int(False),
+        OpKind.INT64: _int(True),
+        OpKind.UINT64: _int(False),
+        OpKind.IEEE754_32: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
+        OpKind.IEEE754_64: _register(lambda op, t, a, n: [f"{t} = x_float({a}, {n}U);", f"{t}_has = true;"]),
+        OpKind.UTF8: _register(_call),
+        OpKind.HEXSTRING: _register(_call),
+        OpKind.EUI48: _register(_call),
+        OpKind.IPV4ADDR: _register(_call),
+        OpKind.IPV6ADDR: _register(_call),
+        OpKind.ENUM: _register(_enum),
+        OpKind.BITSET: _register(_bitset),
+        OpKind.BITSETBIT: _register(
+            lambda op, t, a, n: [f"{t} = x_bit({a}, {n}U, {op.data['bit']}U);", f"{t}_has = true;"]
+        ),
+    }
+)
 
 
 @cache

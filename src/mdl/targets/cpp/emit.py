@@ -41,7 +41,6 @@ TABLE_CONST = {"coil": "kCoil", "discrete": "kDiscrete", "holding": "kHolding", 
 BASE_INCLUDES = ("algorithm", "array", "cerrno", "cmath", "cstddef", "cstdint", "cstring")
 
 
-
 def value_type(vt: ValueType) -> str:
     """T of read_<name>(T *out) / write_<name>(T value), before std::optional."""
     if vt.kind == "expr":
@@ -64,17 +63,24 @@ def range_tests(step: ir.CheckRange | None, t: str) -> list[str] | None:
         return tests
     bounds = int_bounds(step.minimum, step.maximum, t)
     if bounds is None:
-        return tests + [f"value {op} {double_literal(float(bound))}"
-                        for bound, op in ((step.minimum, "<"), (step.maximum, ">")) if bound is not None]
+        return tests + [
+            f"value {op} {double_literal(float(bound))}"
+            for bound, op in ((step.minimum, "<"), (step.maximum, ">"))
+            if bound is not None
+        ]
     if bounds.never:
         return None
     value = "static_cast<int>(value)" if t == "bool" else "value"
     literal = {"int64_t": "INT64_C({})", "uint64_t": "UINT64_C({})", "uint32_t": "{}U"}.get(t, "{}")
-    return tests + [f"{value} {op} {literal.format(edge)}"
-                    for edge, op in ((bounds.low, "<"), (bounds.high, ">")) if edge is not None]
+    return tests + [
+        f"{value} {op} {literal.format(edge)}"
+        for edge, op in ((bounds.low, "<"), (bounds.high, ">"))
+        if edge is not None
+    ]
 
 
 # ---- the template's view of the device ----
+
 
 @dataclass(eq=False)  # compared by identity: one per function
 class CppFunction:
@@ -131,16 +137,29 @@ def _function(resolved: ResolvedDevice, f: ResolvedFunction, ident_of: dict[str,
         decode_lines = []
     wt = value_type(codec.write_type)
     return CppFunction(
-        resolved=f, fn=fn, ident=f.ident, codec=codec, t=t, n=len(lay.addresses), expr=expression is not None,
+        resolved=f,
+        fn=fn,
+        ident=f.ident,
+        codec=codec,
+        t=t,
+        n=len(lay.addresses),
+        expr=expression is not None,
         rt=f"std::optional<{t}>" if codec.value_type.nullable else t,
-        deps=[ident_of[d] for d in f.deps], dep_types=[], dep_args=[],
+        deps=[ident_of[d] for d in f.deps],
+        dep_types=[],
+        dep_args=[],
         runs=runs_at(TABLE_CONST[lay.table], f.runs),
         slots=list(resolved.slots_of(f)) if fn.readable else [],
-        readable=codec.decode is not None, writable=codec.encode is not None,
-        status=read_fragment is not None, decode_lines=decode_lines,
+        readable=codec.decode is not None,
+        writable=codec.encode is not None,
+        status=read_fragment is not None,
+        decode_lines=decode_lines,
         encode_lines=write_fragment.tree.c("c++").body() if write_fragment is not None else [],
         range_tests=range_tests(ir.find_step(codec.encode, ir.CheckRange), wt) if codec.encode is not None else [],
-        int_bits=codec.write_type.bits, merge=merge_rows(codec), mask_write=fn.mask_write)
+        int_bits=codec.write_type.bits,
+        merge=merge_rows(codec),
+        mask_write=fn.mask_write,
+    )
 
 
 def param_type(g: CppFunction) -> str:
@@ -168,8 +187,10 @@ def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
             f.steps = [out[g.ident] for g in resolved.closure([f.fn.name])]
             f.dep_types = [param_type(out[d]) for d in f.deps]
             # a value of another type is converted where it is passed, spelled out
-            f.dep_args = [f"%s{d}" if out[d].t == t else f"std::optional<{t}>(%s{d})"
-                          for d, t in zip(f.deps, f.dep_types, strict=True)]
+            f.dep_args = [
+                f"%s{d}" if out[d].t == t else f"std::optional<{t}>(%s{d})"
+                for d, t in zip(f.deps, f.dep_types, strict=True)
+            ]
         else:
             f.steps = [f]
         expression = ir.find_step(f.codec.decode, ir.Expression)
@@ -189,8 +210,13 @@ class Chunk:
 
 
 def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
-    return [step.tree.c("c++") for f in resolved.functions for steps in (f.codec.decode, f.codec.encode)
-            for step in steps or () if isinstance(step, ir.Fragment)]
+    return [
+        step.tree.c("c++")
+        for f in resolved.functions
+        for steps in (f.codec.decode, f.codec.encode)
+        for step in steps or ()
+        if isinstance(step, ir.Fragment)
+    ]
 
 
 def _ranges(slots: list[int]) -> list[tuple[int, int]]:
@@ -218,26 +244,42 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     if fragments:
         runtime += "\n" + helpers_source(fragments, "c++")
         runtime_includes += FRAGMENT_INCLUDES["c++"]
-    chunks = [Chunk(part, any(f.n for f in part), any(f.n and f.expr for f in part))
-              for part in (readable[i:i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))]
+    chunks = [
+        Chunk(part, any(f.n for f in part), any(f.n and f.expr for f in part))
+        for part in (readable[i : i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))
+    ]
     types = [f.t for f in functions] + [f.rt for f in functions]
     needed = _ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
     return {
-        "device": device, "version": __version__, "source": source_name, "stem": file_stem,
-        "generation_macro": generation_macro(file_stem), "device_name": ctext(device.name, "kDeviceName", "c++"),
-        "class_name": resolved.class_name, "guard": f"MDL_{file_stem.upper().rstrip('_')}_H", "functions": functions,
-        "readable": readable, "chunks": chunks, "groups": groups, "splits": splits, "raw_total": raw_total,
-        "fragments": bool(fragments), "runtime": runtime,
-        "needed": needed, "fragment_reads": [f for f in readable if f.status],
+        "device": device,
+        "version": __version__,
+        "source": source_name,
+        "stem": file_stem,
+        "generation_macro": generation_macro(file_stem),
+        "device_name": ctext(device.name, "kDeviceName", "c++"),
+        "class_name": resolved.class_name,
+        "guard": f"MDL_{file_stem.upper().rstrip('_')}_H",
+        "functions": functions,
+        "readable": readable,
+        "chunks": chunks,
+        "groups": groups,
+        "splits": splits,
+        "raw_total": raw_total,
+        "fragments": bool(fragments),
+        "runtime": runtime,
+        "needed": needed,
+        "fragment_reads": [f for f in readable if f.status],
         "writes_multiple": any(f.writable and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "mask_writes": any(f.writable and f.mask_write for f in functions),  # FC22
         "factors": any(f.factor is not None for f in functions),
         "exponents": any(f.factor is not None and f.fn.scale_exponent is not None for f in functions),
         "includes": sorted(set(BASE_INCLUDES) | set(runtime_includes)),
-        "header_includes": sorted({"array", "cstddef", "cstdint"}
-                                  | ({"optional"} if any("std::optional" in t for t in types) else set())
-                                  | ({"string"} if any("std::string" in t for t in types) else set())
-                                  | ({"vector"} if any("std::vector" in t for t in types) else set())),
+        "header_includes": sorted(
+            {"array", "cstddef", "cstdint"}
+            | ({"optional"} if any("std::optional" in t for t in types) else set())
+            | ({"string"} if any("std::string" in t for t in types) else set())
+            | ({"vector"} if any("std::vector" in t for t in types) else set())
+        ),
     }
 
 
@@ -272,21 +314,29 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared[CppFu
     ops = env.get_template("cpp/templates/ops.j2").module
     decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
     encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
-    return clike.share(functions, Printing(
-        _decode_key, _encode_key,
-        lambda f: decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip(),
-        lambda f: encode_body(f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines,
-                              f.int_bits).rstrip(),
-        lambda f: f.expr or f.factor is not None,
-        lambda f: bool(f.merge) or f.factor is not None))
+    return clike.share(
+        functions,
+        Printing(
+            _decode_key,
+            _encode_key,
+            lambda f: decode_body(f.resolved.decode_shape, f.codec.decode, f.status, f.decode_lines, f.t).rstrip(),
+            lambda f: encode_body(
+                f.resolved.encode_shape, f.codec.encode, f.range_tests, f.encode_lines, f.int_bits
+            ).rstrip(),
+            lambda f: f.expr or f.factor is not None,
+            lambda f: bool(f.merge) or f.factor is not None,
+        ),
+    )
 
 
 def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
     ctx = context(resolved, source_name)
     env = environment()
     ctx["shared"] = share(ctx["functions"], env)
-    return {f"{resolved.stem}.h": env.get_template("cpp/templates/device.h.j2").render(**ctx),
-            f"{resolved.stem}.cc": env.get_template("cpp/templates/device.cc.j2").render(**ctx)}
+    return {
+        f"{resolved.stem}.h": env.get_template("cpp/templates/device.h.j2").render(**ctx),
+        f"{resolved.stem}.cc": env.get_template("cpp/templates/device.cc.j2").render(**ctx),
+    }
 
 
 TARGET = Target("cpp", render_files)

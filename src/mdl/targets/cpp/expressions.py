@@ -17,8 +17,13 @@ from mdl.lang.expr.lower import Lowered
 from mdl.lang.expr.ops import Op, OpKind, printer
 from mdl.targets.templating import RuntimePart, c_int64, ctext, double_literal, pick
 
-CPP_TYPES = {"long": "int64_t", "double": "double", "string": "std::string", "bool": "bool",
-             "list": "std::vector<std::string>"}
+CPP_TYPES = {
+    "long": "int64_t",
+    "double": "double",
+    "string": "std::string",
+    "bool": "bool",
+    "list": "std::vector<std::string>",
+}
 
 
 def cpp_type(t: str) -> str:
@@ -66,22 +71,26 @@ def _text(a: str, t: str, wide: set[str]) -> str:
 def _guard(op: Op, types: dict[str, str]) -> str:
     """The argument is there and is none of the function's "not implemented" values."""
     a = op.args[0]
-    arg_type = types[a][len("std::optional<"):-1]
-    return a + "".join(f" && *{a} != {arg_type}{{" + ", ".join(f"0x{w:04X}U" for w in g) + "}"
-                       for g in op.data["ni"])
+    arg_type = types[a][len("std::optional<") : -1]
+    return a + "".join(f" && *{a} != {arg_type}{{" + ", ".join(f"0x{w:04X}U" for w in g) + "}" for g in op.data["ni"])
 
 
 def _enum(op: Op, decls: list[str]) -> str:
-    table = ", ".join(f"{{{c_int64(k)}, {_text_of(v, f'{op.tmp}_label{i}', decls)}}}"
-                      for i, (k, v) in enumerate(sorted(op.data["mapping"].items())))
+    table = ", ".join(
+        f"{{{c_int64(k)}, {_text_of(v, f'{op.tmp}_label{i}', decls)}}}"
+        for i, (k, v) in enumerate(sorted(op.data["mapping"].items()))
+    )
     return f"x_enum(*{op.args[0]}, {{{table}}})"
 
 
 def _bitset(op: Op, decls: list[str]) -> str:
     """A bit the registers do not have is never set: its label is left out."""
     bits = 16 * op.data["count"]
-    table = ", ".join(f"{{{k}, {_text_of(v, f'{op.tmp}_label{k}', decls)}}}"
-                      for k, v in sorted(op.data["mapping"].items()) if 0 <= k < bits)
+    table = ", ".join(
+        f"{{{k}, {_text_of(v, f'{op.tmp}_label{k}', decls)}}}"
+        for k, v in sorted(op.data["mapping"].items())
+        if 0 <= k < bits
+    )
     return f"x_bitset(*{op.args[0]}, {{{table}}})"
 
 
@@ -157,6 +166,7 @@ def _arith(p: _Printer, op: Op, a: str, b: str) -> str:
 def _register(call: Callable[[Op, list[str]], str]) -> Print:
     """A register function: `call(op, decls)` where its registers are there and none of its "not
     implemented" values."""
+
     def statements(p: _Printer, op: Op, t: str) -> list[str]:
         decls: list[str] = []
         value = call(op, decls)
@@ -170,37 +180,41 @@ def _convert(pattern: str) -> Print:
 
 
 # the statements of each operation kind (mdl.lang.expr.ops says what each computes)
-PRINTER: Mapping[OpKind, Print] = printer({
-    OpKind.LIT: _lit,
-    OpKind.REGS: _regs,
-    OpKind.CONST: lambda p, op, t: p.set(op, t, _regs_literal(op, op.data["words"])),
-    OpKind.SWAPBYTES: _unary(lambda p, op, a: f"x_swapbytes(*{a})"),
-    OpKind.SWAPENDIAN: _unary(lambda p, op, a: f"x_swapendian(*{a})"),
-    OpKind.CONCAT: _concat,
-    OpKind.BIT: _unary(lambda p, op, a: f"(*{a})[0] != 0"),
-    OpKind.LABEL: _label,
-    OpKind.TODOUBLE: _unary(lambda p, op, a: f"static_cast<double>({_long(a, p.wide)})"),
-    OpKind.NEG: _unary(lambda p, op, a: f"x_sub<int64_t>(0, {_long(a, p.wide)})" if op.type == "long" else f"-*{a}"),
-    OpKind.ARITH: _binary(_arith),
-    OpKind.DIV: _binary(lambda p, op, a, b: f"*{a} / *{b}"),
-    OpKind.POW: _binary(lambda p, op, a, b: f"std::pow(*{a}, *{b})"),
-    OpKind.INT16: _convert("x_int(*{a}, true)"),
-    OpKind.UINT16: _convert("x_int(*{a}, false)"),
-    OpKind.INT32: _convert("x_int(*{a}, true)"),
-    OpKind.UINT32: _convert("x_int(*{a}, false)"),
-    OpKind.INT64: _convert("x_int(*{a}, true)"),
-    OpKind.UINT64: _convert("x_int(*{a}, false)"),
-    OpKind.IEEE754_32: _convert("x_float(*{a})"),
-    OpKind.IEEE754_64: _convert("x_float(*{a})"),
-    OpKind.UTF8: _convert("x_utf8(*{a})"),
-    OpKind.HEXSTRING: _convert("x_hexstring(*{a})"),
-    OpKind.EUI48: _convert("x_eui48(*{a})"),
-    OpKind.IPV4ADDR: _convert("x_ipv4addr(*{a})"),
-    OpKind.IPV6ADDR: _convert("x_ipv6addr(*{a})"),
-    OpKind.ENUM: _register(_enum),
-    OpKind.BITSET: _register(_bitset),
-    OpKind.BITSETBIT: _register(lambda op, decls: f"x_bit(*{op.args[0]}, {op.data['bit']})"),
-})
+PRINTER: Mapping[OpKind, Print] = printer(
+    {
+        OpKind.LIT: _lit,
+        OpKind.REGS: _regs,
+        OpKind.CONST: lambda p, op, t: p.set(op, t, _regs_literal(op, op.data["words"])),
+        OpKind.SWAPBYTES: _unary(lambda p, op, a: f"x_swapbytes(*{a})"),
+        OpKind.SWAPENDIAN: _unary(lambda p, op, a: f"x_swapendian(*{a})"),
+        OpKind.CONCAT: _concat,
+        OpKind.BIT: _unary(lambda p, op, a: f"(*{a})[0] != 0"),
+        OpKind.LABEL: _label,
+        OpKind.TODOUBLE: _unary(lambda p, op, a: f"static_cast<double>({_long(a, p.wide)})"),
+        OpKind.NEG: _unary(
+            lambda p, op, a: f"x_sub<int64_t>(0, {_long(a, p.wide)})" if op.type == "long" else f"-*{a}"
+        ),
+        OpKind.ARITH: _binary(_arith),
+        OpKind.DIV: _binary(lambda p, op, a, b: f"*{a} / *{b}"),
+        OpKind.POW: _binary(lambda p, op, a, b: f"std::pow(*{a}, *{b})"),
+        OpKind.INT16: _convert("x_int(*{a}, true)"),
+        OpKind.UINT16: _convert("x_int(*{a}, false)"),
+        OpKind.INT32: _convert("x_int(*{a}, true)"),
+        OpKind.UINT32: _convert("x_int(*{a}, false)"),
+        OpKind.INT64: _convert("x_int(*{a}, true)"),
+        OpKind.UINT64: _convert("x_int(*{a}, false)"),
+        OpKind.IEEE754_32: _convert("x_float(*{a})"),
+        OpKind.IEEE754_64: _convert("x_float(*{a})"),
+        OpKind.UTF8: _convert("x_utf8(*{a})"),
+        OpKind.HEXSTRING: _convert("x_hexstring(*{a})"),
+        OpKind.EUI48: _convert("x_eui48(*{a})"),
+        OpKind.IPV4ADDR: _convert("x_ipv4addr(*{a})"),
+        OpKind.IPV6ADDR: _convert("x_ipv6addr(*{a})"),
+        OpKind.ENUM: _register(_enum),
+        OpKind.BITSET: _register(_bitset),
+        OpKind.BITSETBIT: _register(lambda op, decls: f"x_bit(*{op.args[0]}, {op.data['bit']})"),
+    }
+)
 
 
 def body(lowered: Lowered, params: list[str]) -> list[str]:
@@ -228,8 +242,9 @@ def _parts(text: str) -> list[RuntimePart]:
         head, source = chunk.split("\n", 1)
         names, includes = head.split("|")
         source = "\n" + source.rstrip("\n") + "\n"
-        parts.append(RuntimePart(tuple(names.split()), source, frozenset(_NAME.findall(source)),
-                                 tuple(includes.split())))
+        parts.append(
+            RuntimePart(tuple(names.split()), source, frozenset(_NAME.findall(source)), tuple(includes.split()))
+        )
     return parts
 
 

@@ -76,7 +76,7 @@ def runtime_helpers() -> list[RuntimePart]:
     lines = RUNTIME_SOURCE.splitlines(keepends=True)
     for node in ast.parse(RUNTIME_SOURCE).body:
         if isinstance(node, ast.FunctionDef):  # top-level: whole lines, from its `def` (helpers have no decorators)
-            source = "".join(lines[node.lineno - 1:node.end_lineno]).rstrip("\n")
+            source = "".join(lines[node.lineno - 1 : node.end_lineno]).rstrip("\n")
             names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
             out.append(RuntimePart((node.name,), source, frozenset(names)))
     return out
@@ -127,8 +127,12 @@ def _guarded(fn: Function, attr: str, body: list[str]) -> list[str]:
     if not _names("\n".join(body)) & set(FALLIBLE):
         return body
     prefix = pyrepr(f"function {fn.name!r}: {attr}: ")
-    return ["try:", *("    " + line for line in body), "except ArithmeticError as exc:",
-            f"    raise {FRAGMENT_ERRORS[attr]}({prefix} + str(exc)) from None"]
+    return [
+        "try:",
+        *("    " + line for line in body),
+        "except ArithmeticError as exc:",
+        f"    raise {FRAGMENT_ERRORS[attr]}({prefix} + str(exc)) from None",
+    ]
 
 
 def _fragment_read_lines(fn: Function, step: ir.Fragment) -> list[str]:
@@ -142,8 +146,12 @@ def _fragment_write_lines(fn: Function, step: ir.Fragment) -> list[str]:
     regs = [f"r{i + 1}" for i in range(step.nregs)]
     body = step.tree.python_lines()
     start = ["arg = float(value)"] if "arg" in _loaded(body) else []
-    return [*start, *(f"{r} = 0" for r in regs), *_guarded(fn, "write_function_code", body),
-            f"return [{', '.join(regs)}]"]
+    return [
+        *start,
+        *(f"{r} = 0" for r in regs),
+        *_guarded(fn, "write_function_code", body),
+        f"return [{', '.join(regs)}]",
+    ]
 
 
 # -- the module
@@ -166,8 +174,14 @@ def doc_text(fn: Function) -> str:
 def _read_plan(resolved: ResolvedDevice) -> list[tuple[Request, int, tuple[Request, ...]]]:
     """Each request of the read plan, its first slot in the buffer, and the smaller requests that
     replace it when the device refuses it."""
-    return [((g.request.table, g.request.start, g.request.count), g.offset,
-             tuple((s.table, s.start, s.count) for s in g.smaller)) for g in resolved.plan]
+    return [
+        (
+            (g.request.table, g.request.start, g.request.count),
+            g.offset,
+            tuple((s.table, s.start, s.count) for s in g.smaller),
+        )
+        for g in resolved.plan
+    ]
 
 
 def span(slots: tuple[int, ...]) -> tuple[int, int] | None:
@@ -179,7 +193,7 @@ def span(slots: tuple[int, ...]) -> tuple[int, int] | None:
 
 
 def _typed_dict_form(names: list[str]) -> str:
-    """"class" where every key can be a class attribute (ruff asks for that form), else "call"."""
+    """ "class" where every key can be a class attribute (ruff asks for that form), else "call"."""
     ok = all(n.isidentifier() and n not in PY_HARD_KEYWORDS and not n.startswith("__") for n in names)
     return "class" if ok else "call"
 
@@ -210,8 +224,9 @@ class FunctionCode:
     merge: ir.Merge | None = None  # a function with bits: how its registers are written (read-modify-write or FC22)
 
 
-def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str],
-                  idents: dict[str, str]) -> FunctionCode:
+def function_code(
+    resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str], idents: dict[str, str]
+) -> FunctionCode:
     fn, codec = f.fn, f.codec
     deps = f.deps
     if f.compiled is not None:
@@ -226,12 +241,19 @@ def function_code(resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str
     table = f.layout.table
     slots = resolved.slots_of(f) if fn.readable else ()
     return FunctionCode(
-        resolved=f, fn=fn, name=fn.name, ident=f.ident, codec=codec,
+        resolved=f,
+        fn=fn,
+        name=fn.name,
+        ident=f.ident,
+        codec=codec,
         runs=[(table, start, count) for start, count in f.runs],
-        doc=doc_text(fn), type=types[fn.name],
-        write_type=write_type(codec.write_type) if codec.encode is not None else None, params=params,
+        doc=doc_text(fn),
+        type=types[fn.name],
+        write_type=write_type(codec.write_type) if codec.encode is not None else None,
+        params=params,
         args="".join(f", v_{idents[d]}" for d in deps),
-        slots=slots, span=span(slots),
+        slots=slots,
+        span=span(slots),
         closure=[g.name for g in resolved.closure([fn.name])[:-1]] if deps else [],
         fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
         fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
@@ -253,8 +275,13 @@ def print_bodies(functions: list[FunctionCode], env: jinja2.Environment) -> None
         if codec.decode is not None:
             shape = f.decode_shape
             # an expression's body is its lines alone (its one step): the same lines, the same body
-            key: object = shape if shape is not None else \
-                tuple(code.expression_body) if code.expression_body and len(codec.decode) == 1 else None
+            key: object = (
+                shape
+                if shape is not None
+                else tuple(code.expression_body)
+                if code.expression_body and len(codec.decode) == 1
+                else None
+            )
             body = decoded.get(key) if key is not None else None
             if body is None:
                 body = decode_body(shape, codec.decode, code.fragment_read, code.expression_body).rstrip()
@@ -303,16 +330,35 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     helpers = helpers_for(used)
     used = used.union(*map(_names, helpers), TEMPLATE_NAMES)
     class_name = camel(identifier(device.name))
-    exports = [class_name, f"Async{class_name}", f"{class_name}Values", "CommunicationError", "DeviceError",
-               "ModbusExceptionError", "ValueRangeError"]
+    exports = [
+        class_name,
+        f"Async{class_name}",
+        f"{class_name}Values",
+        "CommunicationError",
+        "DeviceError",
+        "ModbusExceptionError",
+        "ValueRangeError",
+    ]
     exports += [name for name in ("FragmentDomainError",) if name in used]
     return {
-        "device": device, "version": __version__, "source": source_name, "requirement": PYMODBUS_REQUIREMENT,
-        "functions": functions, "infos": infos, "readable": readable, "class_name": class_name,
-        "values_name": f"{class_name}Values", "values_form": _typed_dict_form([f.name for f in readable]),
-        "groups": _read_plan(resolved), "buffer_size": resolved.buffer_size, "imports": import_lines(used),
-        "helpers": helpers, "uses": used, "plain": [f for f in readable if f.resolved.compiled is None],
-        "exports": sorted(exports), "writes": any(f.encode_body for f in functions),
+        "device": device,
+        "version": __version__,
+        "source": source_name,
+        "requirement": PYMODBUS_REQUIREMENT,
+        "functions": functions,
+        "infos": infos,
+        "readable": readable,
+        "class_name": class_name,
+        "values_name": f"{class_name}Values",
+        "values_form": _typed_dict_form([f.name for f in readable]),
+        "groups": _read_plan(resolved),
+        "buffer_size": resolved.buffer_size,
+        "imports": import_lines(used),
+        "helpers": helpers,
+        "uses": used,
+        "plain": [f for f in readable if f.resolved.compiled is None],
+        "exports": sorted(exports),
+        "writes": any(f.encode_body for f in functions),
         "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only
         "mask_writes": any(f.encode_body and f.merge and f.merge.mask_write for f in functions),  # FC22
         "module_doc": docstring(f"Driver for {device.name}: {device.description}"),

@@ -31,11 +31,13 @@ class Row:
         return self.var, self.kind, self.index, self.slots, span(self.slots), self.deps
 
 
-def reader_source(shapes: Sequence[tuple[ir.DecodeStep, ...]], rows: Sequence[Row],
-                  results: Sequence[tuple[str, int]]) -> str:
+def reader_source(
+    shapes: Sequence[tuple[ir.DecodeStep, ...]], rows: Sequence[Row], results: Sequence[tuple[str, int]]
+) -> str:
     """Python source defining `decode(raw) -> {name: value}`: `shapes` are the distinct decode IRs
     (without fragments and expressions), `rows` every function to decode, dependencies first;
     `results` (name, var) what it returns. The caller binds `_f<index>` and `struct`."""
     env = environment()
     return env.get_template("python/templates/reader.py.j2").render(
-        shapes=shapes, rows=[row.as_tuple() for row in rows], results=results)
+        shapes=shapes, rows=[row.as_tuple() for row in rows], results=results
+    )
