@@ -87,6 +87,7 @@ def _check_write(rr: ModbusPDU, what: str, code: int, start: int, values: list[i
         raise CommunicationError(f"{what}: the reply does not echo the request")
 
 
+
 def _refused(raw: list[int | None]) -> None:
     """ModbusExceptionError for the first function (in decode order) without an expression whose
     registers the device refused (even when asked alone)."""
@@ -173,7 +174,7 @@ def _decode_energy(r: list[int]) -> float:
 
 def _decode_power(r: list[int]) -> float:
     v = (r[0] << 16) | r[1]
-    x: float = struct.unpack(">f", v.to_bytes(4, "big"))[0]
+    x: float = struct.unpack('>f', v.to_bytes(4, 'big'))[0]
     return x
 
 
@@ -193,14 +194,14 @@ def _decode_gap_low(r: list[int]) -> int:
 
 def _encode_gap_low(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not 0 <= x <= 65535:
-        raise ValueRangeError(f"{value} does not fit uint16")
+        raise ValueRangeError(f'{value} does not fit uint16')
     v = x & 0xFFFF
     return [v & 0xFFFF]
 
@@ -212,14 +213,14 @@ def _decode_gap_high(r: list[int]) -> int:
 
 def _encode_gap_high(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not 0 <= x <= 65535:
-        raise ValueRangeError(f"{value} does not fit uint16")
+        raise ValueRangeError(f'{value} does not fit uint16')
     v = x & 0xFFFF
     return [v & 0xFFFF]
 
@@ -235,21 +236,21 @@ def _decode_setpoint(r: list[int]) -> float:
 
 def _encode_setpoint(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     if math.isnan(value):
-        raise ValueRangeError("NaN is outside every range")
+        raise ValueRangeError('NaN is outside every range')
     if value < 5.0:
-        raise ValueRangeError(f"{value} is below the minimum 5")
+        raise ValueRangeError(f'{value} is below the minimum 5')
     if value > 35.0:
-        raise ValueRangeError(f"{value} is above the maximum 35")
+        raise ValueRangeError(f'{value} is above the maximum 35')
     x = float(value)
     x = x * 10.0
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not -32768 <= x <= 32767:
-        raise ValueRangeError(f"{value} does not fit int16")
+        raise ValueRangeError(f'{value} does not fit int16')
     v = x & 0xFFFF
     return [v & 0xFFFF]
 
@@ -261,30 +262,30 @@ def _decode_mode(r: list[int]) -> int:
 
 def _encode_mode(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not 0 <= x <= 65535:
-        raise ValueRangeError(f"{value} does not fit uint16")
+        raise ValueRangeError(f'{value} does not fit uint16')
     v = x & 0xFFFF
     return [v & 0xFFFF]
 
 
 def _decode_label(r: list[int]) -> str:
     v = (r[0] << 48) | (r[1] << 32) | (r[2] << 16) | r[3]
-    return v.to_bytes(8, "big").rstrip(b"\x00 ").decode("utf-8", "replace")
+    return v.to_bytes(8, 'big').rstrip(b'\x00 ').decode('utf-8', 'replace')
 
 
 def _encode_label(value: str) -> list[int]:
     if not isinstance(value, str):
-        raise ValueRangeError(f"expects text, got {value!r}")
-    data = value.encode("utf-8")
+        raise ValueRangeError(f'expects text, got {value!r}')
+    data = value.encode('utf-8')
     if len(data) > 8:
-        raise ValueRangeError(f"text of {len(data)} bytes does not fit 8 bytes")
-    v = int.from_bytes(data.ljust(8, b"\x00"), "big")
+        raise ValueRangeError(f'text of {len(data)} bytes does not fit 8 bytes')
+    v = int.from_bytes(data.ljust(8, b'\x00'), 'big')
     return [(v >> 48) & 0xFFFF, (v >> 32) & 0xFFFF, (v >> 16) & 0xFFFF, v & 0xFFFF]
 
 
@@ -304,7 +305,7 @@ def _decode_flow(r: list[int]) -> float:
 
 def _encode_flow(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     arg = float(value)
     r1 = 0
     try:
@@ -323,14 +324,14 @@ def _decode_big(r: list[int]) -> int:
 
 def _encode_big(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not -9223372036854775808 <= x <= 9223372036854775807:
-        raise ValueRangeError(f"{value} does not fit int64")
+        raise ValueRangeError(f'{value} does not fit int64')
     v = x & 0xFFFFFFFFFFFFFFFF
     return [(v >> 48) & 0xFFFF, (v >> 32) & 0xFFFF, (v >> 16) & 0xFFFF, v & 0xFFFF]
 
@@ -347,16 +348,16 @@ def _decode_temp_offset(r: list[int]) -> float:
 
 def _encode_temp_offset(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = float(value)
     x = x - -40.0
     x = x * 2.0
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not -32768 <= x <= 32767:
-        raise ValueRangeError(f"{value} does not fit int16")
+        raise ValueRangeError(f'{value} does not fit int16')
     v = x & 0xFFFF
     return [v & 0xFFFF]
 
@@ -368,14 +369,14 @@ def _decode_serial(r: list[int]) -> int:
 
 def _encode_serial(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not 0 <= x <= 4294967295:
-        raise ValueRangeError(f"{value} does not fit uint32")
+        raise ValueRangeError(f'{value} does not fit uint32')
     v = x & 0xFFFFFFFF
     return [(((v >> 16) & 0xFF) << 8) | (((v >> 16) >> 8) & 0xFF), ((v & 0xFF) << 8) | ((v >> 8) & 0xFF)]
 
@@ -389,14 +390,14 @@ def _decode_low_byte(r: list[int]) -> int:
 
 def _encode_low_byte(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not -128 <= x <= 127:
-        raise ValueRangeError(f"{value} does not fit int8")
+        raise ValueRangeError(f'{value} does not fit int8')
     v = x & 0xFF
     return [v & 0xFF]
 
@@ -408,14 +409,14 @@ def _decode_high_byte(r: list[int]) -> int:
 
 def _encode_high_byte(value: float) -> list[int]:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueRangeError(f"expects a number, got {value!r}")
+        raise ValueRangeError(f'expects a number, got {value!r}')
     x = value
     if not isinstance(x, int):
         if not math.isfinite(x):
-            raise ValueRangeError(f"{value} is not a finite number")
+            raise ValueRangeError(f'{value} is not a finite number')
         x = math.floor(x + 0.5)
     if not 0 <= x <= 255:
-        raise ValueRangeError(f"{value} does not fit uint8")
+        raise ValueRangeError(f'{value} does not fit uint8')
     v = x & 0xFF
     return [(v & 0xFF) << 8]
 
@@ -423,65 +424,63 @@ def _encode_high_byte(value: float) -> list[int]:
 # The read plan: (request, its first slot in read_all's buffer, smaller requests used when the
 # device refuses it with exception 2)
 _PLAN: tuple[tuple[_Request, int, tuple[_Request, ...]], ...] = (
-    (("coil", 0, 2), 0, (("coil", 0, 1), ("coil", 1, 1))),
-    (("discrete", 0, 2), 2, (("discrete", 0, 1), ("discrete", 1, 1))),
-    (("holding", 50, 1), 4, ()),
-    (("holding", 52, 1), 5, ()),
-    (("holding", 100, 6), 6, (("holding", 100, 1), ("holding", 101, 1), ("holding", 102, 4))),
-    (("holding", 110, 2), 12, (("holding", 110, 1), ("holding", 111, 1))),
-    (("holding", 200, 4), 14, ()),
-    (("holding", 300, 1), 18, ()),
-    (("holding", 400, 4), 19, (("holding", 400, 2), ("holding", 402, 1), ("holding", 403, 1))),
-    (("input", 0, 4), 23, (("input", 0, 2), ("input", 2, 2))),
-    (("input", 10, 1), 27, ()),
+    (('coil', 0, 2), 0, (('coil', 0, 1), ('coil', 1, 1))),
+    (('discrete', 0, 2), 2, (('discrete', 0, 1), ('discrete', 1, 1))),
+    (('holding', 50, 1), 4, ()),
+    (('holding', 52, 1), 5, ()),
+    (('holding', 100, 6), 6, (('holding', 100, 1), ('holding', 101, 1), ('holding', 102, 4))),
+    (('holding', 110, 2), 12, (('holding', 110, 1), ('holding', 111, 1))),
+    (('holding', 200, 4), 14, ()),
+    (('holding', 300, 1), 18, ()),
+    (('holding', 400, 4), 19, (('holding', 400, 2), ('holding', 402, 1), ('holding', 403, 1))),
+    (('input', 0, 4), 23, (('input', 0, 2), ('input', 2, 2))),
+    (('input', 10, 1), 27, ()),
 )
 _BUFFER_SIZE = 28
 # each readable function without an expression and its slots in that buffer, in decode order
 _SLOTS: tuple[tuple[str, tuple[int, ...]], ...] = (
-    ("pump", (0,)),
-    ("fan", (1,)),
-    ("door_open", (2,)),
-    ("filter_dirty", (3,)),
-    ("energy", (23, 24)),
-    ("power", (25, 26)),
-    ("voltage", (27,)),
-    ("gap_low", (4,)),
-    ("gap_high", (5,)),
-    ("setpoint", (6,)),
-    ("mode", (7,)),
-    ("label", (8, 9, 10, 11)),
-    ("status_bit", (12,)),
-    ("flow", (13,)),
-    ("big", (14, 15, 16, 17)),
-    ("temp_offset", (18,)),
-    ("serial", (19, 20)),
-    ("low_byte", (21,)),
-    ("high_byte", (22,)),
+    ('pump', (0,)),
+    ('fan', (1,)),
+    ('door_open', (2,)),
+    ('filter_dirty', (3,)),
+    ('energy', (23, 24)),
+    ('power', (25, 26)),
+    ('voltage', (27,)),
+    ('gap_low', (4,)),
+    ('gap_high', (5,)),
+    ('setpoint', (6,)),
+    ('mode', (7,)),
+    ('label', (8, 9, 10, 11)),
+    ('status_bit', (12,)),
+    ('flow', (13,)),
+    ('big', (14, 15, 16, 17)),
+    ('temp_offset', (18,)),
+    ('serial', (19, 20)),
+    ('low_byte', (21,)),
+    ('high_byte', (22,)),
 )
 # every readable function's name, in decode order: read_all's result starts as a copy of this
-_NAMES: dict[str, None] = dict.fromkeys(
-    (
-        "pump",
-        "fan",
-        "door_open",
-        "filter_dirty",
-        "energy",
-        "power",
-        "voltage",
-        "gap_low",
-        "gap_high",
-        "setpoint",
-        "mode",
-        "label",
-        "status_bit",
-        "flow",
-        "big",
-        "temp_offset",
-        "serial",
-        "low_byte",
-        "high_byte",
-    )
-)
+_NAMES: dict[str, None] = dict.fromkeys((
+    'pump',
+    'fan',
+    'door_open',
+    'filter_dirty',
+    'energy',
+    'power',
+    'voltage',
+    'gap_low',
+    'gap_high',
+    'setpoint',
+    'mode',
+    'label',
+    'status_bit',
+    'flow',
+    'big',
+    'temp_offset',
+    'serial',
+    'low_byte',
+    'high_byte',
+))
 
 
 class AllTablesValues(TypedDict):
@@ -533,25 +532,25 @@ def _values(raw: list[int | None]) -> AllTablesValues:
     v_low_byte = _decode_low_byte([regs[21]])
     v_high_byte = _decode_high_byte([regs[22]])
     values = cast("AllTablesValues", _NAMES.copy())  # every key in place: nothing grows as it fills
-    values["pump"] = v_pump
-    values["fan"] = v_fan
-    values["door_open"] = v_door_open
-    values["filter_dirty"] = v_filter_dirty
-    values["energy"] = v_energy
-    values["power"] = v_power
-    values["voltage"] = v_voltage
-    values["gap_low"] = v_gap_low
-    values["gap_high"] = v_gap_high
-    values["setpoint"] = v_setpoint
-    values["mode"] = v_mode
-    values["label"] = v_label
-    values["status_bit"] = v_status_bit
-    values["flow"] = v_flow
-    values["big"] = v_big
-    values["temp_offset"] = v_temp_offset
-    values["serial"] = v_serial
-    values["low_byte"] = v_low_byte
-    values["high_byte"] = v_high_byte
+    values['pump'] = v_pump
+    values['fan'] = v_fan
+    values['door_open'] = v_door_open
+    values['filter_dirty'] = v_filter_dirty
+    values['energy'] = v_energy
+    values['power'] = v_power
+    values['voltage'] = v_voltage
+    values['gap_low'] = v_gap_low
+    values['gap_high'] = v_gap_high
+    values['setpoint'] = v_setpoint
+    values['mode'] = v_mode
+    values['label'] = v_label
+    values['status_bit'] = v_status_bit
+    values['flow'] = v_flow
+    values['big'] = v_big
+    values['temp_offset'] = v_temp_offset
+    values['serial'] = v_serial
+    values['low_byte'] = v_low_byte
+    values['high_byte'] = v_high_byte
     return values
 
 
@@ -617,140 +616,140 @@ class AllTables:
     def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0
         for table, start, count in runs:
-            self._write(table, start, regs[i : i + count])
+            self._write(table, start, regs[i:i + count])
             i += count
 
     def read_pump(self) -> bool:
-        "pump"
-        return _decode_pump(self._read_runs([("coil", 0, 1)]))
+        'pump'
+        return _decode_pump(self._read_runs([('coil', 0, 1)]))
 
     def write_pump(self, value: bool) -> None:
-        "pump"
-        self._write_runs([("coil", 0, 1)], _encode_pump(value))
+        'pump'
+        self._write_runs([('coil', 0, 1)], _encode_pump(value))
 
     def read_fan(self) -> bool:
-        "fan"
-        return _decode_fan(self._read_runs([("coil", 1, 1)]))
+        'fan'
+        return _decode_fan(self._read_runs([('coil', 1, 1)]))
 
     def write_fan(self, value: bool) -> None:
-        "fan"
-        self._write_runs([("coil", 1, 1)], _encode_fan(value))
+        'fan'
+        self._write_runs([('coil', 1, 1)], _encode_fan(value))
 
     def write_alarm_reset(self, value: bool) -> None:
-        "alarm_reset"
-        self._write_runs([("coil", 5, 1)], _encode_alarm_reset(value))
+        'alarm_reset'
+        self._write_runs([('coil', 5, 1)], _encode_alarm_reset(value))
 
     def read_door_open(self) -> bool:
-        "door_open"
-        return _decode_door_open(self._read_runs([("discrete", 0, 1)]))
+        'door_open'
+        return _decode_door_open(self._read_runs([('discrete', 0, 1)]))
 
     def read_filter_dirty(self) -> bool:
-        "filter_dirty"
-        return _decode_filter_dirty(self._read_runs([("discrete", 1, 1)]))
+        'filter_dirty'
+        return _decode_filter_dirty(self._read_runs([('discrete', 1, 1)]))
 
     def read_energy(self) -> float:
-        "energy [kWh]"
-        return _decode_energy(self._read_runs([("input", 0, 2)]))
+        'energy [kWh]'
+        return _decode_energy(self._read_runs([('input', 0, 2)]))
 
     def read_power(self) -> float:
-        "power [W]"
-        return _decode_power(self._read_runs([("input", 2, 2)]))
+        'power [W]'
+        return _decode_power(self._read_runs([('input', 2, 2)]))
 
     def read_voltage(self) -> float | None:
-        "voltage [V]"
-        return _decode_voltage(self._read_runs([("input", 10, 1)]))
+        'voltage [V]'
+        return _decode_voltage(self._read_runs([('input', 10, 1)]))
 
     def read_gap_low(self) -> int:
-        "gap_low"
-        return _decode_gap_low(self._read_runs([("holding", 50, 1)]))
+        'gap_low'
+        return _decode_gap_low(self._read_runs([('holding', 50, 1)]))
 
     def write_gap_low(self, value: float) -> None:
-        "gap_low"
-        self._write_runs([("holding", 50, 1)], _encode_gap_low(value))
+        'gap_low'
+        self._write_runs([('holding', 50, 1)], _encode_gap_low(value))
 
     def read_gap_high(self) -> int:
-        "gap_high"
-        return _decode_gap_high(self._read_runs([("holding", 52, 1)]))
+        'gap_high'
+        return _decode_gap_high(self._read_runs([('holding', 52, 1)]))
 
     def write_gap_high(self, value: float) -> None:
-        "gap_high"
-        self._write_runs([("holding", 52, 1)], _encode_gap_high(value))
+        'gap_high'
+        self._write_runs([('holding', 52, 1)], _encode_gap_high(value))
 
     def read_setpoint(self) -> float:
-        "setpoint [\xb0C]"
-        return _decode_setpoint(self._read_runs([("holding", 100, 1)]))
+        'setpoint [\xb0C]'
+        return _decode_setpoint(self._read_runs([('holding', 100, 1)]))
 
     def write_setpoint(self, value: float) -> None:
-        "setpoint [\xb0C]"
-        self._write_runs([("holding", 100, 1)], _encode_setpoint(value))
+        'setpoint [\xb0C]'
+        self._write_runs([('holding', 100, 1)], _encode_setpoint(value))
 
     def read_mode(self) -> int:
-        "mode"
-        return _decode_mode(self._read_runs([("holding", 101, 1)]))
+        'mode'
+        return _decode_mode(self._read_runs([('holding', 101, 1)]))
 
     def write_mode(self, value: float) -> None:
-        "mode"
-        self._write_runs([("holding", 101, 1)], _encode_mode(value))
+        'mode'
+        self._write_runs([('holding', 101, 1)], _encode_mode(value))
 
     def read_label(self) -> str:
-        "label"
-        return _decode_label(self._read_runs([("holding", 102, 4)]))
+        'label'
+        return _decode_label(self._read_runs([('holding', 102, 4)]))
 
     def write_label(self, value: str) -> None:
-        "label"
-        self._write_runs([("holding", 102, 4)], _encode_label(value))
+        'label'
+        self._write_runs([('holding', 102, 4)], _encode_label(value))
 
     def read_status_bit(self) -> float:
-        "status_bit"
-        return _decode_status_bit(self._read_runs([("holding", 110, 1)]))
+        'status_bit'
+        return _decode_status_bit(self._read_runs([('holding', 110, 1)]))
 
     def read_flow(self) -> float:
-        "flow"
-        return _decode_flow(self._read_runs([("holding", 111, 1)]))
+        'flow'
+        return _decode_flow(self._read_runs([('holding', 111, 1)]))
 
     def write_flow(self, value: float) -> None:
-        "flow"
-        self._write_runs([("holding", 111, 1)], _encode_flow(value))
+        'flow'
+        self._write_runs([('holding', 111, 1)], _encode_flow(value))
 
     def read_big(self) -> int:
-        "big"
-        return _decode_big(self._read_runs([("holding", 200, 4)]))
+        'big'
+        return _decode_big(self._read_runs([('holding', 200, 4)]))
 
     def write_big(self, value: float) -> None:
-        "big"
-        self._write_runs([("holding", 200, 4)], _encode_big(value))
+        'big'
+        self._write_runs([('holding', 200, 4)], _encode_big(value))
 
     def read_temp_offset(self) -> float:
-        "temp_offset"
-        return _decode_temp_offset(self._read_runs([("holding", 300, 1)]))
+        'temp_offset'
+        return _decode_temp_offset(self._read_runs([('holding', 300, 1)]))
 
     def write_temp_offset(self, value: float) -> None:
-        "temp_offset"
-        self._write_runs([("holding", 300, 1)], _encode_temp_offset(value))
+        'temp_offset'
+        self._write_runs([('holding', 300, 1)], _encode_temp_offset(value))
 
     def read_serial(self) -> int:
-        "serial"
-        return _decode_serial(self._read_runs([("holding", 400, 2)]))
+        'serial'
+        return _decode_serial(self._read_runs([('holding', 400, 2)]))
 
     def write_serial(self, value: float) -> None:
-        "serial"
-        self._write_runs([("holding", 400, 2)], _encode_serial(value))
+        'serial'
+        self._write_runs([('holding', 400, 2)], _encode_serial(value))
 
     def read_low_byte(self) -> int:
-        "low_byte"
-        return _decode_low_byte(self._read_runs([("holding", 402, 1)]))
+        'low_byte'
+        return _decode_low_byte(self._read_runs([('holding', 402, 1)]))
 
     def write_low_byte(self, value: float) -> None:
-        "low_byte"
-        self._write_runs([("holding", 402, 1)], _encode_low_byte(value))
+        'low_byte'
+        self._write_runs([('holding', 402, 1)], _encode_low_byte(value))
 
     def read_high_byte(self) -> int:
-        "high_byte"
-        return _decode_high_byte(self._read_runs([("holding", 403, 1)]))
+        'high_byte'
+        return _decode_high_byte(self._read_runs([('holding', 403, 1)]))
 
     def write_high_byte(self, value: float) -> None:
-        "high_byte"
-        self._write_runs([("holding", 403, 1)], _encode_high_byte(value))
+        'high_byte'
+        self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
     def _read_plan(self) -> list[int | None]:
         """The registers and bits of the whole read plan, group after group; None where the device
@@ -759,7 +758,7 @@ class AllTables:
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw[offset : offset + group[2]] = self._read(*group)
+                    raw[offset:offset + group[2]] = self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
@@ -768,7 +767,7 @@ class AllTables:
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
-                    raw[at : at + count] = self._read(table, start, count)
+                    raw[at:at + count] = self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -845,140 +844,140 @@ class AsyncAllTables:
     async def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
         i = 0
         for table, start, count in runs:
-            await self._write(table, start, regs[i : i + count])
+            await self._write(table, start, regs[i:i + count])
             i += count
 
     async def read_pump(self) -> bool:
-        "pump"
-        return _decode_pump(await self._read_runs([("coil", 0, 1)]))
+        'pump'
+        return _decode_pump(await self._read_runs([('coil', 0, 1)]))
 
     async def write_pump(self, value: bool) -> None:
-        "pump"
-        await self._write_runs([("coil", 0, 1)], _encode_pump(value))
+        'pump'
+        await self._write_runs([('coil', 0, 1)], _encode_pump(value))
 
     async def read_fan(self) -> bool:
-        "fan"
-        return _decode_fan(await self._read_runs([("coil", 1, 1)]))
+        'fan'
+        return _decode_fan(await self._read_runs([('coil', 1, 1)]))
 
     async def write_fan(self, value: bool) -> None:
-        "fan"
-        await self._write_runs([("coil", 1, 1)], _encode_fan(value))
+        'fan'
+        await self._write_runs([('coil', 1, 1)], _encode_fan(value))
 
     async def write_alarm_reset(self, value: bool) -> None:
-        "alarm_reset"
-        await self._write_runs([("coil", 5, 1)], _encode_alarm_reset(value))
+        'alarm_reset'
+        await self._write_runs([('coil', 5, 1)], _encode_alarm_reset(value))
 
     async def read_door_open(self) -> bool:
-        "door_open"
-        return _decode_door_open(await self._read_runs([("discrete", 0, 1)]))
+        'door_open'
+        return _decode_door_open(await self._read_runs([('discrete', 0, 1)]))
 
     async def read_filter_dirty(self) -> bool:
-        "filter_dirty"
-        return _decode_filter_dirty(await self._read_runs([("discrete", 1, 1)]))
+        'filter_dirty'
+        return _decode_filter_dirty(await self._read_runs([('discrete', 1, 1)]))
 
     async def read_energy(self) -> float:
-        "energy [kWh]"
-        return _decode_energy(await self._read_runs([("input", 0, 2)]))
+        'energy [kWh]'
+        return _decode_energy(await self._read_runs([('input', 0, 2)]))
 
     async def read_power(self) -> float:
-        "power [W]"
-        return _decode_power(await self._read_runs([("input", 2, 2)]))
+        'power [W]'
+        return _decode_power(await self._read_runs([('input', 2, 2)]))
 
     async def read_voltage(self) -> float | None:
-        "voltage [V]"
-        return _decode_voltage(await self._read_runs([("input", 10, 1)]))
+        'voltage [V]'
+        return _decode_voltage(await self._read_runs([('input', 10, 1)]))
 
     async def read_gap_low(self) -> int:
-        "gap_low"
-        return _decode_gap_low(await self._read_runs([("holding", 50, 1)]))
+        'gap_low'
+        return _decode_gap_low(await self._read_runs([('holding', 50, 1)]))
 
     async def write_gap_low(self, value: float) -> None:
-        "gap_low"
-        await self._write_runs([("holding", 50, 1)], _encode_gap_low(value))
+        'gap_low'
+        await self._write_runs([('holding', 50, 1)], _encode_gap_low(value))
 
     async def read_gap_high(self) -> int:
-        "gap_high"
-        return _decode_gap_high(await self._read_runs([("holding", 52, 1)]))
+        'gap_high'
+        return _decode_gap_high(await self._read_runs([('holding', 52, 1)]))
 
     async def write_gap_high(self, value: float) -> None:
-        "gap_high"
-        await self._write_runs([("holding", 52, 1)], _encode_gap_high(value))
+        'gap_high'
+        await self._write_runs([('holding', 52, 1)], _encode_gap_high(value))
 
     async def read_setpoint(self) -> float:
-        "setpoint [\xb0C]"
-        return _decode_setpoint(await self._read_runs([("holding", 100, 1)]))
+        'setpoint [\xb0C]'
+        return _decode_setpoint(await self._read_runs([('holding', 100, 1)]))
 
     async def write_setpoint(self, value: float) -> None:
-        "setpoint [\xb0C]"
-        await self._write_runs([("holding", 100, 1)], _encode_setpoint(value))
+        'setpoint [\xb0C]'
+        await self._write_runs([('holding', 100, 1)], _encode_setpoint(value))
 
     async def read_mode(self) -> int:
-        "mode"
-        return _decode_mode(await self._read_runs([("holding", 101, 1)]))
+        'mode'
+        return _decode_mode(await self._read_runs([('holding', 101, 1)]))
 
     async def write_mode(self, value: float) -> None:
-        "mode"
-        await self._write_runs([("holding", 101, 1)], _encode_mode(value))
+        'mode'
+        await self._write_runs([('holding', 101, 1)], _encode_mode(value))
 
     async def read_label(self) -> str:
-        "label"
-        return _decode_label(await self._read_runs([("holding", 102, 4)]))
+        'label'
+        return _decode_label(await self._read_runs([('holding', 102, 4)]))
 
     async def write_label(self, value: str) -> None:
-        "label"
-        await self._write_runs([("holding", 102, 4)], _encode_label(value))
+        'label'
+        await self._write_runs([('holding', 102, 4)], _encode_label(value))
 
     async def read_status_bit(self) -> float:
-        "status_bit"
-        return _decode_status_bit(await self._read_runs([("holding", 110, 1)]))
+        'status_bit'
+        return _decode_status_bit(await self._read_runs([('holding', 110, 1)]))
 
     async def read_flow(self) -> float:
-        "flow"
-        return _decode_flow(await self._read_runs([("holding", 111, 1)]))
+        'flow'
+        return _decode_flow(await self._read_runs([('holding', 111, 1)]))
 
     async def write_flow(self, value: float) -> None:
-        "flow"
-        await self._write_runs([("holding", 111, 1)], _encode_flow(value))
+        'flow'
+        await self._write_runs([('holding', 111, 1)], _encode_flow(value))
 
     async def read_big(self) -> int:
-        "big"
-        return _decode_big(await self._read_runs([("holding", 200, 4)]))
+        'big'
+        return _decode_big(await self._read_runs([('holding', 200, 4)]))
 
     async def write_big(self, value: float) -> None:
-        "big"
-        await self._write_runs([("holding", 200, 4)], _encode_big(value))
+        'big'
+        await self._write_runs([('holding', 200, 4)], _encode_big(value))
 
     async def read_temp_offset(self) -> float:
-        "temp_offset"
-        return _decode_temp_offset(await self._read_runs([("holding", 300, 1)]))
+        'temp_offset'
+        return _decode_temp_offset(await self._read_runs([('holding', 300, 1)]))
 
     async def write_temp_offset(self, value: float) -> None:
-        "temp_offset"
-        await self._write_runs([("holding", 300, 1)], _encode_temp_offset(value))
+        'temp_offset'
+        await self._write_runs([('holding', 300, 1)], _encode_temp_offset(value))
 
     async def read_serial(self) -> int:
-        "serial"
-        return _decode_serial(await self._read_runs([("holding", 400, 2)]))
+        'serial'
+        return _decode_serial(await self._read_runs([('holding', 400, 2)]))
 
     async def write_serial(self, value: float) -> None:
-        "serial"
-        await self._write_runs([("holding", 400, 2)], _encode_serial(value))
+        'serial'
+        await self._write_runs([('holding', 400, 2)], _encode_serial(value))
 
     async def read_low_byte(self) -> int:
-        "low_byte"
-        return _decode_low_byte(await self._read_runs([("holding", 402, 1)]))
+        'low_byte'
+        return _decode_low_byte(await self._read_runs([('holding', 402, 1)]))
 
     async def write_low_byte(self, value: float) -> None:
-        "low_byte"
-        await self._write_runs([("holding", 402, 1)], _encode_low_byte(value))
+        'low_byte'
+        await self._write_runs([('holding', 402, 1)], _encode_low_byte(value))
 
     async def read_high_byte(self) -> int:
-        "high_byte"
-        return _decode_high_byte(await self._read_runs([("holding", 403, 1)]))
+        'high_byte'
+        return _decode_high_byte(await self._read_runs([('holding', 403, 1)]))
 
     async def write_high_byte(self, value: float) -> None:
-        "high_byte"
-        await self._write_runs([("holding", 403, 1)], _encode_high_byte(value))
+        'high_byte'
+        await self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
     async def _read_plan(self) -> list[int | None]:
         """The registers and bits of the whole read plan, group after group; None where the device
@@ -987,7 +986,7 @@ class AsyncAllTables:
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
-                    raw[offset : offset + group[2]] = await self._read(*group)
+                    raw[offset:offset + group[2]] = await self._read(*group)
                     continue
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
@@ -996,7 +995,7 @@ class AsyncAllTables:
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
-                    raw[at : at + count] = await self._read(table, start, count)
+                    raw[at:at + count] = await self._read(table, start, count)
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
