@@ -52,13 +52,15 @@ def test_a_bundled_function_whose_row_was_skipped_is_a_note(tmp_path):
     """Without the INI's synonyms the user named no function: the row's own warning is the one said."""
     table = tmp_path / "map.csv"
     table.write_text("Address,Description,Format\n0,Room temperature,int99\n1,Humidity,UINT16\n")
-    proc = cli("csv2xml", table, "--all", "--fail-on-warning", "-o", tmp_path / "out.xml")
+    ini = tmp_path / "map.ini"  # a format column the INI names: its unreadable cell skips the row (SPEC 4.1)
+    ini.write_text("[Column/Field Indices]\nformat = Format\n")
+    proc = cli("csv2xml", table, "--ini", ini, "--all", "--fail-on-warning", "-o", tmp_path / "out.xml")
     assert_clean_error(
         proc,
         1,
-        f"{table}:2: warning: row skipped: unknown format 'int99'",
+        f"{table}:2: warning: row skipped: column 2 'Format' format cell 'int99': unknown format 'int99'",
         f"{table}:2: note: room_temperature: line 2 names it (exact 1.00: 'Room temperature') but was "
-        "skipped (unknown format 'int99'); left unmatched",
+        "skipped (column 2 'Format' format cell 'int99': unknown format 'int99'); left unmatched",
         "1 warning and --fail-on-warning",
     )
 
@@ -255,7 +257,7 @@ def test_other_cells_in_a_scale_and_unit_column_are_still_reported(tmp_path, cel
     )
     proc = cli("csv2xml", table, "--ini", ini)
     assert proc.returncode == 0, proc.stderr
-    assert f"{table}:3: warning: row skipped: divisor '{cell}' is not a scale" in proc.stderr
+    assert f"{table}:3: warning: column 2 'unit' divisor cell '{cell}': divisor '{cell}' is not a scale" in proc.stderr
 
 
 @pytest.mark.parametrize("cell", ["None", "-", "n/a"])
@@ -424,8 +426,9 @@ def test_struct_types_that_fill_no_register_are_reported(tmp_path, cell, message
     table.write_text(f"Register Name,Address,Type\nbad,0,{cell}\ngood,1,>H\n")
     proc = cli("csv2xml", table, "--all")
     assert proc.returncode == 0, proc.stderr
-    assert f"{table}:2: warning: row skipped: {message}" in proc.stderr
-    assert list(functions(proc.stdout)) == ["good"]
+    # a format column found by its header never costs a row (SPEC 4.1): kept at the default format
+    assert f"{table}:2: warning: column 2 'Type' format cell '{cell}': {message}" in proc.stderr
+    assert list(functions(proc.stdout)) == ["bad", "good"]
 
 
 def test_word_order_cells_name_the_order_and_native_is_said(tmp_path):

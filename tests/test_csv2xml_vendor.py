@@ -42,12 +42,11 @@ def test_a_divisor_column_divides(tmp_path, sim_factory):
     assert fns["ac_input_voltage"]["multiplier"] == "0.1" and fns["battery_voltage"]["multiplier"] == "0.01"
     assert "multiplier" not in fns["switch_position"]  # a scale factor of 1
     assert fns["ac_input_voltage"]["access"] == "read" and "access" not in fns["current_limit"]  # writable: yes
-    # a divisor that is not a number: the row is reported with its line, and its function with it
-    assert f"{TABLES / 'victron_gx.csv'}:8: warning: row skipped: divisor 'x' is not a scale" in proc.stderr
+    # a divisor that is not a number: reported with its line and column; the row keeps no scale (SPEC 4.1)
     assert (
-        f"{TABLES / 'victron_gx.csv'}:8: warning: state_of_charge: line 8 names it (exact 1.00: 'State of charge') "
-        "but was skipped (divisor 'x' is not a scale"
+        f"{TABLES / 'victron_gx.csv'}:8: warning: column 4 'Scalefactor' divisor cell 'x': divisor 'x' is not a scale"
     ) in proc.stderr
+    assert "multiplier" not in fns["state_of_charge"]
     xml = tmp_path / "out.xml"
     values = read_values(
         sim_factory,
@@ -120,20 +119,26 @@ def test_a_scale_cell_that_is_not_a_number_is_reported(tmp_path, cell):
     table.write_text(f"Address,Description,Type,Multiplier\n0,Room temperature,int16,{cell}\n1,Humidity,uint16,0.5\n")
     proc = cli("csv2xml", table, "--all")
     assert proc.returncode == 0, proc.stderr
-    assert f"{table}:2: warning: row skipped: multiplier '{cell}'" in proc.stderr
+    assert f"{table}:2: warning: column 3 'Multiplier' multiplier cell '{cell}'" in proc.stderr
+    assert "multiplier left at its default (the row is kept)" in proc.stderr  # SPEC 4.1
     fns = functions(proc.stdout)
-    assert list(fns) == ["humidity"] and fns["humidity"]["multiplier"] == "0.5"
+    assert list(fns) == ["room_temperature", "humidity"] and fns["humidity"]["multiplier"] == "0.5"
+    assert "multiplier" not in fns["room_temperature"]
 
 
 def test_bad_divisors_and_two_scales_are_reported_row_by_row(tmp_path):
     proc, fns = convert(tmp_path, "bad_scales.csv", "--all", "--threshold", "1")
     assert proc.returncode == 0, proc.stderr
     path = TABLES / "bad_scales.csv"
-    assert f"{path}:3: warning: row skipped: both a multiplier ('0.1') and a divisor ('10')" in proc.stderr
-    assert f"{path}:4: warning: row skipped: divisor '0' is 0" in proc.stderr
-    assert f"{path}:5: warning: row skipped: multiplier 'mod10k(True)' is not a scale" in proc.stderr
-    assert {name: f.get("multiplier") for name, f in fns.items()} == {"room_temperature": "0.1", "flow": "0.1"}
-    assert "3 skipped" in proc.stderr
+    # each row is kept with no scale (SPEC 4.1: only essential cells cost a row)
+    assert f"{path}:3: warning: both a multiplier ('0.1') and a divisor ('10')" in proc.stderr
+    assert f"{path}:4: warning: column 4 'Divisor' divisor '0' is 0" in proc.stderr
+    assert f"{path}:5: warning: column 3 'Multiplier' multiplier cell 'mod10k(True)'" in proc.stderr
+    assert {name: f.get("multiplier") for name, f in fns.items() if f.get("multiplier")} == {
+        "room_temperature": "0.1",
+        "flow": "0.1",
+    }
+    assert len(fns) == 5 and "0 skipped" in proc.stderr
 
 
 def test_multiplier_and_divisor_naming_one_column_is_an_error(tmp_path):
@@ -249,8 +254,11 @@ def test_volttron_register_map(tmp_path):
     assert (fns["relay"]["addresses"], fns["relay"]["register_type"]) == ("0", "coil")
     assert (fns["alarm"]["addresses"], fns["alarm"]["register_type"]) == ("0", "discrete")
     assert "access" not in fns["demand_interval"]  # Writable TRUE
-    assert f"{TABLES / 'volttron_meter.csv'}:5: warning: row skipped: multiplier 'mod10k(True)'" in proc.stderr
-    assert "energy" not in fns
+    assert (
+        f"{TABLES / 'volttron_meter.csv'}:5: warning: column 5 'Transform' multiplier cell 'mod10k(True)'"
+        in proc.stderr
+    )
+    assert "multiplier" not in fns["energy"]  # kept, its scale at the default (SPEC 4.1)
 
 
 def test_explain_shows_the_tie_break(tmp_path):
@@ -289,8 +297,8 @@ def test_explain_an_unmatched_function_and_a_free_phrase(tmp_path):
     assert proc.returncode == 0, proc.stderr
     out = proc.stdout
     assert "function 'energy': synonyms 'energy delivered', 'energy' (its name); threshold 0.6" in out
-    assert "chosen: no row (its best row, line 5, was skipped)" in out
-    assert "   1. 1.00 exact  line 5: ENERGY DELIVERED  (skipped: multiplier 'mod10k(True)' is not a scale" in out
+    assert "chosen: line 5 (score 1.00)" in out  # its mod10k(True) scale no longer costs the row (SPEC 4.1)
+    assert "   1. 1.00 exact  line 5: ENERGY DELIVERED  <- chosen" in out
     assert "'relay status' is not a function of the INI or the bundled list: scoring it as a synonym" in out
     assert "   1. 0.63 fuzzy  line 8: RELAY 1  (taken by relay)\n" in out
 
@@ -411,5 +419,5 @@ def test_the_summary_counts_rows_and_functions(tmp_path):
     proc = cli("csv2xml", TABLES / "victron_gx.csv", "--ini", TABLES / "victron_gx.ini")
     last = proc.stderr.splitlines()[-1]
     assert (
-        last == f"{TABLES / 'victron_gx.csv'}: note: summary: 7 rows read, 1 skipped; 6 functions matched, 1 unmatched"
+        last == f"{TABLES / 'victron_gx.csv'}: note: summary: 7 rows read, 0 skipped; 7 functions matched, 0 unmatched"
     )

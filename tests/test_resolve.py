@@ -61,12 +61,14 @@ def test_finite_numbers_still_resolve():
     resolve(Device("d", "d", [Function("t", "t", [1], format="UINT16", multiplier=1e300, offset=-1e-300)]))
 
 
-def test_a_csv_cell_beyond_a_double_skips_its_row(tmp_path):
+def test_a_csv_cell_beyond_a_double_is_reported_and_never_read(tmp_path):
     table = tmp_path / "map.csv"
     table.write_text("Address,Description,Multiplier\n0,Room temperature,1e999\n1,Humidity,0.1\n")
     proc = cli("csv2xml", table, "--all")
     assert proc.returncode == 0, proc.stderr
-    assert f"{table}:2: warning: row skipped: multiplier '1e999' is not a finite number" in proc.stderr
+    # a scale cell keeps its row at the default scale (SPEC 4.1), never read as infinity
+    assert f"{table}:2: warning: column 2 'Multiplier' multiplier cell '1e999'" in proc.stderr
+    assert "multiplier '1e999' is not a finite number" in proc.stderr
     assert "inf" not in proc.stdout.lower() and "<multiplier>0.1</multiplier>" in proc.stdout
 
 
@@ -217,7 +219,7 @@ def test_fail_on_warning_on_csv2xml_writes_nothing(tmp_path):
     assert cli("csv2xml", table, "--all", "-o", out).returncode == 0 and out.exists()
     out.unlink()
     proc = cli("csv2xml", table, "--all", "-o", out, "--fail-on-warning")
-    assert_clean_error(proc, 1, "row skipped: unknown format 'int99'", "1 warning and --fail-on-warning")
+    assert_clean_error(proc, 1, "format cell 'int99': unknown format 'int99'", "1 warning and --fail-on-warning")
     assert not out.exists()
 
 

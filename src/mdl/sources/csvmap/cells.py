@@ -84,6 +84,47 @@ def hexify(text: str) -> str:
     return re.sub(r"(?i)(?<![\w:])(?:0x)?([0-9a-f]+)(?!\w)", lambda m: "0x" + m.group(1), text)
 
 
+_BIT_OF = re.compile(r"^\s*([0-9]+|0x[0-9a-fA-F]+)\s*([./])\s*([0-9]{1,2})\s*$")
+_BRACKETED = re.compile(r"^\s*([0-9]+)\s*\(\s*([0-9]+|0x[0-9a-fA-F]+)\s*\)\s*$")
+
+
+@dataclass(frozen=True)
+class AddressCell:
+    """What an address cell says: its wire addresses, the table it names, a bit of the register."""
+
+    addresses: list[int]
+    table: str | None = None
+    bits: str | None = None  # `40001.3`, `40001/3`: register, then bit
+    said: str | None = None  # how a cell that could be read two ways was read (for a note)
+
+
+def read_address_cell(text: str, base: str = "0") -> AddressCell:
+    """An address cell (parse_addresses), also `40001.3` / `40001/3` (register, then bit: `17/18`, whose
+    second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
+    wire address in brackets: the bracket wins, and the two must agree)."""
+    m = _BIT_OF.match(text)
+    if m and int(m.group(3)) <= 15 and (m.group(2) == "." or int(m.group(3)) < int(m.group(1), 0)):
+        addresses, table = parse_addresses(m.group(1), base)
+        said = None
+        if m.group(2) == "/":
+            said = f"'{text.strip()}' read as bit {int(m.group(3))} of register {m.group(1)}, not as a list of two"
+        return AddressCell(addresses, table, str(int(m.group(3))), said)
+    m = _BRACKETED.match(text)
+    if m:
+        number, wire = m.group(1), int(m.group(2), 0)
+        table = MODICON_TABLE[number[0]] if is_modicon_number(number) else None
+        agree = {int(number), int(number) - 1} | ({int(number[1:]) - 1} if table else set())
+        if wire not in agree:
+            raise CellError(
+                f"'{text.strip()}': register {number} and the address {m.group(2)} in brackets disagree "
+                f"({number} is address {int(number[1:]) - 1 if table else int(number) - 1})"
+            )
+        if wire > MAX_ADDRESS:
+            raise CellError(f"address {wire} is over {MAX_ADDRESS}")
+        return AddressCell([wire], table)
+    return AddressCell(*parse_addresses(text, base))
+
+
 def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
     """An address cell -> (wire addresses in order, table named by the cell or None).
 
@@ -93,7 +134,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
     text = text.strip()
     if not text:
         raise CellError("the address cell is empty")
-    parts = [p for p in re.split(r"\s*[,;/&]\s*|\s+and\s+", text) if p]
+    parts = [p for p in re.split(r"\s*[,;/&\n]\s*|\s+and\s+", text) if p]
     addresses: list[int] = []
     table = None
     for part in parts:
@@ -164,6 +205,7 @@ class TypeCell:
     order: str | None = None  # a struct type's byte order, which is its word order too (< reverses all bytes)
     native: bool = False  # '=': the order of the host, read as little-endian
     widthless: bool = False  # INT, UINT ...: no width said, read as one register
+    bits: str | None = None  # `bit 3`, `bool (bit 3)`, `B3`: one bit of a register (format UINT16)
 
 
 def _struct_type(t: str) -> TypeCell | None:
@@ -185,10 +227,30 @@ def _struct_type(t: str) -> TypeCell | None:
     return TypeCell(fmt, order=STRUCT_ORDERS[prefix], native=prefix == "=")
 
 
-def read_type(text: str) -> TypeCell:
-    """A format cell -> TypeCell: the vendors' words (`int16`, `S16`, `float`, `char[8]` ...) and Python
-    struct types (`>I`, `<h`, `>f`, `>xB`, as VOLTTRON's maps write them)."""
+_BIT_CELL = re.compile(r"(?i)^(?:bool(?:ean)?\s*\(\s*bits?\s*([0-9]{1,2})\s*\)|bits?\s*([0-9]{1,2})|b([0-9]{1,2}))$")
+_BIT_RANGE = re.compile(r"(?i)^(?:bits?\s*)?([0-9]{1,2})(?:\s*(?:-|\.\.|to)\s*([0-9]{1,2}))?$")
+
+
+def parse_bit_cell(text: str) -> str:
+    """A cell of a `bits` column (`3`, `0-3`, `bit 3`, `bool (bit 3)`, `B3`) -> MDL bits ("3", "0-3")."""
     t = " ".join(text.strip().split())
+    m = _BIT_CELL.match(t)
+    if m:
+        return str(int(next(g for g in m.groups() if g is not None)))
+    m = _BIT_RANGE.match(t)
+    if m:
+        return str(int(m.group(1))) + (f"-{int(m.group(2))}" if m.group(2) is not None else "")
+    raise CellError(f"unknown bits '{text.strip()}' (expected a bit number such as 3 or B3, or a range 0-3)")
+
+
+def read_type(text: str) -> TypeCell:
+    """A format cell -> TypeCell: the vendors' words (`int16`, `S16`, `float`, `char[8]` ...), Python
+    struct types (`>I`, `<h`, `>f`, `>xB`, as VOLTTRON's maps write them) and a bit of a register
+    (`bit 3`, `bool (bit 3)`, `B3`: UINT16 and its bit)."""
+    t = " ".join(text.strip().split())
+    m = _BIT_CELL.match(t)
+    if m:
+        return TypeCell("UINT16", bits=parse_bit_cell(t))
     found = _struct_type(t)
     if found is not None:
         return found
@@ -200,6 +262,35 @@ def read_type(text: str) -> TypeCell:
         if rx.match(t):
             return TypeCell(fmt, widthless=bool(_WIDTHLESS.match(t)))
     raise CellError(f"unknown format '{text.strip()}'")
+
+
+@dataclass(frozen=True)
+class MappedFormat:
+    """A `[format cells]` value: a format cell, optionally with a count or bits (`STRING 16`, `UINT16 bit 3`)."""
+
+    typed: TypeCell
+    count: int | None = None
+    bits: str | None = None
+
+
+_WITH = re.compile(r"(?i)^(.+?)\s+(?:(bits?\s*[0-9]{1,2}(?:\s*-\s*[0-9]{1,2})?)|([0-9]{1,3}))$")
+
+
+def read_mapped_format(text: str) -> MappedFormat:
+    """`UINT16`, `STRING 16` (16 registers), `UINT16 bit 3`, `UINT32 bits 0-3` -> MappedFormat."""
+    try:
+        return MappedFormat(read_type(text))
+    except CellError:
+        m = _WITH.match(" ".join(text.strip().split()))
+        if m is None:
+            raise
+    typed = read_type(m.group(1))
+    if m.group(2):
+        return MappedFormat(typed, bits=parse_bit_cell(m.group(2)))
+    count = int(m.group(3))
+    if count < 1:
+        raise CellError(f"the count in '{text.strip()}' must be 1 or more")
+    return MappedFormat(typed, count=count)
 
 
 def parse_format(text: str) -> tuple[str, int | None]:
@@ -230,6 +321,8 @@ ACCESS_WORDS = {
     "readonly": "read",
     "read_only": "read",
     "r/o": "read",
+    "r/-": "read",
+    "-/w": "write",
     "rd": "read",
     "w": "write",
     "wo": "write",
@@ -366,6 +459,7 @@ TABLE_WORDS = {
     "coils": "coil",
     "0x": "coil",
     "c": "coil",
+    "co": "coil",
     "coil status": "coil",
     "discrete": "discrete",
     "discrete input": "discrete",
@@ -407,6 +501,7 @@ def parse_table(text: str) -> str:
     `4x`), VOLTTRON's (`analog_output_holding_registers`), function codes (`3`, `FC03`, `0x04`,
     `03/06/16`) and texts naming one (`Read Input Registers (FC04)`)."""
     t = " ".join(text.strip().lower().replace("_", " ").replace("-", " ").split())
+    t = t.removeprefix("modbus ") if t.removeprefix("modbus ") in TABLE_WORDS else t  # MODBUS_INPUT_REGISTER
     if t in TABLE_WORDS:
         return TABLE_WORDS[t]
     parts = [p for p in re.split(r"\s*[,/&+;]\s*|\s+and\s+|\s+", t) if p]

@@ -19,6 +19,7 @@ from mdl.sources.csvmap.cells import (
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.numbers import parse_int, parse_number
 from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
+from mdl.sources.csvmap.vocabulary import mapped
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
 GUESS_ORDER = (
@@ -58,7 +59,7 @@ MOSTLY = 0.8  # a text column whose cells are this much register types is a regi
 
 
 _NAMED_PREFIX = re.compile(r"(?i)\b(?:coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:")
-_ADDRESS_SHAPE = re.compile(r"(?i)^(?=.*\d)[\s0-9a-fx:#,;/&.\-\u2013\u2014]+$")
+_ADDRESS_SHAPE = re.compile(r"(?i)^(?=.*\d)[\s0-9a-fx:#,;/&.()\-\u2013\u2014]+$")
 
 
 def _fits_address(cell: str) -> None:
@@ -149,9 +150,14 @@ def _share(rows: list[Row], index: int, check: Callable[[str], None]) -> tuple[f
     return ok / len(cells), bad
 
 
-def _fits(key: str, rows: list[Row], index: int) -> tuple[bool, str | None]:
-    """Whether the column's cells read as `key`, and the first that does not."""
-    share, bad = _share(rows, index, CHECKS[key])
+def _fits(key: str, rows: list[Row], index: int, maps: dict[str, dict[str, str]]) -> tuple[bool, str | None]:
+    """Whether the column's cells read as `key` (or the INI's [<key> cells] maps them), and the first that does not."""
+
+    def check(cell: str) -> None:
+        if mapped(maps, key, cell) is None:
+            CHECKS[key](cell)
+
+    share, bad = _share(rows, index, check)
     if share < HALF or key not in ("description", "name"):
         return share >= HALF, bad
     tables, _ = _share(rows, index, CHECKS["register_type"])  # text, but not a column of register types
@@ -224,7 +230,7 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
             elif normalize_header(c) in headers:
                 taken.add(headers.index(normalize_header(c)))
     skip = set(given) | (ini.blank_columns if ini else set())
-    _guess(cols, headers, data, taken, skip)
+    _guess(cols, headers, data, taken, skip, ini.cells if ini else {})
     _scale_in_units(cols, data, skip)
     for key in ("multiplier", "divisor"):
         if key in cols.index and cols.index[key] == cols.index.get("units"):
@@ -248,18 +254,20 @@ def _candidates(key: str, headers: list[str], taken: set[int]) -> list[int]:
     return out
 
 
-def _guess(cols: Columns, headers: list[str], data: list[Row], taken: set[int], skip: set[str]) -> None:
+def _guess(
+    cols: Columns, headers: list[str], data: list[Row], taken: set[int], skip: set[str], maps: dict[str, dict[str, str]]
+) -> None:
     for key in GUESS_ORDER:
         if key in skip or (key in cols.index and key != "name"):
             continue
         for i in _candidates(key, headers, taken):
             if i in taken:
                 continue
-            ok, bad = _fits(key, data, i)
+            ok, bad = _fits(key, data, i, maps)
             chosen = key if ok else None
             if not ok:
                 for other in ALTERNATIVES.get(key, ()):
-                    if other not in cols.index and other not in skip and _fits(other, data, i)[0]:
+                    if other not in cols.index and other not in skip and _fits(other, data, i, maps)[0]:
                         chosen = other
                         break
                 line = next((r.line for r in data if r.cell(i) == bad), None)

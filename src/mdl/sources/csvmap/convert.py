@@ -9,10 +9,10 @@ writes is mdl.sources.csvmap.command; where it may write, mdl.sources.csvmap.tar
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.diagnostics import error
+from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model import Device, Function
 from mdl.model.names import unique_identifiers
 from mdl.sources.csvmap.address_base import guess_address_base
@@ -23,10 +23,21 @@ from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
 from mdl.sources.csvmap.report import Progress, Report
-from mdl.sources.csvmap.rows import COMMA, NATIVE, UNIT_ALONE, WIDTHLESS, ParsedRow, RowSettings, parse_row, row_texts
-from mdl.sources.csvmap.scoring import FUZZY, TIER_NAMES, FunctionName
+from mdl.sources.csvmap.rows import (
+    COMMA,
+    NATIVE,
+    UNIT_ALONE,
+    WIDTHLESS,
+    FieldError,
+    ParsedRow,
+    RowSettings,
+    parse_row,
+    row_texts,
+)
+from mdl.sources.csvmap.scoring import EXACT, FUZZY, TIER_NAMES, FunctionName, Score
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
 from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
+from mdl.sources.csvmap.vocabulary import apply_sections
 
 DEFAULT_THRESHOLD = 0.6
 # functions (name -> phrases), the index of the rows, the rows -> the row chosen for each function
@@ -126,6 +137,7 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
         decimal,
         w_alone,
         guessed_base,
+        ini.cells if ini else {},
     )
 
 
@@ -156,6 +168,7 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
     read = 0
     said: set[str] = set()
     notes = _guess_notes(cols)
+    health = Health()
     progress = Progress("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
     report.progress = progress
     for row in data:
@@ -165,20 +178,63 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
             parsed = parse_row(row, cols, st)
         except CellError as exc:
             read += 1
+            if isinstance(exc, FieldError):
+                health.failed.setdefault(exc.key, (str(exc), row.line))
             skipped.append(Skipped(row, row_texts(row, cols), str(exc)))
             report.warn(f"row skipped: {exc}", row.line, file=where)
             continue
         if parsed:
             read += 1
             rows.append(parsed)
+            health.ok.update(parsed.ok)
+            for key, problem in parsed.problems:
+                if key:  # a cell that could not be read (not one read but doubtful)
+                    health.failed.setdefault(key, (problem, row.line))
+                report.warn(problem, row.line, file=where)
             for kind, cell in parsed.guesses.items():
                 if kind not in said:
                     said.add(kind)
                     report.note(notes[kind].format(cell=cell, line=row.line), file=where)
+            for kind, message in parsed.notes:
+                if kind not in said:
+                    said.add(kind)
+                    report.note(message, row.line, file=where)
     if progress:
         progress.close()
     report.progress = None
+    _dead_columns(table, cols, health)
     return Parsed(rows, read, skipped)
+
+
+@dataclass
+class Health:
+    """Which fields' cells were read, and the first that could not be (its message and line)."""
+
+    ok: set[str] = field(default_factory=set)
+    failed: dict[str, tuple[str, int]] = field(default_factory=dict)
+
+
+def _dead_columns(table: Table, cols: Columns, health: Health) -> None:
+    """One error for each column the INI named whose every cell could not be read (SPEC 4.1)."""
+    dead = [
+        (key, message, line)
+        for key, (message, line) in health.failed.items()
+        if key in cols.index and key not in cols.guessed and key not in health.ok
+    ]
+    if dead:
+        raise MdlError(
+            [
+                Diagnostic(
+                    str(table.path),
+                    line,
+                    None,
+                    f"no cell of {cols.describe(cols.index[key])} (named as {key} in the INI) could be read as "
+                    f"{key}, the first on line {line}: {message.split(': ', 1)[-1]}; name another column "
+                    f"or map its cells in [{key} cells]",
+                )
+                for key, message, line in dead
+            ]
+        )
 
 
 def _functions(ini: DeviceIni | None) -> dict[str, list[str]]:
@@ -188,13 +244,41 @@ def _functions(ini: DeviceIni | None) -> dict[str, list[str]]:
             functions[name] = words + [w for w in functions.get(name, []) if w not in words]
     else:
         functions = dict(DEFAULT_SYNONYMS)
+    for name in ini.functions if ini else {}:  # a [function NAME] of no synonyms is searched by its name
+        functions.setdefault(name, [])
     return {name: words + [FunctionName(name.replace("_", " "))] for name, words in functions.items()}
+
+
+def _forced(ini: DeviceIni | None, parsed: Parsed) -> dict[str, int]:
+    """[function NAME] row = N: NAME -> the index of the row on line N (an error if it has none)."""
+    out: dict[str, int] = {}
+    if ini is None:
+        return out
+    at = {r.row.line: i for i, r in enumerate(parsed.rows)}
+    skipped = {s.row.line: s.reason for s in parsed.skipped}
+    for name, fs in ini.functions.items():
+        if "row" not in fs.values:
+            continue
+        line = int(fs.values["row"])
+        if line in skipped:
+            why = f"line {line} of the table was skipped ({skipped[line]})"
+        elif line not in at:
+            why = f"line {line} of the table holds no row with an address"
+        elif at[line] in out.values():
+            why = f"line {line} is already the row of another [function] section"
+        else:
+            out[name] = at[line]
+            continue
+        raise error(f"[function {name}] row = {line}: {why}", ini.path, fs.lines.get("row"))
+    return out
 
 
 def _table_notes(table: Table, ini: DeviceIni | None, report: Report) -> None:
     where = str(table.path)
     if table.encoding_guess:
         report.note(table.encoding_guess.note(ini is not None), file=where)
+    for message in table.notes:  # which table of a Markdown, HTML or Excel file was read
+        report.note(message, file=where)
     if table.markdown:
         report.note(
             "a Markdown table: the | at both ends of each row and the |---| rule are not cells; "
@@ -327,7 +411,18 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         raise error(f"no row of the table has a usable address (addresses read from {col})", csv_path)
 
     functions = _functions(ini)
-    index = Index([r.texts for r in parsed.rows] + [s.texts for s in parsed.skipped])
+    forced = _forced(ini, parsed)
+    taken = set(forced.values())  # rows the INI gave a function: no other function is matched to them
+    index = Index(
+        [[] if i in taken else r.texts for i, r in enumerate(parsed.rows)] + [s.texts for s in parsed.skipped]
+    )
+    for name, row_index in forced.items():
+        report.note(
+            f"{name}: line {parsed.rows[row_index].row.line} of the table, as [function {name}] row says",
+            ini.functions[name].lines.get("row") if ini else None,
+            file=str(ini.path if ini else csv_path),
+        )
+    matching = {name: words for name, words in functions.items() if name not in forced}
     if opts.threshold is not None:
         limit = opts.threshold
     else:
@@ -337,24 +432,27 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     own = bool(ini and ini.synonyms)
     if opts.explain:
         report.flush_notes()
-        matched = _match(functions, index, readable, limit)
+        matched = _match(matching, index, readable, limit)
+        matched.chosen.update({name: Candidate(name, i, Score(EXACT, 1.0)) for name, i in forced.items()})
         skipped = {readable + i: s.reason for i, s in enumerate(parsed.skipped)}
         explain(opts.explain, functions, index, lines, matched.chosen, limit, skipped, matched.lost)
         return None
     if opts.choose is not None:
         report.flush_notes()
-        matched = Matched(opts.choose(functions, index, parsed.rows), {})
+        matched = Matched(opts.choose(matching, index, parsed.rows), {})
     else:
         progress = (
             Progress(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions), percent=True)
             if len(lines) >= LONG_TABLE
             else None
         )
-        matched = _match(functions, index, readable, limit, progress)
+        matched = _match(matching, index, readable, limit, progress)
         if progress:
             progress.close()
-        _say_matches(str(csv_path), functions, index, parsed, matched, limit, lines, opts, own, report)
+        _say_matches(str(csv_path), matching, index, parsed, matched, limit, lines, opts, own, report)
     chosen = matched.chosen
+    for name, row_index in forced.items():
+        chosen[name] = Candidate(name, row_index, Score(EXACT, 1.0))
     missing = [n for n in functions if n not in chosen]
     unreached = [n for n in missing if n not in matched.lost]
     if unreached and own and opts.choose is None:
@@ -364,6 +462,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
             file=str(ini.path if ini else csv_path),
         )
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
+    if ini is not None:
+        apply_sections(ini.functions, str(ini.path), out, report)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
     summary = (
         f"summary: {counted(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "

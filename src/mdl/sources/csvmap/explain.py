@@ -18,11 +18,16 @@ def _one_line(text: str, width: int = 60) -> str:
 
 
 def _reason(phrases: list[str], index: Index, row: int) -> str:
-    pairs = [(score_pair(p, t), p, t.raw) for p in phrases for t in index.texts[row]]
+    pairs = [
+        (score_pair(p, t), p, t.raw, source)
+        for p in phrases
+        for t, source in zip(index.texts[row], index.sources[row], strict=True)
+    ]
     if not pairs:
         return "the row has no text to compare"
-    _, phrase, text = max(pairs, key=lambda item: item[0])
-    return why(phrase, text)
+    _, phrase, text, source = max(pairs, key=lambda item: item[0])
+    cell = "the description cell" if source == 0 else "the name cell"
+    return f"on {cell} '{_one_line(text)}': {why(phrase, text)}"
 
 
 def explain(

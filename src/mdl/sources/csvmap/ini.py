@@ -12,6 +12,15 @@ from mdl.diagnostics import Diagnostic, MdlError
 from mdl.exchange.text import unwritable
 from mdl.fileio import read_bytes
 from mdl.sources.csvmap.table import decode_table
+from mdl.sources.csvmap.vocabulary import (
+    CELL_SECTION,
+    FUNCTION_SECTION,
+    FunctionSection,
+    check_cell_value,
+    check_function_value,
+    quoted_keys,
+    split_synonyms,
+)
 
 COLUMN_KEYS = (
     "name",
@@ -32,6 +41,27 @@ COLUMN_KEYS = (
     "maximum",
     "offset",
     "word_order",
+    "bits",
+)
+# what a [function NAME] section may set (SPEC 4.1)
+FUNCTION_KEYS = (
+    "format",
+    "count",
+    "bits",
+    "multiplier",
+    "divisor",
+    "offset",
+    "units",
+    "register_type",
+    "access",
+    "byte_order",
+    "word_order",
+    "minimum",
+    "maximum",
+    "scale_exponent",
+    "role",
+    "addresses",
+    "row",
 )
 DEVICE_KEYS = (
     "device_name",
@@ -83,6 +113,9 @@ class DeviceIni:
     warnings: list[Diagnostic] = field(default_factory=list)
     notes: list[Diagnostic] = field(default_factory=list)  # guesses made reading the INI itself
     lines: dict[tuple[str, str], int] = field(default_factory=dict)  # (section kind, key) -> its line
+    # [<field> cells]: field -> cell text (trimmed, lower case) -> the text csv2xml reads instead
+    cells: dict[str, dict[str, str]] = field(default_factory=dict)
+    functions: dict[str, FunctionSection] = field(default_factory=dict)  # [function NAME], by NAME
 
     def line(self, kind: str, key: str) -> int | None:
         """The line a key is written on (kind: device, io, columns ...; key in lowercase)."""
@@ -161,6 +194,7 @@ def _codec(value: str) -> str | None:
 
 def read_ini(path: Path) -> DeviceIni:
     text, guess = decode_table(read_bytes(path), path)
+    text, quoted = quoted_keys(text)
     lines = _line_numbers(text)
     parser = _parse(text, path)
     ini = DeviceIni(path=path)
@@ -182,6 +216,38 @@ def read_ini(path: Path) -> DeviceIni:
     base = path.parent
     for section in parser.sections():
         kind = SECTIONS.get(section.strip().lower())
+        cell_field = CELL_SECTION.match(section.strip()) if kind is None else None
+        function = FUNCTION_SECTION.match(section.strip()) if kind is None else None
+        if cell_field and cell_field.group(1).lower() in COLUMN_KEYS:
+            name = cell_field.group(1).lower()
+            for key, raw in parser.items(section):
+                cell = " ".join(quoted.get(key, key).split()).lower()
+                try:
+                    value = check_cell_value(name, (raw or "").strip())
+                except ValueError as exc:
+                    err(section, key, f"[{section}] '{quoted.get(key, key)}': {exc}")
+                    continue
+                ini.cells.setdefault(name, {})[cell] = value
+            continue
+        if cell_field:
+            err(section, None, f"[{section}]: no field '{cell_field.group(1)}' (fields: {', '.join(COLUMN_KEYS)})")
+            continue
+        if function:
+            fs = FunctionSection(function.group(1).strip(), where(section))
+            for key, raw in parser.items(section):
+                lkey, value = key.strip().lower(), (raw or "").strip()
+                if lkey not in FUNCTION_KEYS:
+                    err(section, key, f"[{section}] cannot set '{key}' (it sets {', '.join(FUNCTION_KEYS)})")
+                    continue
+                try:
+                    fs.values[lkey] = check_function_value(lkey, value)
+                except ValueError as exc:
+                    err(section, key, f"[{section}] {lkey} = {value}: {exc}")
+                fs.lines[lkey] = where(section, key) or 0
+            if fs.name in ini.functions:
+                err(section, None, f"function '{fs.name}' has two [function] sections")
+            ini.functions[fs.name] = fs
+            continue
         if kind is None:
             warn(section, None, f"unknown section [{section}] is ignored")
             continue
@@ -198,7 +264,11 @@ def read_ini(path: Path) -> DeviceIni:
                     f"the value of '{key}' goes on over the next line: an indented line continues the one before it",
                 )
             elif kind == "synonyms":
-                words = [w.strip() for w in re.split(r"[,\n]", value) if w.strip()]
+                try:
+                    words = split_synonyms(value)
+                except ValueError as exc:
+                    err(section, key, f"synonyms of '{key}': {exc}")
+                    continue
                 if not words:
                     err(section, key, f"function '{key}' has no synonyms")
                 ini.synonyms[key.strip()] = words

@@ -36,6 +36,8 @@ class Index:
     def __init__(self, row_texts: list[list[str]]) -> None:
         self.rows = len(row_texts)
         self.texts: list[list[Text]] = [[Text(t) for t in texts if t] for texts in row_texts]
+        # where each kept text came from: 0 the description cell, 1... a name column's (rows.row_texts)
+        self.sources: list[list[int]] = [[k for k, t in enumerate(texts) if t] for texts in row_texts]
         self.exact: dict[str, list[int]] = {}
         self.postings: dict[str, set[int]] = {}
         by_length: dict[int, list[tuple[int, int]]] = {}

@@ -40,6 +40,7 @@ class Number:
     unit: str | None = None  # the unit written after the number (`0.1V` -> "V")
     comma: bool = False  # read with a decimal comma the caller did not ask for
     alone: bool = False  # a unit with no number (`W`), read as scale 1 (rows.py, a scale and units column)
+    times: bool = False  # `x10`, `*10`, `×10`: multiply by ten, or stored ten times larger? (read as 10, warned)
 
 
 _UNIT_ALONE = re.compile(rf"^{_UNIT}$")
@@ -147,6 +148,8 @@ def _read(cell: str, decimal: str, what: str, scale: bool) -> Number | None:
                 raise CellError("it divides by 0")
             return Number(_finite(top / bottom, cell, what), _unit(m.group(3)), comma1 or comma2)
         value, comma = _digits_to_float(m.group(1), decimal)
+        if form is _TIMES:
+            return Number(_finite(value, cell, what), None, comma, times=True)
         unit = _unit(m.group(2)) if form is _PLAIN else None
         return Number(_finite(value, cell, what), unit, comma)
     return None

@@ -3,28 +3,37 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import partial
+from typing import TypeVar
 
 from mdl.exchange.text import unwritable
 from mdl.lang.cfrag import FragmentError, check
 from mdl.model import BIT_TABLES, Function
 from mdl.model.layout import LayoutError, layout
-from mdl.resolve.checks import bound_problems
 from mdl.sources.csvmap.cells import (
+    AddressCell,
     CellError,
+    MappedFormat,
     TypeCell,
     hexify,
     is_digits,
     parse_access,
-    parse_addresses,
+    parse_bit_cell,
     parse_length,
     parse_table,
     parse_word_order,
+    read_address_cell,
+    read_mapped_format,
     read_type,
 )
 from mdl.sources.csvmap.columns import Columns
 from mdl.sources.csvmap.numbers import NO_VALUE, Number, parse_int, parse_number, unit_alone
 from mdl.sources.csvmap.table import Row
+from mdl.sources.csvmap.vocabulary import function_problems, mapped
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -37,6 +46,7 @@ class RowSettings:
     decimal: str = "auto"  # auto | point | comma (numbers.parse_number)
     w_alone: str = "write"  # what an access cell `W` means in this table (cells.access_words)
     base_guessed: bool = False  # the address base was guessed (a refused cell says how to set it)
+    cells: dict[str, dict[str, str]] = field(default_factory=dict)  # the INI's [<field> cells] maps
 
 
 # what a row may have had to guess, said once per table with the first cell read so (convert.py)
@@ -50,6 +60,9 @@ class ParsedRow:
     texts: list[str]  # description and name cells, for matching
     label: str  # what --all names it by
     guesses: dict[str, str]  # COMMA, UNIT_ALONE ... -> the cell read so
+    notes: list[tuple[str, str]] = field(default_factory=list)  # (said once per table by this, the note)
+    problems: list[tuple[str, str]] = field(default_factory=list)  # (field, warning): a cell left at its default
+    ok: set[str] = field(default_factory=set)  # fields whose cell was read
 
 
 def row_texts(row: Row, cols: Columns) -> list[str]:
@@ -66,63 +79,159 @@ def _check_writable(fn: Function) -> None:
             raise CellError(f"the {what} holds the character {bad}, which MDL (XML) cannot carry")
 
 
+ESSENTIAL = ("addresses", "register_type", "format", "count")  # a cell of these that cannot be read skips the row
+
+
+class FieldError(CellError):
+    """A cell of one field that cannot be read: the message names the column and the cell."""
+
+    def __init__(self, message: str, key: str) -> None:
+        super().__init__(message)
+        self.key = key
+
+
+class _Cells:
+    """A row's cells by field, as the INI's `[<field> cells]` maps them; what could not be read."""
+
+    def __init__(self, row: Row, cols: Columns, st: RowSettings) -> None:
+        self.row, self.cols, self.st = row, cols, st
+        self.notes: list[tuple[str, str]] = []  # (what it is about, said once per table; the message)
+        self.problems: list[tuple[str, str]] = []  # (field, warning): cells kept at their field's default
+        self.mapped: set[str] = set()  # fields whose cell the INI mapped
+        self.ok: set[str] = set()  # fields whose cell was read
+
+    def raw(self, key: str) -> str:
+        i = self.cols.index.get(key)
+        return self.row.cell(i) if i is not None else ""
+
+    def text(self, key: str) -> str:
+        raw = self.raw(key)
+        found = mapped(self.st.cells, key, raw) if raw and self.st.cells else None
+        if found is None:
+            return raw
+        self.mapped.add(key)
+        self.notes.append(
+            (
+                f"cells {key} {raw.strip().lower()}",
+                f"{key} cell '{raw.strip()}' on line {self.row.line} (and any like it) "
+                f"read as '{found}', as [{key} cells] in the INI says",
+            )
+        )
+        return found
+
+    def read(self, key: str, reader: Callable[[str], T]) -> T | None:
+        """The field read from its cell (None for an empty one); an unreadable essential cell of a named
+        column raises FieldError, any other is a problem and None."""
+        text = self.text(key)
+        if not text:
+            return None
+        try:
+            value = reader(text)
+        except CellError as exc:
+            message = f"{self.cols.describe(self.cols.index[key])} {key} cell '{self.raw(key).strip()}': {exc}"
+            if key in ESSENTIAL and key not in self.cols.guessed:
+                raise FieldError(message, key) from None
+            self.problems.append((key, f"{message}; {key} left at its default (the row is kept)"))
+            return None
+        self.ok.add(key)
+        return value
+
+
+def _bits(cells: _Cells, typed: TypeCell | None, mapped_format: MappedFormat | None, at: AddressCell) -> str | None:
+    """The bits the row says (a bits column, the address cell, the format cell); CellError where two disagree."""
+    said = {
+        "bits column": cells.read("bits", parse_bit_cell),
+        "address": at.bits,
+        "format": (mapped_format.bits if mapped_format else None) or (typed.bits if typed else None),
+    }
+    found = {k: v for k, v in said.items() if v is not None}
+    if len(set(found.values())) > 1:
+        raise FieldError(f"the {' and the '.join(found)} name different bits ({', '.join(found.values())})", "bits")
+    return next(iter(found.values()), None)
+
+
 def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     """None for rows without an address (section titles, notes); CellError for bad rows."""
-    cell = row.cell
+    cells = _Cells(row, cols, st)
     ix = cols.index
-    address_text = cell(ix.get("addresses"))
+    address_text = cells.text("addresses")
     if not address_text:
         return None
     base = st.address_base
     if base == "hex":
         address_text, base = hexify(address_text), "0"
-    column_table = (
-        parse_table(cell(ix["register_type"])) if "register_type" in ix and cell(ix["register_type"]) else None
-    )
+    column_table = cells.read("register_type", parse_table)
     if base == "modicon" and column_table == "coil" and is_digits(address_text) and len(address_text) <= 4:
         address_text = address_text.zfill(5)  # coil number 1 is 00001 without its zeros (VOLTTRON's maps)
     try:
-        addresses, table = parse_addresses(address_text, base)
+        at = read_address_cell(address_text, base)
     except CellError as exc:
         if base == "modicon" and st.base_guessed:
-            raise CellError(
+            raise FieldError(
                 f"{exc}, though the column's other addresses are (read as Modicon numbers: "
-                "set address_base = 0 or 1 in [Modbus Device] if they are not)"
+                "set address_base = 0 or 1 in [Modbus Device] if they are not)",
+                "addresses",
             ) from None
-        raise
+        raise FieldError(str(exc), "addresses") from None
+    cells.ok.add("addresses")
+    if at.said:
+        cells.notes.append(("address bit", f"{at.said} (line {row.line}, and any like it)"))
+    addresses, table = at.addresses, at.table
     if column_table is not None:
         if table and column_table != table:
-            raise CellError(f"address '{address_text}' is a {table} but the register type column says {column_table}")
+            raise FieldError(
+                f"address '{address_text}' is a {table} but the register type column says {column_table}",
+                "register_type",
+            )
         table = column_table
     table = table or st.register_type or "holding"
 
-    typed = read_type(cell(ix["format"])) if "format" in ix and cell(ix["format"]) else None
+    if "format" in cells.mapped or (cells.raw("format") and mapped(st.cells, "format", cells.raw("format"))):
+        mapped_format = cells.read("format", read_mapped_format)
+        typed = mapped_format.typed if mapped_format else None
+    else:
+        mapped_format, typed = None, cells.read("format", read_type)
     fmt, strlen = (typed.format, typed.strlen) if typed else (None, None)
+    bits = _bits(cells, typed, mapped_format, at)
     if table in BIT_TABLES:
         fmt = "BIT" if fmt is not None else None
-    length = parse_length(cell(ix["length"])) if "length" in ix and cell(ix["length"]) else None
+        bits = None
+    length = cells.read("length", parse_length)
     if typed and typed.length:
         if length not in (None, typed.length):
-            raise CellError(
-                f"format '{cell(ix['format'])}' is the {typed.length.lower()} but the length column says {length}"
+            raise FieldError(
+                f"format '{cells.raw('format')}' is the {typed.length.lower()} but the length column says {length}",
+                "format",
             )
         length = typed.length
     unit_bits = 16 if (length or "Full word") == "Full word" else 8
+    counted = cells.read("count", parse_int)
+    if counted is not None and counted < 1:
+        raise FieldError(f"count '{cells.raw('count')}' must be 1 or more", "count")
     count = None
     if len(addresses) > 1:
         count = len(addresses)
+    elif mapped_format and mapped_format.count:
+        count = mapped_format.count
+    elif counted is not None:
+        count = -(-counted * 8 // unit_bits) if st.count_unit == "bytes" else counted
+        if strlen and count != -(-strlen * 8 // unit_bits):
+            cells.notes.append(
+                (
+                    "count over width",
+                    f"format '{cells.raw('format')}' on line {row.line} (and any like it) is "
+                    f"{-(-strlen * 8 // unit_bits)} registers wide but the count column says {count}: the count wins",
+                )
+            )
     elif strlen:
         count = -(-strlen * 8 // unit_bits)
-    elif "count" in ix and cell(ix["count"]):
-        n = parse_int(cell(ix["count"]))
-        if n < 1:
-            raise CellError(f"count '{cell(ix['count'])}' must be 1 or more")
-        count = -(-n * 8 // unit_bits) if st.count_unit == "bytes" else n
     if fmt is None and table not in BIT_TABLES and unit_bits == 16:
         fmt = {1: "UINT16", 2: "UINT32", 4: "UINT64"}.get(count or 1)
     texts = row_texts(row, cols)
+    if "description" in ix:  # the INI may map a description cell too
+        texts[0] = cells.text("description")
     description, names = texts[0], texts[1:]
-    byte_order, word_order, own_order = _orders(row, cols, st, typed)
+    byte_order, word_order, own_order = _orders(cells, st, typed)
     fn = Function(
         name="",
         description=description or (names[0] if names else address_text),
@@ -133,49 +242,61 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         register_type=table if table != "holding" else None,
         byte_order=byte_order if byte_order == "little" else None,
         word_order=word_order if word_order == "little" else None,
+        bits=bits,
         line=row.line,
     )
-    if "block_label" in ix and cell(ix["block_label"]):
-        fn.block_labels = [cell(ix["block_label"])]
-    guesses = _numbers(row, cols, st, fn)
-    if "access" in ix and cell(ix["access"]):
-        access = parse_access(cell(ix["access"]), st.w_alone)
+    label = cells.read("block_label", str)
+    if label:
+        fn.block_labels = [label]
+    guesses = _numbers(cells, st, fn)
+    access = cells.read("access", lambda t: parse_access(t, st.w_alone))
+    if access is not None:
         default = "read" if table in ("input", "discrete") else "read_write"
         if access != default:
             if table in ("input", "discrete"):
-                raise CellError(f"access '{cell(ix['access'])}' is impossible for a {table}")
-            fn.access = access
+                cells.problems.append(
+                    (
+                        "",
+                        f"{cols.describe(ix['access'])} access '{cells.raw('access')}' is impossible for a {table}: "
+                        "read only (the row is kept)",
+                    )
+                )
+            else:
+                fn.access = access
     try:
         lay = layout(fn)
     except LayoutError as exc:
-        raise CellError(str(exc)) from None
+        raise FieldError(str(exc), "format") from None
     if own_order and table in BIT_TABLES:  # a bit has no order: a Mixed Endian cell on a coil row says nothing
         fn.byte_order = fn.word_order = None
     if len(lay.addresses) == 1:
         if own_order:
             fn.word_order = None  # nor has one register a word order
         if typed and typed.widthless and lay.unit == "word":
-            guesses[WIDTHLESS] = cell(ix["format"])
+            guesses[WIDTHLESS] = cells.raw("format")
     if typed and typed.native:
-        guesses[NATIVE] = cell(ix["format"])
-    for problem in bound_problems(fn, lay):
-        raise CellError(problem)
+        guesses[NATIVE] = cells.raw("format")
+    for problem in function_problems(fn, {}):
+        raise FieldError(problem, "bits" if fn.bits else "format")
     for key in ("read_function_code", "write_function_code"):
-        if key in ix and cell(ix[key]):
+        code = cells.text(key)
+        if code:
             try:
-                check(cell(ix[key]), len(lay.addresses))
+                check(code, len(lay.addresses))
             except FragmentError as exc:
                 raise CellError(f"{key}: {exc}") from None
-            setattr(fn, key, cell(ix[key]))
+            setattr(fn, key, code)
     _check_writable(fn)
-    return ParsedRow(row, fn, texts, names[0] if names else description or address_text, guesses)
+    out = ParsedRow(row, fn, texts, names[0] if names else description or address_text, guesses)
+    out.notes, out.problems, out.ok = cells.notes, cells.problems, cells.ok
+    return out
 
 
 def _flip(order: str) -> str:
     return "big" if order == "little" else "little"
 
 
-def _orders(row: Row, cols: Columns, st: RowSettings, typed: TypeCell | None) -> tuple[str | None, str | None, bool]:
+def _orders(cells: _Cells, st: RowSettings, typed: TypeCell | None) -> tuple[str | None, str | None, bool]:
     """(byte order, word order, whether the row itself said the word order). A struct type's prefix
     gives both orders of its row (`<` reverses every byte); a word-order column (`Mixed Endian`)
     reverses the registers from the type's own order (TRUE), keeps it (FALSE), or names the order;
@@ -183,10 +304,9 @@ def _orders(row: Row, cols: Columns, st: RowSettings, typed: TypeCell | None) ->
     byte_order = typed.order if typed and typed.order else st.byte_order
     word_order = typed.order if typed and typed.order else st.word_order
     own = bool(typed and typed.order)
-    i = cols.index.get("word_order")
-    text = row.cell(i) if i is not None else ""
-    if text and text.strip().lower() not in NO_VALUE:
-        said = parse_word_order(text)
+    text = cells.text("word_order")
+    said = cells.read("word_order", parse_word_order) if text and text.strip().lower() not in NO_VALUE else None
+    if said is not None:
         if said.swapped is not None:
             type_order = typed.order if typed and typed.order else "big"
             word_order = _flip(type_order) if said.swapped else type_order
@@ -197,60 +317,99 @@ def _orders(row: Row, cols: Columns, st: RowSettings, typed: TypeCell | None) ->
     return byte_order, word_order, own
 
 
-def _numbers(row: Row, cols: Columns, st: RowSettings, fn: Function) -> dict[str, str]:
+def _numbers(cells: _Cells, st: RowSettings, fn: Function) -> dict[str, str]:
     """Offset, limits, scale and units onto `fn`; what was guessed (a decimal comma, a unit alone in a
-    scale column) with the cell."""
-    ix, guesses = cols.index, dict[str, str]()
+    scale column) with the cell. A cell that cannot be read leaves its field at the default (a problem)."""
+    cols, guesses = cells.cols, dict[str, str]()
     for key in ("offset", "minimum", "maximum"):
-        number = parse_number(row.cell(ix[key]), st.decimal, key) if key in ix else None
+        number = cells.read(key, partial(_number_or_none, decimal=st.decimal, what=key))
         if number is not None:
             if number.comma:
-                guesses.setdefault(COMMA, row.cell(ix[key]))
+                guesses.setdefault(COMMA, cells.raw(key))
             setattr(fn, key, None if key == "offset" and number.value == 0 else number.value)
-    scale, scale_cell = _scale(row, cols, st)
+    scale, scale_cell = _scale(cells, st)
     if scale is not None:
         if scale.comma:
             guesses.setdefault(COMMA, scale_cell)
         if scale.alone:
             guesses[UNIT_ALONE] = scale_cell
         fn.multiplier = None if scale.value == 1 else scale.value
+    units = cells.text("units") if "units" in cols.index else ""
     if cols.scale_has_units:
         fn.units = scale.unit if scale is not None else None
-    elif "units" in ix and row.cell(ix["units"]) and row.cell(ix["units"]).strip().lower() not in NO_VALUE:
-        fn.units = row.cell(ix["units"])
+    elif units and units.strip().lower() not in NO_VALUE:
+        fn.units = units
     return guesses
 
 
-def _scale(row: Row, cols: Columns, st: RowSettings) -> tuple[Number | None, str]:
-    """The row's scale as a multiplier (a divisor d gives 1/d), with the unit written after it, and its cell.
-    In a column that is both the scale and the units (`10V DC`, `0.01s`), a unit alone (`W`) is scale 1."""
-    ix = cols.index
-    cells = {key: row.cell(ix[key]) for key in ("multiplier", "divisor") if key in ix}
-    given: dict[str, Number] = {}
-    for key, text in cells.items():
+def _number_or_none(text: str, decimal: str, what: str) -> Number | None:
+    return parse_number(text, decimal, what)
+
+
+def _scale_of(cells: _Cells, st: RowSettings, key: str) -> Number | None:
+    """One scale cell (multiplier or divisor); `x10` read as 10 with a warning unless the INI maps it."""
+    cols = cells.cols
+
+    def read(text: str) -> Number | None:
         try:
-            n = parse_number(text, st.decimal, key, scale=True)
+            return parse_number(text, st.decimal, key, scale=True)
         except CellError:
-            unit = unit_alone(text) if cols.scale_has_units and ix[key] == ix.get("units") else None
+            unit = unit_alone(text) if cols.scale_has_units and cols.index[key] == cols.index.get("units") else None
             if unit is None:
                 raise
-            n = Number(1.0, unit, alone=True)
-        if n is not None:
-            given[key] = n
-    if len(given) == 2:
-        raise CellError(
-            f"both a multiplier ('{cells['multiplier']}') and a divisor ('{cells['divisor']}'): "
-            "a row is scaled one way, not both"
+            return Number(1.0, unit, alone=True)
+
+    n = cells.read(key, read)
+    if n is not None and n.times and key not in cells.mapped:
+        cells.problems.append(
+            (
+                "",
+                f"{cols.describe(cols.index[key])} {key} cell '{cells.raw(key).strip()}' may mean multiply by "
+                f"{n.value:g} or stored {n.value:g} times larger (divide by {n.value:g}): read as {key} {n.value:g}; "
+                f"map it in [{key} cells] of the INI to say which",
+            )
         )
+    return n
+
+
+def _scale(cells: _Cells, st: RowSettings) -> tuple[Number | None, str]:
+    """The row's scale as a multiplier (a divisor d gives 1/d), with the unit written after it, and its cell.
+    In a column that is both the scale and the units (`10V DC`, `0.01s`), a unit alone (`W`) is scale 1."""
+    ix = cells.cols.index
+    keys = [key for key in ("multiplier", "divisor") if key in ix]
+    given = {key: n for key in keys if (n := _scale_of(cells, st, key)) is not None}
+    raw = {key: cells.raw(key) for key in keys}
+    if len(given) == 2:
+        cells.problems.append(
+            (
+                "",
+                f"both a multiplier ('{raw['multiplier']}') and a divisor ('{raw['divisor']}'): "
+                "a row is scaled one way, not both; no scale read (the row is kept)",
+            )
+        )
+        return None, ""
     if "divisor" in given:
         d = given["divisor"]
-        if d.value == 0:
-            raise CellError(f"divisor '{cells['divisor']}' is 0: no value can be divided by it")
-        multiplier = 1.0 / d.value
+        multiplier = 1.0 / d.value if d.value else 0.0
         if not math.isfinite(multiplier) or multiplier == 0:
-            raise CellError(f"divisor '{cells['divisor']}' is out of range")
-        return Number(multiplier, d.unit, d.comma, d.alone), cells["divisor"]
+            cells.problems.append(
+                (
+                    "",
+                    f"{cells.cols.describe(ix['divisor'])} divisor '{raw['divisor']}' "
+                    f"{'is 0: no value can be divided by it' if d.value == 0 else 'is out of range'}; "
+                    "divisor left at its default (the row is kept)",
+                )
+            )
+            return None, ""
+        return Number(multiplier, d.unit, d.comma, d.alone), raw["divisor"]
     m = given.get("multiplier")
     if m is not None and m.value == 0:
-        raise CellError("multiplier 0 would lose every value")
-    return m, cells.get("multiplier", "")
+        cells.problems.append(
+            (
+                "",
+                f"{cells.cols.describe(ix['multiplier'])} multiplier '{raw['multiplier']}': 0 would lose every value; "
+                "multiplier left at its default (the row is kept)",
+            )
+        )
+        return None, ""
+    return m, raw.get("multiplier", "")
