@@ -173,6 +173,13 @@ def main() -> None:
     metavar="FUNCTION",
     help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).",
 )
+@click.option(
+    "--table",
+    "table_no",
+    type=click.IntRange(min=1),
+    help="Read the Nth table of a .md or .html file (or sheet of an .xlsx; default: the first with an address column).",
+)
+@click.option("--sheet", help="Read this sheet of an .xlsx workbook (default: the first with an address column).")
 @fail_on_warning_option
 def csv2xml(
     source: Path,
@@ -185,8 +192,10 @@ def csv2xml(
     emit_all: bool,
     strict: bool,
     explain: tuple[str, ...],
+    table_no: int | None,
+    sheet: str | None,
 ) -> None:
-    """Convert a vendor register table (CSV) to MDL XML.
+    """Convert a vendor register table (CSV, Markdown, HTML or Excel) to MDL XML.
 
     SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
     name the output (output_xml_file, relative to the INI's folder and inside it).
@@ -203,22 +212,24 @@ def csv2xml(
       mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
     from mdl.sources.csvmap.command import run_csv2xml
+    from mdl.sources.csvmap.documents import chosen
     from mdl.sources.csvmap.target import output_target
 
     _stdin_once([source] + ([ini] if ini else []))
     target = output_target(source, ini, output, allow_outside, force)
     fail_on_warning = bool(click.get_current_context().meta.get(_FAIL_ON_WARNING))
-    run_csv2xml(
-        source,
-        ini,
-        target,
-        interactive,
-        threshold,
-        emit_all,
-        fail_on_warning=fail_on_warning,
-        strict=strict,
-        explain=explain,
-    )
+    with chosen(table_no, sheet):
+        run_csv2xml(
+            source,
+            ini,
+            target,
+            interactive,
+            threshold,
+            emit_all,
+            fail_on_warning=fail_on_warning,
+            strict=strict,
+            explain=explain,
+        )
 
 
 @main.command()

@@ -228,6 +228,7 @@ class Table:
     delimiter_guessed: bool = True
     markdown: bool = False  # a Markdown table: | at both ends of each row, a |---| rule under the header
     encoding_guess: EncodingGuess | None = None  # how the bytes were read, when no one said and not UTF-8
+    notes: list[str] = field(default_factory=list)  # what reading it decided (which table of a document)
 
 
 _RULE = re.compile(r"^\s*:?-{2,}:?\s*$")
@@ -359,6 +360,16 @@ def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[
 
 
 def read_table(path: Path, delimiter: str | None = None, encoding: str | None = None) -> Table:
+    """The table of a CSV/TSV file, or (with no delimiter given) the chosen table of a Markdown, HTML or
+    Excel file (mdl.sources.csvmap.documents)."""
+    from mdl.sources.csvmap import documents
+
+    if documents.is_document(path, delimiter):
+        table = documents.read_document(path, encoding)
+        if not table.rows:
+            raise error("the table has no rows", path)
+        return table
+    documents.refuse_choice(path)
     text, guess = decode_table(read_bytes(path), path, encoding)
     if "\x00" in text:
         line = text[: text.index("\x00")].count("\n") + 1

@@ -1,0 +1,198 @@
+"""Tables as vendors publish them beside CSV: Markdown pipe tables (.md), HTML tables (.html, .htm) and
+Excel workbooks (.xlsx). A document may hold several tables (or sheets): the one read is the one
+`--table N` / `--sheet NAME` names, else the first whose header holds an address column, and a note
+says which. Each becomes a `Table` of rows with the lines messages name: the file's lines (Markdown,
+HTML) or the sheet's row numbers (Excel)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mdl.diagnostics import error
+from mdl.fileio import read_bytes
+from mdl.sources.csvmap.table import Row, Table, decode_table, find_header
+
+MARKDOWN = (".md", ".markdown")
+HTML = (".html", ".htm", ".xhtml")
+EXCEL = (".xlsx", ".xlsm", ".xls")
+LISTED = 8  # tables an error lists with their first cells
+MAX_CELLS = 1_000_000  # of one table or sheet: a register table has thousands
+
+
+@dataclass(frozen=True)
+class Choice:
+    """--table N (1-based) or --sheet NAME, as the command line gave them."""
+
+    table: int | None = None
+    sheet: str | None = None
+
+
+_CHOICE: ContextVar[Choice | None] = ContextVar("table_choice", default=None)
+
+
+@contextmanager
+def chosen(table: int | None, sheet: str | None) -> Iterator[None]:
+    """While converting, read the table or sheet the command line chose."""
+    token = _CHOICE.set(Choice(table, sheet))
+    try:
+        yield
+    finally:
+        _CHOICE.reset(token)
+
+
+def is_document(path: Path, delimiter: str | None = None) -> bool:
+    """Whether read_document reads the file: a .md with a delimiter given in the INI is read as a CSV."""
+    suffix = path.suffix.lower()
+    return suffix in HTML + EXCEL or (suffix in MARKDOWN and delimiter is None)
+
+
+def refuse_choice(path: Path) -> None:
+    """A CSV holds one table: --table or --sheet on one is a mistake, not something to ignore."""
+    choice = _CHOICE.get() or Choice()
+    if choice.table is not None or choice.sheet is not None:
+        option = "--table" if choice.table is not None else "--sheet"
+        raise error(
+            f"{option} chooses among the tables of a .md, .html or .xlsx file; {path.name} is read as one CSV table",
+            path,
+        )
+
+
+@dataclass
+class Candidate:
+    label: str  # how notes name it: "table 2 (line 14, column 3)", "sheet 'Registers'"
+    name: str  # how --table/--sheet name it
+    rows: list[Row]
+    notes: list[str] = field(default_factory=list)  # said if it is the one read
+
+
+def _header_of(path: Path, c: Candidate) -> Row | None:
+    return find_header(Table(path, "", c.rows))
+
+
+def _first_texts(c: Candidate) -> str:
+    cells = [" ".join(x.split()) for x in c.rows[0].cells if x.strip()][:4] if c.rows else []
+    return ", ".join(repr(x[:30]) for x in cells) or "no cells"
+
+
+def pick(path: Path, candidates: list[Candidate], what: str, option: str) -> Candidate:
+    """The candidate the command line names, else the first whose header holds an address column."""
+    choice = _CHOICE.get() or Choice()
+    if not candidates:
+        raise error(f"no {what} with cells in the file", path)
+    listing = "; ".join(f"{c.label}: {_first_texts(c)}" for c in candidates[:LISTED])
+    listing += f"; and {len(candidates) - LISTED} more" if len(candidates) > LISTED else ""
+    wanted = choice.sheet if option == "--sheet" and choice.sheet is not None else None
+    if option == "--table" and choice.sheet is not None:
+        raise error("--sheet chooses a sheet of an Excel workbook; choose a table of this file with --table N", path)
+    if wanted is not None:
+        found = [c for c in candidates if c.name == wanted] or [
+            c for c in candidates if c.name.casefold() == wanted.casefold()
+        ]
+        if not found:
+            names = ", ".join(repr(c.name) for c in candidates)
+            raise error(f"--sheet {wanted!r}: the workbook has no such sheet (its sheets: {names})", path)
+        return _said(found[0], "the one --sheet names")
+    if choice.table is not None:
+        if not 1 <= choice.table <= len(candidates):
+            raise error(f"--table {choice.table}: the file has {len(candidates)} {what}s with cells ({listing})", path)
+        return _said(candidates[choice.table - 1], "the one --table names")
+    with_address = [c for c in candidates if _header_of(path, c) is not None]
+    if with_address:
+        first = with_address[0]
+        why = "the only one" if len(candidates) == 1 else "the first whose header holds an address column"
+        others = len(with_address) - 1
+        more = f" ({others} more hold one)" if others else ""
+        return _said(first, f"{why}{more}; {option} chooses another" if len(candidates) > 1 else why)
+    if len(candidates) == 1:
+        return _said(candidates[0], "the only one, though no header of it looks like an address column")
+    raise error(
+        f"no {what} has a header with an address column ('Address', 'Register', 'Reg No' ...); "
+        f"choose one with {option} ({listing})",
+        path,
+    )
+
+
+def _said(c: Candidate, why: str) -> Candidate:
+    c.notes.insert(0, f"read {c.label}: {why}")
+    return c
+
+
+def read_document(path: Path, encoding: str | None) -> Table:
+    """The chosen table of a Markdown, HTML or Excel file."""
+    suffix = path.suffix.lower()
+    if suffix in EXCEL:
+        chosen_one = pick(path, _excel_candidates(path), "sheet", "--sheet")
+        guess = None
+    else:
+        text, guess = decode_table(read_bytes(path), path, encoding)
+        if suffix in MARKDOWN:
+            chosen_one = pick(path, _markdown_candidates(text), "Markdown table", "--table")
+        else:
+            chosen_one = pick(path, _html_candidates(path, text), "HTML table", "--table")
+    table = Table(
+        path,
+        "|" if suffix in MARKDOWN else "",
+        chosen_one.rows,
+        delimiter_guessed=False,
+        markdown=suffix in MARKDOWN,
+        encoding_guess=guess,
+    )
+    table.notes = chosen_one.notes
+    return table
+
+
+def _markdown_candidates(text: str) -> list[Candidate]:
+    from mdl.sources.csvmap.md_table import markdown_tables
+
+    tables = enumerate(markdown_tables(text), 1)
+    return [Candidate(f"table {n} (line {line})", str(n), rows) for n, (line, rows) in tables]
+
+
+def _html_candidates(path: Path, text: str) -> list[Candidate]:
+    from mdl.sources.csvmap.html_table import grid, html_tables, size
+
+    out = []
+    for n, table in enumerate(html_tables(text), 1):
+        if size(table) > MAX_CELLS:
+            raise error(f"the table has more than {MAX_CELLS:,} cells (colspan and rowspan counted)", path, table.line)
+        g = grid(table)
+        label = f"table {n} (line {table.line}, column {table.col})"
+        lines = g.lines
+        notes = []
+        # rows sharing a line (a minified page): messages name its rows by number instead
+        if any(b <= a for a, b in zip(lines, lines[1:], strict=False)):
+            lines = list(range(1, len(lines) + 1))
+            notes.append(
+                f"rows of {label} share lines of the file: messages name its rows by number "
+                f"(row 1 starts at line {table.rows[0][0].line}, column {table.rows[0][0].col})"
+            )
+        for cell in g.spanned[:1]:
+            notes.append(
+                f"the cell at line {cell.line}, column {cell.col} spans {cell.rowspan} rows (rowspan): "
+                "its text is read on each of them, as is every such cell's"
+            )
+        rows = [Row(line, cells) for line, cells in zip(lines, g.rows, strict=True) if any(c.strip() for c in cells)]
+        out.append(Candidate(label, str(n), rows, notes))
+    return out
+
+
+def _excel_candidates(path: Path) -> list[Candidate]:
+    from mdl.sources.csvmap.xlsx_table import cell_ref, open_book, read_sheet, sheet_names
+
+    book = open_book(path)
+    out = []
+    for name in sheet_names(book):
+        sheet = read_sheet(path, book, name)
+        notes = [f"lines in messages are the sheet's row numbers (line 7 is row 7: {cell_ref(name, 'A7')}, B7 ...)"]
+        if sheet.merged:
+            notes.append(
+                f"merged cell {cell_ref(name, sheet.merged[0])} covers several rows: its text is read on each "
+                "of them, as is every such cell's"
+            )
+        rows = [Row(line, cells) for line, cells in sheet.rows]
+        out.append(Candidate(f"sheet {name!r}", name, rows, notes))
+    return [c for c in out if c.rows]
