@@ -1,5 +1,5 @@
-"""The quality gates CI holds the code to: ruff on src/, tests/ and scripts/, mypy on src/ (configured in
-pyproject.toml), zero findings."""
+"""The quality gates CI holds the code to: ruff's checks and its formatting on src/, tests/, scripts/ and
+bench/, mypy on src/ (configured in pyproject.toml), zero findings."""
 
 from __future__ import annotations
 
@@ -16,7 +16,15 @@ def _tool(module: str) -> None:
         skip_or_fail(f"{module} is not installed (pip install -e '.[test]')")
 
 
-@pytest.mark.parametrize("command", [["ruff", "check", "src", "tests", "scripts"], ["mypy"]], ids=["ruff", "mypy"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["ruff", "check", "src", "tests", "scripts", "bench"],
+        ["ruff", "format", "--check", "src", "tests", "scripts", "bench"],
+        ["mypy"],
+    ],
+    ids=["ruff", "ruff-format", "mypy"],
+)
 def test_src_has_no_findings(command):
     _tool(command[0])
     proc = subprocess.run([sys.executable, "-m", *command], capture_output=True, text=True, cwd=ROOT, timeout=600)
