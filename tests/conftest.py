@@ -207,32 +207,13 @@ def device_xml(functions: str, name: str = "Test Device", version: str | None = 
 
 def fn_xml(name: str, addresses, **fields) -> str:
     """A <function> with the given fields in schema order."""
-    order = [
-        "length",
-        "count",
-        "format",
-        "block_label",
-        "multiplier",
-        "units",
-        "read_function_code",
-        "write_function_code",
-        "register_type",
-        "byte_order",
-        "word_order",
-        "offset",
-        "access",
-        "minimum",
-        "maximum",
-        "not_implemented",
-        "values",
-        "expression",
-        "immutable",
-        "system",
-        "fetch_group",
-        "marker",
-        "precision",
-        "write_multiple",
-    ]
+    from mdl.model import EXTENSION_FIELDS  # the 1.0 elements, in schema order, as the writer uses them
+
+    order = (
+        *("length", "count", "format", "block_label", "multiplier", "units"),
+        *("read_function_code", "write_function_code"),
+        *EXTENSION_FIELDS,
+    )
     body = f"    <name>{name}</name>\n    <description>{name}</description>\n    <addresses>{addresses}</addresses>\n"
     for key in order:
         if key in fields:
