@@ -12,6 +12,7 @@ import subprocess
 import pytest
 from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
 from engines import VOLTTRON, installed_version, require
+from raw_images import TEMCO_RAW
 from refusing_proxy import refusing_proxy
 
 ALL_TABLES = DATA / "all_tables.xml"
@@ -69,24 +70,6 @@ ALL_TABLES_RAW = {
         "110": 0x0008,
         "111": 123,
     },
-}
-TEMCO_RAW = {
-    "holding": {
-        "6": 0xAB07,
-        "7": 0x0112,
-        "121": 0xFF06,
-        "140": 455,
-        "137": 0x0103,
-        "128": 2,
-        "255": 1,
-        "256": 0,
-        "257": 1,
-        "258": 0,
-        "259": 1,
-        "345": 215,
-        "346": 180,
-        "348": 205,
-    }
 }
 
 
