@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import codecs
+import faulthandler
 import os
 import selectors
 import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -159,13 +161,28 @@ def run_mdl(*args, input=None, cwd=None, timeout=60) -> subprocess.CompletedProc
     )
 
 
+# where an in-process run that hangs writes every thread's traceback before it ends the worker (pytest's
+# capture dies with the process; under xdist, as scripts/test runs, the crashed worker's test fails by name)
+HANG_REPORT = Path(tempfile.gettempdir()) / f"mdl-test-hang-{os.getpid()}.txt"
+_hang_report = None
+
+
+def _hang_file():
+    global _hang_report
+    if _hang_report is None:
+        _hang_report = open(HANG_REPORT, "w")  # noqa: SIM115 - open for the life of the worker
+    return _hang_report
+
+
 def cli(*args, input=None, cwd=None, timeout: float = 60) -> subprocess.CompletedProcess:
     """`mdl ARGS` run in-process by click's CliRunner, as run_mdl reports it: returncode, stdout, stderr.
 
     Much faster than a subprocess; for commands that neither serve nor need signals. An exception the CLI
     does not turn into an exit status is raised, never mistaken for exit 1. A run past `timeout` (a hang)
-    ends the worker with every thread's traceback (faulthandler), which fails the test."""
-    import faulthandler
+    ends the worker, which fails the test, with every thread's traceback in HANG_REPORT (faulthandler).
+    What a run may set for its process (the collector's thresholds, pymodbus's log level) is put back."""
+    import gc
+    import logging
     import warnings
 
     from click.testing import CliRunner
@@ -174,7 +191,8 @@ def cli(*args, input=None, cwd=None, timeout: float = 60) -> subprocess.Complete
 
     argv = [str(arg) for arg in args]
     before = os.getcwd()
-    faulthandler.dump_traceback_later(timeout, exit=True)
+    thresholds, pymodbus_level = gc.get_threshold(), logging.getLogger("pymodbus").level  # what a run may set
+    faulthandler.dump_traceback_later(timeout, exit=True, file=_hang_file())
     try:
         if cwd is not None:
             os.chdir(cwd)
@@ -183,6 +201,8 @@ def cli(*args, input=None, cwd=None, timeout: float = 60) -> subprocess.Complete
             result = CliRunner().invoke(main, argv, input=input, prog_name="mdl")
     finally:
         faulthandler.cancel_dump_traceback_later()
+        gc.set_threshold(*thresholds)
+        logging.getLogger("pymodbus").setLevel(pymodbus_level)
         os.chdir(before)
     if result.exception is not None and not isinstance(result.exception, SystemExit):
         raise result.exception

@@ -312,3 +312,17 @@ def test_a_quoted_hash_before_the_heading_is_still_a_product_line(tmp_path):
     proc = cli("import", path)
     assert proc.returncode == 0, proc.stderr
     assert "<manufacturer>Acme</manufacturer>" in proc.stdout
+
+
+def test_a_lone_surrogate_from_a_toolkit_file_is_a_clean_refusal_on_export(tmp_path):
+    """YAML can spell a lone surrogate (\\ud800), which no UTF-8 file can hold: the export says so at
+    the output, exit 1, and leaves no file (a review found a UnicodeEncodeError traceback)."""
+    schema = tmp_path / "s.yaml"
+    schema.write_text(
+        'description: "W\\ud800x"\nblocks:\n  - id: b\n    fields:\n'
+        '      - id: f\n        description: "d"\n        expression: "uint16(hr:0)"\n'
+    )
+    out = tmp_path / "out.mod"
+    proc = run_mdl("export", schema, "--to", "xif", "-o", out)
+    assert_clean_error(proc, 1, f"{out}: error: cannot write: the text holds U+D800")
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]

@@ -7,7 +7,7 @@ import io
 import json
 import time
 
-from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
+from conftest import DATA, EXAMPLE, assert_clean_error, cli, device_xml, fn_xml, run_mdl
 from hostile_server import hostile_server
 
 ALL = DATA / "all_tables.xml"
@@ -196,3 +196,13 @@ def test_a_float32_prints_as_the_shortest_decimal_that_is_the_same_float32(sim_f
     ]
     senml = json.loads(cli("read", ALL, *conn, "power", "--format", "senml").stdout)
     assert [e["v"] for block in senml.values() for e in block["e"]] == [230.1]
+
+
+def test_precision_rounds_a_float32_exactly_once(tmp_path, sim_factory):
+    """The float32 nearest 0.045 is 0.04500000178...: with precision 2 it shows 0.05, rounded from the exact
+    value, not 0.04 from the shortest text 0.045 (a review found the double rounding)."""
+    path = tmp_path / "p.xml"
+    path.write_text(device_xml(fn_xml("level", 0, format="FLOAT32", precision=2)))
+    sim = sim_factory(path, "--set", "level=0.045")
+    proc = cli("read", path, "--host", sim.host, "--port", sim.port)
+    assert proc.stdout.split() == ["level", "0.05"], proc.stdout

@@ -121,7 +121,11 @@ def write_atomic(path: StrPath, content: str | bytes) -> None:
             write_atomic(path, content)
         return
     target = Path(path)
-    data = content.encode("utf-8") if isinstance(content, str) else content
+    try:
+        data = content.encode("utf-8") if isinstance(content, str) else content
+    except UnicodeEncodeError as exc:  # a lone surrogate from an input no writer refused
+        bad = f"U+{ord(exc.object[exc.start]):04X}"
+        raise error(f"cannot write: the text holds {bad}, which no file can carry (UTF-8)", target) from None
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         with _signals_blocked():  # the run knows the temporary file before a signal can stop it

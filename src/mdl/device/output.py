@@ -109,7 +109,7 @@ def _cell(value: Value) -> str:
 
 def _shown_text(fn: Function, value: Value) -> str:
     """The table's text of a value: shown (enumeration text), numbers with the function's precision."""
-    value = shown(fn, value)
+    value = shown(fn, value, exact=fn.precision is not None)  # precision rounds the exact value, once
     if fn.precision is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
         return with_precision(value, fn.precision)
     return _text(value)

@@ -12,6 +12,7 @@ stdout. An INI is input like any other, so the file it names is held to rules:
 from __future__ import annotations
 
 import os
+import stat
 from pathlib import Path
 
 from lxml import etree
@@ -35,13 +36,14 @@ def output_target(
         if str(output) == STDIO_ARG:
             return None
         _check_not_input(output, inputs, None, None)  # -o is the user's own word: it may replace other files
+        _check_kind(output, "-o", output, None)
         return output
     if ini is None or ini.output_file is None:
         return None
     target = ini.output_file
     line = ini.line("io", "output_xml_file")
-    folder = source.parent.resolve()
-    resolved = target.resolve()
+    folder = _resolved(source.parent, source, line)
+    resolved = _resolved(target, source, line)
     if not allow_outside and not resolved.is_relative_to(folder):
         raise error(
             f"output_xml_file names {resolved}, outside the INI's folder {folder}; "
@@ -72,11 +74,40 @@ def _check_not_input(target: Path, inputs: list[Path], ini: Path | None, line: i
             )
 
 
+def _resolved(path: Path, file: Path, line: int | None) -> Path:
+    """`path` with its links and `..` resolved; an error at `file`:`line` for a link that loops."""
+    try:
+        return path.resolve()
+    except (OSError, RuntimeError) as exc:  # Python 3.11 raises RuntimeError for a symbolic link loop
+        raise error(f"{path}: cannot follow its symbolic links ({exc})", file, line) from None
+
+
+def _check_kind(target: Path, named_by: str, file: Path, line: int | None) -> None:
+    """Refuse an output that is not a file csv2xml can replace whole: a folder, a FIFO, a device (writing
+    the output beside it and renaming it over it would replace /dev/null itself)."""
+    try:
+        mode = target.stat().st_mode
+    except FileNotFoundError:
+        if target.name in ("", ".", ".."):
+            raise error(f"{named_by} names {target}, a folder: give a file name", file, line) from None
+        return
+    except (OSError, RuntimeError) as exc:
+        raise error(f"{named_by} names {target}: {exc}", file, line) from None
+    if stat.S_ISDIR(mode):
+        raise error(f"{named_by} names {target}, a folder: give a file name", file, line)
+    if not stat.S_ISREG(mode):
+        raise error(
+            f"{named_by} names {target}, which is not a regular file (a FIFO or a device): mdl csv2xml replaces "
+            "its output whole; write to standard output (-o -) and redirect it there",
+            file,
+            line,
+        )
+
+
 def _check_replace(target: Path, force: bool, ini: Path, line: int | None) -> None:
+    _check_kind(target, "output_xml_file", ini, line)
     if force or not target.exists():
         return
-    if target.is_dir():
-        raise error(f"output_xml_file names {target}, a folder", ini, line)
     if not is_mdl_document(target):
         raise error(
             f"output_xml_file names {target}, which exists and is not an MDL document (an earlier output "
@@ -130,5 +161,5 @@ def _same_file(a: Path, b: Path) -> bool:
     or the same inode (a hard link)."""
     try:
         return a.resolve() == b.resolve() or (a.exists() and b.exists() and a.samefile(b))
-    except OSError:
+    except (OSError, RuntimeError):  # a link that loops is no input (the write then says what it is)
         return False
