@@ -324,5 +324,29 @@ def test_a_lone_surrogate_from_a_toolkit_file_is_a_clean_refusal_on_export(tmp_p
     )
     out = tmp_path / "out.mod"
     proc = run_mdl("export", schema, "--to", "xif", "-o", out)
-    assert_clean_error(proc, 1, f"{out}: error: cannot write: the text holds U+D800")
+    assert_clean_error(proc, 1, f"{schema}: error: its #description holds U+D800, which a .mod cell cannot carry")
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["s.yaml"]
+
+
+def test_a_nul_in_a_toolkit_description_is_refused_by_the_xif_export(tmp_path):
+    """YAML can spell NUL (\\x00), which MDL cannot carry and mdl import refuses in a .mod cell: the export
+    names it instead of writing it raw into the #description line."""
+    schema = tmp_path / "n.yaml"
+    schema.write_text(
+        'description: "W\\x00x"\nblocks:\n  - id: b\n    fields:\n'
+        '      - id: f\n        description: "d"\n        expression: "uint16(hr:0)"\n'
+    )
+    out = tmp_path / "n.mod"
+    proc = run_mdl("export", schema, "--to", "xif", "-o", out)
+    assert_clean_error(proc, 1, "holds U+0000, which a .mod cell cannot carry")
+    assert not out.exists()
+
+
+def test_write_atomic_refuses_text_no_file_can_hold(tmp_path):
+    """The last guard for every writer: a lone surrogate is an error naming the file, and nothing is left."""
+    from mdl.diagnostics import MdlError
+    from mdl.fileio import write_atomic
+
+    with pytest.raises(MdlError, match="cannot write: the text holds U\\+D800, which no file can carry"):
+        write_atomic(tmp_path / "x.txt", "a\ud800")
+    assert list(tmp_path.iterdir()) == []

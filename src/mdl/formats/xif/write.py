@@ -26,6 +26,7 @@ from pathlib import Path
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.exchange.export import Export, Settings
 from mdl.exchange.notes import LeftOut, Lost, Notes, bits_detail, factor_detail
+from mdl.exchange.text import unwritable
 from mdl.formats.xif import columns as C
 from mdl.formats.xif.scaling import decimal_text, points
 from mdl.model import Function
@@ -156,6 +157,9 @@ def _text(value: str, what: str, prose: bool) -> tuple[str, list[tuple[str, str,
     break of any kind would start a row for some reader: prose (a description) is put on one line, any
     other text refused; a text a spreadsheet would run as a formula gets a `'` before it."""
     said: list[tuple[str, str, str]] = []  # (message, detail, severity)
+    control = unwritable(value)  # NUL, a lone surrogate: what mdl import (and MDL) refuses to read back
+    if control is not None:
+        return value, said, f"its {what} holds {control}, which a .mod cell cannot carry: change the {what}"
     bad = C.line_break(value)
     if bad is not None:
         if not prose:
