@@ -315,8 +315,8 @@ def test_a_quoted_hash_before_the_heading_is_still_a_product_line(tmp_path):
 
 
 def test_a_lone_surrogate_from_a_toolkit_file_is_a_clean_refusal_on_export(tmp_path):
-    """YAML can spell a lone surrogate (\\ud800), which no UTF-8 file can hold: the export says so at
-    the output, exit 1, and leaves no file (a review found a UnicodeEncodeError traceback)."""
+    """YAML can spell a lone surrogate (\\ud800), which no UTF-8 file can hold: the export names it, exit 1,
+    and leaves no file (a review found a UnicodeEncodeError traceback)."""
     schema = tmp_path / "s.yaml"
     schema.write_text(
         'description: "W\\ud800x"\nblocks:\n  - id: b\n    fields:\n'
