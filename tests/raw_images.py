@@ -1,6 +1,6 @@
-"""Raw register images the engine tests serve with `mdl sim --registers` (wire addresses), so that each
-engine reads the same device as `mdl read`: every table of tests/data/all_tables.xml, and the TEMCO
-thermostat of examples/."""
+"""What the tests serve: raw register images for `mdl sim --registers` (wire addresses), so that each
+engine reads the same device as `mdl read` (every table of tests/data/all_tables.xml, and the TEMCO
+thermostat of examples/), and the `--set` values the drivers' tests give all_tables.xml."""
 
 ALL_TABLES_RAW = {
     "coil": {"0": 1, "1": 0, "5": 1},
@@ -44,3 +44,33 @@ TEMCO_RAW = {
         "348": 205,
     }
 }
+
+# every writable function of tests/data/all_tables.xml, as the driver tests seed it
+ALL_SETTINGS = [
+    "--set",
+    "setpoint=21.5",
+    "--set",
+    "mode=Cool",
+    "--set",
+    "label=Hall",
+    "--set",
+    "energy=1234.567",
+    "--set",
+    "power=-12.5",
+    "--set",
+    "big=-5000000000",
+    "--set",
+    "temp_offset=-10",
+    "--set",
+    "serial=305419896",
+    "--set",
+    "low_byte=-3",
+    "--set",
+    "high_byte=200",
+    "--set",
+    "pump=1",
+    "--set",
+    "flow=12.3",
+    "--set",
+    "door_open=1",
+]

@@ -28,6 +28,7 @@ from cpp_harness import (
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
+from raw_images import ALL_SETTINGS
 from test_cfrag import READS as CFRAG_READS
 from test_cfrag import WRITES as CFRAG_WRITES
 
@@ -38,34 +39,6 @@ from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"
-ALL_SETTINGS = [
-    "--set",
-    "setpoint=21.5",
-    "--set",
-    "mode=Cool",
-    "--set",
-    "label=Hall",
-    "--set",
-    "energy=1234.567",
-    "--set",
-    "power=-12.5",
-    "--set",
-    "big=-5000000000",
-    "--set",
-    "temp_offset=-10",
-    "--set",
-    "serial=305419896",
-    "--set",
-    "low_byte=-3",
-    "--set",
-    "high_byte=200",
-    "--set",
-    "pump=1",
-    "--set",
-    "flow=12.3",
-    "--set",
-    "door_open=1",
-]
 
 
 def same(a, b) -> bool:

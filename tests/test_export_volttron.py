@@ -12,6 +12,7 @@ import subprocess
 import pytest
 from conftest import DATA, EXAMPLE, assert_clean_error, cli, fn_xml, run_mdl
 from engines import VOLTTRON, installed_version, require
+from raw_images import ALL_TABLES_RAW as SHARED_ALL_TABLES_RAW
 from raw_images import TEMCO_RAW
 from refusing_proxy import refusing_proxy
 
@@ -44,33 +45,11 @@ for point, value in writes.items():
 print(json.dumps({"before": before, "after": interface.scrape_all()}))
 """
 
-# raw registers with every byte in use: a value read from the wrong byte or word cannot pass
-ALL_TABLES_RAW = {
-    "coil": {"0": 1, "1": 0, "5": 0},
-    "discrete": {"0": 0, "1": 1},
-    "input": {"0": 0x5678, "1": 0x1234, "2": 0x4049, "3": 0x0FDB, "10": 2301},
-    "holding": {
-        "50": 65535,
-        "52": 7,
-        "100": 0xFF38,
-        "101": 2,
-        "102": 0x4142,
-        "103": 0x4320,
-        "104": 0,
-        "105": 0,
-        "200": 0xFFFF,
-        "201": 0xFFFE,
-        "202": 0x1234,
-        "203": 0x5678,
-        "300": 100,
-        "400": 0x1122,
-        "401": 0x3344,
-        "402": 0x7F85,
-        "403": 0xC812,
-        "110": 0x0008,
-        "111": 123,
-    },
-}
+# raw registers with every byte in use (a value read from the wrong byte or word cannot pass): the other
+# engines' image with coil 5 (alarm_reset) clear, another holding 300, and status_bit and flow (110, 111)
+ALL_TABLES_RAW = {table: dict(values) for table, values in SHARED_ALL_TABLES_RAW.items()}
+ALL_TABLES_RAW["coil"]["5"] = 0
+ALL_TABLES_RAW["holding"].update({"300": 100, "110": 0x0008, "111": 123})
 
 
 def export(path, out, *extra):

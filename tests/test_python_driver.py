@@ -10,6 +10,7 @@ import pytest
 from conftest import DATA, EXAMPLE, fn_xml, import_generated, run_mdl
 from hostile_server import MODES, hostile_server
 from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
+from raw_images import ALL_SETTINGS
 
 ALL = DATA / "all_tables.xml"
 
@@ -23,33 +24,7 @@ def all_tables(tmp_path_factory):
 
 
 def test_sync_driver_reads_and_writes(all_tables, sim_factory):
-    sim = sim_factory(
-        ALL,
-        "--set",
-        "setpoint=21.5",
-        "--set",
-        "mode=Cool",
-        "--set",
-        "label=Hall",
-        "--set",
-        "energy=1234.567",
-        "--set",
-        "power=-12.5",
-        "--set",
-        "big=-5000000000",
-        "--set",
-        "temp_offset=-10",
-        "--set",
-        "serial=305419896",
-        "--set",
-        "low_byte=-3",
-        "--set",
-        "high_byte=200",
-        "--set",
-        "pump=1",
-        "--set",
-        "flow=12.3",
-    )
+    sim = sim_factory(ALL, *ALL_SETTINGS)
     client = ModbusTcpClient(sim.host, port=sim.port, timeout=5)
     assert client.connect()
     try:
