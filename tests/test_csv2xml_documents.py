@@ -261,9 +261,9 @@ def test_table_option_chooses(tmp_path):
     second = run_mdl("csv2xml", md, "--ini", ini, "--table", "2")
     assert second.returncode == 0, second.stderr
     assert _functions(second.stdout)["room_temperature"]["addresses"] == "5"
-    assert "read table 2 (line 11): the one --table names" in second.stderr
+    assert "read table 2 (line 11): the one --table 2 names" in second.stderr
     assert_clean_error(run_mdl("csv2xml", md, "--ini", ini, "--table", "3"), 1, "--table 3: the file has 2")
-    assert_clean_error(run_mdl("csv2xml", md, "--ini", ini, "--sheet", "x"), 1, "--sheet chooses a sheet")
+    assert_clean_error(run_mdl("csv2xml", md, "--ini", ini, "--sheet", "x"), 1, "--sheet 'x' chooses a sheet")
     assert run_mdl("csv2xml", md, "--ini", ini, "--table", "0").returncode == 2
 
 
@@ -284,6 +284,71 @@ def test_sheet_option_chooses(tmp_path):
     assert_clean_error(run_mdl("csv2xml", path, "--ini", ini, "--sheet", "Nope"), 1, "its sheets: 'A', 'Second'")
     by_number = run_mdl("csv2xml", path, "--ini", ini, "--table", "2")  # on a workbook, the Nth sheet
     assert _functions(by_number.stdout)["room_temperature"]["addresses"] == "9"
+
+
+def _ini_with(tmp_path: Path, io: str) -> Path:
+    """SIMPLE_INI with lines added to its [Input/Output] section."""
+    ini = tmp_path / f"chosen{len(list(tmp_path.glob('chosen*.ini')))}.ini"
+    ini.write_text(f"[Input/Output]\n{io}\n" + SIMPLE_INI)
+    return ini
+
+
+def test_the_ini_chooses_the_table_and_the_command_line_wins(tmp_path):
+    """`table = N` / `sheet = NAME` in [Input/Output] choose as --table/--sheet do; given both, the
+    command line's is read and a note says the INI's was not; a choice the file cannot meet is an
+    error at the INI's line."""
+    md = tmp_path / "t.md"
+    md.write_text(TWO_TABLES)
+    ini = _ini_with(tmp_path, "table = 2")
+    proc = run_mdl("csv2xml", md, "--ini", ini)
+    assert proc.returncode == 0, proc.stderr
+    assert _functions(proc.stdout)["room_temperature"]["addresses"] == "5"
+    assert "read table 2 (line 11): the one table = 2 in the INI names" in proc.stderr
+    both = run_mdl("csv2xml", md, "--ini", ini, "--table", "1")
+    assert _functions(both.stdout)["room_temperature"]["addresses"] == "0"
+    assert f"{ini}:2: note: --table 1 is read instead of the INI's table = 2" in both.stderr
+    far = _ini_with(tmp_path, "table = 7")
+    assert_clean_error(run_mdl("csv2xml", md, "--ini", far), 1, f"{far}:2: error: table = 7 in the INI: the file has 2")
+    bad = _ini_with(tmp_path, "table = second")
+    assert_clean_error(run_mdl("csv2xml", md, "--ini", bad), 1, "table must be a table's number, 1 or more")
+    csv_path = tmp_path / "t.csv"
+    csv_path.write_text("Register,Description\n0,Room temperature\n")
+    assert_clean_error(run_mdl("csv2xml", csv_path, "--ini", ini), 1, f"{ini}:2: error:", "read as one CSV table")
+
+
+def test_the_ini_chooses_the_sheet(tmp_path):
+    book = openpyxl.Workbook()
+    book.active.title = "A"
+    book.active.append(["Register", "Description"])
+    book.active.append([0, "Room temperature"])
+    other = book.create_sheet("Modbus map")
+    other.append(["Register", "Description"])
+    other.append([9, "Room temperature"])
+    path = tmp_path / "t.xlsx"
+    book.save(path)
+    proc = run_mdl("csv2xml", path, "--ini", _ini_with(tmp_path, "sheet = Modbus map"))
+    assert proc.returncode == 0, proc.stderr
+    assert _functions(proc.stdout)["room_temperature"]["addresses"] == "9"
+    missing = _ini_with(tmp_path, "sheet = Registers")
+    assert_clean_error(
+        run_mdl("csv2xml", path, "--ini", missing), 1, f"{missing}:2: error: sheet = 'Registers' in the INI"
+    )
+
+
+def test_quiet_prints_warnings_only(tmp_path):
+    """--quiet: no notes, no summary, no 'wrote' line; warnings still print and --strict still counts them."""
+    md = tmp_path / "t.md"
+    md.write_text(TWO_TABLES + "\n| Register | Description |\n|---|---|\n| 1 | Fan speed |\n| x | Humidity |\n")
+    out = tmp_path / "out.xml"
+    loud = run_mdl("csv2xml", md, "--ini", _ini(tmp_path), "--table", "3", "-o", out)
+    assert loud.returncode == 0 and "note: summary" in loud.stderr and "wrote" in loud.stderr
+    quiet = run_mdl("csv2xml", md, "--ini", _ini(tmp_path), "--table", "3", "-o", out, "--quiet")
+    assert quiet.returncode == 0, quiet.stderr
+    lines = quiet.stderr.splitlines()
+    assert lines and all(": warning: " in line for line in lines), quiet.stderr
+    assert out.read_text().count("<function>") >= 1
+    strict = run_mdl("csv2xml", md, "--ini", _ini(tmp_path), "--table", "3", "-q", "--strict")
+    assert_clean_error(strict, 1, "--strict: nothing written")
 
 
 def test_no_table_with_an_address_column(tmp_path):

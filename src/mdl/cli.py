@@ -180,6 +180,7 @@ def main() -> None:
     help="Read the Nth table of a .md or .html file (or sheet of an .xlsx; default: the first with an address column).",
 )
 @click.option("--sheet", help="Read this sheet of an .xlsx workbook (default: the first with an address column).")
+@click.option("-q", "--quiet", is_flag=True, help="Print no notes, summary or progress: only warnings and errors.")
 @fail_on_warning_option
 def csv2xml(
     source: Path,
@@ -194,6 +195,7 @@ def csv2xml(
     explain: tuple[str, ...],
     table_no: int | None,
     sheet: str | None,
+    quiet: bool,
 ) -> None:
     """Convert a vendor register table (CSV, Markdown, HTML or Excel) to MDL XML.
 
@@ -229,6 +231,7 @@ def csv2xml(
             fail_on_warning=fail_on_warning,
             strict=strict,
             explain=explain,
+            quiet=quiet,
         )
 
 

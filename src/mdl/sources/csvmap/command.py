@@ -41,15 +41,16 @@ def run_csv2xml(
     fail_on_warning: bool = False,
     strict: bool = False,
     explain: tuple[str, ...] = (),
+    quiet: bool = False,
 ) -> None:
     """Convert and write to `output` (None: stdout; chosen and checked by csvmap/target.py); with
     fail_on_warning (--strict, --fail-on-warning), a warning (a skipped row, an unmatched function, an
     unknown INI key) is an error: nothing is written, exit 1. With `explain`, print each named
-    function's nearest rows to stdout instead of writing MDL."""
+    function's nearest rows to stdout instead of writing MDL. Quiet: warnings and errors only."""
     from mdl.resolve import resolve as resolve_device
     from mdl.sources.csvmap.interactive import choose_rows
 
-    report = Report()
+    report = Report(quiet)
     ini = None
     csv_given: Path | None = source
     if ini_path is None and is_ini(source):
@@ -87,6 +88,7 @@ def run_csv2xml(
         sys.stdout.flush()
     else:
         write_atomic(output, xml)
-        click.echo(
-            f"wrote {output}: {counted(len(device.functions), 'function')}, MDL {device.schema_version}", err=True
-        )
+        if not quiet:
+            click.echo(
+                f"wrote {output}: {counted(len(device.functions), 'function')}, MDL {device.schema_version}", err=True
+            )

@@ -19,6 +19,7 @@ from mdl.sources.csvmap.address_base import guess_address_base
 from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
 from mdl.sources.csvmap.count_unit import count_unit
+from mdl.sources.csvmap.documents import ini_choice
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
@@ -169,7 +170,7 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
     said: set[str] = set()
     notes = _guess_notes(cols)
     health = Health()
-    progress = Progress("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
+    progress = report.bar("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
     report.progress = progress
     for row in data:
         if progress:
@@ -390,9 +391,22 @@ def _say_matches(
             report.note(message, line, file=where)
 
 
+def _read_chosen(csv_path: Path, ini: DeviceIni | None, report: Report) -> Table:
+    """The table, with the INI's `table`/`sheet` choosing among a document's tables unless the
+    command line chose."""
+    if ini is None:
+        return read_table(csv_path)
+    key = "table" if ini.table is not None else "sheet"
+    where = (ini.path or csv_path, ini.line("io", key))
+    with ini_choice(ini.table, ini.sheet, where) as overridden:
+        if overridden:
+            report.note(overridden, where[1], file=str(where[0]))
+        return read_table(csv_path, ini.delimiter, ini.encoding)
+
+
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
     """The device the table describes (None with --explain, which prints instead)."""
-    table = read_table(csv_path, ini.delimiter if ini else None, ini.encoding if ini else None)
+    table = _read_chosen(csv_path, ini, report)
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
     if "addresses" not in cols.index:
@@ -442,7 +456,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         matched = Matched(opts.choose(matching, index, parsed.rows), {})
     else:
         progress = (
-            Progress(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions), percent=True)
+            report.bar(f"mdl csv2xml: matching {counted(len(functions), 'function')}", 2 * len(functions), percent=True)
             if len(lines) >= LONG_TABLE
             else None
         )

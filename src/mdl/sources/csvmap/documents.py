@@ -12,7 +12,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.diagnostics import error
+from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
 from mdl.sources.csvmap.table import Row, Table, decode_table, find_header
 
@@ -25,10 +25,21 @@ MAX_CELLS = 1_000_000  # of one table or sheet: a register table has thousands
 
 @dataclass(frozen=True)
 class Choice:
-    """--table N (1-based) or --sheet NAME, as the command line gave them."""
+    """--table N (1-based) or --sheet NAME as the command line gave them, or the INI's `table`/`sheet`
+    keys of [Input/Output] (`where`: the INI and the key's line, where a refusal points)."""
 
     table: int | None = None
     sheet: str | None = None
+    where: tuple[Path, int | None] | None = None
+
+    def said(self, option: str) -> str:
+        """How messages name the choice: `--table 2`, or `table = 2 in the INI`."""
+        value = self.table if option == "--table" else repr(self.sheet)
+        return f"{option} {value}" if self.where is None else f"{option[2:]} = {value} in the INI"
+
+    def fail(self, message: str, path: Path) -> MdlError:
+        """An error at the INI line that chose, else about the table's file."""
+        return error(message, *self.where) if self.where is not None else error(message, path)
 
 
 _CHOICE: ContextVar[Choice | None] = ContextVar("table_choice", default=None)
@@ -44,6 +55,26 @@ def chosen(table: int | None, sheet: str | None) -> Iterator[None]:
         _CHOICE.reset(token)
 
 
+@contextmanager
+def ini_choice(table: int | None, sheet: str | None, where: tuple[Path, int | None]) -> Iterator[str | None]:
+    """While reading the table, the INI's `table`/`sheet` choose unless the command line chose; yields
+    a note when the command line overrides the INI, else None."""
+    given = _CHOICE.get() or Choice()
+    if table is None and sheet is None:
+        yield None
+        return
+    if given.table is not None or given.sheet is not None:
+        option, value = ("--table", given.table) if given.table is not None else ("--sheet", repr(given.sheet))
+        key, kept = ("table", table) if table is not None else ("sheet", repr(sheet))
+        yield f"{option} {value} is read instead of the INI's {key} = {kept}"
+        return
+    token = _CHOICE.set(Choice(table, sheet, where))
+    try:
+        yield None
+    finally:
+        _CHOICE.reset(token)
+
+
 def is_document(path: Path, delimiter: str | None = None) -> bool:
     """Whether read_document reads the file: a .md with a delimiter given in the INI is read as a CSV."""
     suffix = path.suffix.lower()
@@ -51,12 +82,13 @@ def is_document(path: Path, delimiter: str | None = None) -> bool:
 
 
 def refuse_choice(path: Path) -> None:
-    """A CSV holds one table: --table or --sheet on one is a mistake, not something to ignore."""
+    """A CSV holds one table: a table or sheet chosen for one is a mistake, not something to ignore."""
     choice = _CHOICE.get() or Choice()
     if choice.table is not None or choice.sheet is not None:
         option = "--table" if choice.table is not None else "--sheet"
-        raise error(
-            f"{option} chooses among the tables of a .md, .html or .xlsx file; {path.name} is read as one CSV table",
+        raise choice.fail(
+            f"{choice.said(option)} chooses among the tables of a .md, .html or .xlsx file; "
+            f"{path.name} is read as one CSV table",
             path,
         )
 
@@ -87,19 +119,25 @@ def pick(path: Path, candidates: list[Candidate], what: str, option: str) -> Can
     listing += f"; and {len(candidates) - LISTED} more" if len(candidates) > LISTED else ""
     wanted = choice.sheet if option == "--sheet" and choice.sheet is not None else None
     if option == "--table" and choice.sheet is not None:
-        raise error("--sheet chooses a sheet of an Excel workbook; choose a table of this file with --table N", path)
+        raise choice.fail(
+            f"{choice.said('--sheet')} chooses a sheet of an Excel workbook; choose a table of this file by "
+            "its number (--table N, or table = N in [Input/Output])",
+            path,
+        )
     if wanted is not None:
         found = [c for c in candidates if c.name == wanted] or [
             c for c in candidates if c.name.casefold() == wanted.casefold()
         ]
         if not found:
             names = ", ".join(repr(c.name) for c in candidates)
-            raise error(f"--sheet {wanted!r}: the workbook has no such sheet (its sheets: {names})", path)
-        return _said(found[0], "the one --sheet names")
+            raise choice.fail(f"{choice.said('--sheet')}: the workbook has no such sheet (its sheets: {names})", path)
+        return _said(found[0], f"the one {choice.said('--sheet')} names")
     if choice.table is not None:
         if not 1 <= choice.table <= len(candidates):
-            raise error(f"--table {choice.table}: the file has {len(candidates)} {what}s with cells ({listing})", path)
-        return _said(candidates[choice.table - 1], "the one --table names")
+            raise choice.fail(
+                f"{choice.said('--table')}: the file has {len(candidates)} {what}s with cells ({listing})", path
+            )
+        return _said(candidates[choice.table - 1], f"the one {choice.said('--table')} names")
     with_address = [c for c in candidates if _header_of(path, c) is not None]
     if with_address:
         first = with_address[0]

@@ -74,7 +74,16 @@ DEVICE_KEYS = (
     "threshold",
     "default_synonyms",
 )
-IO_KEYS = ("address_map_csv_file", "lines_to_skip", "output_xml_file", "delimiter", "decimal_separator", "encoding")
+IO_KEYS = (
+    "address_map_csv_file",
+    "lines_to_skip",
+    "output_xml_file",
+    "delimiter",
+    "decimal_separator",
+    "encoding",
+    "table",
+    "sheet",
+)
 DELIMITER_WORDS = {"comma": ",", ",": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "pipe": "|", "|": "|"}
 DECIMAL_WORDS = {"point": "point", ".": "point", "dot": "point", "comma": "comma", ",": "comma"}
 SECTIONS = {
@@ -104,6 +113,8 @@ class DeviceIni:
     delimiter: str | None = None  # , ; \t |
     decimal: str | None = None  # point | comma
     encoding: str | None = None  # the table's (a Python codec name); None: UTF-8, else said as a guess
+    table: int | None = None  # which table of a .md/.html file (or sheet of a workbook), 1-based
+    sheet: str | None = None  # which sheet of an .xlsx workbook, by name
     columns: dict[str, int | str] = field(default_factory=dict)  # key -> index or header text
     blank_columns: set[str] = field(default_factory=set)  # keys the INI lists as absent
     claimed: list[int | str] = field(default_factory=list)  # columns of [Additional ...]
@@ -307,6 +318,12 @@ def read_ini(path: Path) -> DeviceIni:
                     ini.lines_to_skip = _whole(value)
                     if ini.lines_to_skip is None:
                         err(section, key, f"lines_to_skip must be a whole number, not '{value}'")
+                elif lkey == "table" and value:
+                    ini.table = _whole(value)
+                    if not ini.table:
+                        err(section, key, f"table must be a table's number, 1 or more, not '{value}'")
+                elif lkey == "sheet" and value:
+                    ini.sheet = value
                 elif lkey == "address_map_csv_file" and value:
                     ini.csv_file = base / value
                 elif lkey == "output_xml_file" and value:

@@ -15,17 +15,24 @@ from mdl.diagnostics import Collector, Diagnostic
 
 class Report(Collector):
     """csv2xml's diagnostics (a Collector): a warning is printed as it comes (a progress bar on the
-    screen cleared first); a note is said once, and printed by `flush_notes` when the run gets that far."""
+    screen cleared first); a note is said once, and printed by `flush_notes` when the run gets that far.
+    Quiet (--quiet): notes are counted but never printed, and no progress bar is drawn."""
 
-    def __init__(self) -> None:
+    def __init__(self, quiet: bool = False) -> None:
         super().__init__(notes_once=True)
+        self.quiet = quiet
         self.progress: Progress | None = None  # a bar on the screen, cleared before a warning prints
         self._notes: list[Diagnostic] = []  # said, not printed yet
+
+    def bar(self, label: str, total: int, percent: bool = False) -> Progress | None:
+        """A progress bar for a long step, or None when quiet."""
+        return None if self.quiet else Progress(label, total, percent=percent)
 
     def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
         said = super().add(diag, kind=kind, always=always)
         if said and diag.severity == "note":
-            self._notes.append(diag)
+            if not self.quiet:
+                self._notes.append(diag)
         elif said:
             if self.progress:
                 self.progress.close()
