@@ -282,14 +282,15 @@ def test_every_unit_spelling_is_one_home_assistant_accepts(tmp_path):
     `modbus: !include modbus.yaml` and Home Assistant's schema: each device_class with a unit and a
     state_class it takes, Volts as V, kWh a counter (total_increasing)."""
     from mdl.engines import ha_units
+    from mdl.model import units
 
     spellings = sorted(
         {
             *ha_units.CLASSES,
-            *ha_units._SYMBOLS,
-            *ha_units._WORDS,
-            *ha_units._GUESSED,
-            *ha_units._HUMIDITY,
+            *units.SYMBOLS,
+            *units.WORDS,
+            *units.GUESSED,
+            *units.HUMIDITY_WORDS,
             "Volts",
             "Amps",
             "Kilowatt Hours",

@@ -151,7 +151,7 @@ BILLION_LAUGHS = (
                 "YAML nested more than 32 levels",
             ),
             ("description: 'x'\n? [a, b]\n: 1\nblocks: []\n", "2:3", "a mapping key must be a plain text"),
-            ("description: 'x'\nblocks: []\n---\ndescription: 'y'\n", "3:1", "a Toolkit file holds one YAML document"),
+            ("description: 'x'\nblocks: []\n---\ndescription: 'y'\n", "3:1", "the file must hold one YAML document"),
             (
                 "description: 'x'\nmaxRegistersPerModbusRequest: '\u00b2'\nblocks: []\n",
                 "2:31",

@@ -1,20 +1,20 @@
 """Units as Home Assistant spells and classes them, for `mdl export --to homeassistant` (docs/fleet.md).
 
-A vendor's spelling of a unit (`Volts`, `Amps`, `KWH`, `degC`, `m3`) -> Home Assistant's (`V`, `A`,
-`kWh`, `°C`, `m³`), and from that the sensor's `device_class` and `state_class`. Only combinations that
-Home Assistant 2024.3 accepts are written (homeassistant.components.sensor.const DEVICE_CLASS_UNITS and
-DEVICE_CLASS_STATE_CLASSES; later releases only add units): a unit Home Assistant's class does not
-take there (kV, MW, kVA, kvar, kvarh) gets a state_class and no device_class. Where the class is a
-guess (an energy reading taken as a counter that only grows, `C` taken as degrees Celsius) the entry
-says why, and the export says it in a note.
-
-Symbols are matched as written (case matters: mW and MW differ), after trimming spaces; words
-(`volts`, `Celsius`, `kilowatt hours`) in any case.
+A vendor's spelling of a unit (`Volts`, `Amps`, `KWH`, `degC`, `m3`), spelled as mdl.model.units does
+(`V`, `A`, `kWh`, `°C`, `m³`, Home Assistant's spellings too), and from that the sensor's
+`device_class` and `state_class`. Only combinations that Home Assistant 2024.3 accepts are written
+(homeassistant.components.sensor.const DEVICE_CLASS_UNITS and DEVICE_CLASS_STATE_CLASSES; later
+releases only add units): a unit Home Assistant's class does not take there (kV, MW, kVA, kvar,
+kvarh) gets a state_class and no device_class. Where the class is a guess (an energy reading taken
+as a counter that only grows, `C` taken as degrees Celsius) the entry says why, and the export says
+it in a note.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from mdl.model.units import spell
 
 MEASUREMENT = "measurement"  # an instantaneous value
 TOTAL_INCREASING = "total_increasing"  # a counter that only grows (a fall is a reset to 0)
@@ -75,195 +75,6 @@ CLASSES: dict[str, UnitClass] = {
 }
 HUMIDITY = UnitClass("humidity", MEASUREMENT)  # "%" of relative humidity (%RH): Home Assistant writes it "%"
 
-# a vendor's symbol -> Home Assistant's, matched as written; every spelling in CLASSES stands for itself
-_SYMBOLS: dict[str, str] = {
-    "VAC": "V",
-    "VDC": "V",
-    "Vac": "V",
-    "Vdc": "V",
-    "V AC": "V",
-    "V DC": "V",
-    "KV": "kV",
-    "KW": "kW",
-    "Kw": "kW",
-    "KVA": "kVA",
-    "kva": "kVA",
-    "VAr": "var",
-    "VAR": "var",
-    "Var": "var",
-    "kVAr": "kvar",
-    "kVAR": "kvar",
-    "KVAR": "kvar",
-    "kVar": "kvar",
-    "Kvar": "kvar",
-    "WH": "Wh",
-    "KWH": "kWh",
-    "kWH": "kWh",
-    "KWh": "kWh",
-    "kwh": "kWh",
-    "Kwh": "kWh",
-    "MWH": "MWh",
-    "VArh": "varh",
-    "VARh": "varh",
-    "VARH": "varh",
-    "kVArh": "kvarh",
-    "kVARh": "kvarh",
-    "KVARH": "kvarh",
-    "kVarh": "kvarh",
-    "kvarH": "kvarh",
-    "KVARh": "kvarh",
-    "Kvarh": "kvarh",
-    "HZ": "Hz",
-    "hz": "Hz",
-    "KHZ": "kHz",
-    "KHz": "kHz",
-    "ºC": "°C",
-    "℃": "°C",
-    "° C": "°C",
-    "degC": "°C",
-    "deg C": "°C",
-    "DegC": "°C",
-    "DEG C": "°C",
-    "ºF": "°F",
-    "℉": "°F",
-    "° F": "°F",
-    "degF": "°F",
-    "deg F": "°F",
-    "DegF": "°F",
-    "DEG F": "°F",
-    "PA": "Pa",
-    "KPA": "kPa",
-    "KPa": "kPa",
-    "kpa": "kPa",
-    "HPA": "hPa",
-    "hpa": "hPa",
-    "Bar": "bar",
-    "BAR": "bar",
-    "mBar": "mbar",
-    "MBAR": "mbar",
-    "PSI": "psi",
-    "Psi": "psi",
-    "m3": "m³",
-    "M3": "m³",
-    "m^3": "m³",
-    "l": "L",
-    "ml": "mL",
-    "ML": "mL",
-    "ft3": "ft³",
-    "l/min": "L/min",
-    "LPM": "L/min",
-    "lpm": "L/min",
-    "l/m": "L/min",
-    "m3/h": "m³/h",
-    "m3/hr": "m³/h",
-    "m³/hr": "m³/h",
-    "GPM": "gal/min",
-    "gpm": "gal/min",
-    "CFM": "ft³/min",
-    "cfm": "ft³/min",
-    "sec": "s",
-    "secs": "s",
-    "mins": "min",
-    "hr": "h",
-    "hrs": "h",
-    "Hr": "h",
-    "Hrs": "h",
-    "lux": "lx",
-    "Lux": "lx",
-    "LUX": "lx",
-    "PPM": "ppm",
-    "DBM": "dBm",
-    "dbm": "dBm",
-    "W/m2": "W/m²",
-    "W/M2": "W/m²",
-    "RPM": "rpm",
-    "Rpm": "rpm",
-    "r/min": "rpm",
-}
-# words, in any case -> Home Assistant's spelling
-_WORDS: dict[str, str] = {
-    "volt": "V",
-    "volts": "V",
-    "millivolt": "mV",
-    "millivolts": "mV",
-    "kilovolt": "kV",
-    "kilovolts": "kV",
-    "amp": "A",
-    "amps": "A",
-    "ampere": "A",
-    "amperes": "A",
-    "milliamp": "mA",
-    "milliamps": "mA",
-    "milliampere": "mA",
-    "milliamperes": "mA",
-    "watt": "W",
-    "watts": "W",
-    "kilowatt": "kW",
-    "kilowatts": "kW",
-    "megawatt": "MW",
-    "megawatts": "MW",
-    "watt hour": "Wh",
-    "watt hours": "Wh",
-    "watt-hour": "Wh",
-    "watt-hours": "Wh",
-    "kilowatt hour": "kWh",
-    "kilowatt hours": "kWh",
-    "kilowatt-hour": "kWh",
-    "kilowatt-hours": "kWh",
-    "megawatt hour": "MWh",
-    "megawatt hours": "MWh",
-    "megawatt-hour": "MWh",
-    "megawatt-hours": "MWh",
-    "hertz": "Hz",
-    "celsius": "°C",
-    "degree celsius": "°C",
-    "degrees celsius": "°C",
-    "deg. c": "°C",
-    "degrees c": "°C",
-    "fahrenheit": "°F",
-    "degree fahrenheit": "°F",
-    "degrees fahrenheit": "°F",
-    "deg. f": "°F",
-    "degrees f": "°F",
-    "kelvin": "K",
-    "percent": "%",
-    "pct": "%",
-    "pascal": "Pa",
-    "pascals": "Pa",
-    "kilopascal": "kPa",
-    "kilopascals": "kPa",
-    "millibar": "mbar",
-    "millibars": "mbar",
-    "cubic meter": "m³",
-    "cubic meters": "m³",
-    "cubic metre": "m³",
-    "cubic metres": "m³",
-    "liter": "L",
-    "liters": "L",
-    "litre": "L",
-    "litres": "L",
-    "gallon": "gal",
-    "gallons": "gal",
-    "second": "s",
-    "seconds": "s",
-    "millisecond": "ms",
-    "milliseconds": "ms",
-    "minute": "min",
-    "minutes": "min",
-    "hour": "h",
-    "hours": "h",
-    "day": "d",
-    "days": "d",
-}
-_HUMIDITY = {"%rh", "% rh", "rh", "%r.h.", "rh%", "% r.h.", "relative humidity"}  # in any case
-# symbols that could mean something else: Home Assistant's spelling and the guess said
-_GUESSED: dict[str, tuple[str, str]] = {
-    "C": ("°C", "'C' taken as degrees Celsius (not coulombs)"),
-    "F": ("°F", "'F' taken as degrees Fahrenheit (not farads)"),
-    "K": ("K", "'K' taken as kelvin (not a thousand)"),
-    "m": ("m", "'m' taken as metres (not minutes)"),
-}
-
 
 @dataclass(frozen=True)
 class HaUnit:
@@ -276,23 +87,13 @@ class HaUnit:
 
 
 def ha_unit(units: str) -> HaUnit:
-    """`units` (an MDL function's) as Home Assistant spells and classes it; a unit it does not know stays as
-    written, without classes."""
-    text = units.strip()
-    if text.lower() in _HUMIDITY:
+    """`units` (an MDL function's) as Home Assistant spells and classes it (mdl.model.units spells it); a
+    unit it does not know stays as written, without classes."""
+    spelled = spell(units)
+    if spelled.humidity:
         return HaUnit("%", HUMIDITY.device_class, HUMIDITY.state_class)
-    guesses: tuple[str, ...] = ()
-    words = " ".join(text.lower().split())
-    if text in _GUESSED:
-        spelled, guess = _GUESSED[text]
-        guesses = (guess,)
-    elif text in CLASSES:
-        spelled = text
-    elif text in _SYMBOLS:
-        spelled = _SYMBOLS[text]
-    elif words in _WORDS:
-        spelled = _WORDS[words]
-    else:
+    if spelled.unit is None or spelled.unit not in CLASSES:
         return HaUnit(units)
-    found = CLASSES[spelled]
-    return HaUnit(spelled, found.device_class, found.state_class, guesses + ((found.guess,) if found.guess else ()))
+    found = CLASSES[spelled.unit]
+    guesses = tuple(g for g in (spelled.guess, found.guess) if g)
+    return HaUnit(spelled.unit, found.device_class, found.state_class, guesses)
