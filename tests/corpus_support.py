@@ -23,7 +23,7 @@ def convert(tmp_path: Path, table: Path, ini: Path | None, *args: str):
 
 
 def read_served(sim_factory, xml: Path, registers: dict, *names: str) -> dict:
-    """Serve XML with the raw image REGISTERS ({"holding": {"addr": value}, "input": …, "coils": …,
+    """Serve XML with the raw image REGISTERS ({"holding": {"addr": value}, "input": …, "coil": …,
     "discrete": …}) and read NAMES back with `mdl read --format json`."""
     raw = xml.parent / "raw.json"
     raw.write_text(json.dumps(registers))

@@ -18,11 +18,12 @@ import re
 from dataclasses import dataclass
 
 from mdl.model.addressing import MODICON_TABLE
-from mdl.sources.csvmap.cells import CellError, is_modicon_number, parse_table
+from mdl.sources.csvmap.cells import WORDED_TABLES, CellError, is_modicon_number, parse_table
 from mdl.sources.csvmap.table import Row
 
 SHARE = 0.75
 _PLAIN = re.compile(r"^[\d\s,;/&\-–—]+$|^\d+\s*(?:to|\.\.)\s*\d+$", re.IGNORECASE)
+_WORDED = re.compile(r"^([A-Za-z]+)\s+(\d+)$")  # `hreg 6`: cells.WORDED_TABLES
 OVERRIDE = "set address_base in [Modbus Device] to 0, 1 or modicon to say how the table counts"
 
 
@@ -42,7 +43,10 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
     plain: list[tuple[Row, list[str]]] = []
     for r in rows:
         text = r.cell(index)
-        if text and _PLAIN.match(text):
+        worded = _WORDED.match(text.strip()) if text else None
+        if worded and worded.group(1).lower() in WORDED_TABLES:
+            plain.append((r, [worded.group(2)]))
+        elif text and _PLAIN.match(text):
             plain.append((r, re.findall(r"\d+", text)))
     if not plain:
         return BaseGuess("0", None)  # hex, named or Modicon-x forms only: nothing to guess

@@ -51,6 +51,24 @@ def is_modicon_number(text: str) -> bool:
     return is_digits(t) and len(t) in (5, 6) and t[0] in MODICON_TABLE and int(t[1:]) >= 1
 
 
+# `hreg 6`, `coil 1`: a table's word, a space, the address (counted as plain numbers are: address_base)
+WORDED_TABLES = {
+    "hreg": "holding",
+    "holding": "holding",
+    "hr": "holding",
+    "ireg": "input",
+    "input": "input",
+    "ir": "input",
+    "coil": "coil",
+    "co": "coil",
+    "dinput": "discrete",
+    "discrete": "discrete",
+    "di": "discrete",
+    "istat": "discrete",
+}
+_WORDED = re.compile(r"^([A-Za-z]+)\s+([0-9]{1,12})$")
+
+
 def _one(text: str, base: str) -> tuple[int, str | None]:
     """One address token -> (wire address, table or None)."""
     t = text.strip()
@@ -65,6 +83,10 @@ def _one(text: str, base: str) -> tuple[int, str | None]:
         if len(digits) > 12:
             raise CellError(f"address '{t[:20]}...' is too large")
         return int(digits or "0", 16), None
+    worded = _WORDED.match(t)
+    if worded and worded.group(1).lower() in WORDED_TABLES:
+        number, _ = _one(worded.group(2), "0" if base == "modicon" else base)
+        return number, WORDED_TABLES[worded.group(1).lower()]
     if not is_digits(t):
         raise CellError(f"'{t}' is not an address")
     if base == "modicon":
@@ -109,6 +131,16 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
         if m.group(2) == "/":
             said = f"'{text.strip()}' read as bit {int(m.group(3))} of register {m.group(1)}, not as a list of two"
         return AddressCell(addresses, table, str(int(m.group(3))), said)
+    parts = [p for p in re.split(r"\s*[,;\n]\s*", text.strip()) if p]
+    if len(parts) > 1 and all(_BRACKETED.match(p) for p in parts):  # `31003 (1002)` on each line of a list
+        cells = [read_address_cell(p, base) for p in parts]
+        tables = {c.table for c in cells} - {None}
+        if len(tables) > 1:
+            raise CellError(f"'{' '.join(text.split())}' mixes register tables")
+        addresses = [a for c in cells for a in c.addresses]
+        if len(set(addresses)) != len(addresses):
+            raise CellError(f"'{' '.join(text.split())}' lists an address twice")
+        return AddressCell(addresses, tables.pop() if tables else None)
     m = _BRACKETED.match(text)
     if m:
         number, wire = m.group(1), int(m.group(2), 0)

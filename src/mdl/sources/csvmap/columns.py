@@ -299,7 +299,9 @@ def _scale_in_units(cols: Columns, data: list[Row], skip: set[str]) -> None:
             try:
                 numbers.append(parse_number(c, "auto", scale=True))
             except CellError:
-                return  # a unit alone (V, kWh): the column is units only
+                if any(ch.isdigit() for ch in c):
+                    return  # a number csv2xml cannot read as a scale: the column is units only
+                # a unit alone (V, kWh, ja/nein): scale 1 in that unit, if the column holds scales
     if any(n is not None and n.value != 1 for n in numbers) and any(n is not None and n.unit for n in numbers):
         cols.index["multiplier"] = i
         cols.guessed["multiplier"] = i

@@ -22,11 +22,13 @@ from mdl.sources.csvmap.count_unit import count_unit
 from mdl.sources.csvmap.documents import ini_choice
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni
-from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
+from mdl.sources.csvmap.match import Candidate, Index, assign, best, candidates
 from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import (
     COMMA,
     NATIVE,
+    NO_RANGE,
+    SCALED_LIMITS,
     UNIT_ALONE,
     WIDTHLESS,
     FieldError,
@@ -139,6 +141,7 @@ def _settings(table: Table, cols: Columns, data: list[Row], ini: DeviceIni | Non
         w_alone,
         guessed_base,
         ini.cells if ini else {},
+        {"raw": True, "scaled": False}.get(dev.get("limits", "")),
     )
 
 
@@ -159,6 +162,11 @@ def _guess_notes(cols: Columns) -> dict[str, str]:
         "(count = N in [Column/Field Indices])",
         NATIVE: "struct type '{cell}' on line {line} (and any like it) has the byte order of the host that reads "
         "it: read as little-endian (x86 and ARM hosts); write '<' or '>' to say which",
+        SCALED_LIMITS: "minimum/maximum '{cell}' on line {line} (and any like it, on a scaled row) read in engineering "
+        "units, as the value reads after its scale; set limits = raw in [Modbus Device] if the table gives them "
+        "as register values (before the scale), limits = scaled to silence this",
+        NO_RANGE: "minimum/maximum '{cell}' on line {line} (and any like it) is no range (the minimum is the maximum): "
+        "read as no limits",
     }
 
 
@@ -378,6 +386,7 @@ def _say_matches(
             report.note(message, skipped.row.line, file=where)
     for name, c in matched.chosen.items():
         if c.score.tier != FUZZY:
+            _say_tie(where, name, functions[name], c, index, readable, used, lines, own, report)
             continue
         line = lines[c.row_index]
         message = (
@@ -389,6 +398,58 @@ def _say_matches(
             report.warn(message + "; --strict refuses it", line, file=where)
         else:
             report.note(message, line, file=where)
+
+
+def _say_tie(
+    where: str,
+    name: str,
+    phrases: list[str],
+    chosen: Candidate,
+    index: Index,
+    readable: int,
+    used: set[int],
+    lines: list[int],
+    own: bool,
+    report: Report,
+) -> None:
+    """A function whose row's text stands as well in another row no function took (a vendor's table
+    that lists one text twice): the first row was taken, which is a guess; say it and how to choose."""
+    rivals = [
+        c
+        for c in best(name, phrases, index, limit=4)
+        if c.score == chosen.score and c.row_index != chosen.row_index and c.row_index < readable
+    ]
+    said = " ".join(_row_text(index, chosen.row_index).lower().split())
+    rivals = [
+        c for c in rivals if c.row_index not in used and " ".join(_row_text(index, c.row_index).lower().split()) == said
+    ]
+    if not rivals:
+        return
+    line, other = lines[chosen.row_index], lines[rivals[0].row_index]
+    message = (
+        f"{name}: lines {line} and {other} match it alike ({TIER_NAMES[chosen.score.tier]} {chosen.score}: "
+        f"'{_row_text(index, chosen.row_index)}' and '{_row_text(index, rivals[0].row_index)}'): line {line}, "
+        f"the first, is taken; `row = {other}` in [function {name}] takes the other"
+    )
+    if own:
+        report.warn(message, line, file=where)
+    else:
+        report.note(message, line, file=where)
+
+
+def _say_idle_cells(ini: DeviceIni | None, cols: Columns, report: Report) -> None:
+    """A `[<field> cells]` map for a field no column is read as maps nothing: its cells are read as
+    something else, or not at all (a column named for another key takes the one a header would give)."""
+    if ini is None:
+        return
+    for name in ini.cells:
+        if name not in cols.index:
+            report.warn(
+                f"[{name} cells] maps nothing: no column is read as {name} (name it in [Column/Field Indices]: "
+                f"{name} = N or its header; a column another key names is not guessed for {name})",
+                ini.line("cells", name),
+                file=str(ini.path),
+            )
 
 
 def _read_chosen(csv_path: Path, ini: DeviceIni | None, report: Report) -> Table:
@@ -409,6 +470,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     table = _read_chosen(csv_path, ini, report)
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
+    _say_idle_cells(ini, cols, report)
     if "addresses" not in cols.index:
         raise error(
             "no address column: name it in the INI ([Column/Field Indices] addresses = N) "

@@ -73,6 +73,7 @@ DEVICE_KEYS = (
     "count_unit",
     "threshold",
     "default_synonyms",
+    "limits",
 )
 IO_KEYS = (
     "address_map_csv_file",
@@ -99,6 +100,7 @@ CHOICES = {
     "byte_order": ("big", "little"),
     "word_order": ("big", "little"),
     "count_unit": ("words", "bytes"),
+    "limits": ("scaled", "raw"),
     "default_synonyms": ("yes", "no", "true", "false", "1", "0", "on", "off"),
 }
 
@@ -231,6 +233,9 @@ def read_ini(path: Path) -> DeviceIni:
         function = FUNCTION_SECTION.match(section.strip()) if kind is None else None
         if cell_field and cell_field.group(1).lower() in COLUMN_KEYS:
             name = cell_field.group(1).lower()
+            section_line = where(section)
+            if section_line:
+                ini.lines[("cells", name)] = section_line
             for key, raw in parser.items(section):
                 cell = " ".join(quoted.get(key, key).split()).lower()
                 try:

@@ -1,6 +1,7 @@
 """Markdown pipe tables as a page shows them: every table of a `.md` file (a header line, a `|---|` rule
-under it, its rows up to a blank line), cells split at `|` (not at `\\|`), `<br>` a line break, emphasis,
-code marks, links and inline tags dropped."""
+under it, its rows up to a blank line or a line that starts another block: an HTML comment or tag, a
+heading, a quote, a fence), cells split at `|` (not at `\\|`), `<br>` a line break, emphasis, code
+marks, links, inline tags and HTML comments dropped."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ _RULE_CELL = re.compile(r"^\s*:?-+:?\s*$")
 _CODE = re.compile(r"(`+)(.+?)\1", re.S)
 _BREAK = re.compile(r"(?i)<br\s*/?>")
 _TAG = re.compile(r"</?[A-Za-z][^<>]*>")
+_COMMENT = re.compile(r"<!--.*?(?:-->|$)", re.S)  # an HTML comment shows nothing
+# a line that starts another block (an HTML comment or block, a heading, a quote, a fence) ends a table
+_BLOCK_START = re.compile(r"^ {0,3}(?:<!--|<[A-Za-z/!?]|#{1,6}(?:\s|$)|>|`{3,}|~{3,})")
 _LINK = re.compile(r"!?\[([^\]]*)\]\([^)]*\)")
 _EMPHASIS = (
     re.compile(r"(\*\*|__|~~)(?=\S)(.+?)(?<=\S)\1"),
@@ -70,6 +74,7 @@ def shown(cell: str) -> str:
 
     text = _CODE.sub(lambda m: hold(m.group(2).strip() if m.group(2).strip() else m.group(2)), cell.replace("\x00", ""))
     text = _ESCAPE.sub(lambda m: hold(m.group(1)), text)
+    text = _COMMENT.sub("", text)
     text = _BREAK.sub("\n", text)
     text = _LINK.sub(r"\1", text)
     text = _TAG.sub("", text)
@@ -109,7 +114,7 @@ def markdown_tables(text: str) -> list[tuple[int, list[Row]]]:
             continue
         rows = [Row(i + 1, [shown(c) for c in split_row(head)])]
         j = i + 2
-        while j < len(lines) and lines[j].strip():
+        while j < len(lines) and lines[j].strip() and not _BLOCK_START.match(lines[j]):
             cells = [shown(c) for c in split_row(lines[j])]
             if any(cells):
                 rows.append(Row(j + 1, cells))

@@ -30,7 +30,7 @@ _SCALE_CALL = re.compile(rf"(?i)^scale\s*\(\s*({_NUMBER})\s*\)$")
 _TIMES = re.compile(rf"^[xX×*]\s*({_NUMBER})$")
 _FRACTION = re.compile(rf"^({_NUMBER})\s*/\s*({_NUMBER})\s*({_UNIT})?$")
 _POWER = re.compile(rf"^10\s*\^\s*([-+]?\d{{1,3}})\s*({_UNIT})?$")
-NO_VALUE = frozenset({"-", "\u2013", "\u2014", "n/a", "na", "none", "--", "/"})
+NO_VALUE = frozenset({"-", "\u2013", "\u2014", "n/a", "na", "n.a.", "n.a", "n. a.", "none", "--", "/"})
 _PREFIX_ONLY = frozenset({"k", "K", "M", "G"})  # `10k`: ten thousand or ten of a unit? refused
 
 

@@ -47,10 +47,12 @@ class RowSettings:
     w_alone: str = "write"  # what an access cell `W` means in this table (cells.access_words)
     base_guessed: bool = False  # the address base was guessed (a refused cell says how to set it)
     cells: dict[str, dict[str, str]] = field(default_factory=dict)  # the INI's [<field> cells] maps
+    raw_limits: bool | None = None  # minimum/maximum cells are raw values (True), scaled (False), unsaid (None)
 
 
 # what a row may have had to guess, said once per table with the first cell read so (convert.py)
 COMMA, UNIT_ALONE, WIDTHLESS, NATIVE = "comma", "unit alone", "widthless", "native"
+SCALED_LIMITS, NO_RANGE = "scaled limits", "no range"
 
 
 @dataclass
@@ -150,6 +152,44 @@ def _bits(cells: _Cells, typed: TypeCell | None, mapped_format: MappedFormat | N
     return next(iter(found.values()), None)
 
 
+FIXED_WIDTH = {"INT16": 1, "UINT16": 1, "INT32": 2, "UINT32": 2, "FLOAT32": 2, "INT64": 4, "UINT64": 4, "FLOAT64": 4}
+
+
+def _listed_width(
+    cells: _Cells,
+    row: Row,
+    address_text: str,
+    listed: int,
+    fmt: str | None,
+    typed: TypeCell | None,
+    mapped_format: MappedFormat | None,
+    counted: int | None,
+    st: RowSettings,
+    unit_bits: int,
+) -> None:
+    """An address cell that lists its registers decides the value's width; where the row's format or
+    count column says another width, the row says two things (three phases in one row, a text cut
+    short): the row is skipped, never read at a width it does not say."""
+    cell = " ".join(address_text.split())
+    said = []
+    width = FIXED_WIDTH.get(fmt or "") if typed is not None and not typed.widthless and unit_bits == 16 else None
+    if width is not None and listed != width:
+        said.append(f"format '{cells.raw('format')}' is {width} register{'s' * (width > 1)}")
+    if mapped_format and mapped_format.count and mapped_format.count != listed:
+        said.append(f"format '{cells.raw('format')}' is {mapped_format.count} registers as [format cells] says")
+    if counted is not None:
+        count = -(-counted * 8 // unit_bits) if st.count_unit == "bytes" else counted
+        if count != listed:
+            said.append(f"the count column says {count}")
+    if said:
+        raise FieldError(
+            f"the address cell '{cell[:60]}' lists {listed} registers but {' and '.join(said)}: "
+            "the row says two widths (several values in one row, or a list cut short); "
+            "give the function its own addresses in [function NAME] (addresses, format)",
+            "addresses",
+        )
+
+
 def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     """None for rows without an address (section titles, notes); CellError for bad rows."""
     cells = _Cells(row, cols, st)
@@ -211,6 +251,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     count = None
     if len(addresses) > 1:
         count = len(addresses)
+        _listed_width(cells, row, address_text, count, fmt, typed, mapped_format, counted, st, unit_bits)
     elif mapped_format and mapped_format.count:
         count = mapped_format.count
     elif counted is not None:
@@ -278,18 +319,49 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         guesses[NATIVE] = cells.raw("format")
     for problem in function_problems(fn, {}):
         raise FieldError(problem, "bits" if fn.bits else "format")
-    for key in ("read_function_code", "write_function_code"):
+    for key in ("read_function_code", "write_function_code"):  # C fragments (docs/fragments.md), not codes
         code = cells.text(key)
         if code:
             try:
                 check(code, len(lay.addresses))
             except FragmentError as exc:
-                raise CellError(f"{key}: {exc}") from None
+                where = cells.cols.describe(cells.cols.index[key])
+                cells.problems.append(
+                    (
+                        key,
+                        f"{where} {key} cell '{code.strip()[:40]}': not a C fragment ({exc}); the row is kept "
+                        f"without it ({key} holds C code, docs/fragments.md; a column of Modbus function "
+                        "codes is register_type)",
+                    )
+                )
+                continue
+            cells.ok.add(key)
             setattr(fn, key, code)
     _check_writable(fn)
     out = ParsedRow(row, fn, texts, names[0] if names else description or address_text, guesses)
     out.notes, out.problems, out.ok = cells.notes, cells.problems, cells.ok
     return out
+
+
+def _limits(fn: Function, st: RowSettings, guesses: dict[str, str], cells: _Cells) -> None:
+    """A minimum equal to its maximum (NIBE's 0/0) is no range: no limits. With `limits = raw`, the
+    cells are register values, scaled here as the value is; unsaid, they are taken as engineering units,
+    a guess said once where a row's scale makes the two differ."""
+    if fn.minimum is None or fn.maximum is None:
+        if fn.minimum is None and fn.maximum is None:
+            return
+    elif fn.minimum == fn.maximum:
+        guesses.setdefault(NO_RANGE, f"{cells.raw('minimum').strip()}/{cells.raw('maximum').strip()}")
+        fn.minimum = fn.maximum = None
+        return
+    scale = fn.multiplier if fn.multiplier is not None else 1.0
+    if scale == 1.0:
+        return
+    if st.raw_limits:
+        low, high = (None if v is None else v * scale for v in (fn.minimum, fn.maximum))
+        fn.minimum, fn.maximum = (low, high) if scale > 0 or low is None or high is None else (high, low)
+    elif st.raw_limits is None:
+        guesses.setdefault(SCALED_LIMITS, f"{cells.raw('minimum').strip()}/{cells.raw('maximum').strip()}")
 
 
 def _flip(order: str) -> str:
@@ -334,6 +406,7 @@ def _numbers(cells: _Cells, st: RowSettings, fn: Function) -> dict[str, str]:
         if scale.alone:
             guesses[UNIT_ALONE] = scale_cell
         fn.multiplier = None if scale.value == 1 else scale.value
+    _limits(fn, st, guesses, cells)
     units = cells.text("units") if "units" in cols.index else ""
     if cols.scale_has_units:
         fn.units = scale.unit if scale is not None else None
@@ -354,10 +427,12 @@ def _scale_of(cells: _Cells, st: RowSettings, key: str) -> Number | None:
         try:
             return parse_number(text, st.decimal, key, scale=True)
         except CellError:
-            unit = unit_alone(text) if cols.scale_has_units and cols.index[key] == cols.index.get("units") else None
-            if unit is None:
+            if not (cols.scale_has_units and cols.index[key] == cols.index.get("units")):
                 raise
-            return Number(1.0, unit, alone=True)
+            unit = unit_alone(text)
+            if unit is None and any(ch.isdigit() for ch in text):
+                raise
+            return Number(1.0, unit or " ".join(text.split()), alone=True)  # `W`, `ja/nein`: scale 1
 
     n = cells.read(key, read)
     if n is not None and n.times and key not in cells.mapped:

@@ -87,7 +87,7 @@ def read_sheet(path: Path, book: Any, name: str) -> Sheet:
     if formulas:
         _saved_values(path, name, formulas, grid)
     merged = []
-    for rng in ws.merged_cells.ranges:
+    for rng in sorted(ws.merged_cells.ranges, key=lambda r: (r.min_row, r.min_col)):  # the first is said
         if rng.max_row > rng.min_row and rng.min_row in grid:
             text = grid[rng.min_row][rng.min_col - 1] if rng.min_col - 1 < len(grid[rng.min_row]) else ""
             if text:
