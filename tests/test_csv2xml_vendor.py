@@ -421,3 +421,23 @@ def test_the_summary_counts_rows_and_functions(tmp_path):
     assert (
         last == f"{TABLES / 'victron_gx.csv'}: note: summary: 7 rows read, 0 skipped; 7 functions matched, 0 unmatched"
     )
+
+
+def test_a_repeated_header_and_a_title_row_are_said_not_warned(tmp_path):
+    """A table printed in sections repeats its header and puts section titles in the address column:
+    neither is a register, nor a row csv2xml could not read (a note each, no warning)."""
+    table = tmp_path / "t.csv"
+    table.write_text(
+        "Address,Description,Type\n0,Room temperature,int16\nCOIL REGISTERS,,\n"
+        "Registers 1 to 49 are measurements and status information,,\nAddress,Description,Type (bits)\n"
+        "1,Fan speed,uint16\n"
+    )
+    ini = tmp_path / "t.ini"
+    ini.write_text("[Function Name Search Synonyms]\nroom_temperature = room temperature\nfan_speed = fan speed\n")
+    proc = cli("csv2xml", table, "--ini", ini, "--strict")
+    assert proc.returncode == 0, proc.stderr
+    assert "warning" not in proc.stderr
+    assert f"{table}:5: note: line 5 repeats the header" in proc.stderr
+    assert "line 3 is a title or a remark ('COIL REGISTERS'" in proc.stderr
+    assert "line 4 is a title or a remark ('Registers 1 to 49" in proc.stderr
+    assert functions(proc.stdout)["fan_speed"]["addresses"] == "1"

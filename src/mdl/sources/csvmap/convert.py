@@ -170,7 +170,26 @@ def _guess_notes(cols: Columns) -> dict[str, str]:
     }
 
 
-def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, report: Report) -> Parsed:
+def _not_a_register(row: Row, cols: Columns, header: list[str] | None) -> str | None:
+    """What a row is that holds no register: the header repeated (a new page or section of the table),
+    or a section title written in the address column alone ('COIL REGISTERS'); None for any other."""
+    cells = [" ".join(c.split()).lower() for c in row.cells]
+    while cells and not cells[-1]:
+        cells.pop()
+    i = cols.index.get("addresses")
+    if header is not None and i is not None and i < min(len(cells), len(header)) and cells[i] == header[i] != "":
+        same = sum(1 for k, c in enumerate(cells) if c and k < len(header) and c == header[k])
+        if 2 * same > sum(1 for c in cells if c):  # its address cell and most others are the header's
+            return "repeats the header"
+    filled = [k for k, c in enumerate(cells) if c]
+    if i is not None and filled == [i] and (not any(ch.isdigit() for ch in cells[i]) or len(cells[i].split()) > 4):
+        return f"is a title or a remark ('{row.cell(i).strip()[:40]}' alone, in the address column)"
+    return None
+
+
+def _read_rows(
+    table: Table, cols: Columns, data: list[Row], st: RowSettings, report: Report, header: Row | None = None
+) -> Parsed:
     where = str(table.path)
     rows: list[ParsedRow] = []
     skipped: list[Skipped] = []
@@ -180,9 +199,16 @@ def _read_rows(table: Table, cols: Columns, data: list[Row], st: RowSettings, re
     health = Health()
     progress = report.bar("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
     report.progress = progress
+    header_cells = [" ".join(c.split()).lower() for c in header.cells] if header is not None else None
     for row in data:
         if progress:
             progress()
+        kind = _not_a_register(row, cols, header_cells)
+        if kind is not None:
+            if kind not in said:
+                said.add(kind)
+                report.note(f"line {row.line} {kind}: not read as a register (nor any like it)", row.line, file=where)
+            continue
         try:
             parsed = parse_row(row, cols, st)
         except CellError as exc:
@@ -481,7 +507,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     _table_notes(table, ini, report)
     for message in cols.notes:
         report.note(message, file=str(csv_path))
-    parsed = _read_rows(table, cols, data, _settings(table, cols, data, ini, report), report)
+    parsed = _read_rows(table, cols, data, _settings(table, cols, data, ini, report), report, header)
     if not parsed.rows:
         col = cols.describe(cols.index["addresses"])
         raise error(f"no row of the table has a usable address (addresses read from {col})", csv_path)
