@@ -428,7 +428,8 @@ def test_a_repeated_header_and_a_title_row_are_said_not_warned(tmp_path):
     neither is a register, nor a row csv2xml could not read (a note each, no warning)."""
     table = tmp_path / "t.csv"
     table.write_text(
-        "Address,Description,Type\n0,Room temperature,int16\nCOIL REGISTERS,,\n"
+        "Address,Description,Type\n0,Room temperature,int16\n7,Supply air,int16\n8,Exhaust air,int16\n"
+        "9,Outdoor air,int16\n10,Return water,int16\nCOIL REGISTERS,,\n"
         "Registers 1 to 49 are measurements and status information,,\nAddress,Description,Type (bits)\n"
         "1,Fan speed,uint16\n"
     )
@@ -437,7 +438,7 @@ def test_a_repeated_header_and_a_title_row_are_said_not_warned(tmp_path):
     proc = cli("csv2xml", table, "--ini", ini, "--strict")
     assert proc.returncode == 0, proc.stderr
     assert "warning" not in proc.stderr
-    assert f"{table}:5: note: line 5 repeats the header" in proc.stderr
-    assert "line 3 is a title or a remark ('COIL REGISTERS'" in proc.stderr
-    assert "line 4 is a title or a remark ('Registers 1 to 49" in proc.stderr
+    assert f"{table}:9: note: line 9 repeats the header" in proc.stderr
+    assert "line 7 is a title or a remark ('COIL REGISTERS'" in proc.stderr
+    assert "line 8 is a title or a remark ('Registers 1 to 49" in proc.stderr
     assert functions(proc.stdout)["fan_speed"]["addresses"] == "1"
