@@ -283,6 +283,7 @@ def _diff_functions() -> tuple[str, int]:
     add(format="INT8", length="Upper byte", multiplier="2.5", offset="1")
     add(format="FLOAT32", multiplier="10", offset="0.5")
     add(format="UINT16", not_implemented="0xFFFF 0x8000")
+    add(format="STRING", count="4", not_implemented="0x0000")  # SunSpec strings: all NULs is no value
     add(format="INT32", not_implemented="0x80000000")
     add(format="UINT16", count="3")
     for code in READ_FRAGMENTS:
