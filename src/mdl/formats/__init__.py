@@ -1,5 +1,6 @@
 """The device description formats other than MDL, one package per format (SPEC 7): `xif/` (SmartServer
-`.mod`), `wise/` (WISE-Agent `Modbus.ini`) and `schema/` (Modbus Schema Toolkit YAML), each with its
+`.mod`), `wise/` (WISE-Agent `Modbus.ini`), `schema/` (Modbus Schema Toolkit YAML) and `sunspec/` (SunSpec
+model definitions, read only), each with its
 `read.py` (a file -> the document model) and, where the format is an output too, its `write.py` (a
 resolved device -> an mdl.exchange.export.Export).
 
@@ -83,6 +84,11 @@ FORMATS = (
         lazy("mdl.formats.schema.read", "read_schema"),
         suffixes=(".yaml", ".yml"),
         imported=lazy("mdl.formats.schema.read", "with_registers"),
+    ),
+    Format(
+        "sunspec",
+        "SunSpec model definitions (pysunspec2's JSON: model ids or files; SPEC 12)",
+        lazy("mdl.formats.sunspec.read", "read_sunspec"),
     ),
 )
 

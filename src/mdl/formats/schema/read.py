@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 
     from mdl.resolve import ResolvedDevice, ResolvedFunction
 
+
 def import_schema(path: StrPath) -> Device:
     """`read_schema`, resolved (MdlError with every error), with each field's registers written into
     the model (`addresses`, `register_type`) as an MDL document needs them."""
