@@ -155,7 +155,10 @@ def _candidate(path: Path, resolved: ResolvedDevice) -> _Candidate:
 
 class _Unit:
     """The requests made to one unit: marker reads (each address run read once) and the identification.
-    `answered`: the unit replied to something; `absent`: its first request got no reply."""
+    `answered`: the unit replied to something; `absent`: its first request got no reply. `command` names the
+    command in its messages (mdl probe asks units this way too)."""
+
+    command = "mdl discover"
 
     def __init__(self, session: Session, unit: int) -> None:
         self.session, self.unit = session, unit
@@ -194,7 +197,7 @@ class _Unit:
             f"{len(data)} bytes came that are no reply of this unit ({shown}), late bytes of an earlier reply "
             f"perhaps: dropped, with {how}, and asked again"
         )
-        _say(f"warning: {self.session.where(what)}")
+        _say(f"warning: {self.session.where(what)}", self.command)
         self._settle()
         return True
 
@@ -345,8 +348,8 @@ def _ask(session: Session, unit: int, candidates: list[_Candidate]) -> UnitResul
     return UnitResult(unit, [c.path for c in matched], [c.name for c in matched], identification)
 
 
-def _say(message: str) -> None:
-    click.echo(f"mdl discover: {message}", err=True)
+def _say(message: str, command: str = "mdl discover") -> None:
+    click.echo(f"{command}: {message}", err=True)
 
 
 def library_warnings(path: Path, resolved: ResolvedDevice) -> list[Diagnostic]:
