@@ -68,6 +68,7 @@ STAGES = [
     "resolve",
     "exchange",
     "formats",
+    "profiles",
     "sources",
     "targets",
     "device",

@@ -20,8 +20,11 @@ from test_doc_examples import Command, Runner, command, scratch
 
 from mdl.cli import main
 
-ORDER = ["csv2xml", "validate", "gen", "import", "export", "test", "sim", "read", "write", "discover"]
-SERVED = ["sim", "read", "write", "discover"]  # read, write and discover use the sims mdl sim --help starts
+ORDER = [
+    *("csv2xml", "validate", "profiles", "gen", "import", "export", "test"),
+    *("sim", "read", "write", "discover", "probe", "capture", "serve"),
+]
+SERVED = ["sim", "read", "write", "discover", "probe", "capture"]  # they use the sims mdl sim --help starts
 
 
 def _examples(help_text: str) -> list[list[str]]:

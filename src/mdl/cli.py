@@ -245,18 +245,29 @@ def csv2xml(
     show_default=True,
     help="Schema to validate against; 1.0 accepts every 0.9b document.",
 )
+@click.option(
+    "--profile",
+    metavar="NAME|FILE.yaml",
+    help="Also say which of the profile's roles the device provides (exit 1 if a required one is missing).",
+)
 @fail_on_warning_option
-def validate(files: tuple[Path, ...], version: str) -> None:
+def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None:
     """Validate MDL files (- for stdin) against the XSD and the semantic rules.
 
     \b
     Example:
       mdl validate examples/temco_tstat/temco_tstat.xml examples/discovery/em100.xml
       mdl validate examples/temco_tstat/temco_tstat.xml --schema 1.0
+      mdl validate examples/profiles/meter_a.xml --profile meter
     """
     from mdl.sources.mdlxml import validate_file
 
     _stdin_once(files)
+    chosen = None
+    if profile is not None:
+        from mdl.profiles.load import load_profile
+
+        chosen = load_profile(profile)
     bad = False
     for path in files:
         device, diagnostics = validate_file(path, version)  # the XSD, then the resolve step
@@ -271,7 +282,54 @@ def validate(files: tuple[Path, ...], version: str) -> None:
             click.echo(f"{path}: valid MDL 1.0 (extensions: {', '.join(used) or 'none'})")
         else:
             click.echo(f"{path}: valid MDL 0.9b")
+        if chosen is not None:
+            from mdl.profiles.fit import fit
+            from mdl.profiles.report import fit_diagnostics, fit_lines
+            from mdl.resolve import resolve
+
+            fitted = fit(chosen, resolve(device, str(path)))
+            for line in fit_lines(str(path), fitted):
+                click.echo(line)
+            for diag in fit_diagnostics(str(path), fitted, {f.name: f for f in device.functions}):
+                click.echo(str(diag), err=True)
+            bad = bad or not fitted.ok
     sys.exit(EXIT_INVALID if bad else 0)
+
+
+@main.command()
+@click.argument("name", required=False, metavar="[NAME|FILE.yaml]")
+@click.option(
+    "--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table", show_default=True
+)
+def profiles(name: str | None, fmt: str) -> None:
+    """List the profiles mdl ships, or show one profile's roles (a shipped NAME or your own FILE.yaml).
+
+    \b
+    Examples:
+      mdl profiles
+      mdl profiles meter
+      mdl profiles meter --format json
+    """
+    from mdl.profiles.load import load_profile
+    from mdl.profiles.report import listing, roles_json, roles_table
+
+    if name is None:
+        if fmt == "json":
+            import json
+
+            from mdl.profiles.load import shipped
+
+            click.echo(json.dumps(shipped()))
+            return
+        for line in listing():
+            click.echo(line)
+        return
+    chosen = load_profile(name)
+    if fmt == "json":
+        click.echo(roles_json(chosen))
+    else:
+        for line in roles_table(chosen):
+            click.echo(line)
 
 
 @main.command()
@@ -293,8 +351,13 @@ def validate(files: tuple[Path, ...], version: str) -> None:
     help="Directory for the generated files.",
 )
 @click.option("--check", is_flag=True, help="Write nothing; exit 1 if any output would change.")
+@click.option(
+    "--profile",
+    metavar="NAME|FILE.yaml",
+    help="Also generate the profile's interface, implemented by the driver (docs/profiles.md).",
+)
 @fail_on_warning_option
-def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
+def gen(file: Path, lang: str, outdir: Path, check: bool, profile: str | None) -> None:
     """Generate drivers for the registered targets (--lang) from MDL (or Toolkit YAML).
 
     Files are written only when their content changes (Makefile friendly), and all of a run's files
@@ -303,6 +366,7 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
     \b
     Example:
       mdl gen examples/temco_tstat/temco_tstat.xml --lang all -o drivers/
+      mdl gen examples/profiles/meter_a.xml --lang python --profile meter -o drivers/
     """
     from mdl.fileio import all_or_none
     from mdl.targets import generate
@@ -312,8 +376,15 @@ def gen(file: Path, lang: str, outdir: Path, check: bool) -> None:
     resolved = _resolved(file)
     for note in targets.notes(resolved, file):
         click.echo(str(note), err=True)
+    interface = None
+    if profile is not None:
+        from mdl.targets.profile import prepare
+
+        interface, said = prepare(profile, resolved, str(file))
+        for note in said:
+            click.echo(str(note), err=True)
     with all_or_none():
-        changed = generate(resolved, file, lang, outdir, check)
+        changed = generate(resolved, file, lang, outdir, check, interface)
     for path in changed:
         click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
     if check and changed:
@@ -348,6 +419,13 @@ MAX_UNIT = 247
     help="Seed each FILE's registers from its embedded test scenario of this id, by position.",
 )
 @click.option("--permissive", is_flag=True, help="Answer addresses the device does not define.")
+@click.option(
+    "--as",
+    "as_",
+    type=click.Choice(["sunspec"]),
+    help="Serve the device (one FILE) as its profile's SunSpec models at 40000 (docs/sunspec.md, Gateway).",
+)
+@click.option("--profile", metavar="NAME|FILE.yaml", help="With --as sunspec: the profile (default: the one it fits).")
 @fail_on_warning_option
 def sim(
     files: tuple[Path, ...],
@@ -357,6 +435,8 @@ def sim(
     settings: tuple[str, ...],
     scenarios: tuple[str, ...],
     permissive: bool,
+    as_: str | None,
+    profile: str | None,
 ) -> None:
     """Serve devices (MDL or Toolkit YAML) on one connection until SIGINT/SIGTERM: Modbus TCP, Modbus RTU
     on a serial line (--serial DEVICE), or RTU frames over TCP (--framer rtu).
@@ -375,6 +455,7 @@ def sim(
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5023 --framer rtu
       mdl sim examples/discovery/em100.xml --port 5024 --unit 3 --registers examples/discovery/em100.json
       mdl sim examples/discovery/rs4.xml --port 5025 --unit 7 --registers examples/discovery/rs4.json
+      mdl sim examples/profiles/meter_a.xml --port 5026 --as sunspec --set total_active_power=1.5
 
     \b
     On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
@@ -384,6 +465,10 @@ def sim(
     from mdl.device.scenarios import find_scenario
 
     _stdin_once(files + registers)
+    if as_ is None and profile is not None:
+        raise click.UsageError("--profile goes with --as sunspec")
+    if as_ is not None and len(files) != 1:
+        raise click.UsageError(f"--as sunspec serves one FILE, not {len(files)}")
     served = _sim_units(units, len(files))
     raw_files = _by_position("--registers", registers, len(files))
     scenario_ids = _by_position("--scenario", scenarios, len(files))
@@ -399,7 +484,63 @@ def sim(
         if not sep:
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
         simulator.set_value(devices, name.strip(), value.strip())
+    if as_ is not None:
+        from mdl.device.serve import run_sim
+
+        run_sim(files[0], loaded[files[0]], devices[0], profile, served[0], connection)
+        return
     simulator.run(dict(zip(served, devices, strict=True)), connection)
+
+
+@main.command()
+@click.argument("file", type=INPUT)
+@click.option(
+    "--from",
+    "source",
+    required=True,
+    metavar="CONNECTION",
+    help="The device to poll: HOST[:PORT] or tcp://HOST[:PORT] (Modbus TCP, port 502), rtu+tcp://HOST:PORT "
+    "(RTU frames over TCP), or serial:DEVICE[?baud=19200&parity=N&stopbits=1&bytesize=8] (Modbus RTU).",
+)
+@click.option("--from-unit", type=click.IntRange(0, 255), default=1, show_default=True, help="The device's unit id.")
+@click.option("--as", "as_", type=click.Choice(["sunspec"]), required=True, help="What to serve it as.")
+@click.option("--profile", metavar="NAME|FILE.yaml", help="The profile (default: the one its roles fit).")
+@click.option(
+    "--interval", type=click.FloatRange(0.1, 86400), default=1.0, show_default=True, metavar="S", help="Poll every S s."
+)
+@click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True, help="Per reply, polling.")
+@click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True, help="Resends, polling.")
+@connection_options(serving=True)
+@click.option("--unit", type=click.IntRange(0, MAX_UNIT), default=1, show_default=True, help="Unit id served.")
+@fail_on_warning_option
+def serve(
+    file: Path,
+    source: str,
+    from_unit: int,
+    as_: str,
+    profile: str | None,
+    interval: float,
+    timeout: float,
+    retries: int,
+    connection: Connection,
+    unit: int,
+) -> None:
+    """A gateway: poll a device (--from) with its description and serve it as its profile's SunSpec models
+    (SPEC 13; docs/sunspec.md, Gateway) until SIGINT/SIGTERM. Served values are the last poll's; while the
+    device does not answer they are SunSpec's "not implemented". When ready it prints
+    `mdl serve: serving NAME as SunSpec 1 + MODEL on HOST:PORT unit U`.
+
+    \b
+    Examples (a sim of meter A as the device, then the gateway in front of it):
+      $ mdl sim examples/profiles/meter_a.xml --port 5030 --set total_active_power=1.5 &
+      $ mdl serve examples/profiles/meter_a.xml --from 127.0.0.1:5030 --as sunspec --port 5031 --interval 2
+      $ mdl serve meter.xml --from 'serial:/dev/ttyUSB0?baud=9600&parity=E' --from-unit 3 --as sunspec --port 502
+      mdl serve examples/profiles/meter_a.xml --from 127.0.0.1:5030 --as sunspec --profile evcharger  # exit 1
+    """
+    from mdl.device.serve import parse_from, run_serve
+
+    polled = parse_from(source, timeout, retries)
+    run_serve(file, _resolved(file), profile, (polled, from_unit, interval), unit, connection)
 
 
 def _by_position(option: str, values: tuple[T, ...], files: int) -> list[T | None]:
@@ -436,13 +577,14 @@ unit_option = click.option(
 
 
 @main.command(name="import")
-@click.argument("file", type=INPUT)
+@click.argument("sources", nargs=-1, required=True, metavar="FILE|MODEL...")
 @click.option(
     "--from",
     "fmt",
     type=click.Choice(formats.names(), case_sensitive=False),
     help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
-    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent).",
+    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent). "
+    "sunspec takes model ids or model JSON files (SPEC 12).",
 )
 @click.option(
     "-o",
@@ -450,8 +592,12 @@ unit_option = click.option(
     type=click.Path(path_type=Path, allow_dash=True),
     help="Output MDL file, - for stdout (default: stdout).",
 )
+@click.option("--base", type=click.IntRange(0, 65535), help="--from sunspec: the chain's first address (40000).")
+@click.option("--repeat", type=click.IntRange(0, 65535), help="--from sunspec: instances of each repeating group (1).")
 @fail_on_warning_option
-def import_(file: Path, fmt: str | None, output: Path | None) -> None:
+def import_(
+    sources: tuple[str, ...], fmt: str | None, output: Path | None, base: int | None, repeat: int | None
+) -> None:
     """Convert another device description to MDL 1.0.
 
     \b
@@ -459,10 +605,24 @@ def import_(file: Path, fmt: str | None, output: Path | None) -> None:
       mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
       mdl import examples/xif_meter/meter.mod -o meter.xml
       mdl import examples/wise_4012e/Modbus.ini --from wise -o wise_4012e.xml
+      mdl import --from sunspec 103 120 160 --repeat 2 -o inverter.xml
     """
     from mdl.sources.loading import import_format
     from mdl.sources.mdlxml import device_to_xml
 
+    if fmt is not None and fmt.lower() == "sunspec":
+        from mdl.formats.sunspec.read import import_chain
+        from mdl.resolve import resolve
+
+        resolved = resolve(import_chain(sources, base, repeat), "sunspec")
+        _report_warnings(resolved.warnings, Path("sunspec"))
+        _emit_text(device_to_xml(resolved.device), output)
+        return
+    if base is not None or repeat is not None:
+        raise click.UsageError("--base and --repeat are options of --from sunspec")
+    if len(sources) != 1:
+        raise click.UsageError("give one FILE (only --from sunspec takes several models)")
+    file = INPUT.convert(sources[0], None, None)
     fmt = fmt or import_format(file)
     xml = device_to_xml(formats.by_name(fmt).to_mdl(_resolved(file, fmt)))
     _emit_text(xml, output)
@@ -502,6 +662,18 @@ def _emit_text(text: str, output: Path | None) -> None:
     help="Seconds between polls the engine should use (default 60).",
 )
 @click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
+@click.option(
+    "--names",
+    type=click.Choice(["functions", "roles"], case_sensitive=False),
+    default="functions",
+    show_default=True,
+    help="Name points after the functions, or after the profile roles they play (docs/profiles.md).",
+)
+@click.option(
+    "--profile",
+    metavar="NAME|FILE.yaml",
+    help="With --names roles: also give each role's value in the role's unit and sign (kW as W).",
+)
 @fail_on_warning_option
 def export_(
     file: Path,
@@ -511,6 +683,8 @@ def export_(
     unit: int,
     interval: float | None,
     force: bool,
+    names: str,
+    profile: str | None,
 ) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
@@ -524,6 +698,7 @@ def export_(
       mdl export examples/temco_tstat/temco_tstat.xml --to senml
       mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
       mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
+      mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
     """
     from mdl.diagnostics import error
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
@@ -532,7 +707,17 @@ def export_(
     if engines.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
     settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None)
-    result = engines.export(_resolved(file), fmt, settings)
+    resolved = _resolved(file)
+    if profile is not None and names.lower() != "roles":
+        raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")
+    if names.lower() == "roles":
+        from mdl.engines.role_names import named_by_roles
+        from mdl.profiles.load import load_profile
+
+        resolved, said = named_by_roles(resolved, load_profile(profile) if profile else None)
+        for diag in said:
+            click.echo(str(diag), err=True)
+    result = engines.export(resolved, fmt, settings)
     _report_warnings(result.warnings, file)
     if result.text is not None:
         _emit_text(result.text, output)
@@ -599,6 +784,108 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     sys.exit(0 if any(r.matches for r in results) else 1)
 
 
+@main.command()
+@connection_options(timeout=0.5, retries=0)
+@click.option("--units", default="1-247", show_default=True, metavar="LIST", help="Unit ids to ask, e.g. 1-10,17.")
+@click.option("--bauds", metavar="LIST", help="With --serial: baud rates to try, e.g. 9600,19200 (default --baud).")
+@click.option("--parities", metavar="LIST", help="With --serial: parities to try, e.g. N,E,O (default --parity).")
+@click.option(
+    "--tables", default="holding,input,coil,discrete", show_default=True, metavar="LIST", help="Tables to probe."
+)
+@click.option("--range", "span", default="0-65535", show_default=True, metavar="A-B", help="Wire addresses to try.")
+@click.option(
+    "--max-requests", type=click.IntRange(1), default=2000, show_default=True, help="Requests per unit at most."
+)
+@click.option(
+    "--rate", type=click.FloatRange(0), default=50.0, show_default=True, help="Requests a second at most (0: no limit)."
+)
+@click.option(
+    "--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table", show_default=True
+)
+def probe(connection: Connection, fmt: str, **given: Any) -> None:
+    """Find the unit ids, serial settings and defined address ranges of an unknown device. It only reads.
+
+    Each unit that answers gets its tables read in blocks (125 registers, 2000 bits); exception 2 splits a
+    block until the edges of every defined run are exact. Replies that fail the checks, timeouts and other
+    exceptions leave addresses unknown, never defined. A unit is left after 3 such signs in a row or when
+    --max-requests are spent. Guesses at the address base and word order are said as guesses. Exit 3
+    when no unit answered. See docs/probe.md.
+
+    \b
+    Examples (the EM100 of mdl sim --help at unit 3; the other units get exception 11):
+      mdl probe --host 127.0.0.1 --port 5024 --units 1-4 --range 0-99 --rate 0
+      $ mdl probe --host 192.0.2.10 --units 1-10 --range 0-999
+      $ mdl probe --serial /dev/ttyUSB0 --bauds 9600,19200 --parities N,E --units 1-32 --format json
+    """
+    from mdl.device.probe import probe as run_probe
+    from mdl.device.probe import render
+    from mdl.device.probe_options import probe_options
+
+    options = probe_options(connection, **given)  # units, bauds, parities, tables, span, max_requests, rate
+    results = run_probe(connection, options)
+    if fmt == "json":
+        for r in results:
+            for note in r.notes:
+                click.echo(f"mdl probe: unit {r.unit}: {note}", err=True)
+    click.echo(render(results, fmt), nl=False)
+
+
+@main.command()
+@click.argument("file", type=INPUT, required=False)
+@connection_options()
+@click.option("--unit", type=click.IntRange(0, 255), help="Unit id (default 1; with --ranges, the file's one unit).")
+@click.option("--ranges", type=INPUT, metavar="PROBE.json", help="Read the ranges mdl probe --format json found.")
+@click.option("-o", "--output", type=click.Path(path_type=Path), help="Write here (default: stdout).")
+@click.option("--scenario", metavar="NAME", help="Write FILE with a test scenario NAME of the values read.")
+@fail_on_warning_option
+def capture(
+    file: Path | None,
+    connection: Connection,
+    unit: int | None,
+    ranges: Path | None,
+    output: Path | None,
+    scenario: str | None,
+) -> None:
+    """Record a device's registers: the raw image mdl sim --registers serves back, or a test scenario.
+
+    Reads every register FILE's readable functions name (or, with --ranges, every address mdl probe found)
+    in as few requests as the read plan allows, and writes the image as JSON (keys wire addresses). With
+    --scenario, writes FILE again (as MDL 1.0, to -o or stdout, never over FILE unless -o names it) with
+    a scenario holding the registers and the value each function read, for mdl test. See docs/probe.md.
+
+    \b
+    Examples (the first two with the EM100 of mdl sim --help):
+      mdl capture examples/discovery/em100.xml --host 127.0.0.1 --port 5024 --unit 3 -o em100.raw.json
+      mdl capture examples/discovery/em100.xml --host 127.0.0.1 --port 5024 --unit 3 --scenario now -o em100_now.xml
+      $ mdl capture meter.xml --host 192.0.2.10 -o meter.raw.json
+      $ mdl sim meter.xml --registers meter.raw.json
+      $ mdl capture meter.xml --host 192.0.2.10 --scenario site_a -o meter_tested.xml
+      $ mdl probe --host 192.0.2.10 --units 1 --range 0-999 --format json > probe.json
+      $ mdl capture --ranges probe.json --host 192.0.2.10 -o raw.json
+    """
+    from mdl.device import capture as cap
+
+    if (file is None) == (ranges is None):
+        raise click.UsageError("give FILE (a description) or --ranges PROBE.json (from mdl probe), one of them")
+    if scenario is not None and file is None:
+        raise click.UsageError("--scenario needs FILE: a scenario's values are the description's functions")
+    if ranges is not None:
+        at, spans = cap.read_ranges(ranges, unit)
+        text = cap.image_json(cap.capture_ranges(spans, connection, at))
+    else:
+        assert file is not None
+        resolved = _resolved(file)
+        image, warnings = cap.capture_described(resolved, connection, 1 if unit is None else unit)
+        for warning in warnings:
+            click.echo(f"mdl capture: warning: {warning}", err=True)
+        if scenario is None:
+            text = cap.image_json(image)
+        else:
+            where = f"{connection} unit {1 if unit is None else unit}"
+            text = cap.with_scenario(resolved.device, cap.scenario(resolved, image, scenario, where), file)
+    _emit_text(text, output)
+
+
 @main.command(name="test")
 @click.argument("files", nargs=-1, required=True, type=INPUT)
 @fail_on_warning_option
@@ -650,7 +937,7 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 
 
 @main.command()
-@click.argument("file", type=INPUT)
+@click.argument("file", type=INPUT, required=False)
 @click.argument("names", nargs=-1)
 @connection_options()
 @unit_option
@@ -662,6 +949,26 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
     show_default=True,
 )
 @click.option(
+    "--raw",
+    "raw",
+    multiple=True,
+    metavar="TABLE:RANGE",
+    help="Without FILE: read raw registers, e.g. hr:0-9, ir:5, co:0+16 (hr, ir, co, di; wire addresses).",
+)
+@click.option(
+    "--as",
+    "as_type",
+    metavar="TYPE",
+    help="With --raw: each value's type: uint16 (default), int16, uint32, int32, float32, uint64, int64, float64, "
+    "string (the range is one text), hex, bits.",
+)
+@click.option(
+    "--word-order", type=click.Choice(["big", "little"], case_sensitive=False), help="With --raw: registers of a value."
+)
+@click.option(
+    "--byte-order", type=click.Choice(["big", "little"], case_sensitive=False), help="With --raw: bytes in a register."
+)
+@click.option(
     "--interval",
     type=click.FloatRange(0.1, 86400),
     metavar="S",
@@ -670,11 +977,15 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 @click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
 @fail_on_warning_option
 def read(
-    file: Path,
+    file: Path | None,
     names: tuple[str, ...],
     connection: Connection,
     unit: int,
     fmt: str,
+    raw: tuple[str, ...],
+    as_type: str | None,
+    word_order: str | None,
+    byte_order: str | None,
     interval: float | None,
     count: int | None,
 ) -> None:
@@ -700,6 +1011,11 @@ def read(
     On a real serial line, and as a logger to stop with Ctrl-C:
       $ mdl read examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --baud 9600 --parity E --unit 3
       $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 1 --format csv > log.csv
+
+    \b
+    Without a description, raw registers as mbpoll reads them (wire addresses; see docs/probe.md):
+      mdl read --host 127.0.0.1 --port 5020 --raw hr:0-7 --as hex
+      $ mdl read --host 192.0.2.10 --raw hr:0-9 --raw ir:100+4 --as float32 --word-order little
     """
     from mdl.device import output
     from mdl.device.poll import poll
@@ -707,6 +1023,13 @@ def read(
 
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
+    if raw or file is None:
+        from mdl.device.rawread import raw_read
+
+        sys.exit(raw_read(file, names, raw, connection, unit, fmt, (as_type, word_order, byte_order), interval, count))
+    for option, value in (("--as", as_type), ("--word-order", word_order), ("--byte-order", byte_order)):
+        if value is not None:
+            raise click.UsageError(f"{option} goes with --raw (a description says how its values are read)")
     resolved = _resolved(file)  # the one resolve: the session reads this
     device = resolved.device
     functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]

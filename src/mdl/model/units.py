@@ -9,6 +9,7 @@ Symbols are matched as written (case matters: mW and MW differ), after trimming 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 # a vendor's symbol -> its usual spelling, matched as written; every spelling in SI stands for itself
@@ -278,6 +279,8 @@ def spell(units: str) -> Spelled:
         return Spelled(text)
     if text in SYMBOLS:
         return Spelled(SYMBOLS[text])
+    if re.fullmatch(r"%\s*[A-Za-z][A-Za-z0-9 ]*", text):  # `% WMax`, `%WHRtg`: a percent of a named quantity
+        return Spelled("%")
     return Spelled(WORDS.get(" ".join(text.lower().split())))
 
 

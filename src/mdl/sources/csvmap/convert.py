@@ -15,6 +15,7 @@ from pathlib import Path
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model import Device, Function
 from mdl.model.names import unique_identifiers
+from mdl.profiles.load import shipped_roles
 from mdl.sources.csvmap.address_base import guess_address_base
 from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
@@ -478,6 +479,23 @@ def _say_idle_cells(ini: DeviceIni | None, cols: Columns, report: Report) -> Non
             )
 
 
+def _roles_by_name(functions: list[Function], ini: DeviceIni, report: Report) -> None:
+    """A function the INI names after a profile's role (`power_w = Total active power`) plays that role
+    (SPEC 13), unless its [function NAME] says another; a note lists them."""
+    if not ini.synonyms:
+        return
+    roles = shipped_roles()
+    named = [fn for fn in functions if fn.role is None and fn.name in roles and fn.name in ini.synonyms]
+    for fn in named:
+        fn.role = fn.name
+    if named:
+        listed = ", ".join(f"{fn.name} ({'/'.join(roles[fn.name])})" for fn in named)
+        report.note(
+            f"functions named after a profile's role play it: {listed}; `role =` in [function NAME] says another",
+            file=str(ini.path),
+        )
+
+
 def _read_chosen(csv_path: Path, ini: DeviceIni | None, report: Report) -> Table:
     """The table, with the INI's `table`/`sheet` choosing among a document's tables unless the
     command line chose."""
@@ -566,6 +584,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
     if ini is not None:
         apply_sections(ini.functions, str(ini.path), out, report)
+        _roles_by_name(out, ini, report)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
     summary = (
         f"summary: {counted(parsed.read, 'row')} read, {len(parsed.skipped)} skipped; {len(chosen)} {listed} "
