@@ -630,3 +630,35 @@ def test_home_assistant_warnings_and_refusal(tmp_path, write_device):
 
 def test_home_assistant_export_is_deterministic():
     assert export(TEMCO, "--host", "h").stdout == export(TEMCO, "--host", "h").stdout
+
+
+def test_roles_give_certain_classes_home_assistant_accepts(tmp_path):
+    """Functions with profile roles (SPEC 13) get the classes the role makes certain: a power factor
+    with or without %, a battery's state of charge, a storage capacity (a measurement, not a counter),
+    energy counters without a guess; Home Assistant's schema and class checks accept them."""
+    roles = tmp_path / "roles.xml"
+    roles.write_text(
+        device_xml(
+            fn_xml("pf", 0, format="INT16", multiplier="0.001", role="power_factor")
+            + fn_xml("pf_pct", 1, format="INT16", units="%", role="power_factor")
+            + fn_xml("soc", 2, format="UINT16", units="%", role="soc_pct")
+            + fn_xml("capacity", 3, format="UINT16", units="kWh", role="capacity_wh")
+            + fn_xml("imported", 4, format="UINT32", units="kWh", role="energy_import_wh"),
+            name="Roles",
+        )
+    )
+    proc = export(roles, "--host", "192.0.2.10")
+    assert proc.returncode == 0, proc.stderr
+    assert "counter that only grows" not in proc.stderr  # a role is no guess
+    sensors = {s["name"]: s for s in yaml.safe_load(proc.stdout)[0]["sensors"]}
+    assert sensors["pf"]["device_class"] == "power_factor" and "unit_of_measurement" not in sensors["pf"]
+    assert sensors["soc"]["device_class"] == "battery"
+    assert (sensors["capacity"]["device_class"], sensors["capacity"]["state_class"]) == (
+        "energy_storage",
+        "measurement",
+    )
+    assert sensors["imported"]["state_class"] == "total_increasing"
+    checked = validate(tmp_path, proc.stdout)
+    assert checked.returncode == 0, checked.stderr[-3000:]
+    result = json.loads(checked.stdout.strip().splitlines()[-1])
+    assert result["class_errors"] == [] and result["logged"] == [], result

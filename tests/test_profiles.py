@@ -178,3 +178,29 @@ def test_csv2xml_gives_roles_to_functions_named_after_them(tmp_path):
     assert check.returncode == 0, check.stderr
     assert "power_w             <- power_w (kW x 1000)" in check.stdout
     assert "frequency_hz        <- grid_frequency (Hz)" in check.stdout
+
+
+def _telegraf_fields(path: Path, *args: str) -> dict[str, dict]:
+    import tomllib
+
+    proc = cli("export", path, "--to", "telegraf", "--host", "192.0.2.10", *args)
+    assert proc.returncode == 0, proc.stderr
+    config = tomllib.loads(proc.stdout)
+    return {f["name"]: f for r in config["inputs"]["modbus"][0]["request"] for f in r["fields"]}
+
+
+def test_export_names_points_after_roles_in_the_roles_units():
+    """`--names roles --profile meter`: two vendors' meters give one engine the same point names, in W
+    and Wh with the meter's sign (meter A's kW x 0.001 becomes W; meter B's export-positive power is
+    negated, its power factor in % becomes a ratio)."""
+    a = _telegraf_fields(METER_A, "--names", "roles", "--profile", "meter")
+    b = _telegraf_fields(METER_B, "--names", "roles", "--profile", "meter")
+    assert {"power_w", "energy_import_wh", "voltage_l1_v", "power_factor"} <= set(a) & set(b)
+    assert "scale" not in a["power_w"] and a["energy_import_wh"]["scale"] == 10.0  # 0.01 kWh = 10 Wh
+    assert b["power_w"]["scale"] == -1.0 and "scale" not in b["power_factor"]  # divided exactly, below
+    text = cli("export", METER_B, "--to", "telegraf", "--host", "h", "--names", "roles", "--profile", "meter").stdout
+    assert '"power_factor": 100,' in text  # Telegraf's starlark divisor: 95 % reads 0.95
+    plain = _telegraf_fields(METER_B, "--names", "roles")  # without a profile: names only
+    assert "power_export_w" in plain and "scale" not in plain["power_export_w"]
+    assert set(_telegraf_fields(METER_A)) == {"total_active_power", "import_energy", "u1", "pf"}
+    assert_clean_error(cli("export", METER_A, "--to", "telegraf", "--profile", "meter"), 2, "--names roles")

@@ -76,6 +76,16 @@ CLASSES: dict[str, UnitClass] = {
 HUMIDITY = UnitClass("humidity", MEASUREMENT)  # "%" of relative humidity (%RH): Home Assistant writes it "%"
 
 
+# a profile role (SPEC 13) -> the classes it certainly has, and the units Home Assistant takes for them
+ROLE_CLASSES: dict[str, tuple[UnitClass, tuple[str, ...]]] = {
+    "power_factor": (UnitClass("power_factor", MEASUREMENT), ("", "%")),
+    "soc_pct": (UnitClass("battery", MEASUREMENT), ("%",)),
+    "humidity_pct": (HUMIDITY, ("%",)),
+    "capacity_wh": (UnitClass("energy_storage", MEASUREMENT), ("Wh", "kWh", "MWh")),
+}
+COUNTER_ROLES = frozenset({"energy_import_wh", "energy_export_wh", "energy_wh", "session_energy_wh"})
+
+
 @dataclass(frozen=True)
 class HaUnit:
     """A function's unit as the export writes it: Home Assistant's spelling and classes, and what is guessed."""
@@ -86,10 +96,19 @@ class HaUnit:
     guesses: tuple[str, ...] = ()  # each guess made, to be said
 
 
-def ha_unit(units: str) -> HaUnit:
+def ha_unit(units: str, role: str | None = None) -> HaUnit:
     """`units` (an MDL function's) as Home Assistant spells and classes it (mdl.model.units spells it); a
-    unit it does not know stays as written, without classes."""
+    unit it does not know stays as written, without classes. A profile role makes the class certain: a
+    power factor, a state of charge, a capacity; an energy role is a counter, no guess."""
     spelled = spell(units)
+    if role in ROLE_CLASSES:
+        classes, taken = ROLE_CLASSES[role]
+        unit = "%" if spelled.unit == "%" else (spelled.unit or units.strip())
+        if unit in taken:
+            return HaUnit(unit, classes.device_class, classes.state_class)
+    if role in COUNTER_ROLES and spelled.unit in ("Wh", "kWh", "MWh"):
+        found = CLASSES[spelled.unit]
+        return HaUnit(spelled.unit, found.device_class, found.state_class)
     if spelled.humidity:
         return HaUnit("%", HUMIDITY.device_class, HUMIDITY.state_class)
     if spelled.unit is None or spelled.unit not in CLASSES:

@@ -58,7 +58,7 @@ from mdl.engines.base import (
     write_code,
     written_by_fragment,
 )
-from mdl.engines.ha_units import ha_unit
+from mdl.engines.ha_units import ROLE_CLASSES, ha_unit
 from mdl.exchange.export import Export
 from mdl.exchange.text import comment_text
 
@@ -228,7 +228,7 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
     precision = _precision(f, kind, notes)
     if precision is not None:
         entry["precision"] = precision
-    if f.fn.units:
+    if f.fn.units or f.fn.role in ROLE_CLASSES:
         entry.update(_unit(f, kind, notes))
     nan_value = _nan_value(f, kind, notes)
     if nan_value is not None:
@@ -258,8 +258,8 @@ def _unit(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> dict[str, 
             repr(units),
         )
         return {}
-    found = ha_unit(units)
-    out: dict[str, Any] = {"unit_of_measurement": found.unit}
+    found = ha_unit(units, f.fn.role)
+    out: dict[str, Any] = {"unit_of_measurement": found.unit} if found.unit else {}
     if found.unit != units:
         notes.note_for(f, "units written in Home Assistant's spelling", f"{units!r} as {found.unit!r}")
     if f.fn.values:  # an enumeration's number is a state, not a measurement
