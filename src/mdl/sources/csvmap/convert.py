@@ -23,7 +23,7 @@ from mdl.sources.csvmap.count_unit import count_unit
 from mdl.sources.csvmap.documents import ini_choice
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni
-from mdl.sources.csvmap.match import Candidate, Index, assign, best, candidates
+from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
 from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import (
     COMMA,
@@ -174,6 +174,9 @@ def _guess_notes(cols: Columns) -> dict[str, str]:
 def _not_a_register(row: Row, cols: Columns, header: list[str] | None) -> str | None:
     """What a row is that holds no register: the header repeated (a new page or section of the table),
     or a section title written in the address column alone ('COIL REGISTERS'); None for any other."""
+    first = row.cell(cols.index["addresses"]).lstrip()[:1] if "addresses" in cols.index else ""
+    if first.isdigit():  # most rows: an address
+        return None
     cells = [" ".join(c.split()).lower() for c in row.cells]
     while cells and not cells[-1]:
         cells.pop()
@@ -413,7 +416,7 @@ def _say_matches(
             report.note(message, skipped.row.line, file=where)
     for name, c in matched.chosen.items():
         if c.score.tier != FUZZY:
-            _say_tie(where, name, functions[name], c, index, readable, used, lines, own, report)
+            _say_tie(where, name, c, index, readable, used, lines, own, report)
             continue
         line = lines[c.row_index]
         message = (
@@ -430,7 +433,6 @@ def _say_matches(
 def _say_tie(
     where: str,
     name: str,
-    phrases: list[str],
     chosen: Candidate,
     index: Index,
     readable: int,
@@ -441,21 +443,22 @@ def _say_tie(
 ) -> None:
     """A function whose row's text stands as well in another row no function took (a vendor's table
     that lists one text twice): the first row was taken, which is a guess; say it and how to choose."""
-    rivals = [
-        c
-        for c in best(name, phrases, index, limit=4)
-        if c.score == chosen.score and c.row_index != chosen.row_index and c.row_index < readable
-    ]
-    said = " ".join(_row_text(index, chosen.row_index).lower().split())
-    rivals = [
-        c for c in rivals if c.row_index not in used and " ".join(_row_text(index, c.row_index).lower().split()) == said
-    ]
+    # rows whose texts are the chosen row's, word for word (found through the index's exact entries)
+    texts = [t.norm for t in index.texts[chosen.row_index]]
+    rivals = sorted(
+        {
+            r
+            for t in texts[:1]
+            for r in index.exact.get(t, ())
+            if r != chosen.row_index and r < readable and r not in used and [u.norm for u in index.texts[r]] == texts
+        }
+    )
     if not rivals:
         return
-    line, other = lines[chosen.row_index], lines[rivals[0].row_index]
+    line, other = lines[chosen.row_index], lines[rivals[0]]
     message = (
         f"{name}: lines {line} and {other} match it alike ({TIER_NAMES[chosen.score.tier]} {chosen.score}: "
-        f"'{_row_text(index, chosen.row_index)}' and '{_row_text(index, rivals[0].row_index)}'): line {line}, "
+        f"'{_row_text(index, chosen.row_index)}' and '{_row_text(index, rivals[0])}'): line {line}, "
         f"the first, is taken; `row = {other}` in [function {name}] takes the other"
     )
     if own:
