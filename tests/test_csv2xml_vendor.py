@@ -5,11 +5,11 @@ Values are proven by serving the converted description with `mdl sim` and readin
 
 from __future__ import annotations
 
-import json
 import shutil
 
 import pytest
-from conftest import DATA, assert_clean_error, cli, run_mdl
+from conftest import DATA, assert_clean_error, cli
+from corpus_support import read_served as read_values
 from test_csv2xml import functions
 
 TABLES = DATA / "csv2xml"
@@ -21,15 +21,6 @@ def convert(tmp_path, table: str, *args: str, ini: str | None = None):
     extra = ["--ini", TABLES / ini] if ini else []
     proc = cli("csv2xml", TABLES / table, *extra, "-o", out, *args)
     return proc, (functions(out.read_text()) if out.exists() else {})
-
-
-def read_values(sim_factory, xml, registers: dict, *names: str) -> dict:
-    raw = xml.parent / "raw.json"
-    raw.write_text(json.dumps(registers))
-    sim = sim_factory(xml, "--registers", raw)
-    proc = run_mdl("read", xml, "--host", sim.host, "--port", sim.port, *names, "--format", "json")
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
 
 
 # ---- scales -----------------------------------------------------------------------------------
