@@ -7,7 +7,7 @@
 #define MDL_ALL_TABLES_H
 
 // This run of mdl gen: all_tables.cc refuses to compile with a all_tables.h of another run.
-#define MDL_ALL_TABLES_GENERATION 0x1fbd9ede3572
+#define MDL_ALL_TABLES_GENERATION 0xd0ebd09a757c
 
 #include <modbus.h>
 
@@ -203,7 +203,7 @@ private:
 #define MDL_ALL_TABLES_C_H
 
 /* This run of mdl gen: all_tables.c refuses to compile with a all_tables.h of another run. */
-#define MDL_ALL_TABLES_GENERATION 0x1fbd9ede3572
+#define MDL_ALL_TABLES_GENERATION 0xd0ebd09a757c
 
 #include <modbus.h>
 #include <stdbool.h>
