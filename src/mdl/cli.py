@@ -380,7 +380,7 @@ def gen(file: Path, lang: str, outdir: Path, check: bool, profile: str | None) -
     if profile is not None:
         from mdl.targets.profile import prepare
 
-        interface, said = prepare(profile, resolved, str(file))
+        interface, said, resolved = prepare(profile, resolved, str(file))
         for note in said:
             click.echo(str(note), err=True)
     with all_or_none():
@@ -508,8 +508,17 @@ def sim(
 @click.option(
     "--interval", type=click.FloatRange(0.1, 86400), default=1.0, show_default=True, metavar="S", help="Poll every S s."
 )
-@click.option("--timeout", type=click.FloatRange(0.1, 600), default=3.0, show_default=True, help="Per reply, polling.")
-@click.option("--retries", type=click.IntRange(0, 10), default=1, show_default=True, help="Resends, polling.")
+@click.option(
+    "--timeout",
+    "poll_timeout",
+    type=click.FloatRange(0.1, 600),
+    default=3.0,
+    show_default=True,
+    help="Polling: s per reply.",
+)
+@click.option(
+    "--retries", "poll_retries", type=click.IntRange(0, 10), default=1, show_default=True, help="Polling: resends."
+)
 @connection_options(serving=True)
 @click.option("--unit", type=click.IntRange(0, MAX_UNIT), default=1, show_default=True, help="Unit id served.")
 @fail_on_warning_option
@@ -520,8 +529,8 @@ def serve(
     as_: str,
     profile: str | None,
     interval: float,
-    timeout: float,
-    retries: int,
+    poll_timeout: float,
+    poll_retries: int,
     connection: Connection,
     unit: int,
 ) -> None:
@@ -539,7 +548,7 @@ def serve(
     """
     from mdl.device.serve import parse_from, run_serve
 
-    polled = parse_from(source, timeout, retries)
+    polled = parse_from(source, poll_timeout, poll_retries)
     run_serve(file, _resolved(file), profile, (polled, from_unit, interval), unit, connection)
 
 

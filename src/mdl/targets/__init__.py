@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at 
     from mdl.model import Device
     from mdl.resolve import ResolvedDevice
     from mdl.targets.base import Target
+    from mdl.targets.profile import Interface
 
 # name -> (the module holding its TARGET, what it writes), in the order `--lang all` writes them; the
 # modules are imported only when a target renders, so `mdl --help` and `mdl sim` start fast
@@ -41,10 +42,13 @@ def target(name: str) -> Target:
     return found
 
 
-def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict[str, str]:
+def render(
+    device: ResolvedDevice | Device, source_name: str, lang: str, interface: Interface | None = None
+) -> dict[str, str]:
     """File name -> content for the chosen target, or for every target with lang "all". A model
     not yet resolved is resolved here, once for every target. The files carry the stamp of this
-    generation (templating.stamp): a C or C++ source compiles only with the header of its run."""
+    generation (templating.stamp): a C or C++ source compiles only with the header of its run.
+    With a profile's `interface` (mdl.targets.profile), each target adds it and its shared files."""
     from mdl.resolve import ResolvedDevice, resolve
     from mdl.targets.templating import stamp
 
@@ -52,7 +56,7 @@ def render(device: ResolvedDevice | Device, source_name: str, lang: str) -> dict
         device = resolve(device, source_name)
     out: dict[str, str] = {}
     for name in names() if lang == "all" else [lang]:
-        for file_name, text in target(name).render(device, source_name).items():
+        for file_name, text in target(name).render(device, source_name, interface).items():
             out[file_name] = shared_header(out[file_name], text) if file_name in out else text
     return stamp(out)
 
@@ -89,9 +93,11 @@ def notes(device: ResolvedDevice, source: Path) -> list[Diagnostic]:
     ]
 
 
-def generate(device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool) -> list[Path]:
+def generate(
+    device: ResolvedDevice, source: Path, lang: str, outdir: Path, check: bool, interface: Interface | None = None
+) -> list[Path]:
     from mdl.targets.templating import require_dir, write_outputs
 
     require_dir(outdir)
-    files = render(device, source.name, lang)
+    files = render(device, source.name, lang, interface)
     return write_outputs({outdir / name: text for name, text in files.items()}, check)

@@ -5,14 +5,19 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from mdl.resolve import ResolvedDevice
+
+if TYPE_CHECKING:
+    from mdl.targets.profile import Interface
 
 
 @dataclass(frozen=True)
 class Target:
     name: str
-    render: Callable[[ResolvedDevice, str], dict[str, str]]  # (device, source file name) -> file name -> text
+    # (device, source file name, a profile's interface or None) -> file name -> text
+    render: Callable[[ResolvedDevice, str, Interface | None], dict[str, str]]
 
 
 @dataclass(frozen=True)

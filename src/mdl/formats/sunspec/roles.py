@@ -47,7 +47,14 @@ ROLES: dict[int, dict[str, str]] = {
     },
     713: {"SoC": "soc_pct", "SoH": "soh_pct", "WHRtg": "capacity_wh"},
     714: {"DCW": "dc_power_w"},
-    802: {"SoC": "soc_pct", "SoH": "soh_pct", "V": "voltage_v", "WHRtg": "capacity_wh"},
+    802: {
+        "SoC": "soc_pct",
+        "SoH": "soh_pct",
+        "WHRtg": "capacity_wh",
+        "W": "power_w",
+        "V": "voltage_v",
+        "A": "current_a",
+    },
 }
 
 

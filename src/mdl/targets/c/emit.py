@@ -9,6 +9,7 @@ allocates at run time: every buffer is an array of a size known when the driver 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Hashable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,6 +18,7 @@ from typing import Any
 import jinja2
 
 from mdl import __version__
+from mdl.diagnostics import error
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.ops import OpKind
@@ -25,6 +27,7 @@ from mdl.targets import clike
 from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.c import expressions
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
+from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
 from mdl.values import ir
 
@@ -327,16 +330,38 @@ def share(functions: list[CFunction], env: jinja2.Environment) -> Shared[CFuncti
     )
 
 
-def render_resolved(rd: ResolvedDevice, source_name: str) -> dict[str, str]:
+def render_resolved(rd: ResolvedDevice, source_name: str, interface: Interface | None = None) -> dict[str, str]:
     ctx = context(rd, source_name)
     env = environment()
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name
     env.globals.update(ctx)
     env.globals["shared"] = share(ctx["functions"], env)
-    return {
+    env.globals["profile"] = interface
+    env.globals["by_name"] = {f.rf.name: f for f in ctx["functions"]}
+    env.globals["int_write"] = int_write  # a profile role written to an integer function (roles.j2)
+    env.globals["not_provided"] = NOT_PROVIDED_ERRNO
+    driver = {
         f"{ctx['stem']}.h": env.get_template("c/templates/device.h.j2").render(),
         f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render(),
     }
+    if interface is None:
+        return driver
+    _check_profile_names(interface, rd, driver)
+    shared = env.get_template("c/templates/profile.h.j2").render(iface=interface, version=__version__)
+    return check_files(interface, driver, {interface.header: shared})
+
+
+def _check_profile_names(interface: Interface, rd: ResolvedDevice, driver: dict[str, str]) -> None:
+    """`struct mdl_<profile>` must not be a struct or enum the driver defines (`mdl_table`), nor
+    `<stem>_<profile>` one of its functions (`<stem>_init`, `<stem>_read_<name>`)."""
+    tag = f"mdl_{interface.name}"
+    if any(re.search(rf"\b(?:struct|enum|union)\s+{tag}\s*\{{", text) for text in driver.values()):
+        raise error(f"profile {interface.name}: the C driver's own code has a struct or enum {tag}: rename the profile")
+    fill = f"{rd.stem}_{interface.name}"
+    own = {f"{rd.stem}_{name}" for name in ("init", "read_all", "driver_read_all", "device_name")}
+    own |= {f"{rd.stem}_{verb}_{f.ident}" for f in rd.functions for verb in ("read", "write")}
+    if fill in own:
+        raise error(f"profile {interface.name}: the C driver has a {fill} of its own: rename the profile")
 
 
 TARGET = Target("c", render_resolved)

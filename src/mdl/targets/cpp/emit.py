@@ -28,6 +28,7 @@ from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
+from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ctext, double_literal, generation_macro
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
@@ -286,6 +287,8 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
 def environment() -> jinja2.Environment:
     env = render_environment()
     env.filters["cppfloat"] = lambda x: double_literal(float(x))  # an int bound too in its shortest digits
+    env.globals["int_write"] = int_write  # a profile role written to an integer function (roles.j2)
+    env.globals["not_provided"] = NOT_PROVIDED_ERRNO
     return env
 
 
@@ -329,14 +332,20 @@ def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared[CppFu
     )
 
 
-def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
+def render_files(resolved: ResolvedDevice, source_name: str, interface: Interface | None = None) -> dict[str, str]:
     ctx = context(resolved, source_name)
     env = environment()
     ctx["shared"] = share(ctx["functions"], env)
-    return {
+    ctx["profile"] = interface
+    ctx["by_name"] = {f.fn.name: f for f in ctx["functions"]}
+    driver = {
         f"{resolved.stem}.h": env.get_template("cpp/templates/device.h.j2").render(**ctx),
         f"{resolved.stem}.cc": env.get_template("cpp/templates/device.cc.j2").render(**ctx),
     }
+    if interface is None:
+        return driver
+    shared = env.get_template("cpp/templates/profile.h.j2").render(iface=interface, version=__version__)
+    return check_files(interface, driver, {interface.header: shared})
 
 
 TARGET = Target("cpp", render_files)

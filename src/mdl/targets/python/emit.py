@@ -25,6 +25,7 @@ from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
+from mdl.targets.profile import Interface, check_files
 from mdl.targets.templating import RuntimePart, SharedRendering, double_literal, pick, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
@@ -46,6 +47,8 @@ STDLIB_IMPORTS = {
 # names the template's own code uses, wherever it is rendered
 TEMPLATE_NAMES = {"Callable"}
 
+# a profile role's type -> the Python type of its value (mdl.targets.profile)
+ROLE_TYPES = {"float": "float", "int": "int", "bool": "bool"}
 # expression type -> Python type of its value (every expression value may be None)
 EXPR_TYPES = {"double": "float", "long": "int", "string": "str", "bool": "bool", "list": "list[str]"}
 
@@ -312,6 +315,8 @@ def environment() -> jinja2.Environment:
     env = render_environment()
     env.filters["pyfloat"] = lambda x: double_literal(float(x))  # reads back as the same double
     env.filters["hexpatterns"] = _hexpatterns
+    env.filters["docstring"] = docstring
+    env.globals["py_types"] = ROLE_TYPES
     return env
 
 
@@ -365,10 +370,19 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
     }
 
 
-def render_files(resolved: ResolvedDevice, source_name: str) -> dict[str, str]:
+def render_files(resolved: ResolvedDevice, source_name: str, interface: Interface | None = None) -> dict[str, str]:
     env = environment()
     ctx = context(resolved, source_name, env)
-    return {f"{resolved.stem}.py": env.get_template("python/templates/device.py.j2").render(**ctx)}
+    ctx["profile"] = interface
+    driver = {f"{resolved.stem}.py": env.get_template("python/templates/device.py.j2").render(**ctx)}
+    if interface is None:
+        return driver
+    shared = env.get_template("python/templates/profile.py.j2").render(
+        iface=interface,
+        version=__version__,
+        module_doc=docstring(f"The {interface.name} profile's interface: what every device's driver implements."),
+    )
+    return check_files(interface, driver, {f"{interface.py_module}.py": shared})
 
 
 TARGET = Target("python", render_files)
