@@ -743,7 +743,7 @@ def export_(
 
 
 @main.command()
-@click.argument("files", nargs=-1, required=True, type=INPUT)
+@click.argument("files", nargs=-1, type=INPUT)
 @connection_options(timeout=0.5, retries=0)
 @click.option(
     "--units",
@@ -755,8 +755,21 @@ def export_(
 @click.option(
     "--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table", show_default=True
 )
+@click.option("--sunspec", is_flag=True, help="Walk the SunSpec chain of one unit and write its MDL (no FILE).")
+@click.option("--unit", type=click.IntRange(0, 255), help="With --sunspec: the unit id (default 1).")
+@click.option(
+    "-o", "--output", type=click.Path(path_type=Path, allow_dash=True), help="With --sunspec: the MDL file (stdout)."
+)
 @fail_on_warning_option
-def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: str) -> None:
+def discover(
+    files: tuple[Path, ...],
+    connection: Connection,
+    units: str,
+    fmt: str,
+    sunspec: bool,
+    unit: int | None,
+    output: Path | None,
+) -> None:
     """Find which description answers at each unit id, by the marker values of its functions.
 
     A description matches a unit when every function with a marker reads one of its marker values
@@ -776,7 +789,21 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     \b
     On a serial line (RTU: a unit that does not answer costs one --timeout):
       $ mdl discover library/*.xml --serial /dev/ttyUSB0 --baud 9600 --units 1-32,100 --format json
+
+    \b
+    --sunspec: walk a SunSpec device's chain (SunS at 40000, 0 or 50000) and write the MDL of the
+    models found (exit 3 when there is none, or the device answers garbage; docs/sunspec.md):
+      $ mdl discover --sunspec --host 192.168.1.50 --port 502 --unit 1 -o inverter.xml
     """
+    if sunspec:
+        _discover_sunspec(files, connection, unit, output)
+        return
+    given = click.get_current_context().get_parameter_source
+    for name, option in (("unit", "--unit"), ("output", "-o/--output")):
+        if given(name) is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError(f"{option} goes with --sunspec (the units to ask are --units)")
+    if not files:
+        raise click.UsageError("give the description FILE... to look for, or --sunspec")
     from mdl.device.discover import discover as find
     from mdl.device.discover import library_warnings, parse_units, render
 
@@ -791,6 +818,25 @@ def discover(files: tuple[Path, ...], connection: Connection, units: str, fmt: s
     results = find(library, connection, wanted)
     click.echo(render(results, fmt), nl=False)
     sys.exit(0 if any(r.matches for r in results) else 1)
+
+
+def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int | None, output: Path | None) -> None:
+    """`mdl discover --sunspec`: the MDL of the device's chain to `output` (stdout), written whole or not at all."""
+    from mdl.device.sunspec_discover import discover_sunspec
+    from mdl.resolve import resolve
+    from mdl.sources.mdlxml import device_to_xml
+
+    given = click.get_current_context().get_parameter_source
+    if files:
+        raise click.UsageError("--sunspec takes no FILE: it writes the description of what it finds")
+    for name, option in (("units", "--units"), ("fmt", "--format")):
+        if given(name) is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError(f"{option} does not go with --sunspec (give --unit U; the output is MDL)")
+    if unit == 0 and connection.serial is not None:
+        raise click.UsageError("unit 0 is the broadcast address on a serial line, which no device answers")
+    resolved = resolve(discover_sunspec(connection, 1 if unit is None else unit), "sunspec")
+    _report_warnings(resolved.warnings, Path("sunspec"))
+    _emit_text(device_to_xml(resolved.device), output)
 
 
 @main.command()
