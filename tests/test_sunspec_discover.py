@@ -66,13 +66,15 @@ def words_device(write_device, chunks: dict[int, list[int]], filename: str = "ho
 
 def test_the_inverter_chain_is_found_again_with_its_repeat_count(tmp_path, sim_factory):
     source = imported(tmp_path, *INVERTER, "--repeat", "3")
-    sim = sim_factory(source)
+    sim = sim_factory(source, "--set", "1_Mn=Acme Solar", "--set", "1_Md=AS-10K", "--set", "1_Vr=1.2.3")
     out, stderr = discovered(sim, tmp_path / "found.xml")
     assert names(out) == names(source)
+    device = read_device(out)  # model 1's texts are the device's identity, served again by mdl sim
+    assert (device.manufacturer, device.product, device.product_version) == ("Acme Solar", "AS-10K", "1.2.3")
     found = set(names(out))
     assert {"160_module_3_DCA", "160_N"} <= found and "160_module_4_DCA" not in found
     assert "SunSpec marker 'SunS' at 40000" in stderr
-    assert re.search(r"7 models at 40000 \(1, 103, 120, 121, 122, 123, 160\), end marker at \d+; 10 requests", stderr)
+    assert re.search(r"7 models at 40000 \(1, 103, 120, 121, 122, 123, 160\), end marker at \d+; 13 requests", stderr)
     assert "warning" not in stderr
     assert run_mdl("validate", out).returncode == 0
     again = sim_factory(out)  # discover -> sim -> discover: the same file

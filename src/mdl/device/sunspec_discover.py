@@ -235,6 +235,30 @@ class _Walk:
         return ", ".join(wrong) or None
 
 
+# model 1's texts -> the device identity elements they fill (SPEC 2.2; `mdl sim` answers MEI 14 with them)
+IDENTITY = (("1_Mn", "manufacturer"), ("1_Md", "product"), ("1_Vr", "product_version"))
+
+
+def _identity(walk: _Walk, device: Device) -> None:
+    """The device's identity from model 1 (Mn, Md, Vr): set as the document's manufacturer, product and
+    version, and as the texts' `initial` registers, so that `mdl sim` of the document serves them and a
+    second discovery writes the same file. A text that is not printable ASCII is left out with a warning."""
+    by_name = {fn.name: fn for fn in device.functions}
+    for name, element in IDENTITY:
+        fn = by_name.get(name)
+        if fn is None or not fn.addresses or not fn.count:
+            continue
+        words = walk.read(fn.addresses[0], fn.count)
+        text = b"".join(w.to_bytes(2, "big") for w in words).rstrip(b"\0 ").decode("latin-1")
+        if not text:
+            continue
+        if not all(" " <= ch <= "~" for ch in text):
+            walk.warn(f"{name} holds {text[:40]!r}, not printable ASCII: left out of the document's identity")
+            continue
+        setattr(device, element, text)
+        fn.initial = list(words)
+
+
 def discover_sunspec(connection: Connection, unit: int) -> Device:
     """The document of the SunSpec chain unit `unit` serves over `connection` (progress on stderr);
     DeviceError (exit 3) when there is none or it is garbage, or the device cannot be reached."""
@@ -250,7 +274,8 @@ def discover_sunspec(connection: Connection, unit: int) -> Device:
         say(f"SunSpec marker 'SunS' at {base}")
         headers, end = walk.chain(base, say)
         models = [walk.model(h) for h in headers]
-    device = build_chain(models, base)
+        device = build_chain(models, base)
+        _identity(walk, device)
     raw = {str(m["group"]["name"]) for m, _ in models if m.get(RAW)}
     for fn in device.functions:
         if fn.block_labels and fn.block_labels[0] in raw and not fn.system:
