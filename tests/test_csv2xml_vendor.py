@@ -433,3 +433,25 @@ def test_a_repeated_header_and_a_title_row_are_said_not_warned(tmp_path):
     assert "line 7 is a title or a remark ('COIL REGISTERS'" in proc.stderr
     assert "line 8 is a title or a remark ('Registers 1 to 49" in proc.stderr
     assert functions(proc.stdout)["fan_speed"]["addresses"] == "1"
+
+
+def test_raw_limits_are_scaled_with_the_offset_and_the_inis_scale(tmp_path):
+    """`limits = raw`: a limit is a register value, so it is scaled as the value is, offset and a
+    [function NAME] multiplier included (-40 + 0.1 x 1000 = 60 °C; 200 x 0.5 = 100)."""
+    table = tmp_path / "t.csv"
+    table.write_text(
+        "Address,Description,Type,Scale,Offset,Min,Max,Unit\n0,Supply temperature,INT16,0.1,-40,0,1000,C\n"
+        "1,Fan speed,UINT16,1,10,0,90,%\n2,Pump,UINT16,1,,0,200,%\n3,Valve,INT16,-1,,-50,20,%\n"
+    )
+    ini = tmp_path / "t.ini"
+    ini.write_text(
+        "[Modbus Device]\nlimits = raw\n[Column/Field Indices]\nmultiplier = Scale\noffset = Offset\n"
+        "minimum = Min\nmaximum = Max\n[Function Name Search Synonyms]\nsupply = Supply temperature\n"
+        "fan = Fan speed\npump = Pump\nvalve = Valve\n[function pump]\nmultiplier = 0.5\n"
+    )
+    proc = cli("csv2xml", table, "--ini", ini)
+    assert proc.returncode == 0, proc.stderr
+    fns = functions(proc.stdout)
+    limits = {n: (fns[n].get("minimum"), fns[n].get("maximum")) for n in ("supply", "fan", "pump", "valve")}
+    assert limits == {"supply": ("-40", "60"), "fan": ("10", "100"), "pump": ("0", "100"), "valve": ("-20", "50")}
+    assert "pump: multiplier 0.5 from [function pump]" in proc.stderr

@@ -37,11 +37,12 @@ from mdl.sources.csvmap.rows import (
     RowSettings,
     parse_row,
     row_texts,
+    scale_raw_limits,
 )
 from mdl.sources.csvmap.scoring import EXACT, FUZZY, TIER_NAMES, FunctionName, Score
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
 from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
-from mdl.sources.csvmap.vocabulary import apply_sections
+from mdl.sources.csvmap.vocabulary import apply_sections, multiplier_of, number_of
 
 DEFAULT_THRESHOLD = 0.6
 # functions (name -> phrases), the index of the rows, the rows -> the row chosen for each function
@@ -482,6 +483,23 @@ def _say_idle_cells(ini: DeviceIni | None, cols: Columns, report: Report) -> Non
             )
 
 
+def _raw_limits(ini: DeviceIni, functions: list[Function]) -> None:
+    """`limits = raw`: each table limit scaled as its value is, with the multiplier and offset the
+    function ends with (a [function NAME] multiplier or offset included); limits the section gives are
+    its own, in engineering units."""
+    if ini.device.get("limits") != "raw":
+        return
+    for fn in functions:
+        fs = ini.functions.get(fn.name)
+        values = fs.values if fs is not None else {}
+        given = {k: getattr(fn, k) for k in ("minimum", "maximum") if k in values}
+        scale = multiplier_of(fs) if fs is not None and ({"multiplier", "divisor"} & set(values)) else fn.multiplier
+        offset = number_of(values["offset"], "offset") if "offset" in values else fn.offset
+        scale_raw_limits(fn, scale, offset)
+        for key, value in given.items():  # the section's own (it sets them again, with its note)
+            setattr(fn, key, value)
+
+
 def _roles_by_name(functions: list[Function], ini: DeviceIni, report: Report) -> None:
     """A function the INI names after a profile's role (`power_w = Total active power`) plays that role
     (SPEC 13), unless its [function NAME] says another; a note lists them."""
@@ -586,6 +604,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         )
     out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
     if ini is not None:
+        _raw_limits(ini, out)
         apply_sections(ini.functions, str(ini.path), out, report)
         _roles_by_name(out, ini, report)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")

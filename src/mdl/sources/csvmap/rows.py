@@ -354,14 +354,18 @@ def _limits(fn: Function, st: RowSettings, guesses: dict[str, str], cells: _Cell
         guesses.setdefault(NO_RANGE, f"{cells.raw('minimum').strip()}/{cells.raw('maximum').strip()}")
         fn.minimum = fn.maximum = None
         return
-    scale = fn.multiplier if fn.multiplier is not None else 1.0
-    if scale == 1.0:
+    if (fn.multiplier is None or fn.multiplier == 1.0) and not fn.offset:
         return
-    if st.raw_limits:
-        low, high = (None if v is None else v * scale for v in (fn.minimum, fn.maximum))
-        fn.minimum, fn.maximum = (low, high) if scale > 0 or low is None or high is None else (high, low)
-    elif st.raw_limits is None:
+    if st.raw_limits is None:  # raw ones are scaled once the INI's [function NAME] fields are on (convert.py)
         guesses.setdefault(SCALED_LIMITS, f"{cells.raw('minimum').strip()}/{cells.raw('maximum').strip()}")
+
+
+def scale_raw_limits(fn: Function, multiplier: float | None, offset: float | None) -> None:
+    """`limits = raw`: the limits read from the table are register values; as MDL keeps them, in
+    engineering units: raw * multiplier + offset (the two swapped under a negative multiplier)."""
+    m, o = (multiplier if multiplier is not None else 1.0), (offset or 0.0)
+    low, high = (None if v is None else v * m + o for v in (fn.minimum, fn.maximum))
+    fn.minimum, fn.maximum = (high, low) if m < 0 else (low, high)
 
 
 def _flip(order: str) -> str:

@@ -70,7 +70,7 @@ def split_synonyms(value: str) -> list[str]:
     return words
 
 
-def _number(value: str, what: str, scale: bool = False) -> float:
+def number_of(value: str, what: str, scale: bool = False) -> float:
     try:
         n = parse_number(value, "point", what, scale=scale)
     except CellError as exc:
@@ -99,7 +99,7 @@ def _read(key: str, value: str) -> None:
     except CellError as exc:
         raise ValueError(str(exc)) from None
     if key in ("multiplier", "divisor", "minimum", "maximum", "offset"):
-        _number(value, key, scale=key in ("multiplier", "divisor"))
+        number_of(value, key, scale=key in ("multiplier", "divisor"))
 
 
 def check_cell_value(key: str, value: str) -> str:
@@ -123,7 +123,7 @@ def check_function_value(key: str, value: str) -> str:
         return value
     if key == "scale_exponent" and not _IDENTIFIER.match(value):
         raise ValueError("must name a function (letters, digits, _)")
-    if key in ("divisor", "multiplier") and _number(value, key, scale=True) == 0:
+    if key in ("divisor", "multiplier") and number_of(value, key, scale=True) == 0:
         raise ValueError(f"a {key} of 0 loses every value")
     if key not in ("units", "role", "scale_exponent"):
         _read(key, value)
@@ -136,11 +136,11 @@ def mapped(cells: dict[str, dict[str, str]], key: str, text: str) -> str | None:
     return found.get(" ".join(text.split()).lower()) if found else None
 
 
-def _multiplier(fs: FunctionSection) -> float | None:
+def multiplier_of(fs: FunctionSection) -> float | None:
     if "divisor" in fs.values:
-        return 1.0 / _number(fs.values["divisor"], "divisor", scale=True)
+        return 1.0 / number_of(fs.values["divisor"], "divisor", scale=True)
     if "multiplier" in fs.values:
-        return _number(fs.values["multiplier"], "multiplier", scale=True)
+        return number_of(fs.values["multiplier"], "multiplier", scale=True)
     return None
 
 
@@ -198,12 +198,12 @@ def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, 
     for key in ("byte_order", "word_order"):
         if key in v:
             change(key, key, None if v[key] == "big" else v[key])
-    scale = _multiplier(fs)
+    scale = multiplier_of(fs)
     if scale is not None:
         change("divisor" if "divisor" in v else "multiplier", "multiplier", None if scale == 1 else scale)
     for key in ("offset", "minimum", "maximum"):
         if key in v:
-            change(key, key, _number(v[key], key))
+            change(key, key, number_of(v[key], key))
     if "access" in v:
         access = parse_access(v["access"])
         change("access", "access", None if access == "read_write" else access)
