@@ -85,6 +85,18 @@ def test_a_missing_required_role_or_an_unbindable_one_fails(tmp_path):
     assert f"{wrong_unit}:" in proc.stderr.splitlines()[0]
 
 
+def test_a_plain_number_may_say_its_unit_is_1(tmp_path):
+    path = _device(
+        tmp_path,
+        fn_xml("p", 0, format="INT16", units="W", role="power_w"),
+        fn_xml("e", 1, format="UINT16", units="kWh", role="energy_import_wh"),
+        fn_xml("pf", 2, format="INT16", multiplier="0.001", units="1", role="power_factor"),
+    )
+    proc = cli("validate", path, "--profile", "meter")
+    assert proc.returncode == 0, proc.stderr
+    assert "power_factor        <- pf (1)" in proc.stdout
+
+
 def test_a_role_without_units_is_a_guess_said(tmp_path):
     path = _device(
         tmp_path,
@@ -109,6 +121,12 @@ BAD_PROFILES = [
     ("name: m\nroles: {}\n", "2:8", "at least one role"),
     ("- a\n", "1", "not a profile"),
     ("name: m\nroles: &x {a: {unit: W}}\nb: *x\n", "3:4", "aliases are not supported"),
+    ("name: m\nroles:\n  a: {unit: W}\n  a: {unit: V}\n", "4:3", "key 'a' appears twice"),
+    (
+        "name: m\nroles:\n  a: {unit: W, opposite: x}\n  b: {unit: W, opposite: x}\n",
+        "4:6",
+        "opposite 'x' is role a's already",
+    ),
 ]
 
 
@@ -204,3 +222,13 @@ def test_export_names_points_after_roles_in_the_roles_units():
     assert "power_export_w" in plain and "scale" not in plain["power_export_w"]
     assert set(_telegraf_fields(METER_A)) == {"total_active_power", "import_energy", "u1", "pf"}
     assert_clean_error(cli("export", METER_A, "--to", "telegraf", "--profile", "meter"), 2, "--names roles")
+
+
+def test_export_names_roles_with_a_profile_refuses_what_cannot_be_converted(tmp_path):
+    path = _device(
+        tmp_path,
+        fn_xml("p", 0, format="INT16", units="hp", role="power_w"),
+        fn_xml("e", 1, format="UINT16", units="kWh", role="energy_import_wh"),
+    )
+    proc = cli("export", path, "--to", "telegraf", "--host", "h", "--names", "roles", "--profile", "meter")
+    assert_clean_error(proc, 1, "p: as power_w: units 'hp' cannot be converted to W")

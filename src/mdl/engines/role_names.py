@@ -11,10 +11,11 @@ from __future__ import annotations
 import re
 from dataclasses import replace
 
-from mdl.diagnostics import Diagnostic
+from mdl.diagnostics import Diagnostic, MdlError
 from mdl.model import Function
 from mdl.profiles.fit import Binding, fit
 from mdl.profiles.load import RATIO, Profile
+from mdl.profiles.report import fit_diagnostics
 from mdl.resolve import ResolvedDevice, resolve
 
 
@@ -51,7 +52,13 @@ def named_by_roles(resolved: ResolvedDevice, profile: Profile | None = None) -> 
     device = resolved.device
     names = {fn.name for fn in device.functions}
     referenced = _referenced(device.functions)
-    bound = {b.function.name: b for b in fit(profile, resolved).bound.values()} if profile else {}
+    bound: dict[str, Binding] = {}
+    if profile is not None:
+        fitted = fit(profile, resolved)
+        if fitted.problems:  # a value that cannot be given in its role's unit is not renamed as if it could
+            found = fit_diagnostics(str(device.source or ""), fitted, {f.name: f for f in device.functions})
+            raise MdlError([d for d in found if d.severity == "error"])
+        bound = {b.function.name: b for b in fitted.bound.values()}
     renamed, kept = [], []
     taken = set(names)
     functions = []

@@ -104,6 +104,8 @@ def _attach(parent: Node, node: Node, path: StrPath) -> None:
         parent.value[parent.key.value] = node
         parent.key = None
     elif isinstance(node, Text):
+        if node.value in parent.value:  # YAML's keys are unique; a reader keeping the last would hide one
+            raise error(f"key '{node.value[:40]}' appears twice in this mapping", path, node.line, node.col)
         parent.key = node
     else:
         raise error("a mapping key must be a plain text", path, node.line, node.col)

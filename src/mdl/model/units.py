@@ -211,6 +211,10 @@ class Scale:
     offset: float = 0.0
 
 
+_GALLON = 3.785411784e-3  # m³, the US gallon
+_CUBIC_FOOT = 0.028316846592  # m³
+
+
 def _same(base: str, *spellings: tuple[str, float]) -> dict[str, Scale]:
     return {unit: Scale(base, factor) for unit, factor in spellings}
 
@@ -243,8 +247,8 @@ SI: dict[str, Scale] = {
         ("inHg", 3386.389),
         ("mmHg", 133.322387415),
     ),
-    **_same("m³", ("m³", 1), ("L", 1e-3), ("mL", 1e-6), ("gal", 3.785411784e-3), ("ft³", 0.028316846592)),
-    **_same("m³/h", ("m³/h", 1), ("L/min", 0.06), ("gal/min", 0.2271247104), ("ft³/min", 1.69901079552)),
+    **_same("m³", ("m³", 1), ("L", 1e-3), ("mL", 1e-6), ("gal", _GALLON), ("ft³", _CUBIC_FOOT)),
+    **_same("m³/h", ("m³/h", 1), ("L/min", 1e-3 * 60), ("gal/min", _GALLON * 60), ("ft³/min", _CUBIC_FOOT * 60)),
     **_same("s", ("ms", 1e-3), ("s", 1), ("min", 60), ("h", 3600), ("d", 86400)),
     "lx": Scale("lx", 1),
     "ppm": Scale("ppm", 1),

@@ -90,7 +90,7 @@ def _bind(role: Role, rf: ResolvedFunction, sign: float, out: Fit) -> Binding | 
     if role.unit == RATIO:
         if units and spell(units).unit == "%":  # `%`, `Pct`, `percent`: a ratio in hundredths
             factor = 0.01
-        elif units:
+        elif units and units != RATIO:
             out.problems.append((rf.name, f"{as_role}: units '{units[:40]}' are not a plain number or %"))
             return None
     elif role.unit is not None:

@@ -120,7 +120,14 @@ def read_profile(path: Path) -> Profile:
     for key, node in roles.value.items():
         role = _role(key, node, path)
         profile.roles[role.name] = role
+    opposites: dict[str, str] = {}
     for role in profile.roles.values():
+        if role.opposite is not None and role.opposite in opposites:
+            item = roles.value[role.name]
+            message = f"role {role.name}: opposite '{role.opposite}' is role {opposites[role.opposite]}'s already"
+            raise error(message, path, item.line, item.col)
+        if role.opposite is not None:
+            opposites[role.opposite] = role.name
         if role.opposite is not None and role.opposite in profile.roles:
             item = roles.value[role.name]
             message = f"role {role.name}: opposite '{role.opposite}' is a role of the profile itself"
