@@ -411,3 +411,25 @@ def test_a_point_holds_the_value_to_its_scale_or_not_implemented(power, volts):
         value, step = got
         assert given_value is not None and math.isfinite(given_value)
         assert abs(value - given_value) <= step / 2 + 1e-9 * abs(given_value), (point, given_value, value)
+
+
+def test_serve_keeps_serving_when_the_device_refuses_one_register(sim_factory, write_device, tmp_path):
+    """A backend that answers but refuses one bound register (exception 2 even alone): that role is
+    'not implemented', the others are served, and it is said once, not as a device that does not answer."""
+    meter = (METERS / "meter_a.xml").read_text()
+    backend_xml = tmp_path / "backend.xml"  # the same meter without its import energy registers
+    start = meter.index("  <function>\n    <name>import_energy</name>")
+    end = meter.index("</function>", start) + len("</function>\n")
+    backend_xml.write_text(meter[:start] + meter[end:])
+    raw = _write(
+        tmp_path / "raw.json", {"holding": {k: v for k, v in meter_a_raw()["holding"].items() if k not in ("2", "3")}}
+    )
+    backend = sim_factory(backend_xml, "--registers", raw)
+    gateway = Serve(METERS / "meter_a.xml", "--from", f"127.0.0.1:{backend.port}", "--as", "sunspec")
+    try:
+        got = points(gateway.port, 201, ("W", "TotWhImp"))
+        assert close(got["W"], POWER) and got["TotWhImp"] is None
+    finally:
+        status = gateway.stop()
+    assert status == 0, gateway.stderr
+    assert "the device refuses import_energy" in gateway.stderr and "does not answer" not in gateway.stderr

@@ -26,6 +26,7 @@ from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.device.sunspec_gateway import FacadeRegisters, RoleValues, Source, choose, role_values
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.exchange.connection import DEVICE_PORT
+from mdl.model import Value
 from mdl.profiles.fit import Fit
 from mdl.resolve import ResolvedDevice
 
@@ -99,6 +100,7 @@ class Poller:
         self.functions = [b.function.fn for b in fitted.bound.values()]
         self.latest: RoleValues | None = None
         self.answering: bool | None = None  # None: not polled yet
+        self.refused: set[str] = set()  # functions the device refuses even alone (said once)
         self.polled = threading.Event()  # set once the first poll has ended
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self._run, name="mdl serve poller", daemon=True)
@@ -108,10 +110,27 @@ class Poller:
     def _not_polling(self, record: logging.LogRecord) -> bool:
         return record.thread != self.thread.ident
 
+    def _each(self) -> dict[str, Value]:
+        """The functions read one by one after the device refused a register even alone: a refused one
+        has no value (its role served as 'not implemented'), the others are served; said once each."""
+        values: dict[str, Value] = {}
+        for fn in self.functions:
+            try:
+                values.update(self.session.read([fn]))
+            except ModbusExceptionError as exc:
+                values[fn.name] = None
+                if fn.name not in self.refused:
+                    self.refused.add(fn.name)
+                    _say(f"the device refuses {fn.name} ({exc.diagnostics[0].message}): served as 'not implemented'")
+        return values
+
     def poll_once(self) -> None:
         try:
             self.session.connect()
-            values = self.session.read(self.functions)
+            try:
+                values = self.session.read(self.functions)
+            except ModbusExceptionError:
+                values = self._each()
         except MdlError as exc:
             if not isinstance(exc, ModbusExceptionError):
                 self.session.close()  # the next poll connects again
