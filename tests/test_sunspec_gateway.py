@@ -433,3 +433,22 @@ def test_serve_keeps_serving_when_the_device_refuses_one_register(sim_factory, w
         status = gateway.stop()
     assert status == 0, gateway.stderr
     assert "the device refuses import_energy" in gateway.stderr and "does not answer" not in gateway.stderr
+
+
+def test_an_outlier_never_coarsens_its_neighbours_and_zero_energy_is_a_note(sim_factory, tmp_path):
+    """meter_b's power of 1 TW fits no W_SF: it is 'not implemented', and the phase powers sharing W_SF
+    keep their own scale; an export energy of 0 Wh (SunSpec's accumulators count from 1) is a note."""
+    phases = (
+        fn_xml("p", "0 1", format="FLOAT32", units="W", role="power_w")
+        + fn_xml("p1", "2 3", format="FLOAT32", units="W", role="power_l1_w")
+        + fn_xml("e_in", "4 5", format="FLOAT32", units="Wh", role="energy_import_wh")
+        + fn_xml("e_out", "6 7", format="FLOAT32", units="Wh", role="energy_export_wh")
+        + fn_xml("u2", "8", format="UINT16", units="V", role="voltage_l2_v")
+    )
+    sets = ["p=1e12", "p1=1500", "e_in=42", "e_out=0", "u2=230"]
+    sim = sim_factory(_three_phase(tmp_path, phases), "--as", "sunspec", *[a for s in sets for a in ("--set", s)])
+    got = points(sim.port, 203, ("W", "WphA", "TotWhExp"))
+    assert got["W"] is None and close(got["WphA"], 1500.0) and got["TotWhExp"] is None
+    sim.stop()
+    assert "203_TotWhExp = 0: 0 is the point's 'not implemented' value" in sim.stderr
+    assert "warning: 203_TotWhExp" not in sim.stderr

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TextIO
 
 from mdl.device.sim import Registers
-from mdl.device.sunspec_points import MODELS, POINTS, SCALES, Point
+from mdl.device.sunspec_points import MODEL_SCALES, MODELS, POINTS, SCALES, Point
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.formats.sunspec.read import COMMON, chain_device
 from mdl.model import Device, Function, Value
@@ -198,9 +198,13 @@ class FacadeRegisters(Registers):
         return math.isfinite(scaled) and low <= round(scaled) <= high
 
     def _exponent(self, sf_name: str, values: list[tuple[Function, float | None]]) -> int:
-        finest, coarsest = SCALES.get(sf_name.removeprefix(f"{self.model}_"), (0, 0))
+        """The finest exponent at which every value that fits at all fits: one that fits at no exponent
+        (served as not implemented) never coarsens its neighbours' scale."""
+        point = sf_name.removeprefix(f"{self.model}_")
+        finest, coarsest = MODEL_SCALES.get((self.model, point), SCALES.get(point, (0, 0)))
+        fitting = [(fn, v) for fn, v in values if v is not None and self._fits(fn, v, coarsest)]
         for exponent in range(finest, coarsest + 1):
-            if all(v is None or self._fits(fn, v, exponent) for fn, v in values):
+            if all(self._fits(fn, v, exponent) for fn, v in fitting):
                 return exponent
         return coarsest
 
@@ -214,7 +218,12 @@ class FacadeRegisters(Registers):
         if not self._fits(fn, value, exponent):
             if fn.name not in self.unfit:
                 self.unfit.add(fn.name)
-                self._warn(f"{fn.name} = {value:g} does not fit the point at scale 10^{exponent}: not implemented")
+                scaled = value / 10.0**exponent
+                if abs(scaled) < 0.5 and any(int(t, 0) == 0 for t in fn.not_implemented or ()):
+                    why = "0 is the point's 'not implemented' value (SunSpec's accumulators count from 1)"
+                    self._warn(f"{fn.name} = 0: {why}: served as not implemented", note=True)
+                else:
+                    self._warn(f"{fn.name} = {value:g} does not fit the point at scale 10^{exponent}: not implemented")
             self.write(fn, missing)
             return
         self.unfit.discard(fn.name)
@@ -223,7 +232,7 @@ class FacadeRegisters(Registers):
         raw &= (1 << bits) - 1
         self.write(fn, [(raw >> (16 * (count - 1 - i))) & 0xFFFF for i in range(count)])
 
-    def _warn(self, message: str) -> None:
+    def _warn(self, message: str, note: bool = False) -> None:
         stream = self.warn or sys.stderr
-        stream.write(f"mdl: warning: {one_line(message)}\n")
+        stream.write(f"mdl: {'note' if note else 'warning'}: {one_line(message)}\n")
         stream.flush()

@@ -92,3 +92,6 @@ SCALES: dict[str, tuple[int, int]] = {
     "WH_SF": (0, 0),
     "WHRtg_SF": (0, 4),
 }
+# where one model's scale factor scales something else than the name says elsewhere: model 713's WH_SF
+# scales capacities (WHRtg, WHAvail), not an energy counter
+MODEL_SCALES: dict[tuple[int, str], tuple[int, int]] = {(713, "WH_SF"): (0, 4)}
