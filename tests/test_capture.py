@@ -102,9 +102,27 @@ def test_bad_uses_and_inputs(device, tmp_path):
         ('{"unit": 1}', "expected the output of mdl probe --format json"),
         ('[{"unit": 1, "ranges": {"holding": [[5, 2]]}}]', "holding: [5, 2] is not a range [FIRST, LAST]"),
         ('[{"unit": 1, "ranges": {"cheese": []}}]', "unknown table 'cheese'"),
+        ('[{"unit": -1, "ranges": {}}]', '"unit": U (0-255)'),
+        ('[{"unit": 300, "ranges": {}}]', '"unit": U (0-255)'),
+        ('[{"unit": true, "ranges": {}}]', '"unit": U (0-255)'),
     ]:
         probe.write_text(text)
         assert_clean_error(run_mdl("capture", "--ranges", probe, *sim.connection), 1, message)
     out = tmp_path / "never.json"
     assert_clean_error(run_mdl("capture", path, "--host", "127.0.0.1", "--port", "1", "-o", out), 3, "cannot connect")
     assert not out.exists()
+
+
+def test_a_range_the_device_refuses_whole_is_captured_in_parts(device, tmp_path):
+    """A probe file whose range crosses gaps (or a device that refuses reads across its blocks): the read
+    is split down to single addresses, what is defined is captured, what is refused alone is said; a
+    table left null (not probed) is skipped."""
+    path, sim = device
+    probe = tmp_path / "probe.json"
+    probe.write_text('[{"unit": 1, "ranges": {"holding": [[0, 12]], "input": null, "coil": [[3, 3]]}}]')
+    proc = run_mdl("capture", "--ranges", probe, *sim.connection)
+    assert proc.returncode == 0, proc.stderr
+    image = json.loads(proc.stdout)
+    assert sorted(map(int, image["holding"])) == [0, 1, 2, 3, 4, 10, 11, 12]
+    assert image["coil"] == {"3": 1} and image["input"] == {}
+    assert "mdl capture: warning:" in proc.stderr and "not captured" in proc.stderr

@@ -926,7 +926,10 @@ def capture(
         raise click.UsageError("--scenario needs FILE: a scenario's values are the description's functions")
     if ranges is not None:
         at, spans = cap.read_ranges(ranges, unit)
-        text = cap.image_json(cap.capture_ranges(spans, connection, at))
+        captured, refused = cap.capture_ranges(spans, connection, at)
+        for warning in refused:
+            click.echo(f"mdl capture: warning: {warning}", err=True)
+        text = cap.image_json(captured)
     else:
         assert file is not None
         resolved = _resolved(file)

@@ -61,18 +61,46 @@ def _read_into(
     image[req.table].update(zip(range(req.start, req.end), values, strict=True))
 
 
-def capture_ranges(ranges: dict[str, list[tuple[int, int]]], connection: Connection, unit: int) -> Image:
-    """Every address of `ranges` (a probe's), read in requests as large as the protocol allows."""
+def _halves(req: Request) -> tuple[Request, ...]:
+    """A refused read of a probe's range split in two (a device may refuse reads across its own blocks
+    or through a 32-bit value); one address alone is not split."""
+    if req.count == 1:
+        return ()
+    half = req.count // 2
+    return (Request(req.table, req.start, half, ()), Request(req.table, req.start + half, req.count - half, ()))
+
+
+def _read_split(session: Session, req: Request, image: Image, warnings: list[str]) -> None:
+    try:
+        values = session.read_request(req)
+    except ModbusExceptionError as exc:
+        if exc.code != 2:
+            raise
+        parts = _halves(req)
+        if not parts:
+            warnings.append(f"{exc.diagnostics[0].message}: not captured")
+        for part in parts:
+            _read_split(session, part, image, warnings)
+        return
+    image[req.table].update(zip(range(req.start, req.end), values, strict=True))
+
+
+def capture_ranges(
+    ranges: dict[str, list[tuple[int, int]]], connection: Connection, unit: int
+) -> tuple[Image, list[str]]:
+    """Every address of `ranges` (a probe's), read in requests as large as the protocol allows; a read the
+    device refuses (exception 2) is split in halves down to single addresses, and what it refuses even
+    alone is said, not captured."""
     image = _empty()
+    warnings: list[str] = []
     nobody = ResolvedDevice(Device("capture", ""), (), ())
     with Session(nobody, connection, unit) as session:
         for table, spans in ranges.items():
             step = MAX_BITS if table in BIT_TABLES else MAX_REGISTERS
             for first, last in spans:
                 for start in range(first, last + 1, step):
-                    req = Request(table, start, min(step, last + 1 - start), ())
-                    image[table].update(zip(range(req.start, req.end), session.read_request(req), strict=True))
-    return image
+                    _read_split(session, Request(table, start, min(step, last + 1 - start), ()), image, warnings)
+    return image, warnings
 
 
 def image_json(image: Image) -> str:
@@ -91,8 +119,10 @@ def read_ranges(path: Path, unit: int | None) -> tuple[int, dict[str, list[tuple
         raise error(f"invalid JSON: {exc.msg}", path, exc.lineno, exc.colno) from None
     except ValueError as exc:
         raise error(f"invalid JSON: {exc}", path) from None
-    if not isinstance(data, list) or not all(isinstance(u, dict) and isinstance(u.get("unit"), int) for u in data):
-        raise error('expected the output of mdl probe --format json: a list of {"unit": U, "ranges": {...}}', path)
+    if not isinstance(data, list) or not all(isinstance(u, dict) and _unit_id(u.get("unit")) for u in data):
+        raise error(
+            'expected the output of mdl probe --format json: a list of {"unit": U (0-255), "ranges": {...}}', path
+        )
     units = [u["unit"] for u in data]
     if unit is None and len(units) != 1:
         raise error(f"it holds units {', '.join(map(str, units)) or 'none'}: pick one with --unit", path)
@@ -104,11 +134,18 @@ def read_ranges(path: Path, unit: int | None) -> tuple[int, dict[str, list[tuple
         raise error(f'unit {chosen["unit"]}: no "ranges" object', path)
     out: dict[str, list[tuple[int, int]]] = {}
     for table, spans in ranges.items():
+        if spans is None and table in REGISTER_TYPES:  # a table the probe did not ask
+            continue
         if table not in REGISTER_TYPES or not isinstance(spans, list):
             shown = one_line(str(table))[:20]
             raise error(f"unit {chosen['unit']}: unknown table {shown!r} (expected {', '.join(REGISTER_TYPES)})", path)
         out[table] = [_span(span, table, path) for span in spans]
     return int(chosen["unit"]), out
+
+
+def _unit_id(unit: object) -> bool:
+    """Whether a probe's unit is a unit id (0-255; true is not 1)."""
+    return isinstance(unit, int) and not isinstance(unit, bool) and 0 <= unit <= 255
 
 
 def _span(span: object, table: str, path: Path) -> tuple[int, int]:

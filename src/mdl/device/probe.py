@@ -64,6 +64,7 @@ class UnitProbe:
     values: dict[str, dict[int, int]] = field(default_factory=lambda: {t: {} for t in REGISTER_TYPES})
     requests: int = 0
     notes: list[str] = field(default_factory=list)
+    tables: tuple[str, ...] = REGISTER_TYPES  # the tables asked (--tables): the others were not probed
 
     def defined(self, table: str, first: int, values: list[int]) -> None:
         last = first + len(values) - 1
@@ -78,7 +79,10 @@ class UnitProbe:
         return {
             "unit": self.unit,
             "serial": self.serial,
-            "ranges": {t: [list(span) for span in self.ranges[t]] for t in REGISTER_TYPES},
+            # null: a table --tables did not ask, unlike [] (asked: nothing defined)
+            "ranges": {
+                t: [list(span) for span in self.ranges[t]] if t in self.tables else None for t in REGISTER_TYPES
+            },
             "requests": self.requests,
         }
 
@@ -236,7 +240,9 @@ class _Scan:
                 return pos + size, False
         if bad > limit:
             return pos + good, False
-        return pos + good + 1, True  # pos + good is undefined
+        # the read to pos + good was refused, which says only that the read was: a device may refuse reads
+        # across its own blocks, so pos + good is asked alone next
+        return pos + good, True
 
 
 class _TableDone(Exception):
@@ -354,7 +360,7 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
 def _probe_one(
     session: Session, unit: int, serial: dict[str, object] | None, options: ProbeOptions, pace: _Pace
 ) -> UnitProbe | None:
-    found = UnitProbe(unit, serial)
+    found = UnitProbe(unit, serial, tables=tuple(options.tables))
     prober = _Prober(session, unit, options.max_requests, pace, found)
     prober.ask(options.tables[0], options.low, 1)  # is anybody there? (one request)
     if prober.line.absent or not prober.line.answered:
@@ -379,6 +385,6 @@ def render(results: list[UnitProbe], fmt: str) -> str:
         for table in REGISTER_TYPES:
             spans = r.ranges[table]
             shown = ", ".join(f"{_span(a, b)} ({b - a + 1})" for a, b in spans) or "none"
-            out.append(f"  {table:<9} {shown}")
+            out.append(f"  {table:<9} {shown if table in r.tables else 'not probed'}")
         out += [f"  {note}" for note in r.notes]
     return "\n".join(out) + "\n"
