@@ -21,6 +21,16 @@ from mdl.diagnostics import MdlError, error  # noqa: E402
 GOLDEN = Path(__file__).resolve().parent / "golden" / "exports"
 CASES = {"temco_tstat": EXAMPLE / "temco_tstat.xml", "all_tables": DATA / "all_tables.xml"}
 ARGS = ("--host", "192.0.2.10", "--port", "502", "--unit", "1", "--interval", "60")
+# an engine on the serial line itself (ESPHome's UART) gets the line's settings instead of a TCP address
+LINE_ARGS = {
+    "esphome": ("--serial", "/dev/ttyUSB0", "--baud", "9600", "--parity", "E", "--unit", "1", "--interval", "60")
+}
+FILES = {
+    "homeassistant": "homeassistant.yaml",
+    "telegraf": "telegraf.toml",
+    "esphome": "esphome.yaml",
+    "thingsboard": "thingsboard.json",
+}
 
 
 def render(path: Path) -> dict[str, str]:
@@ -29,9 +39,9 @@ def render(path: Path) -> dict[str, str]:
     out: dict[str, str] = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / "volttron"
-        for engine in ("volttron", "homeassistant", "telegraf"):
+        for engine in ("volttron", *FILES):
             extra = ("-o", folder) if engine == "volttron" else ()
-            proc = run_mdl("export", source, "--to", engine, *ARGS, *extra, cwd=ROOT)
+            proc = run_mdl("export", source, "--to", engine, *LINE_ARGS.get(engine, ARGS), *extra, cwd=ROOT)
             if proc.returncode != 0:  # an error, not a traceback, for python3 scripts/regen_golden.py too
                 said = "; ".join(proc.stderr.strip().splitlines())
                 raise error(f"mdl export --to {engine} exited {proc.returncode}: {said}", source)
@@ -40,7 +50,7 @@ def render(path: Path) -> dict[str, str]:
                 for file in sorted(folder.iterdir()):
                     out[f"volttron/{file.name}"] = file.read_text(encoding="utf-8")
             else:
-                out[{"homeassistant": "homeassistant.yaml", "telegraf": "telegraf.toml"}[engine]] = proc.stdout
+                out[FILES[engine]] = proc.stdout
     return out
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 from conftest import MDL_NS, assert_clean_error, cli
+from fleet_checks import check_esphome, check_thingsboard
 
 from mdl.device.output import capability
 from mdl.engines.ha_units import ha_unit
@@ -235,10 +236,14 @@ def check_wise(path: Path, out: Path, warnings: str) -> None:
 
 def run_all(path: Path, tmp: Path) -> None:
     """Every text export of `path`, each read back by its format's parser and checked."""
-    for fmt, check in (("telegraf", check_telegraf), ("homeassistant", check_homeassistant), ("senml", check_senml)):
+    texts = (("telegraf", check_telegraf), ("homeassistant", check_homeassistant), ("senml", check_senml))
+    for fmt, check in (*texts, ("thingsboard", check_thingsboard)):
         proc = export(path, fmt)
         assert proc.returncode == 0, (fmt, proc.stderr)
         check(path, proc.stdout)
+    proc = export(path, "esphome")
+    assert proc.returncode == 0, proc.stderr
+    check_esphome(path, proc.stdout, proc.stderr)
     folder = tmp / "volttron"
     proc = export(path, "volttron", "-o", folder, "--force")
     assert proc.returncode == 0, proc.stderr

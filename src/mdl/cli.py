@@ -671,6 +671,9 @@ def _emit_text(text: str, output: Path | None) -> None:
     help="Seconds between polls the engine should use (default 60).",
 )
 @click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
+@click.option("--board", default="esp32dev", show_default=True, help="esphome: the ESP32 board.")
+@click.option("--tx-pin", default="GPIO17", show_default=True, help="esphome: the UART's TX pin (to the RS-485 DI).")
+@click.option("--rx-pin", default="GPIO16", show_default=True, help="esphome: the UART's RX pin (from the RS-485 RO).")
 @click.option(
     "--names",
     type=click.Choice(["functions", "roles"], case_sensitive=False),
@@ -694,6 +697,9 @@ def export_(
     force: bool,
     names: str,
     profile: str | None,
+    board: str,
+    tx_pin: str,
+    rx_pin: str,
 ) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
@@ -708,6 +714,8 @@ def export_(
       mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
       mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
       mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
+      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --serial uart --baud 9600 -o node.yaml
+      mdl export examples/temco_tstat/temco_tstat.xml --to thingsboard --host 192.0.2.10 -o modbus.json
     """
     from mdl.diagnostics import error
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
@@ -715,7 +723,11 @@ def export_(
 
     if engines.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
-    settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None)
+    given = click.get_current_context().get_parameter_source
+    node = [n for n in ("board", "tx_pin", "rx_pin") if given(n) is not click.core.ParameterSource.DEFAULT]
+    if node and fmt.lower() != "esphome":
+        raise click.UsageError(f"--{node[0].replace('_', '-')} sets the ESPHome node: it needs --to esphome")
+    settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin)
     resolved = _resolved(file)
     if profile is not None and names.lower() != "roles":
         raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")

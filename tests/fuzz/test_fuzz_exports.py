@@ -82,7 +82,7 @@ def _check(name: str, functions: list[Fn]) -> str:
         folder = Path(tmp)
         path = write_device(folder / "d.xml", name, functions)
         if cli("validate", path).returncode != 0:
-            for fmt in ("telegraf", "homeassistant", "senml", "wise"):
+            for fmt in ("telegraf", "homeassistant", "senml", "wise", "esphome", "thingsboard"):
                 assert_clean_error(export(path, fmt), 1, str(path))
             return "refused"
         run_all(path, folder)

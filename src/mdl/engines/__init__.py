@@ -1,4 +1,5 @@
-"""The configurations of the engines that poll fleets (SPEC 11: VOLTTRON, Home Assistant, Telegraf) and
+"""The configurations of the engines that poll fleets (SPEC 11: VOLTTRON, Home Assistant, Telegraf,
+ESPHome, the ThingsBoard gateway) and
 the WISE guide's SenML capability document, made from a resolved description (`mdl export`).
 
 ENGINES is their registry; `outputs()` is every `mdl export --to` choice: the formats that write
@@ -40,6 +41,12 @@ ENGINES = (
     ),
     Output("homeassistant", "Home Assistant modbus: YAML", lazy("mdl.engines.homeassistant", "export_homeassistant")),
     Output("telegraf", "Telegraf [[inputs.modbus]] TOML", lazy("mdl.engines.telegraf", "export_telegraf")),
+    Output("esphome", "an ESPHome node with modbus_controller (YAML)", lazy("mdl.engines.esphome", "export_esphome")),
+    Output(
+        "thingsboard",
+        "the ThingsBoard IoT Gateway's Modbus connector (JSON)",
+        lazy("mdl.engines.thingsboard", "export_thingsboard"),
+    ),
 )
 
 

@@ -112,6 +112,13 @@ def hex_pattern(pattern: tuple[int, ...]) -> str:
     return " ".join(f"0x{word:04X}" for word in pattern)
 
 
+def warn_patterns(f: ResolvedFunction, notes: Notes, message: str) -> None:
+    """Warn `message` for `f` if it has "not implemented" values (the detail lists them)."""
+    patterns = patterns_of(f)
+    if patterns:
+        notes.warn(f, message, ", ".join(map(hex_pattern, patterns)))
+
+
 def plain_number(x: float) -> str:
     """`x` as a plain decimal (no exponent) that reads back as the same double: 0.1, 1e-05 -> 0.00001, 2 -> 2."""
     text = format(Decimal(repr(float(x))), "f")

@@ -25,6 +25,9 @@ class Settings:
     unit: int = 1
     interval: float = DEFAULT_INTERVAL
     interval_given: bool = False  # whether --interval was on the command line
+    board: str = "esp32dev"  # esphome: the ESP32 board (--board)
+    tx_pin: str = "GPIO17"  # esphome: the UART's pins to the RS-485 transceiver (--tx-pin, --rx-pin)
+    rx_pin: str = "GPIO16"
 
 
 @dataclass
