@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.lang.expr.fields import Compiled
 from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
@@ -21,6 +21,9 @@ from mdl.plan import Request, plan_groups
 from mdl.resolve.checks import check_device
 from mdl.values.build import build
 from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
+
+if TYPE_CHECKING:
+    from mdl.lang.expr.fields import Compiled
 
 
 @dataclass(frozen=True)

@@ -8,15 +8,16 @@ an expression or a fragment points at its column in the file; a model built in c
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from mdl.diagnostics import Diagnostic, span_of
-from mdl.lang.cfrag import FragmentError, check
-from mdl.lang.expr.fields import Compiled, compile_device
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
 from mdl.resolve.packing import mask_write, packing_problems
 from mdl.values.build import int_range
+
+if TYPE_CHECKING:
+    from mdl.lang.expr.fields import Compiled
 
 FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float element of MDL 1.0
 
@@ -65,8 +66,11 @@ def check_device(
         else:
             seen[fn.name] = fn.line
     by_name = {fn.name: fn for fn in device.functions}
-    for problem in compile_device(device, compiled):
-        out.append(_expression_problem(problem.function, problem.message, problem.col, path))
+    if any(fn.expression is not None for fn in device.functions):  # the expression compiler, when needed
+        from mdl.lang.expr.fields import compile_device
+
+        for problem in compile_device(device, compiled):
+            out.append(_expression_problem(problem.function, problem.message, problem.col, path))
     for fn in device.functions:
         if fn.expression is not None:
             _check_expression_function(fn, compiled.get(fn.name), err)
@@ -86,6 +90,8 @@ def check_device(
         ):
             if code is None or (attr == "write_function_code" and mask_write(fn)):
                 continue
+            from mdl.lang.cfrag import FragmentError, check  # the fragment checker, when needed
+
             try:
                 check(code, len(lay.addresses))
             except FragmentError as exc:

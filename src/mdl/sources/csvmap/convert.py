@@ -15,7 +15,6 @@ from pathlib import Path
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model import Device, Function
 from mdl.model.names import unique_identifiers
-from mdl.profiles.load import shipped_roles
 from mdl.sources.csvmap.address_base import guess_address_base
 from mdl.sources.csvmap.cells import CellError, access_words
 from mdl.sources.csvmap.columns import Columns, resolve
@@ -505,6 +504,8 @@ def _roles_by_name(functions: list[Function], ini: DeviceIni, report: Report) ->
     (SPEC 13), unless its [function NAME] says another; a note lists them."""
     if not ini.synonyms:
         return
+    from mdl.profiles.load import shipped_roles  # the profiles' YAML, read only when an INI names functions
+
     roles = shipped_roles()
     named = [fn for fn in functions if fn.role is None and fn.name in roles and fn.name in ini.synonyms]
     for fn in named:
