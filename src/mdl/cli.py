@@ -40,6 +40,20 @@ class InputFile(click.Path):
 INPUT = InputFile()
 
 
+class InputOrTarget(click.Path):
+    """An input file (INPUT), or a FILE@CONNECTION target of `mdl read` (kept as text: mdl.device.fleet parses it)."""
+
+    def __init__(self) -> None:
+        super().__init__(path_type=Path, allow_dash=True, readable=False)
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path | str:
+        from mdl.device.fleet import looks_like_target
+
+        if isinstance(value, str) and looks_like_target(value):
+            return value
+        return INPUT.convert(value, param, ctx)
+
+
 def _stdin_once(paths: Iterable[Path]) -> None:
     if sum(1 for path in paths if is_stdin(path)) > 1:
         raise click.UsageError("standard input (-) can be read only once")
@@ -422,7 +436,7 @@ MAX_UNIT = 247
 @click.option(
     "--as",
     "as_",
-    type=click.Choice(["sunspec"]),
+    type=click.Choice(["sunspec"], case_sensitive=False),
     help="Serve the device (one FILE) as its profile's SunSpec models at 40000 (docs/sunspec.md, Gateway).",
 )
 @click.option("--profile", metavar="NAME|FILE.yaml", help="With --as sunspec: the profile (default: the one it fits).")
@@ -503,7 +517,7 @@ def sim(
     "(RTU frames over TCP), or serial:DEVICE[?baud=19200&parity=N&stopbits=1&bytesize=8] (Modbus RTU).",
 )
 @click.option("--from-unit", type=click.IntRange(0, 255), default=1, show_default=True, help="The device's unit id.")
-@click.option("--as", "as_", type=click.Choice(["sunspec"]), required=True, help="What to serve it as.")
+@click.option("--as", "as_", type=click.Choice(["sunspec"], case_sensitive=False), required=True, help="What to serve it as.")
 @click.option("--profile", metavar="NAME|FILE.yaml", help="The profile (default: the one its roles fit).")
 @click.option(
     "--interval", type=click.FloatRange(0.1, 86400), default=1.0, show_default=True, metavar="S", help="Poll every S s."
@@ -1007,9 +1021,9 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
 
 
 @main.command()
-@click.argument("file", type=INPUT, required=False)
+@click.argument("file", type=InputOrTarget(), required=False, metavar="[FILE | FILE@CONNECTION[#UNIT]...]")
 @click.argument("names", nargs=-1)
-@connection_options()
+@connection_options(optional=True)
 @unit_option
 @click.option(
     "--format",
@@ -1045,11 +1059,18 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
     help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.",
 )
 @click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
+@click.option(
+    "--publish",
+    multiple=True,
+    metavar="URL",
+    help="With --interval: send each poll on: mqtt://HOST[:PORT]/PREFIX (MQTT, Home Assistant discovery), "
+    "prometheus://[HOST]:PORT (metrics of the last poll). See docs/fleet.md.",
+)
 @fail_on_warning_option
 def read(
-    file: Path | None,
+    file: Path | str | None,
     names: tuple[str, ...],
-    connection: Connection,
+    connection: Connection | None,
     unit: int,
     fmt: str,
     raw: tuple[str, ...],
@@ -1058,6 +1079,7 @@ def read(
     byte_order: str | None,
     interval: float | None,
     count: int | None,
+    publish: tuple[str, ...],
 ) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
@@ -1086,6 +1108,13 @@ def read(
     Without a description, raw registers as mbpoll reads them (wire addresses; see docs/probe.md):
       mdl read --host 127.0.0.1 --port 5020 --raw hr:0-7 --as hex
       $ mdl read --host 192.0.2.10 --raw hr:0-9 --raw ir:100+4 --as float32 --word-order little
+
+    \b
+    Several devices from one process, each FILE@CONNECTION[#UNIT] polled on its own (docs/fleet.md), and
+    polls published to an MQTT broker (Home Assistant discovery) or served to Prometheus:
+      $ mdl read meter.xml@tcp://192.0.2.10:502#3 'meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2' --interval 5
+      $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 10 --publish mqtt://localhost/mdl
+      $ mdl read meter.xml@tcp://192.0.2.10#1 meter.xml@tcp://192.0.2.10#2 --interval 15 --publish prometheus://:9105
     """
     from mdl.device import output
     from mdl.device.poll import poll
@@ -1093,6 +1122,14 @@ def read(
 
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
+    if publish and interval is None:
+        raise click.UsageError("--publish needs --interval (polling)")
+    from mdl.device.fleet import looks_like_target
+
+    if isinstance(file, str) or publish or any(map(looks_like_target, names)):
+        sys.exit(_read_targets(file, names, connection, unit, fmt, interval, count, publish))
+    if connection is None:
+        raise click.UsageError(NO_CONNECTION)
     if raw or file is None:
         from mdl.device.rawread import raw_read
 
@@ -1108,6 +1145,67 @@ def read(
     with Session(resolved, connection, unit) as session:
         values = session.read(functions)
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
+
+
+NO_CONNECTION = "no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"
+
+
+def _read_targets(
+    file: Path | str | None,
+    names: tuple[str, ...],
+    connection: Connection | None,
+    unit: int,
+    fmt: str,
+    interval: float | None,
+    count: int | None,
+    publish: tuple[str, ...],
+) -> int:
+    """`mdl read` of several FILE@CONNECTION targets, or of one FILE with --publish (mdl.device.fleet)."""
+    from click.core import ParameterSource
+
+    from mdl.device import fleet
+
+    if isinstance(file, str):
+        if connection is not None:
+            raise click.UsageError("a FILE@CONNECTION target gives its own connection: leave out --host and --serial")
+        if click.get_current_context().get_parameter_source("unit") is not ParameterSource.DEFAULT:
+            raise click.UsageError("--unit: a target gives its unit id as FILE@CONNECTION#UNIT")
+        texts = [file, *(n for n in names if fleet.looks_like_target(n))]
+        names = tuple(n for n in names if not fleet.looks_like_target(n))
+        targets = []
+        for text in texts:
+            try:
+                targets.append(fleet.parse_target(text))
+            except ValueError as exc:
+                raise click.BadParameter(f"{text!r}: {exc}", param_hint="FILE@CONNECTION") from None
+    elif any(fleet.looks_like_target(n) for n in names) or file is None:
+        raise click.UsageError(f"several devices are each {fleet.TARGET_FORMS}")
+    elif connection is None:
+        raise click.UsageError(NO_CONNECTION)
+    else:
+        targets = [fleet.Target(str(file), file, connection, unit)]
+    from mdl.engines.ha_units import ha_unit
+
+    sinks: list[fleet.Sink] = []
+    for url in publish:
+        try:
+            sinks.append(fleet.publisher(url, sys.stderr, ha_unit))
+        except ValueError as exc:
+            raise click.BadParameter(f"{url!r}: {exc}", param_hint="'--publish'") from None
+    files: dict[Path, ResolvedDevice] = {}
+    polled = []
+    for target in targets:
+        resolved = files[target.file] if target.file in files else files.setdefault(target.file, _resolved(target.file))
+        device = resolved.device
+        functions = _select(device, names) if names else [fn for fn in device.functions if fn.readable]
+        polled.append(fleet.Polled(target, resolved, functions, ""))
+    ids, notes = fleet.device_ids([p.resolved.stem for p in polled], [t.unit for t in targets])
+    for p, ident in zip(polled, ids, strict=True):
+        p.ident = ident
+    for note in notes:
+        click.echo(f"mdl read: note: {note}", err=True)
+    printer = fleet.Printer(fmt, len(targets) > 1, sys.stdout, sys.stderr)
+    return fleet.poll_fleet(polled, [printer, *sinks], interval or 1.0, count if interval is not None else 1)
 
 
 @main.command()

@@ -22,7 +22,7 @@ from click.core import ParameterSource
 from mdl.exchange.connection import DEVICE_PORT, SIM_HOST, Endpoint, host_port
 
 if TYPE_CHECKING:
-    from pymodbus.client import ModbusBaseSyncClient
+    from pymodbus.client import ModbusBaseClient, ModbusBaseSyncClient
     from pymodbus.datastore import ModbusServerContext
     from pymodbus.framer import FramerType
     from pymodbus.server import ModbusBaseServer
@@ -80,21 +80,36 @@ class Connection(Endpoint):
         """A synchronous pymodbus client, not yet connected. `retries` counts the sends after the first."""
         from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 
+        client: ModbusBaseSyncClient = self._client(ModbusSerialClient, ModbusTcpClient, trace)
+        return client
+
+    def async_client(self, trace: Trace | None = None) -> ModbusBaseClient:
+        """An asyncio pymodbus client (mdl.device.fleet), not yet connected, that never reconnects on
+        its own: the poller connects again at its next poll, as the synchronous one does."""
+        from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
+
+        client: ModbusBaseClient = self._client(AsyncModbusSerialClient, AsyncModbusTcpClient, trace, reconnect_delay=0)
+        return client
+
+    def _client(self, serial: type, tcp: type, trace: Trace | None, **more: Any) -> Any:
+        """A client of class `serial` or `tcp` (pymodbus's synchronous or asyncio ones take the same arguments)."""
         if self.serial is not None:
-            return ModbusSerialClient(
+            return serial(
                 self.serial,
                 **self.line_settings(),
                 timeout=self.timeout,
                 retries=self.retries,
                 trace_packet=trace,
+                **more,
             )
-        return ModbusTcpClient(
+        return tcp(
             self.host,
             port=self.port,
             framer=self.framer,
             timeout=self.timeout,
             retries=self.retries,
             trace_packet=trace,
+            **more,
         )
 
     def line_settings(self) -> dict[str, Any]:

@@ -88,8 +88,13 @@ def _json_value(value: Value) -> Value:
     return value
 
 
+def json_value(fn: Function, value: Value) -> Value:
+    """A value as json records carry it (and MQTT payloads, mdl.device.publish_mqtt)."""
+    return _json_value(shown(fn, value, exact=True))
+
+
 def _json_values(functions: list[Function], values: dict[str, Value]) -> dict[str, Value]:
-    return {fn.name: _json_value(shown(fn, values[fn.name], exact=True)) for fn in functions}
+    return {fn.name: json_value(fn, values[fn.name]) for fn in functions}
 
 
 def _csv_line(cells: list[str]) -> str:
@@ -256,3 +261,35 @@ def record(functions: list[Function], values: dict[str, Value], fmt: str, when: 
         return _csv_line([iso_time(when), *(_cell(shown(fn, values[fn.name])) for fn in functions)])
     rows = [(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
     return _table([(TIME_KEY, iso_time(when), ""), *rows]) + "\n"
+
+
+DEVICE_KEY = "device"  # the key (json), column (csv) and row (table) naming a record's device when several are polled
+
+
+def device_record_header(fmt: str) -> str:
+    """What polling several devices prints once: csv's header (time, device, name, value, units)."""
+    return _csv_line([TIME_KEY, DEVICE_KEY, "name", "value", "units"]) if fmt == "csv" else ""
+
+
+def device_record(
+    device: str, functions: list[Function], values: dict[str, Value], fmt: str, when: datetime, device_name: str = ""
+) -> str:
+    """One poll's record of one of several devices, naming it: json {"time", "device", "values"} on one line;
+    csv a row per function (time, device, name, value, units); table a block with a device row; senml the
+    document of `record` with each `bn` prefixed by `device/`."""
+    if fmt == "json":
+        doc = {TIME_KEY: iso_time(when), DEVICE_KEY: device, "values": _json_values(functions, values)}
+        return json.dumps(doc, ensure_ascii=False) + "\n"
+    if fmt == "csv":
+        stamp = iso_time(when)
+        return "".join(
+            _csv_line([stamp, device, fn.name, _cell(shown(fn, values[fn.name])), (fn.units or "").strip()])
+            for fn in functions
+        )
+    if fmt == "senml":
+        doc = json.loads(record(functions, values, fmt, when, device_name))
+        for block in doc.values():
+            block["bn"] = f"{device}/{block['bn']}"
+        return json.dumps(doc, ensure_ascii=False) + "\n"
+    rows = [(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
+    return _table([(TIME_KEY, iso_time(when), ""), (DEVICE_KEY, device, ""), *rows]) + "\n"

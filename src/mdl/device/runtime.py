@@ -8,7 +8,7 @@ connection, is a DeviceError (exit 3) naming the connection, the unit and what w
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from typing import Any
 
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
@@ -41,6 +41,27 @@ EXCEPTION_NAMES = {
 class ModbusExceptionError(DeviceError):
     def __init__(self, what: str, code: int):
         super().__init__(f"{what}: Modbus exception {code} ({EXCEPTION_NAMES.get(code, 'unknown')})", code)
+
+
+ReadSteps = Generator[Request, list[int], dict[str, Value]]
+
+
+def drive(steps: ReadSteps, fetch: Callable[[Request], list[int]]) -> dict[str, Value]:
+    """Run a read's steps (Session.read_steps) with `fetch` answering each request; a Modbus exception
+    is thrown back into the steps, which decide what it means. mdl.device.fleet drives the same steps
+    with an asyncio client."""
+    try:
+        req = next(steps)
+        while True:
+            try:
+                regs = fetch(req)
+            except ModbusExceptionError as exc:
+                req = steps.throw(exc)
+            else:
+                req = steps.send(regs)
+    except StopIteration as done:
+        values: dict[str, Value] = done.value
+        return values
 
 
 class _ReadPlan:
@@ -135,12 +156,16 @@ class Session:
         connect: Callable[[], bool] = self.client.connect  # typed here: pymodbus leaves it unannotated
         if connect():
             return
+        raise self.connect_error()
+
+    def connect_error(self) -> DeviceError:
+        """Why the connection could not be opened."""
         conn = self.connection
         if conn.serial is not None:
-            raise DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
+            return DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
         nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
         hint = conn.refused_hint()
-        raise DeviceError(f"cannot connect to {conn}: {nobody}{'; ' + hint if hint else ''}")
+        return DeviceError(f"cannot connect to {conn}: {nobody}{'; ' + hint if hint else ''}")
 
     def close(self) -> None:
         close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
@@ -154,7 +179,15 @@ class Session:
         try:
             result = method(*args, device_id=self.unit, **kw)
         except (ModbusException, OSError) as exc:
-            raise DeviceError(f"{self.where(what)}: {self._failure(exc)}") from None
+            raise self.failed(what, exc) from None
+        return self.checked(what, result)
+
+    def failed(self, what: str, exc: ModbusException | OSError) -> DeviceError:
+        """The error of a request that got no reply the client would decode."""
+        return DeviceError(f"{self.where(what)}: {self._failure(exc)}")
+
+    def checked(self, what: str, result: ModbusPDU) -> ModbusPDU:
+        """The reply, once the wire's bytes and the reply's exception code say it can be trusted."""
         problem = self.wire.accepted_problem()
         if problem:
             raise DeviceError(f"{self.where(what)}: {problem}")
@@ -183,24 +216,35 @@ class Session:
 
     def read_request(self, req: Request) -> list[int]:
         """The `req.count` registers or bits of one request (the reply's byte count was checked)."""
-        what = f"reading {req.count} {req.table} from {req.start}"
-        result = self._call(what, self._methods[req.table], req.start, count=req.count)
+        what = self.reading(req)
+        return self.unpacked(req, self._call(what, self._methods[req.table], req.start, count=req.count))
+
+    @staticmethod
+    def reading(req: Request) -> str:
+        return f"reading {req.count} {req.table} from {req.start}"
+
+    def unpacked(self, req: Request, result: ModbusPDU) -> list[int]:
+        """The registers or bits of a checked reply to `req`."""
         if req.table in ("coil", "discrete"):  # the padding bits are dropped
             return [int(b) for b in result.bits[: req.count]]
         registers = list(result.registers)
         if len(registers) != req.count:  # the byte count was checked: never, but a buffer must not shift
-            raise DeviceError(self.where(f"{what}: the reply carries {len(registers)} registers"))
+            raise DeviceError(self.where(f"{self.reading(req)}: the reply carries {len(registers)} registers"))
         return registers
 
     def read(self, functions: list[Function]) -> dict[str, Value]:
         """Values of the functions (reading what their expressions depend on too)."""
+        return drive(self.read_steps(functions), self.read_request)
+
+    def read_steps(self, functions: list[Function]) -> ReadSteps:
+        """`read` as steps: yields each request and is sent its registers (`drive`)."""
         plan = self._plan(tuple(fn.name for fn in functions))
         raw: list[int | None] = [None] * plan.size
         missing: list[Request] = []
         for i, (group, offset, smaller) in enumerate(plan.groups):
             if group not in self.refused:
                 try:
-                    raw[offset : offset + group.count] = self.read_request(group)
+                    raw[offset : offset + group.count] = yield group
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
@@ -216,7 +260,7 @@ class Session:
             for req in smaller or ():
                 try:
                     at = offset + req.start - group.start
-                    raw[at : at + req.count] = self.read_request(req)
+                    raw[at : at + req.count] = yield req
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise

@@ -1,0 +1,362 @@
+"""Polling several devices from one process (SPEC sections 9 and 11, docs/fleet.md): `mdl read
+FILE@CONNECTION[#UNIT]...`, and `mdl read ... --interval S --publish URL`.
+
+A target is a description and where its device is: `meter.xml@tcp://10.0.0.5:502#3`,
+`meter.xml@rtu+tcp://10.0.0.6:4001#2` (RTU frames over TCP), `meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2`.
+Each target is polled by its own asyncio task on one event loop, on its own schedule (start to start,
+as mdl.device.poll), through a pymodbus asyncio client: a device that does not answer waits out its
+own timeout and delays no other. Devices on one serial line, or behind one RTU-over-TCP converter,
+share the line's client and take turns, as the bus makes them. Every poll goes to the sinks: the
+printer (records on stdout, naming their device when there are several) and the publishers
+(mdl.device.publish_mqtt, mdl.device.publish_prometheus).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol, TextIO
+from urllib.parse import parse_qsl
+
+from pymodbus.exceptions import ModbusException
+
+from mdl.device import output
+from mdl.device.connection import Connection, split_host
+from mdl.device.frames import Wire
+from mdl.device.poll import STOP_SIGNALS, _refuse_time_clash, _silence
+from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.diagnostics import EXIT_DEVICE, MdlError
+from mdl.exchange.connection import DEVICE_PORT
+from mdl.fileio import input_path
+from mdl.model import Function, Value
+from mdl.model.names import unique_identifiers
+
+if TYPE_CHECKING:
+    from pymodbus.client import ModbusBaseClient
+    from pymodbus.pdu import ModbusPDU
+
+    from mdl.device.publish_mqtt import Classify
+    from mdl.plan import Request
+    from mdl.resolve import ResolvedDevice, ResolvedFunction
+
+SCHEMES = ("tcp", "rtu+tcp", "rtu")
+_AT = re.compile(r"@(?=(?:tcp|rtu\+tcp|rtu)://)")
+TARGET_FORMS = (
+    "FILE@tcp://HOST[:PORT][#UNIT], FILE@rtu+tcp://HOST[:PORT][#UNIT] or FILE@rtu://DEVICE[?baud=B&parity=P][#UNIT]"
+)
+# the settings a target's query may give: (type, lowest, highest), the ranges of the CONNECTION options
+_SETTINGS: dict[str, tuple[type, float, float]] = {"timeout": (float, 0.1, 600), "retries": (int, 0, 10)}
+_LINE: dict[str, tuple[type, float, float]] = {
+    "baud": (int, 50, 4_000_000),
+    "stopbits": (int, 1, 2),
+    "bytesize": (int, 7, 8),
+}
+
+
+def looks_like_target(text: str) -> bool:
+    """Whether a command-line argument is a FILE@CONNECTION target (not a file or a function name)."""
+    return _AT.search(text) is not None
+
+
+@dataclass(frozen=True)
+class Target:
+    """A device to poll: its description file, where it is, and its unit id; `text` as it was given."""
+
+    text: str
+    file: Path
+    connection: Connection
+    unit: int = 1
+
+
+def parse_target(text: str) -> Target:
+    """`FILE@CONNECTION[#UNIT]` -> a Target; ValueError saying what is wrong."""
+    found = _AT.search(text)
+    if found is None:
+        raise ValueError(f"not a target: write {TARGET_FORMS}")
+    file_text, url = text[: found.start()], text[found.end() :]
+    if not file_text:
+        raise ValueError("no FILE before '@'")
+    scheme, _, rest = url.partition("://")
+    rest, hash_sign, fragment = rest.partition("#")
+    rest, _, query = rest.partition("?")
+    settings = _settings(query, scheme)
+    unit = _unit(fragment) if hash_sign else 1
+    if scheme == "rtu":
+        if not rest:
+            raise ValueError("rtu:// needs the serial device: rtu:///dev/ttyUSB0")
+        connection = Connection(serial=rest, rtu=True, **settings)
+    else:
+        host, port = split_host(rest)
+        if port is not None and not 1 <= port <= 65535:
+            raise ValueError(f"the port {port} is not in the range 1 to 65535")
+        connection = Connection(host=host, port=port or DEVICE_PORT, rtu=scheme == "rtu+tcp", **settings)
+    return Target(text, input_path(file_text), connection, unit)
+
+
+def _unit(text: str) -> int:
+    if not text.isascii() or not text.isdigit() or not 0 <= int(text) <= 255:
+        raise ValueError(f"the unit id {text!r} after '#' is not a number from 0 to 255")
+    return int(text)
+
+
+def _settings(query: str, scheme: str) -> dict[str, Any]:
+    """A target's ?key=value&... settings, checked."""
+    known = {**_SETTINGS, **(_LINE if scheme == "rtu" else {})}
+    out: dict[str, Any] = {}
+    for key, value in parse_qsl(query, keep_blank_values=True):
+        if key == "parity" and scheme == "rtu":
+            if value.upper() not in ("N", "E", "O"):
+                raise ValueError(f"parity={value}: write N, E or O")
+            out[key] = value.upper()
+            continue
+        if key not in known:
+            names = ", ".join([*known, *(["parity"] if scheme == "rtu" else [])])
+            raise ValueError(f"unknown setting {key!r} (a {scheme}:// target takes {names})")
+        kind, low, high = known[key]
+        try:
+            number = kind(value)
+        except ValueError:
+            raise ValueError(f"{key}={value}: not a number") from None
+        if not low <= number <= high:
+            raise ValueError(f"{key}={value}: not in the range {low:g} to {high:g}")
+        out[key] = number
+    return out
+
+
+def device_ids(stems: Sequence[str], units: Sequence[int]) -> tuple[list[str], list[str]]:
+    """A name for each polled device (records, MQTT topics, metric labels): its stem (SPEC 3), with
+    `_u<unit>` where stems repeat, made unique (_2, _3, ...) where they still do; and the notes saying so."""
+    repeated = {s for s in stems if list(stems).count(s) > 1}
+    wanted = [f"{s}_u{u}" if s in repeated else s for s, u in zip(stems, units, strict=True)]
+    ids = unique_identifiers(wanted)
+    notes = [
+        f"device {i + 1} ({stem} unit {unit}) is named {ident}: several targets are {stem}"
+        for i, (stem, unit, ident) in enumerate(zip(stems, units, ids, strict=True))
+        if ident != stem
+    ]
+    return ids, notes
+
+
+def kind_of(f: ResolvedFunction) -> str:
+    """What a function's value is to a publisher: `bool`, `number` (an enumeration's too: its label is
+    text in records and payloads) or `text` (strings, bitsets)."""
+    vt = f.codec.value_type
+    kind = vt.expr_type if vt.kind == "expr" else vt.kind
+    if kind == "bool":
+        return "bool"
+    return "number" if kind in ("int", "float", "long", "double") else "text"
+
+
+@dataclass
+class Polled:
+    """A target with what polling it takes: its resolved device, the functions read and its name."""
+
+    target: Target
+    resolved: ResolvedDevice
+    functions: list[Function]
+    ident: str
+
+
+class Sink(Protocol):
+    """Where polls go: records printed, or published."""
+
+    def started(self, polled: list[Polled]) -> None: ...
+    def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None: ...
+    def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None: ...
+    def close(self) -> None: ...
+
+
+class Printer:
+    """Records on stdout, as `mdl read --interval` prints them (one device), or naming their device
+    (several: output.device_record); failed polls on stderr."""
+
+    def __init__(self, fmt: str, several: bool, out: TextIO, err: TextIO) -> None:
+        self.fmt, self.several, self.out, self.err = fmt, several, out, err
+        self.gone = False  # the reader of stdout went away: records are no longer printed
+
+    def started(self, polled: list[Polled]) -> None:
+        if not self.several:
+            _refuse_time_clash(polled[0].functions, self.fmt)
+        head = (
+            output.device_record_header(self.fmt)
+            if self.several
+            else output.record_header(polled[0].functions, self.fmt)
+        )
+        self._emit(self.out, head)
+
+    def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None:
+        name = polled.resolved.device.name
+        if self.several:
+            self._emit(self.out, output.device_record(polled.ident, polled.functions, values, self.fmt, when, name))
+        else:
+            self._emit(self.out, output.record(polled.functions, values, self.fmt, when, name))
+
+    def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None:
+        who = f"{polled.ident}: " if self.several else ""
+        for diag in exc.diagnostics:
+            self._emit(self.err, f"{output.iso_time(when)}: {who}{diag}\n")
+
+    def close(self) -> None:
+        pass
+
+    def _emit(self, stream: TextIO, text: str) -> None:
+        if not text or (self.gone and stream is self.out):
+            return
+        try:
+            stream.write(text)
+            stream.flush()
+        except BrokenPipeError:  # `| head`: stop printing; publishing goes on
+            self.gone = True
+            _silence(stream)
+
+
+class _Line:
+    """An asyncio client and the turns taken on it: a TCP device's own, or a bus's, shared."""
+
+    def __init__(self, connection: Connection) -> None:
+        self.wire = Wire(connection.rtu)
+        self.client: ModbusBaseClient = connection.async_client(self.wire.trace)
+        self.lock = asyncio.Lock()
+
+
+def _line_key(target: Target, index: int) -> object:
+    """Targets on one serial line or one RTU-over-TCP converter share a line; a Modbus TCP device has its own."""
+    conn = target.connection
+    if conn.serial is not None:
+        return ("serial", conn.serial)
+    return ("rtu", conn.host, conn.port) if conn.rtu else index
+
+
+async def _fetch(session: Session, client: ModbusBaseClient, req: Request) -> list[int]:
+    """One request on the asyncio client, judged as Session.read_request judges its replies."""
+    what = session.reading(req)
+    method: Callable[..., asyncio.Future[ModbusPDU]] = getattr(client, session._methods[req.table].__name__)
+    session.wire.clear()
+    try:
+        result = await method(req.start, count=req.count, device_id=session.unit)
+    except (ModbusException, OSError) as exc:
+        raise session.failed(what, exc) from None
+    except asyncio.TimeoutError:  # not an OSError before Python 3.11
+        raise session.failed(what, TimeoutError()) from None
+    return session.unpacked(req, session.checked(what, result))
+
+
+async def _read(session: Session, line: _Line, functions: list[Function]) -> dict[str, Value]:
+    """Session.read on the line's asyncio client: the same steps (runtime.drive), awaited."""
+    async with line.lock:
+        try:
+            if not line.client.connected and not await line.client.connect():
+                raise session.connect_error()
+            steps = session.read_steps(functions)
+            try:
+                req = next(steps)
+                while True:
+                    try:
+                        regs = await _fetch(session, line.client, req)
+                    except ModbusExceptionError as exc:
+                        req = steps.throw(exc)
+                    else:
+                        req = steps.send(regs)
+            except StopIteration as done:
+                values: dict[str, Value] = done.value
+                return values
+        except MdlError as exc:
+            if not isinstance(exc, ModbusExceptionError):
+                line.client.close()  # the next poll on this line connects again (in turn: a bus's others wait)
+            raise
+
+
+class _Fleet:
+    """The polling tasks of one run, their last exit statuses, and the sinks they feed."""
+
+    def __init__(self, polled: list[Polled], sinks: list[Sink], interval: float, count: int | None) -> None:
+        self.polled, self.sinks, self.interval, self.count = polled, sinks, interval, count
+        self.status = [0] * len(polled)
+        self.stop = asyncio.Event()
+        lines: dict[object, _Line] = {}
+        self.lines = [
+            lines.setdefault(_line_key(p.target, i), _Line(p.target.connection)) for i, p in enumerate(polled)
+        ]
+
+    async def run(self) -> int:
+        loop = asyncio.get_running_loop()
+        for sig in STOP_SIGNALS:
+            loop.add_signal_handler(sig, self.stop.set)
+        tasks = [asyncio.create_task(self._poll(i)) for i in range(len(self.polled))]
+        stopping: asyncio.Future[Any] = asyncio.ensure_future(self.stop.wait())
+        polling: asyncio.Future[Any] = asyncio.ensure_future(asyncio.gather(*tasks))
+        try:
+            await asyncio.wait([polling, stopping], return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            for task in [*tasks, stopping, polling]:
+                task.cancel()
+            await asyncio.gather(*tasks, stopping, polling, return_exceptions=True)
+            for sig in STOP_SIGNALS:
+                loop.remove_signal_handler(sig)
+            for line in {id(line): line for line in self.lines}.values():
+                line.client.close()
+        return max(self.status, default=0)
+
+    async def _poll(self, i: int) -> None:
+        """Poll one target on its own schedule until --count or a stop."""
+        p, line = self.polled[i], self.lines[i]
+        session = Session(p.resolved, p.target.connection, p.target.unit)
+        session.wire = line.wire  # the line's client traces into the line's wire
+        loop = asyncio.get_running_loop()
+        next_start, polls = loop.time(), 0
+        while self.count is None or polls < self.count:
+            if polls:
+                try:
+                    await asyncio.wait_for(self.stop.wait(), max(0.0, next_start - loop.time()))
+                    return
+                except asyncio.TimeoutError:
+                    pass
+            next_start = loop.time() + self.interval
+            when = datetime.now(timezone.utc)
+            try:
+                values = await _read(session, line, p.functions)
+            except MdlError as exc:
+                self.status[i] = EXIT_DEVICE
+                for sink in self.sinks:
+                    sink.failed(p, when, exc)
+            else:
+                self.status[i] = 0
+                for sink in self.sinks:
+                    sink.record(p, values, when)
+            polls += 1
+
+
+def poll_fleet(polled: list[Polled], sinks: list[Sink], interval: float, count: int | None) -> int:
+    """Poll every target until --count polls each, or SIGINT/SIGTERM; 3 if any target's last poll failed."""
+    started: list[Sink] = []
+    try:
+        for sink in sinks:
+            sink.started(polled)
+            started.append(sink)
+
+        async def main() -> int:
+            return await _Fleet(polled, sinks, interval, count).run()
+
+        return asyncio.run(main())
+    finally:
+        for sink in reversed(started):
+            sink.close()
+
+
+def publisher(url: str, err: TextIO, classify: Classify | None = None) -> Sink:
+    """The publisher a --publish URL names (mqtt://, prometheus://); ValueError saying what is wrong.
+    `classify`: Home Assistant's classes of a unit (mdl.engines.ha_units.ha_unit), for MQTT discovery."""
+    scheme = url.partition("://")[0].lower()
+    if scheme == "mqtt":
+        from mdl.device import publish_mqtt
+
+        return publish_mqtt.MqttPublisher(publish_mqtt.parse_url(url), err, classify)
+    if scheme == "prometheus":
+        from mdl.device import publish_prometheus
+
+        return publish_prometheus.PrometheusPublisher(publish_prometheus.parse_url(url), err)
+    raise ValueError("publish to mqtt://HOST[:PORT]/PREFIX or prometheus://[HOST]:PORT")

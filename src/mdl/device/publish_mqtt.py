@@ -1,0 +1,391 @@
+"""`mdl read --interval S --publish mqtt://HOST[:PORT]/PREFIX` (SPEC section 11, docs/fleet.md): each
+poll's values to an MQTT broker with paho-mqtt, and Home Assistant MQTT discovery configs.
+
+Topics (all retained, QoS 1, JSON): `PREFIX/<device>/<function>` {"value": V, "time": T} per function
+per poll (the device's name as mdl.device.fleet gives it, the function's identifier, SPEC 3);
+`PREFIX/<device>/status` `online`/`offline` as the device's polls succeed or fail; `PREFIX/status`
+`online`, `offline` when mdl ends (the broker says it for mdl when the connection is lost: the will);
+`homeassistant/<sensor|binary_sensor>/<device>/<function>/config` once at start, and again whenever
+Home Assistant announces itself on `homeassistant/status`.
+
+The broker and the devices fail independently. Polls queue here in order (at most `queue` polls of each
+device, 100 unless the URL says `?queue=N`; the oldest are dropped beyond, and said); one thread owns the broker
+connection: it connects (again and again, backing off up to 2 s), sends the queue in order with at
+most WINDOW messages unacknowledged, and forgets a poll only once the broker acknowledged all of it.
+After a lost connection the unacknowledged messages go again, first, on a fresh client (paho's own
+resend would race new messages): at least once, never out of order.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from typing import Any, Protocol, TextIO
+from urllib.parse import parse_qsl, unquote, urlsplit
+
+import paho.mqtt.client as mqtt
+from paho.mqtt.enums import CallbackAPIVersion
+
+from mdl.device import output
+from mdl.device.connection import split_host
+from mdl.device.fleet import Polled, kind_of
+from mdl.diagnostics import MdlError
+from mdl.exchange.connection import host_port
+from mdl.model import Function, Value
+
+DEFAULT_PORT = 1883
+QUEUE_POLLS = 100  # polls of each device kept while the broker is away
+WINDOW = 100  # messages sent and not yet acknowledged
+FLUSH_GRACE = 5.0  # seconds the end of polling waits for the broker to take what is queued
+DISCOVERY = "homeassistant"
+BIRTH = f"{DISCOVERY}/status"
+KEEPALIVE = 15
+Message = tuple[str, bytes]
+
+
+class UnitClasses(Protocol):
+    """A unit as Home Assistant spells and classes it (mdl.engines.ha_units.HaUnit, which the command hands
+    in: the engines are a later stage than device/)."""
+
+    @property
+    def unit(self) -> str: ...
+    @property
+    def device_class(self) -> str | None: ...
+    @property
+    def state_class(self) -> str | None: ...
+    @property
+    def guesses(self) -> tuple[str, ...]: ...
+
+
+Classify = Callable[[str, "str | None"], UnitClasses]  # (units, role) -> its classes
+
+
+@dataclass(frozen=True)
+class MqttUrl:
+    host: str
+    port: int
+    prefix: str
+    queue: int = QUEUE_POLLS
+    username: str | None = None
+    password: str | None = None
+
+    def __str__(self) -> str:
+        return f"mqtt://{host_port(self.host, self.port)}/{self.prefix}"
+
+
+def parse_url(text: str) -> MqttUrl:
+    """`mqtt://[USER[:PASSWORD]@]HOST[:PORT]/PREFIX[?queue=N]` -> MqttUrl; ValueError saying what is wrong."""
+    parts = urlsplit(text)
+    if parts.scheme != "mqtt":
+        raise ValueError("write mqtt://HOST[:PORT]/PREFIX")
+    userinfo, at, hostport = parts.netloc.rpartition("@")
+    if not hostport:
+        raise ValueError("no broker: write mqtt://HOST[:PORT]/PREFIX")
+    host, port = split_host(hostport)
+    if port is not None and not 1 <= port <= 65535:
+        raise ValueError(f"the port {port} is not in the range 1 to 65535")
+    prefix = unquote(parts.path).strip("/")
+    if not prefix:
+        raise ValueError("no topic prefix: write mqtt://HOST[:PORT]/PREFIX, e.g. mqtt://localhost/mdl")
+    if any(c in prefix for c in "+#\0") or "//" in prefix:
+        raise ValueError(f"the prefix {prefix!r} is not a topic: no '+', '#' or empty levels")
+    queue = QUEUE_POLLS
+    for key, value in parse_qsl(parts.query, keep_blank_values=True):
+        if key != "queue":
+            raise ValueError(f"unknown setting {key!r} (an mqtt:// URL takes queue=N)")
+        if not value.isascii() or not value.isdigit() or int(value) < 1:
+            raise ValueError(f"queue={value}: a number of polls of each device, 1 or more")
+        queue = int(value)
+    user, _, password = userinfo.partition(":")
+    return MqttUrl(
+        host, port or DEFAULT_PORT, prefix, queue, unquote(user) if at else None, unquote(password) if at else None
+    )
+
+
+@dataclass
+class _Batch:
+    """Messages sent together (one poll, a status, the discovery configs) and how far they got."""
+
+    messages: list[Message]
+    what: str  # for the message saying it was dropped
+    discovery: bool = False
+    unsent: deque[int] = field(default_factory=deque)
+    unacked: set[int] = field(default_factory=set)
+
+    def __post_init__(self) -> None:
+        self.unsent.extend(range(len(self.messages)))
+        self.unacked.update(range(len(self.messages)))
+
+
+def _payload(doc: Any) -> bytes:
+    return json.dumps(doc, ensure_ascii=False, separators=(",", ":")).encode()
+
+
+_BOOL_TEMPLATE = "{% if value_json.value is none %}None{% elif value_json.value %}ON{% else %}OFF{% endif %}"
+
+
+def _templates(kind: str) -> dict[str, str]:
+    if kind == "bool":  # None: Home Assistant's "unknown"
+        return {"value_template": _BOOL_TEMPLATE}
+    return {"value_template": "{{ value_json.value }}"}
+
+
+class MqttPublisher:
+    """A sink of mdl.device.fleet: polls to the broker, in order, from a thread of its own."""
+
+    def __init__(self, url: MqttUrl, err: TextIO, classify: Classify | None = None) -> None:
+        self.url, self.err, self.classify = url, err, classify
+        self.status_topic = f"{url.prefix}/status"
+        self._cond = threading.Condition()
+        self._pending: deque[_Batch] = deque()
+        self._closing = False
+        self._deadline = 0.0
+        self._dropped = 0
+        self._polls = 0  # batches in the queue that are not discovery configs
+        self._bound = url.queue  # polls in all: `queue` of each device
+        self._down_said = False
+        self._topics: dict[str, list[tuple[Function, str]]] = {}
+        self._online: dict[str, bool] = {}
+        self._discovery: list[Message] = []
+        self._thread = threading.Thread(target=self._run, name="mdl-mqtt", daemon=True)
+
+    # the sink: called on the polling thread
+
+    def started(self, polled: list[Polled]) -> None:
+        self._bound = self.url.queue * len(polled)
+        for p in polled:
+            by_name = {f.name: f for f in p.resolved.functions}
+            self._topics[p.ident] = [
+                (fn, f"{self.url.prefix}/{p.ident}/{by_name[fn.name].ident}") for fn in p.functions
+            ]
+            self._discovery += self._configs(p)
+        self._add(_Batch(list(self._discovery), "the discovery configs", discovery=True))
+        self._thread.start()
+
+    def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None:
+        stamp = output.iso_time(when)
+        messages = [
+            (topic, _payload({"value": output.json_value(fn, values[fn.name]), "time": stamp}))
+            for fn, topic in self._topics[polled.ident]
+        ]
+        if not self._online.get(polled.ident):
+            self._online[polled.ident] = True
+            messages.append((f"{self.url.prefix}/{polled.ident}/status", b"online"))
+        self._add(_Batch(messages, f"the poll of {polled.ident} at {stamp}"))
+
+    def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None:
+        if self._online.get(polled.ident, True):
+            self._online[polled.ident] = False
+            stamp = output.iso_time(when)
+            self._add(
+                _Batch([(f"{self.url.prefix}/{polled.ident}/status", b"offline")], f"{polled.ident} offline at {stamp}")
+            )
+
+    def close(self) -> None:
+        """Give the broker FLUSH_GRACE seconds to take what is queued, then disconnect; say what it did not take."""
+        with self._cond:
+            self._closing = True
+            self._deadline = time.monotonic() + FLUSH_GRACE
+            self._cond.notify_all()
+        self._thread.join(FLUSH_GRACE + KEEPALIVE)
+        with self._cond:
+            lost = [b for b in self._pending if b.unacked]
+            if lost:
+                n = sum(len(b.unacked) for b in lost)
+                self._say(
+                    f"{n} messages ({len(lost)} polls) not delivered: the broker did not take them before the end"
+                )
+
+    # discovery
+
+    def _configs(self, p: Polled) -> list[Message]:
+        """Home Assistant's discovery config of each function of a polled device."""
+        device = p.resolved.device
+        info: dict[str, Any] = {"identifiers": [f"mdl_{p.ident}"], "name": device.name}
+        if device.manufacturer:
+            info["manufacturer"] = device.manufacturer
+        if device.product:
+            info["model"] = device.product
+        by_name = {f.name: f for f in p.resolved.functions}
+        out = []
+        for fn, topic in self._topics[p.ident]:
+            f = by_name[fn.name]
+            kind = kind_of(f)
+            config: dict[str, Any] = {
+                "name": fn.name,
+                "unique_id": f"mdl_{p.ident}_{f.ident}",
+                "state_topic": topic,
+                **_templates(kind),
+                "availability": [{"topic": self.status_topic}, {"topic": f"{self.url.prefix}/{p.ident}/status"}],
+                "availability_mode": "all",
+                "device": info,
+            }
+            if kind == "number" and not fn.values and (fn.units or fn.role) and self.classify is not None:
+                found = self.classify(fn.units or "", fn.role)
+                config.update(
+                    {
+                        key: value
+                        for key, value in (
+                            ("unit_of_measurement", found.unit),
+                            ("device_class", found.device_class),
+                            ("state_class", found.state_class),
+                        )
+                        if value
+                    }
+                )
+                for guess in found.guesses:
+                    self._say(f"{p.ident}: {fn.name}: {guess}", "note")
+            component = "binary_sensor" if kind == "bool" else "sensor"
+            out.append((f"{DISCOVERY}/{component}/{p.ident}/{f.ident}/config", _payload(config)))
+        return out
+
+    # the queue
+
+    def _add(self, batch: _Batch) -> None:
+        with self._cond:
+            self._pending.append(batch)
+            self._polls += not batch.discovery
+            if self._polls > self._bound:
+                oldest = next(b for b in self._pending if not b.discovery)
+                self._pending.remove(oldest)
+                self._polls -= 1
+                self._dropped += 1
+                if self._dropped == 1:
+                    self._say(
+                        f"the queue holds {self.url.queue} polls of each device: dropping the oldest "
+                        f"({oldest.what} first) until the broker takes them"
+                    )
+            self._cond.notify_all()
+
+    def _acked(self, batch: _Batch, index: int) -> None:
+        with self._cond:
+            batch.unacked.discard(index)
+            while self._pending and not self._pending[0].unacked:
+                self._polls -= not self._pending.popleft().discovery
+            self._cond.notify_all()
+
+    def _say(self, text: str, severity: str = "warning") -> None:
+        stamp = output.iso_time(datetime.now(timezone.utc))
+        try:
+            self.err.write(f"{stamp}: {self.url}: {severity}: {text}\n")
+            self.err.flush()
+        except (OSError, ValueError):  # stderr is gone: nothing to say it on
+            pass
+
+    # the broker connection: on the publisher's own thread
+
+    def _finished(self) -> bool:
+        """Closing, and nothing is left to send or the grace is over (under the lock)."""
+        return self._closing and (not any(b.unacked for b in self._pending) or time.monotonic() > self._deadline)
+
+    def _run(self) -> None:
+        backoff = 0.2
+        while True:
+            with self._cond:
+                if self._finished():
+                    return
+            client = self._client()
+            try:
+                client.connect(self.url.host, self.url.port, keepalive=KEEPALIVE)
+            except (OSError, ValueError) as exc:
+                self._down(f"cannot connect: {getattr(exc, 'strerror', None) or exc}")
+                with self._cond:
+                    self._cond.wait(backoff)
+                backoff = min(backoff * 2, 2.0)
+                continue
+            if self._session(client):
+                backoff = 0.2
+
+    def _down(self, why: str) -> None:
+        if not self._down_said:
+            self._down_said = True
+            bound = f"at most {self.url.queue} of each device"
+            self._say(f"the broker is unreachable ({why}): polls queue ({bound}) until it is back")
+
+    def _client(self) -> mqtt.Client:
+        client = mqtt.Client(CallbackAPIVersion.VERSION2, clean_session=True)
+        client.max_inflight_messages_set(WINDOW)
+        client.connect_timeout = 5.0
+        client.will_set(self.status_topic, b"offline", qos=1, retain=True)
+        if self.url.username is not None:
+            client.username_pw_set(self.url.username, self.url.password or None)
+        return client
+
+    def _session(self, client: mqtt.Client) -> bool:
+        """Send while connected; False if the broker refused the connection."""
+        state: dict[str, Any] = {"up": None, "lost": False}
+        mids: dict[int, tuple[_Batch, int]] = {}
+
+        def on_connect(c: mqtt.Client, u: Any, flags: Any, reason: Any, props: Any) -> None:
+            state["up"] = not reason.is_failure
+            if reason.is_failure:
+                state["why"] = str(reason)
+
+        def on_disconnect(c: mqtt.Client, u: Any, flags: Any, reason: Any, props: Any) -> None:
+            state["lost"] = True
+
+        def on_publish(c: mqtt.Client, u: Any, mid: int, reason: Any, props: Any) -> None:
+            entry = mids.pop(mid, None)
+            if entry is not None:
+                self._acked(*entry)
+
+        def on_message(c: mqtt.Client, u: Any, message: mqtt.MQTTMessage) -> None:
+            if message.topic == BIRTH and message.payload == b"online":  # Home Assistant (re)started
+                self._add(_Batch(list(self._discovery), "the discovery configs", discovery=True))
+
+        client.on_connect, client.on_disconnect = on_connect, on_disconnect
+        client.on_publish, client.on_message = on_publish, on_message
+        wait_until = time.monotonic() + 10
+        while state["up"] is None and not state["lost"] and time.monotonic() < wait_until:
+            if client.loop(0.05) != mqtt.MQTT_ERR_SUCCESS:
+                break
+        if not state["up"]:
+            self._down(state.get("why", "no answer to CONNECT"))
+            client.disconnect()
+            return False
+        client.subscribe(BIRTH, qos=1)
+        client.publish(self.status_topic, b"online", qos=1, retain=True)
+        with self._cond:
+            for batch in self._pending:
+                batch.unsent = deque(sorted(batch.unacked))
+            if self._down_said:
+                self._down_said = False
+                dropped, self._dropped = self._dropped, 0
+                gone = f"; {dropped} polls were dropped (the oldest)" if dropped else ""
+                self._say(f"the broker is back: sending the queued polls in order{gone}", "note")
+        while not state["lost"]:
+            with self._cond:
+                if self._finished():
+                    break
+                self._send(client, mids)
+            if client.loop(0.02) != mqtt.MQTT_ERR_SUCCESS:
+                state["lost"] = True
+        if state["lost"]:
+            self._down("the connection was lost")
+            return True
+        info = client.publish(self.status_topic, b"offline", qos=1, retain=True)
+        until = time.monotonic() + 2.0
+        while not info.is_published() and time.monotonic() < until:
+            if client.loop(0.05) != mqtt.MQTT_ERR_SUCCESS:
+                break
+        client.disconnect()
+        return True
+
+    def _send(self, client: mqtt.Client, mids: dict[int, tuple[_Batch, int]]) -> None:
+        """Hand queued messages to paho in order, keeping at most WINDOW unacknowledged (under the lock)."""
+        for batch in self._pending:
+            while batch.unsent:
+                if len(mids) >= WINDOW:
+                    return
+                index = batch.unsent[0]
+                topic, payload = batch.messages[index]
+                info = client.publish(topic, payload, qos=1, retain=True)
+                if info.rc != mqtt.MQTT_ERR_SUCCESS:
+                    return  # the connection is gone: the loop finds out
+                batch.unsent.popleft()
+                mids[info.mid] = (batch, index)

@@ -1,0 +1,155 @@
+"""`mdl read --interval S --publish prometheus://[HOST]:PORT` (SPEC section 11, docs/fleet.md): the last
+poll of each device as Prometheus metrics, served with prometheus-client on http://HOST:PORT/metrics.
+
+One gauge per numeric function, `mdl_<function identifier>` (SPEC 3), labelled `device` (its name as
+mdl.device.fleet gives it) and `unit` (its Modbus unit id): devices of one description share the
+metric. An enumeration is its number, a boolean 1 or 0; text and bitsets are not metrics (a note says
+which). A device whose last poll failed has no values, only `mdl_poll_up 0`; `mdl_poll_up` and
+`mdl_poll_timestamp_seconds` (of its last good poll) are there for every device. Without HOST, every
+interface (as exporters listen); port 0 picks a free port, and the note at start says which.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+from datetime import datetime
+from typing import Any, TextIO
+from urllib.parse import urlsplit
+
+from prometheus_client import CollectorRegistry, start_http_server
+from prometheus_client.core import GaugeMetricFamily, Metric
+from prometheus_client.registry import Collector
+
+from mdl.device.connection import split_host
+from mdl.device.fleet import Polled, kind_of
+from mdl.diagnostics import MdlError, error
+from mdl.exchange.connection import host_port
+from mdl.model import Function, Value
+
+UP, TIMESTAMP = "mdl_poll_up", "mdl_poll_timestamp_seconds"
+ALL_INTERFACES = "0.0.0.0"
+
+
+@dataclass(frozen=True)
+class PromUrl:
+    host: str
+    port: int
+
+
+def parse_url(text: str) -> PromUrl:
+    """`prometheus://[HOST]:PORT[/metrics]` -> PromUrl; ValueError saying what is wrong."""
+    parts = urlsplit(text)
+    if parts.scheme != "prometheus" or parts.path not in ("", "/", "/metrics") or parts.query:
+        raise ValueError("write prometheus://[HOST]:PORT, e.g. prometheus://:9105")
+    netloc = parts.netloc
+    host, port = (ALL_INTERFACES, netloc[1:]) if netloc.startswith(":") else (None, None)
+    if host is None:
+        name, number = split_host(netloc)
+        if number is None:
+            raise ValueError("no port: write prometheus://[HOST]:PORT, e.g. prometheus://:9105")
+        return _checked(name, number)
+    if not port or not port.isascii() or not port.isdigit():
+        raise ValueError(f"the port {port!r} is not a number: write prometheus://[HOST]:PORT")
+    return _checked(host, int(port))
+
+
+def _checked(host: str, port: int) -> PromUrl:
+    if not 0 <= port <= 65535:
+        raise ValueError(f"the port {port} is not in the range 0 to 65535")
+    return PromUrl(host, port)
+
+
+def metric_name(ident: str) -> str:
+    """A function's metric: mdl_<its identifier> (identifiers are [a-z0-9_], as metric names take them)."""
+    name = f"mdl_{ident}"
+    return f"{name}_value" if name in (UP, TIMESTAMP) else name
+
+
+class PrometheusPublisher(Collector):
+    """A sink of mdl.device.fleet and a prometheus-client collector of the last polls."""
+
+    def __init__(self, url: PromUrl, err: TextIO) -> None:
+        self.url, self.err = url, err
+        self._lock = threading.Lock()
+        self._metrics: dict[str, list[tuple[Function, str, str]]] = {}  # device -> function, metric, kind
+        self._help: dict[str, str] = {}
+        self._labels: dict[str, list[str]] = {}
+        self._last: dict[str, tuple[dict[str, Value], float]] = {}
+        self._up: dict[str, int] = {}
+        self._server: Any = None
+
+    def started(self, polled: list[Polled]) -> None:
+        for p in polled:
+            self._labels[p.ident] = [p.ident, str(p.target.unit)]
+            by_name = {f.name: f for f in p.resolved.functions}
+            chosen, left_out = [], []
+            for fn in p.functions:
+                f = by_name[fn.name]
+                kind = kind_of(f)
+                if kind == "text":
+                    left_out.append(fn.name)
+                    continue
+                name = metric_name(f.ident)
+                units = (fn.units or "").strip()
+                self._help.setdefault(name, f"{fn.name}{f' ({units})' if units else ''}: {fn.description}".strip())
+                chosen.append((fn, name, kind))
+            self._metrics[p.ident] = chosen
+            if left_out:
+                self._say(f"{p.ident}: text is not a metric: {', '.join(left_out)} left out", "note")
+        registry = CollectorRegistry(auto_describe=False)
+        registry.register(self)
+        try:
+            self._server, _ = start_http_server(self.url.port, addr=self.url.host, registry=registry)
+        except OSError as exc:
+            where = host_port(self.url.host, self.url.port)
+            raise error(f"cannot serve Prometheus metrics on {where}: {exc.strerror or exc}") from None
+        where = host_port(self.url.host, self._server.server_port)
+        self._say(f"serving Prometheus metrics on http://{where}/metrics", "note")
+
+    def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None:
+        with self._lock:
+            self._last[polled.ident] = (dict(values), when.timestamp())
+            self._up[polled.ident] = 1
+
+    def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None:
+        with self._lock:
+            self._up[polled.ident] = 0
+            if polled.ident in self._last:
+                self._last[polled.ident] = ({}, self._last[polled.ident][1])
+
+    def close(self) -> None:
+        if self._server is not None:
+            self._server.shutdown()
+            self._server.server_close()
+
+    def collect(self) -> Iterator[Metric]:
+        with self._lock:
+            last, up = dict(self._last), dict(self._up)
+        families: dict[str, GaugeMetricFamily] = {}
+        for device, chosen in self._metrics.items():
+            values = last.get(device, ({}, 0.0))[0]
+            for fn, name, kind in chosen:
+                value = values.get(fn.name)
+                if isinstance(value, bool) or (isinstance(value, (int, float)) and kind == "number"):
+                    family = families.get(name)
+                    if family is None:
+                        family = families[name] = GaugeMetricFamily(name, self._help[name], labels=["device", "unit"])
+                    family.add_metric(self._labels[device], float(value))
+        yield from families.values()
+        ups = GaugeMetricFamily(UP, "1 if the device's last poll read, 0 if it failed", labels=["device", "unit"])
+        stamps = GaugeMetricFamily(
+            TIMESTAMP, "when the device's last good poll started (seconds since 1970)", labels=["device", "unit"]
+        )
+        for device, labels in self._labels.items():
+            if device in up:
+                ups.add_metric(labels, float(up[device]))
+            if device in last:
+                stamps.add_metric(labels, last[device][1])
+        yield ups
+        yield stamps
+
+    def _say(self, text: str, severity: str) -> None:
+        self.err.write(f"mdl read: {severity}: prometheus://{host_port(self.url.host, self.url.port)}: {text}\n")
+        self.err.flush()

@@ -1,0 +1,271 @@
+"""`mdl read --interval S --publish mqtt://HOST[:PORT]/PREFIX` (SPEC section 11, docs/fleet.md) against a real
+broker: Debian's mosquitto, started here on a free loopback port with a temporary configuration. Every poll
+arrives, in order, retained, with Home Assistant's discovery configs; the broker and the device stopped and
+started again mid-run: polling and publishing go on, order kept, the process alive."""
+
+from __future__ import annotations
+
+import getpass
+import json
+import shutil
+import signal
+import socket
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from conftest import DATA, _read_lines, assert_clean_error, mdl_cmd, run_mdl, skip_or_fail
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mdl.device.publish_mqtt import parse_url
+
+pytestmark = pytest.mark.engines  # a broker of its own
+
+mqtt = pytest.importorskip("paho.mqtt.client")
+from paho.mqtt.enums import CallbackAPIVersion  # noqa: E402
+
+ALL = DATA / "all_tables.xml"
+NAMES = ["setpoint", "mode", "pump", "energy"]
+RUN = 60
+FAST = ["--timeout", "0.5", "--retries", "0"]  # a device that went away fails its polls quickly
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def wait_for(predicate, timeout: float = RUN, what: str = "") -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+class Broker:
+    """mosquitto on a free loopback port, persistent (sessions and retained messages survive a restart)."""
+
+    def __init__(self, folder: Path) -> None:
+        exe = shutil.which("mosquitto") or ("/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").exists() else None)
+        if exe is None:
+            skip_or_fail("mosquitto is not installed: the MQTT tests need a broker (apt-get install mosquitto)")
+        self.exe, self.port, self.proc = exe, free_port(), None
+        self.config = folder / "mosquitto.conf"
+        self.config.write_text(
+            f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence true\n"
+            f"persistence_location {folder}/\nuser {getpass.getuser()}\n"
+        )
+        self.start()
+
+    def start(self) -> None:
+        self.proc = subprocess.Popen([self.exe, "-c", str(self.config)], stderr=subprocess.PIPE, text=True)
+
+        def listening() -> bool:
+            assert self.proc.poll() is None, self.proc.stderr.read()
+            with socket.socket() as sock:
+                return sock.connect_ex(("127.0.0.1", self.port)) == 0
+
+        wait_for(listening, what="mosquitto to listen")
+
+    def stop(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(timeout=20)
+            self.proc.stderr.close()
+
+
+@pytest.fixture
+def broker(tmp_path):
+    b = Broker(tmp_path)
+    try:
+        yield b
+    finally:
+        b.stop()
+
+
+class Subscriber:
+    """Everything published under `topics`, in arrival order, over a persistent session (QoS 1): messages
+    published while it was away (a broker restart) are kept for it by the broker."""
+
+    def __init__(self, port: int, topics: list[str]) -> None:
+        self.messages: list[tuple[str, bytes, bool]] = []
+        self.ready = threading.Event()
+        self.client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id=f"test-{port}", clean_session=False)
+        self.client.reconnect_delay_set(0.1, 0.5)
+
+        def on_connect(c, u, flags, reason, props):
+            c.subscribe([(topic, 1) for topic in topics])
+
+        self.client.on_connect = on_connect
+        self.client.on_subscribe = lambda *args: self.ready.set()
+        self.client.on_message = lambda c, u, m: self.messages.append((m.topic, m.payload, m.retain))
+        self.client.connect("127.0.0.1", port)
+        self.client.loop_start()
+        assert self.ready.wait(RUN)
+
+    def close(self) -> None:
+        self.client.loop_stop()
+        self.client.disconnect()
+
+    def payloads(self, topic: str) -> list[dict]:
+        return [json.loads(p) for t, p, _ in self.messages if t == topic]
+
+
+def times_in_order(payloads: list[dict]) -> list[str]:
+    """The poll times a topic carried, repeats of the one before dropped (at least once: a message the
+    broker took but did not acknowledge before it went away comes again, next to itself)."""
+    out: list[str] = []
+    for p in payloads:
+        if not out or out[-1] != p["time"]:
+            out.append(p["time"])
+    return out
+
+
+def test_every_poll_arrives_in_order_with_discovery_configs(broker, sim_factory):
+    sim = sim_factory(ALL, "--set", "setpoint=21.5", "--set", "energy=1234")
+    sub = Subscriber(broker.port, ["pfx/#", "homeassistant/#"])
+    try:
+        url = f"mqtt://127.0.0.1:{broker.port}/pfx"
+        proc = run_mdl(
+            "read", ALL, *sim.connection, *NAMES, "--interval", "0.2", "--count", "4", "--format", "json",
+            "--publish", url, timeout=RUN,
+        )  # fmt: skip
+        assert proc.returncode == 0, proc.stderr
+        records = [json.loads(line) for line in proc.stdout.splitlines()]
+        wait_for(lambda: len(sub.payloads("pfx/all_tables/pump")) >= 4, what="4 polls")
+        wait_for(lambda: any(t == "pfx/status" and p == b"offline" for t, p, _ in sub.messages), what="offline")
+    finally:
+        sub.close()
+    for name in NAMES:
+        got = sub.payloads(f"pfx/all_tables/{name}")
+        assert [p["time"] for p in got] == [r["time"] for r in records], name
+        assert [p["value"] for p in got] == [r[name] for r in records], name
+    assert all(retain is False for t, _, retain in sub.messages)  # it was listening: live, not the retained copy
+    configs = {t: json.loads(p) for t, p, _ in sub.messages if t.startswith("homeassistant/")}
+    assert set(configs) == {
+        "homeassistant/sensor/all_tables/setpoint/config",
+        "homeassistant/sensor/all_tables/mode/config",
+        "homeassistant/binary_sensor/all_tables/pump/config",
+        "homeassistant/sensor/all_tables/energy/config",
+    }
+    setpoint = configs["homeassistant/sensor/all_tables/setpoint/config"]
+    assert setpoint["state_topic"] == "pfx/all_tables/setpoint"
+    assert (setpoint["device_class"], setpoint["state_class"], setpoint["unit_of_measurement"]) == (
+        "temperature",
+        "measurement",
+        "°C",
+    )
+    energy = configs["homeassistant/sensor/all_tables/energy/config"]
+    assert (energy["device_class"], energy["state_class"]) == ("energy", "total_increasing")
+    assert "a meter's counter" in proc.stderr  # the guess is said
+    assert "device_class" not in configs["homeassistant/sensor/all_tables/mode/config"]  # an enumeration
+    assert configs["homeassistant/sensor/all_tables/mode/config"]["device"]["identifiers"] == ["mdl_all_tables"]
+    first = [t for t, _, _ in sub.messages].index
+    assert first("homeassistant/sensor/all_tables/setpoint/config") < first("pfx/all_tables/setpoint")
+    # retained: a client that comes later finds the last poll and the configs
+    late = Subscriber(broker.port, ["pfx/#", "homeassistant/#"])
+    try:
+        wait_for(lambda: len(late.payloads("pfx/all_tables/setpoint")) == 1, what="the retained value")
+    finally:
+        late.close()
+    assert late.payloads("pfx/all_tables/setpoint")[0]["time"] == records[-1]["time"]
+
+
+def test_broker_and_device_outages_lose_no_poll_and_no_order(broker, sim_factory):
+    sim = sim_factory(ALL, "--set", "setpoint=21.5")
+    sub = Subscriber(broker.port, ["pfx/all_tables/#"])
+    publish = ["--publish", f"mqtt://127.0.0.1:{broker.port}/pfx"]
+    proc = subprocess.Popen(
+        mdl_cmd("read", ALL, *sim.connection, "setpoint", "--interval", "0.2", "--format", "json", *FAST, *publish),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    lines: list[str] = []
+
+    def records(n: int) -> None:
+        lines.extend(_read_lines(proc.stdout, lambda got: len(got) >= n, proc, RUN))
+        assert proc.poll() is None, proc.stderr.read()
+
+    try:
+        records(3)
+        broker.stop()  # polls queue in mdl
+        records(5)
+        broker.start()
+        records(3)
+        port = sim.port
+        sim.stop()  # the device goes away: failed polls, publishing goes on
+        time.sleep(1.0)
+        assert proc.poll() is None
+        sim = sim_factory(ALL, "--set", "setpoint=22.5", port=port)
+        records(3)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=RUN)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    lines += out.splitlines()
+    polled = [json.loads(line) for line in lines]
+    assert "the broker is unreachable" in err and "the broker is back: sending the queued polls in order" in err
+    assert f"cannot connect to 127.0.0.1:{port}" in err
+    try:
+        wait_for(lambda: (sub.payloads("pfx/all_tables/setpoint") or [{}])[-1].get("time") == polled[-1]["time"])
+    finally:
+        sub.close()
+    got = sub.payloads("pfx/all_tables/setpoint")
+    assert times_in_order(got) == [r["time"] for r in polled]
+    assert {p["value"] for p in got} == {21.5, 22.5}
+    statuses = [p for t, p, _ in sub.messages if t == "pfx/all_tables/status"]
+    assert b"offline" in statuses and statuses[-1] == b"online"
+
+
+def test_the_queue_is_bounded_and_says_what_it_drops(sim_factory):
+    sim = sim_factory(ALL)
+    url = f"mqtt://127.0.0.1:{free_port()}/pfx?queue=2"  # nobody listens there
+    proc = run_mdl("read", ALL, *sim.connection, "setpoint", "--interval", "0.1", "--count", "5", "--publish", url)
+    assert proc.returncode == 0, proc.stderr  # the device answered every poll
+    assert "warning: the broker is unreachable" in proc.stderr
+    assert "the queue holds 2 polls of each device: dropping the oldest (the poll of all_tables at" in proc.stderr
+    assert "not delivered: the broker did not take them before the end" in proc.stderr
+    assert proc.stdout.count("setpoint") == 5
+
+
+@pytest.mark.parametrize(
+    ("url", "fragment"),
+    [
+        ("mqtt://127.0.0.1:1883", "no topic prefix"),
+        ("mqtt://127.0.0.1:1883/a/+/b", "is not a topic"),
+        ("mqtt://127.0.0.1:99999/p", "not in the range"),
+        ("mqtt://127.0.0.1/p?queue=0", "queue=0"),
+        ("mqtt://127.0.0.1/p?qos=2", "unknown setting 'qos'"),
+        ("http://127.0.0.1/p", "publish to mqtt://"),
+    ],
+)
+def test_bad_urls_are_usage_errors(url, fragment, tmp_path):
+    proc = run_mdl("read", ALL, "--host", "127.0.0.1", "--interval", "1", "--publish", url)
+    assert_clean_error(proc, 2, "--publish", fragment)
+
+
+def test_publish_needs_interval():
+    assert_clean_error(
+        run_mdl("read", ALL, "--host", "127.0.0.1", "--publish", "mqtt://h/p"), 2, "--publish needs --interval"
+    )
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(max_size=40))
+def test_fuzz_any_url_parses_or_says_why(text):
+    try:
+        url = parse_url("mqtt://" + text)
+    except ValueError as exc:
+        assert str(exc)
+    else:
+        assert url.prefix and "+" not in url.prefix and 1 <= url.port <= 65535 and url.queue >= 1
