@@ -329,13 +329,18 @@ def test_sim_usage_errors(args, status, fragment):
 @pytest.mark.parametrize(
     "source, fragment",
     [
-        ("ftp://h", "write HOST[:PORT], tcp://HOST[:PORT]"),
+        ("ftp://h", "unknown scheme 'ftp://'"),
         ("tcp://h:99999", "not in the range 1 to 65535"),
         ("h:x", "is not a number"),
-        ("serial:", "no serial device"),
-        ("serial:/dev/null?speed=9", "unknown setting 'speed'"),
-        ("serial:/dev/null?baud=fast", "--from 'serial:/dev/null?baud=fast'"),
-        ("serial:/dev/null?parity=Q", "parity is N, E or O"),
+        ("rtu://", "rtu:// needs the serial device"),
+        ("rtu:///dev/null?speed=9", "unknown setting 'speed'"),
+        ("rtu:///dev/null?baud=fast", "baud=fast: not a number"),
+        ("rtu:///dev/null?baud=-5", "baud=-5: not in the range 50 to 4e+06"),
+        ("rtu:///dev/null?bytesize=3", "bytesize=3: not in the range 7 to 8"),
+        ("rtu:///dev/null?stopbits=7", "stopbits=7: not in the range 1 to 2"),
+        ("rtu:///dev/null?parity=Q", "parity=Q: write N, E or O"),
+        ("tcp://h#300", "is not a number from 0 to 255"),
+        ("/dev/ttyUSB0", "a serial device is rtu:///dev/"),
     ],
 )
 def test_serve_refuses_a_bad_from(source, fragment):
@@ -352,11 +357,12 @@ def test_any_from_text_is_a_connection_or_a_clean_error(text):
     from mdl.diagnostics import MdlError
 
     try:
-        conn = parse_from(text, 1.0, 0)
+        conn, unit = parse_from(text, 1.0, 0)
     except MdlError as exc:
         assert str(exc).startswith("error: --from")
     else:
         assert conn.serial is not None or 1 <= conn.port <= 65535
+        assert unit is None or 0 <= unit <= 255
 
 
 @functools.cache

@@ -517,7 +517,9 @@ def sim(
     "(RTU frames over TCP), or serial:DEVICE[?baud=19200&parity=N&stopbits=1&bytesize=8] (Modbus RTU).",
 )
 @click.option("--from-unit", type=click.IntRange(0, 255), default=1, show_default=True, help="The device's unit id.")
-@click.option("--as", "as_", type=click.Choice(["sunspec"], case_sensitive=False), required=True, help="What to serve it as.")
+@click.option(
+    "--as", "as_", type=click.Choice(["sunspec"], case_sensitive=False), required=True, help="What to serve it as."
+)
 @click.option("--profile", metavar="NAME|FILE.yaml", help="The profile (default: the one its roles fit).")
 @click.option(
     "--interval", type=click.FloatRange(0.1, 86400), default=1.0, show_default=True, metavar="S", help="Poll every S s."
@@ -557,13 +559,19 @@ def serve(
     Examples (a sim of meter A as the device, then the gateway in front of it):
       $ mdl sim examples/profiles/meter_a.xml --port 5030 --set total_active_power=1.5 &
       $ mdl serve examples/profiles/meter_a.xml --from 127.0.0.1:5030 --as sunspec --port 5031 --interval 2
-      $ mdl serve meter.xml --from 'serial:/dev/ttyUSB0?baud=9600&parity=E' --from-unit 3 --as sunspec --port 502
+      $ mdl serve meter.xml --from 'rtu:///dev/ttyUSB0?baud=9600&parity=E#3' --as sunspec --port 502
       mdl serve examples/profiles/meter_a.xml --from 127.0.0.1:5030 --as sunspec --profile evcharger  # exit 1
     """
     from mdl.device.serve import parse_from, run_serve
 
-    polled = parse_from(source, poll_timeout, poll_retries)
-    run_serve(file, _resolved(file), profile, (polled, from_unit, interval), unit, connection)
+    polled, named = parse_from(source, poll_timeout, poll_retries)
+    if named is not None and click.get_current_context().get_parameter_source("from_unit") is not (
+        click.core.ParameterSource.DEFAULT
+    ):
+        raise click.UsageError("the unit is given twice: --from-unit and #UNIT in --from")
+    run_serve(
+        file, _resolved(file), profile, (polled, from_unit if named is None else named, interval), unit, connection
+    )
 
 
 def _by_position(option: str, values: tuple[T, ...], files: int) -> list[T | None]:

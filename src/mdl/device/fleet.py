@@ -80,21 +80,35 @@ def parse_target(text: str) -> Target:
     file_text, url = text[: found.start()], text[found.end() :]
     if not file_text:
         raise ValueError("no FILE before '@'")
-    scheme, _, rest = url.partition("://")
+    connection, unit = parse_connection(url)
+    return Target(text, input_path(file_text), connection, 1 if unit is None else unit)
+
+
+def parse_connection(url: str, **defaults: Any) -> tuple[Connection, int | None]:
+    """A connection as a URL (the one grammar of targets and of `mdl serve --from`): `tcp://HOST[:PORT]`
+    (a bare `HOST[:PORT]` too), `rtu+tcp://HOST[:PORT]`, `rtu://DEVICE[?baud=B&parity=P&stopbits=S&
+    bytesize=8]`, each with `?timeout=S&retries=N` and `#UNIT`; `defaults` are the connection's settings
+    the URL does not give. (connection, unit or None); ValueError saying what is wrong."""
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        scheme, rest = "tcp", url
+    if scheme.lower() not in SCHEMES:
+        raise ValueError(f"unknown scheme '{scheme}://' (write {', '.join(s + '://' for s in SCHEMES)})")
+    scheme = scheme.lower()
     rest, hash_sign, fragment = rest.partition("#")
     rest, _, query = rest.partition("?")
-    settings = _settings(query, scheme)
-    unit = _unit(fragment) if hash_sign else 1
+    settings = {**defaults, **_settings(query, scheme)}
+    unit = _unit(fragment) if hash_sign else None
     if scheme == "rtu":
         if not rest:
             raise ValueError("rtu:// needs the serial device: rtu:///dev/ttyUSB0")
-        connection = Connection(serial=rest, rtu=True, **settings)
-    else:
-        host, port = split_host(rest)
-        if port is not None and not 1 <= port <= 65535:
-            raise ValueError(f"the port {port} is not in the range 1 to 65535")
-        connection = Connection(host=host, port=port or DEVICE_PORT, rtu=scheme == "rtu+tcp", **settings)
-    return Target(text, input_path(file_text), connection, unit)
+        return Connection(serial=rest, rtu=True, **settings), unit
+    if "/" in rest:
+        raise ValueError(f"'{rest}' is no HOST[:PORT] (a serial device is rtu:///dev/...)")
+    host, port = split_host(rest)
+    if port is not None and not 1 <= port <= 65535:
+        raise ValueError(f"the port {port} is not in the range 1 to 65535")
+    return Connection(host=host, port=port or DEVICE_PORT, rtu=scheme == "rtu+tcp", **settings), unit
 
 
 def _unit(text: str) -> int:

@@ -17,58 +17,32 @@ import threading
 import time
 from pathlib import Path
 from typing import TextIO
-from urllib.parse import parse_qsl, urlsplit
 
 from mdl.device import sim as simulator
-from mdl.device.connection import Connection, split_host
+from mdl.device.connection import Connection
 from mdl.device.evaluate import Evaluator
+from mdl.device.fleet import parse_connection
 from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.device.sunspec_gateway import FacadeRegisters, RoleValues, Source, choose, role_values
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
-from mdl.exchange.connection import DEVICE_PORT
 from mdl.model import Value
 from mdl.profiles.fit import Fit
 from mdl.resolve import ResolvedDevice
 
 FROM_HELP = (
-    "The device to poll: HOST[:PORT] or tcp://HOST[:PORT] (Modbus TCP, port 502), rtu+tcp://HOST:PORT "
-    "(RTU frames over TCP), or serial:DEVICE[?baud=19200&parity=N&stopbits=1&bytesize=8] (Modbus RTU)."
+    "The device to poll, as a URL: HOST[:PORT] or tcp://HOST[:PORT] (Modbus TCP, port 502), rtu+tcp://HOST:PORT "
+    "(RTU frames over TCP), or rtu://DEVICE[?baud=19200&parity=N&stopbits=1&bytesize=8] (Modbus RTU); "
+    "?timeout=S&retries=N and #UNIT as in mdl read's targets."
 )
-_LINE_KEYS = {"baud": int, "parity": str, "stopbits": int, "bytesize": int}
 
 
-def parse_from(text: str, timeout: float, retries: int) -> Connection:
-    """`--from` as FROM_HELP says it; MdlError naming what is wrong."""
+def parse_from(text: str, timeout: float, retries: int) -> tuple[Connection, int | None]:
+    """`--from` as FROM_HELP says it (mdl.device.fleet's one grammar of connection URLs): the connection
+    and the unit it names (None: not named); MdlError naming what is wrong."""
     try:
-        return _parse_from(text.strip(), timeout, retries)
+        return parse_connection(text.strip(), timeout=timeout, retries=retries)
     except ValueError as exc:
         raise error(f"--from {text!r}: {exc}") from None
-
-
-def _parse_from(text: str, timeout: float, retries: int) -> Connection:
-    if text.startswith("serial:"):
-        device, _, query = text.removeprefix("serial:").removeprefix("//").partition("?")
-        if not device:
-            raise ValueError("no serial device: write serial:/dev/ttyUSB0")
-        settings: dict[str, int | str] = {}
-        for key, value in parse_qsl(query, keep_blank_values=True, strict_parsing=bool(query)):
-            if key not in _LINE_KEYS:
-                raise ValueError(f"unknown setting {key!r} (known: {', '.join(_LINE_KEYS)})")
-            settings[key] = _LINE_KEYS[key](value.upper() if key == "parity" else value)
-        if settings.get("parity", "N") not in ("N", "E", "O"):
-            raise ValueError("parity is N, E or O")
-        return Connection(serial=device, rtu=True, timeout=timeout, retries=retries, **settings)  # type: ignore[arg-type]
-    scheme, rtu = "tcp", False
-    if "://" in text:
-        parts = urlsplit(text)
-        scheme, text = parts.scheme.lower(), parts.netloc
-        if scheme not in ("tcp", "rtu+tcp") or parts.path not in ("", "/") or parts.query:
-            raise ValueError("write HOST[:PORT], tcp://HOST[:PORT], rtu+tcp://HOST:PORT or serial:DEVICE")
-        rtu = scheme == "rtu+tcp"
-    host, port = split_host(text)
-    if port is not None and not 1 <= port <= 65535:
-        raise ValueError(f"the port {port} is not in the range 1 to 65535")
-    return Connection(host=host, port=port or DEVICE_PORT, rtu=rtu, timeout=timeout, retries=retries)
 
 
 def sim_source(resolved: ResolvedDevice, registers: simulator.Registers, fitted: Fit) -> Source:
