@@ -114,7 +114,16 @@ def test_a_file_name_decides_before_the_file_and_xif_before_wise(tmp_path):
 def test_the_registry_gives_import_and_export_their_choices():
     """`mdl import --from` offers every format, `mdl export --to` the formats that write and then the engines."""
     assert formats.names() == ["xif", "wise", "schema", "sunspec"]
-    assert list(engines.outputs()) == ["xif", "wise", "senml", "volttron", "homeassistant", "telegraf"]
+    assert list(engines.outputs()) == [
+        "xif",
+        "wise",
+        "senml",
+        "volttron",
+        "homeassistant",
+        "telegraf",
+        "esphome",
+        "thingsboard",
+    ]
     for command, names in (("import", formats.names()), ("export", list(engines.outputs()))):
         proc = cli(command, "--help")
         assert f"[{'|'.join(names)}]" in " ".join(proc.stdout.split()), proc.stdout
