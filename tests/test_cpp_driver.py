@@ -532,8 +532,9 @@ def test_hostile_text_stays_inside_comments_and_strings(tmp_path, write_device):
         fn_xml("t", "1", format="UINT16", units=nasty).replace(
             "<description>t</description>", f"<description>{nasty}</description>"
         )
-        + fn_xml("splice ??/", "2", format="UINT16")
-        + fn_xml("splice \\", "3", format="UINT16"),
+        # formats no other function has: their own code, under a comment that ends with the name
+        + fn_xml("splice ??/", "2", format="INT32")
+        + fn_xml("splice \\", "4", format="FLOAT32"),
         name=f"Dev {nasty} &#176;",
     )
     exe = build(load_device(path), tmp_path)

@@ -66,14 +66,15 @@ def test_functions_of_one_ir_share_their_code_and_bounds_of_either_zero_do_not()
         for i, bound in enumerate([0.0, -0.0, 0.0, -0.0])
     ]
     files = render(Device("Zeros", "bounds", functions), "zeros.xml", "all")
-    py, cc, c = files["zeros.py"], files["zeros.cc"], files["zeros.c"]
+    py, cc, c, h = files["zeros.py"], files["zeros.cc"], files["zeros.c"], files["zeros.h"]
     assert "if value < -0.0:" in py and "if value < 0.0:" in py
     # two encoders, each shared by two functions, and a writer for each
     assert cc.count("\nint encode_") == 2 and "value < -0.0" in cc and "value < 0.0" in cc
-    assert cc.count("::write_0_(") == 1 and cc.count("return write_0_(") == 2 and cc.count("return write_1_(") == 2
+    # (C++: each write_<name> calls its shared write inline, in the header)
+    assert cc.count("::write_0_(") == 1 and h.count("return write_0_(") == 2 and h.count("return write_1_(") == 2
     assert c.count("\nstatic int encode_") == 2 and c.count("return write_0(ctx") == 2
     # one decoder for all four, and one read of one register
-    assert cc.count("\nfloat decode_") == 1 and cc.count("return read_0_(") == 4
+    assert cc.count("\nfloat decode_") == 1 and h.count("return read_0_(") == 4
     assert c.count("\nstatic int decode_") == 1 and c.count("return read_0(ctx") == 4
 
 

@@ -7,7 +7,7 @@
 #define MDL_TEMCO_TSTAT_H
 
 // This run of mdl gen: temco_tstat.cc refuses to compile with a temco_tstat.h of another run.
-#define MDL_TEMCO_TSTAT_GENERATION 0xe8c15e806ce4
+#define MDL_TEMCO_TSTAT_GENERATION 0xa9c61452eb5c
 
 #include <modbus.h>
 
@@ -78,16 +78,16 @@ public:
     [[nodiscard]] int read_firmware_version(double *out);
 
     /** Read Modbus device address */
-    [[nodiscard]] int read_modbus_address(uint8_t *out);
+    [[nodiscard]] int read_modbus_address(uint8_t *out) { return read_0_(kHolding, 6, out); }
 
     /** Write Modbus device address */
     [[nodiscard]] int write_modbus_address(uint8_t value);
 
     /** Read Product model. Used by the microcontroller to identify the product */
-    [[nodiscard]] int read_product_model(uint8_t *out);
+    [[nodiscard]] int read_product_model(uint8_t *out) { return read_0_(kHolding, 7, out); }
 
     /** Read Room temperature reading in tenths of a degree from the sensor used in the control loop. Internal, external or the average of the two. [°C] */
-    [[nodiscard]] int read_room_temperature(double *out);
+    [[nodiscard]] int read_room_temperature(double *out) { return read_1_(kHolding, 121, out); }
 
     /** Read Room humidity (humidity models only) [%RH] */
     [[nodiscard]] int read_humidity(double *out);
@@ -96,64 +96,64 @@ public:
     [[nodiscard]] int read_occupancy(double *out);
 
     /** Read Fan speed: 0 off, 1 low, 2 medium, 3 high, 4 auto */
-    [[nodiscard]] int read_fan_speed(uint8_t *out);
+    [[nodiscard]] int read_fan_speed(uint8_t *out) { return read_0_(kHolding, 137, out); }
 
     /** Write Fan speed: 0 off, 1 low, 2 medium, 3 high, 4 auto */
     [[nodiscard]] int write_fan_speed(uint8_t value);
 
     /** Read System mode: 0 cool, 1 heat, 2 auto */
-    [[nodiscard]] int read_system_mode(uint8_t *out);
+    [[nodiscard]] int read_system_mode(uint8_t *out) { return read_0_(kHolding, 128, out); }
 
     /** Write System mode: 0 cool, 1 heat, 2 auto */
     [[nodiscard]] int write_system_mode(uint8_t value);
 
     /** Read Relay1 manual output value */
-    [[nodiscard]] int read_fan_relay_on(uint8_t *out);
+    [[nodiscard]] int read_fan_relay_on(uint8_t *out) { return read_0_(kHolding, 255, out); }
 
     /** Write Relay1 manual output value */
-    [[nodiscard]] int write_fan_relay_on(uint8_t value);
+    [[nodiscard]] int write_fan_relay_on(uint8_t value) { return write_0_(kHolding, 255, value); }
 
     /** Read Relay2 manual output value */
-    [[nodiscard]] int read_cooling_stage1_relay_on(uint8_t *out);
+    [[nodiscard]] int read_cooling_stage1_relay_on(uint8_t *out) { return read_0_(kHolding, 256, out); }
 
     /** Write Relay2 manual output value */
-    [[nodiscard]] int write_cooling_stage1_relay_on(uint8_t value);
+    [[nodiscard]] int write_cooling_stage1_relay_on(uint8_t value) { return write_0_(kHolding, 256, value); }
 
     /** Read Relay3 manual output value */
-    [[nodiscard]] int read_cooling_stage2_relay_on(uint8_t *out);
+    [[nodiscard]] int read_cooling_stage2_relay_on(uint8_t *out) { return read_0_(kHolding, 257, out); }
 
     /** Write Relay3 manual output value */
-    [[nodiscard]] int write_cooling_stage2_relay_on(uint8_t value);
+    [[nodiscard]] int write_cooling_stage2_relay_on(uint8_t value) { return write_0_(kHolding, 257, value); }
 
     /** Read Relay4 manual output value */
-    [[nodiscard]] int read_heating_stage1_relay_on(uint8_t *out);
+    [[nodiscard]] int read_heating_stage1_relay_on(uint8_t *out) { return read_0_(kHolding, 258, out); }
 
     /** Write Relay4 manual output value */
-    [[nodiscard]] int write_heating_stage1_relay_on(uint8_t value);
+    [[nodiscard]] int write_heating_stage1_relay_on(uint8_t value) { return write_0_(kHolding, 258, value); }
 
     /** Read Relay5 manual output value */
-    [[nodiscard]] int read_heating_stage2_relay_on(uint8_t *out);
+    [[nodiscard]] int read_heating_stage2_relay_on(uint8_t *out) { return read_0_(kHolding, 259, out); }
 
     /** Write Relay5 manual output value */
-    [[nodiscard]] int write_heating_stage2_relay_on(uint8_t value);
+    [[nodiscard]] int write_heating_stage2_relay_on(uint8_t value) { return write_0_(kHolding, 259, value); }
 
     /** Read Occupied setpoint (day) [°C] */
-    [[nodiscard]] int read_occupied_setpoint(double *out);
+    [[nodiscard]] int read_occupied_setpoint(double *out) { return read_1_(kHolding, 345, out); }
 
     /** Write Occupied setpoint (day) [°C] */
-    [[nodiscard]] int write_occupied_setpoint(double value);
+    [[nodiscard]] int write_occupied_setpoint(double value) { return write_1_(kHolding, 345, value); }
 
     /** Read Unoccupied setpoint (night) [°C] */
-    [[nodiscard]] int read_unoccupied_setpoint(double *out);
+    [[nodiscard]] int read_unoccupied_setpoint(double *out) { return read_1_(kHolding, 346, out); }
 
     /** Write Unoccupied setpoint (night) [°C] */
     [[nodiscard]] int write_unoccupied_setpoint(double value);
 
     /** Read Occupied heating setpoint [°C] */
-    [[nodiscard]] int read_occupied_heating_setpoint(double *out);
+    [[nodiscard]] int read_occupied_heating_setpoint(double *out) { return read_1_(kHolding, 348, out); }
 
     /** Write Occupied heating setpoint [°C] */
-    [[nodiscard]] int write_occupied_heating_setpoint(double value);
+    [[nodiscard]] int write_occupied_heating_setpoint(double value) { return write_1_(kHolding, 348, value); }
 
     /** Read every readable function with the fewest requests; a group the device refuses with
      *  exception 2 is read as smaller requests from then on. Allocates nothing but the memory of
@@ -161,9 +161,13 @@ public:
     [[nodiscard]] int read_all(TemcoTstatValues *out);
 
 private:
+    // the tables of the wire, as read_table_ and the shared reads and writes take them
+    enum Table : int { kCoil, kDiscrete, kHolding, kInput };
+
     [[nodiscard]] int read_table_(int table, int start, int count, uint16_t *dest);
     [[nodiscard]] int write_table_(int table, int start, int count, const uint16_t *src);
-    // what the reads and writes of functions of the same value IR share (temco_tstat.cc)
+    // what the reads and writes of functions of the same value IR share (temco_tstat.cc): the read_<name>
+    // and write_<name> of a function that reads or writes one run calls one of these, inline
     [[nodiscard]] int read_0_(int table, int start, uint8_t *out);
     [[nodiscard]] int read_1_(int table, int start, double *out);
     [[nodiscard]] int write_0_(int table, int start, uint8_t value);
@@ -182,7 +186,7 @@ private:
 #define MDL_TEMCO_TSTAT_C_H
 
 /* This run of mdl gen: temco_tstat.c refuses to compile with a temco_tstat.h of another run. */
-#define MDL_TEMCO_TSTAT_GENERATION 0xe8c15e806ce4
+#define MDL_TEMCO_TSTAT_GENERATION 0xa9c61452eb5c
 
 #include <modbus.h>
 #include <stdbool.h>

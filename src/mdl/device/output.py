@@ -94,7 +94,15 @@ def json_value(fn: Function, value: Value) -> Value:
 
 
 def _json_values(functions: list[Function], values: dict[str, Value]) -> dict[str, Value]:
-    return {fn.name: json_value(fn, values[fn.name]) for fn in functions}
+    out: dict[str, Value] = {}
+    for fn in functions:  # json_value of each, written out for a value without labels (a poll's cost)
+        value = values[fn.name]
+        if fn.values:
+            value = json_value(fn, value)
+        elif isinstance(value, float) and not math.isfinite(value):
+            value = _json_value(value)
+        out[fn.name] = value
+    return out
 
 
 def _csv_line(cells: list[str]) -> str:

@@ -16,6 +16,10 @@ from mdl.model import Function
 from mdl.targets.base import Run
 from mdl.values import ir
 
+# functions decoded by each part of read_all (C and C++): one function of 80,000 lines for 10,000
+# functions made g++ -O2 quadratic (26 minutes); parts of this size keep it linear
+READ_ALL_PART = 64
+
 _INT_TYPE = re.compile(r"(u?)int(8|16|32|64)_t")
 
 
@@ -214,3 +218,42 @@ def merge_rows(codec: ir.Codec) -> list[MergeRow]:
         MergeRow(i, address, mask, ~mask & 0xFFFF)
         for i, (address, mask) in enumerate(zip(codec.addresses, merge.masks, strict=True))
     ]
+
+
+@dataclass(frozen=True)
+class Chunk(Generic[F]):
+    """A part of read_all's decoding (`decode_part_<k>`, C `read_all_part_<k>`): its functions, and
+    whether they take registers from the buffer and whether an expression among them asks which
+    were answered."""
+
+    functions: list[F]
+    uses_raw: bool
+    uses_have: bool
+
+
+def chunks(readable: list[F], registers: Callable[[F], int], expression: Callable[[F], bool]) -> list[Chunk[F]]:
+    """read_all's functions in parts of READ_ALL_PART, in their order (each after those it needs)."""
+    return [
+        Chunk(part, any(registers(f) for f in part), any(registers(f) and expression(f) for f in part))
+        for part in (readable[i : i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))
+    ]
+
+
+def ranges(slots: list[int]) -> list[tuple[int, int]]:
+    """Sorted slots as (first, end) ranges of consecutive ones: read_all's table of the slots functions
+    without an expression need, checked before its values change."""
+    out: list[tuple[int, int]] = []
+    for s in slots:
+        if out and out[-1][1] == s:
+            out[-1] = (out[-1][0], s + 1)
+        else:
+            out.append((s, s + 1))
+    return out
+
+
+def first_slot(slots: Sequence[int]) -> int | None:
+    """The first of slots that follow each other (a decoder then reads read_all's buffer in place), else None."""
+    if not slots:
+        return None
+    first = slots[0]
+    return first if all(s == first + i for i, s in enumerate(slots)) else None

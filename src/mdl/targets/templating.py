@@ -54,13 +54,25 @@ _HIDDEN = re.compile(
 )
 
 
+# printable ASCII that starts and ends with a visible character other than a backslash
+_PLAIN = re.compile(r"(?:[!-~][ -~]*)?[!-\[\]-~]")
+
+
 def ccomment(text: object) -> str:
     """Text for a C or C++ comment (`//` or `/* */`), as written (UTF-8) on one line, that cannot end
     the comment, splice the next line into it or reorder what a reader sees: control characters and
     line breaks become a space, a hidden character (_HIDDEN: bidirectional controls, zero-width ones)
     becomes its code point as text (`<U+202E>`), `*/`, `/*` and the `??/` trigraph get a space
     inside, and a backslash that ends the text becomes U+FF3C (a fullwidth backslash)."""
-    text = re.sub(r"\s*[\x00-\x1f\x7f-\x9f\u2028\u2029]+\s*", " ", str(text)).strip()
+    text = str(text)
+    if _PLAIN.fullmatch(text) and "*/" not in text and "/*" not in text and "??/" not in text:
+        return text  # printable ASCII between two visible characters, as most are: nothing to change
+    return _ccomment(text)
+
+
+def _ccomment(text: str) -> str:
+    """ccomment of any text (the way every text could take)."""
+    text = re.sub(r"\s*[\x00-\x1f\x7f-\x9f\u2028\u2029]+\s*", " ", text).strip()
     text = _HIDDEN.sub(lambda m: f"<U+{ord(m.group()):04X}>", text)
     text = text.replace("*/", "* /").replace("/*", "/ *").replace("??/", "?? /")
     return text[:-1] + "\uff3c" if text.endswith("\\") else text

@@ -7,7 +7,7 @@
 #define MDL_ALL_TABLES_H
 
 // This run of mdl gen: all_tables.cc refuses to compile with a all_tables.h of another run.
-#define MDL_ALL_TABLES_GENERATION 0xd0ebd09a757c
+#define MDL_ALL_TABLES_GENERATION 0x01f984c68c7f
 
 #include <modbus.h>
 
@@ -78,25 +78,25 @@ public:
     explicit AllTables(modbus_t *ctx) : ctx_(ctx) {}
 
     /** Read pump */
-    [[nodiscard]] int read_pump(bool *out);
+    [[nodiscard]] int read_pump(bool *out) { return read_0_(kCoil, 0, out); }
 
     /** Write pump */
-    [[nodiscard]] int write_pump(bool value);
+    [[nodiscard]] int write_pump(bool value) { return write_0_(kCoil, 0, value); }
 
     /** Read fan */
-    [[nodiscard]] int read_fan(bool *out);
+    [[nodiscard]] int read_fan(bool *out) { return read_0_(kCoil, 1, out); }
 
     /** Write fan */
-    [[nodiscard]] int write_fan(bool value);
+    [[nodiscard]] int write_fan(bool value) { return write_0_(kCoil, 1, value); }
 
     /** Write alarm_reset */
-    [[nodiscard]] int write_alarm_reset(bool value);
+    [[nodiscard]] int write_alarm_reset(bool value) { return write_0_(kCoil, 5, value); }
 
     /** Read door_open */
-    [[nodiscard]] int read_door_open(bool *out);
+    [[nodiscard]] int read_door_open(bool *out) { return read_0_(kDiscrete, 0, out); }
 
     /** Read filter_dirty */
-    [[nodiscard]] int read_filter_dirty(bool *out);
+    [[nodiscard]] int read_filter_dirty(bool *out) { return read_0_(kDiscrete, 1, out); }
 
     /** Read energy [kWh] */
     [[nodiscard]] int read_energy(double *out);
@@ -108,16 +108,16 @@ public:
     [[nodiscard]] int read_voltage(std::optional<double> *out);
 
     /** Read gap_low */
-    [[nodiscard]] int read_gap_low(uint16_t *out);
+    [[nodiscard]] int read_gap_low(uint16_t *out) { return read_1_(kHolding, 50, out); }
 
     /** Write gap_low */
-    [[nodiscard]] int write_gap_low(uint16_t value);
+    [[nodiscard]] int write_gap_low(uint16_t value) { return write_1_(kHolding, 50, value); }
 
     /** Read gap_high */
-    [[nodiscard]] int read_gap_high(uint16_t *out);
+    [[nodiscard]] int read_gap_high(uint16_t *out) { return read_1_(kHolding, 52, out); }
 
     /** Write gap_high */
-    [[nodiscard]] int write_gap_high(uint16_t value);
+    [[nodiscard]] int write_gap_high(uint16_t value) { return write_1_(kHolding, 52, value); }
 
     /** Read setpoint [°C] */
     [[nodiscard]] int read_setpoint(double *out);
@@ -126,10 +126,10 @@ public:
     [[nodiscard]] int write_setpoint(double value);
 
     /** Read mode */
-    [[nodiscard]] int read_mode(uint16_t *out);
+    [[nodiscard]] int read_mode(uint16_t *out) { return read_1_(kHolding, 101, out); }
 
     /** Write mode */
-    [[nodiscard]] int write_mode(uint16_t value);
+    [[nodiscard]] int write_mode(uint16_t value) { return write_1_(kHolding, 101, value); }
 
     /** Read label */
     [[nodiscard]] int read_label(std::string *out);
@@ -182,9 +182,13 @@ public:
     [[nodiscard]] int read_all(AllTablesValues *out);
 
 private:
+    // the tables of the wire, as read_table_ and the shared reads and writes take them
+    enum Table : int { kCoil, kDiscrete, kHolding, kInput };
+
     [[nodiscard]] int read_table_(int table, int start, int count, uint16_t *dest);
     [[nodiscard]] int write_table_(int table, int start, int count, const uint16_t *src);
-    // what the reads and writes of functions of the same value IR share (all_tables.cc)
+    // what the reads and writes of functions of the same value IR share (all_tables.cc): the read_<name>
+    // and write_<name> of a function that reads or writes one run calls one of these, inline
     [[nodiscard]] int read_0_(int table, int start, bool *out);
     [[nodiscard]] int read_1_(int table, int start, uint16_t *out);
     [[nodiscard]] int write_0_(int table, int start, bool value);
@@ -203,7 +207,7 @@ private:
 #define MDL_ALL_TABLES_C_H
 
 /* This run of mdl gen: all_tables.c refuses to compile with a all_tables.h of another run. */
-#define MDL_ALL_TABLES_GENERATION 0xd0ebd09a757c
+#define MDL_ALL_TABLES_GENERATION 0x01f984c68c7f
 
 #include <modbus.h>
 #include <stdbool.h>

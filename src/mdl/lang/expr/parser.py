@@ -84,8 +84,16 @@ class Parser:
         return end.end()
 
     def peek(self) -> str:
-        self.ws()
-        return self.text[self.pos] if self.pos < len(self.text) else ""
+        """The next character that is not a space ('' at the end), skipping the spaces before it (ws,
+        written out: the parser's most frequent call)."""
+        text, pos = self.text, self.pos
+        if pos >= len(text):
+            return ""
+        ch = text[pos]
+        if not ch.isspace():
+            return ch
+        self.pos = pos = self._space_end(pos)
+        return text[pos] if pos < len(text) else ""
 
     def expect(self, ch: str) -> None:
         if self.peek() != ch:

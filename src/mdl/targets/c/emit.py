@@ -78,6 +78,7 @@ class CFunction:
     encode: tuple[ir.EncodeStep, ...] | None
     runs: list[Run]
     slots: list[int]
+    at: int | None  # the first of its slots in read_all's buffer, if they follow each other
     read_fragment: str | None = None  # the names of its fragment functions
     write_fragment: str | None = None
     range_check: RangeCheck | None = None
@@ -170,6 +171,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
         vt = codec.value_type
         text_size = vt.nbytes + 1 if vt.kind == "string" else 0
         expr = None
+        slots = list(rd.slots_of(rf)) if codec.decode else []
         if vt.kind == "expr" and codec.decode is not None:
             step = codec.decode[0]
             assert isinstance(step, ir.Expression)
@@ -186,7 +188,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             decode=codec.decode,
             encode=codec.encode,
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
-            slots=list(rd.slots_of(rf)) if codec.decode else [],
+            slots=slots,
+            at=clike.first_slot(slots),
             merge=merge_rows(codec),
             mask_write=rf.fn.mask_write,
         )
@@ -280,6 +283,9 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "groups": groups,
         "splits": splits,
         "raw_total": raw_total,
+        "chunks": clike.chunks(readable, lambda f: f.n, lambda f: f.expr is not None),
+        "needed": clike.ranges(sorted({s for f in readable if f.expr is None for s in f.slots})),
+        "fragment_reads": [f for f in readable if f.fails],
         "runtime": runtime,
         "fragments": [(name, c.function(name)) for name, c in fragments],
         "includes": sorted(includes),

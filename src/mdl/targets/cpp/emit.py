@@ -34,9 +34,10 @@ from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
 from mdl.values.ir import ValueType
 
-# functions decoded by each part of read_all: one function of 80,000 lines for 10,000 functions made
-# g++ -O2 quadratic (26 minutes); parts of this size keep it linear
-READ_ALL_PART = 64
+# functions whose read_<name> and write_<name> one class declares: g++ declares a class's member functions
+# in time that grows with the square of their number (20,000 in one class: 19 s), so a device of more has
+# them in a chain of classes of this many functions each, which its class derives from (class_parts)
+CLASS_PART = 500
 TABLE_CONST = {"coil": "kCoil", "discrete": "kDiscrete", "holding": "kHolding", "input": "kInput"}
 # headers every driver's .cc includes; the expression runtime adds its own
 BASE_INCLUDES = ("algorithm", "array", "cerrno", "cmath", "cstddef", "cstdint", "cstring")
@@ -112,6 +113,7 @@ class CppFunction:
     encoder: str = ""
     decode_text: str = ""
     encode_text: str = ""
+    owner: str = ""  # the class whose member its read_<name> and write_<name> are (the .cc qualifies them so)
     reader: int | None = None  # read_<reader>_ reads its one run and decodes it, if shared
     writer: int | None = None  # write_<writer>_ encodes a value and writes its one run, if shared
     factor: CppFunction | None = None  # the function whose value scales it (scale_exponent, scale_by)
@@ -200,16 +202,6 @@ def _functions(resolved: ResolvedDevice) -> dict[str, CppFunction]:
     return out
 
 
-@dataclass(frozen=True)
-class Chunk:
-    """A part of read_all's decoding (`decode_part_<k>`): its functions, and whether they take
-    registers from the buffer and whether an expression among them asks which were answered."""
-
-    functions: list[CppFunction]
-    uses_raw: bool
-    uses_have: bool
-
-
 def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
     return [
         step.tree.c("c++")
@@ -220,15 +212,16 @@ def _fragments(resolved: ResolvedDevice) -> list[CFragment]:
     ]
 
 
-def _ranges(slots: list[int]) -> list[tuple[int, int]]:
-    """Sorted slots as (first, end) ranges of consecutive ones."""
-    out: list[tuple[int, int]] = []
-    for s in slots:
-        if out and out[-1][1] == s:
-            out[-1] = (out[-1][0], s + 1)
-        else:
-            out.append((s, s + 1))
-    return out
+def class_parts(functions: list[CppFunction]) -> list[list[CppFunction]]:
+    """The functions of each class of the chain the device's class derives from (CLASS_PART each), or
+    none for a device of at most CLASS_PART functions (one class). A write with a scale factor calls the
+    factor's read_<name>, which must be a member of its class or of one before: the factors come first."""
+    if len(functions) <= CLASS_PART:
+        return []
+    factors = {id(f.factor) for f in functions if f.factor is not None}
+    ordered = [f for f in functions if id(f) in factors] + [f for f in functions if id(f) not in factors]
+    head = max(len(factors), CLASS_PART)  # every factor in the first class, however many
+    return [ordered[:head]] + [ordered[i : i + CLASS_PART] for i in range(head, len(ordered), CLASS_PART)]
 
 
 def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
@@ -245,12 +238,17 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
     if fragments:
         runtime += "\n" + helpers_source(fragments, "c++")
         runtime_includes += FRAGMENT_INCLUDES["c++"]
-    chunks = [
-        Chunk(part, any(f.n for f in part), any(f.n and f.expr for f in part))
-        for part in (readable[i : i + READ_ALL_PART] for i in range(0, len(readable), READ_ALL_PART))
-    ]
+    chunks = clike.chunks(readable, lambda f: f.n, lambda f: f.expr)
+    class_name = resolved.class_name
+    parts_ns = f"{file_stem}_parts"
+    parts = class_parts(functions)
+    for k, part in enumerate(parts):
+        for f in part:
+            f.owner = f"{parts_ns}::Part{k}"
+    for f in functions if not parts else ():
+        f.owner = class_name
     types = [f.t for f in functions] + [f.rt for f in functions]
-    needed = _ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
+    needed = clike.ranges(sorted({s for f in readable if not f.expr for s in f.slots}))
     return {
         "device": device,
         "version": __version__,
@@ -258,7 +256,11 @@ def context(resolved: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "stem": file_stem,
         "generation_macro": generation_macro(file_stem),
         "device_name": ctext(device.name, "kDeviceName", "c++"),
-        "class_name": resolved.class_name,
+        "class_name": class_name,
+        "class_parts": parts,
+        "class_part": CLASS_PART,
+        "parts_ns": parts_ns,
+        "core": f"{parts_ns}::Core" if parts else class_name,  # the class of the requests and shared code
         "guard": f"MDL_{file_stem.upper().rstrip('_')}_H",
         "functions": functions,
         "readable": readable,
