@@ -12,6 +12,7 @@ drivers return (programs compare it with a driver's value). A NaN or an infinity
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
@@ -20,7 +21,7 @@ from collections import Counter
 from collections.abc import Callable
 from datetime import datetime, timezone
 from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
-from typing import Any, TypedDict
+from typing import Any, TypedDict, cast
 
 from mdl.model import Function, Value
 
@@ -58,6 +59,7 @@ def _plain_float32(fn: Function) -> bool:
 _FLOAT32 = struct.Struct(">f")
 
 
+@functools.lru_cache(maxsize=4096)  # a poll's readings mostly repeat the last poll's
 def shortest_float32(value: float) -> float:
     """The double of the fewest significant digits that rounds to the same float32 as `value` (which is one):
     printed, it shows what mbpoll shows; read back as a float32, it is the same bits. NaN and infinities,
@@ -144,6 +146,9 @@ def with_precision(value: int | float, places: int) -> str:
 
 
 def _text(value: Value) -> str:
+    kind = type(value)
+    if kind is int or kind is float or kind is str:  # most values: their str
+        return str(value)
     if value is None:
         return "null"
     if isinstance(value, bool):
@@ -174,6 +179,21 @@ def _entry(fn: Function, n: str) -> dict[str, Value]:
             entry[key[:3]] = _bound(bound)
     entry["asm"] = access_mode(fn)
     return entry
+
+
+def _with_value_items(n: str, rest: dict[str, Value], value: Value) -> dict[str, Value]:
+    """_with_value of an entry given as its name and the items after it (the same keys, written out: a
+    poll's records make hundreds of these)."""
+    kind = type(value)
+    if kind is bool:
+        return {"n": n, "bv": value, **rest}
+    if kind is int or (kind is float and math.isfinite(value)):  # type: ignore[arg-type]
+        return {"n": n, "v": value, **rest}
+    if kind is list:
+        return {"n": n, "sv": ", ".join(value), **rest}  # type: ignore[arg-type]
+    if kind is str:
+        return {"n": n, "sv": value, **rest}
+    return _with_value({"n": n, **rest}, value)  # null, NaN, infinities: no value key
 
 
 def _with_value(entry: dict[str, Value], value: Value) -> dict[str, Value]:
@@ -252,23 +272,96 @@ def record_header(functions: list[Function], fmt: str) -> str:
     return _csv_line([TIME_KEY, *(fn.name for fn in functions)]) if fmt == "csv" else ""
 
 
+_PLAIN, _LABELLED, _FLOAT32_SHOWN, _PRECISION = range(4)  # how a record shows a function's value
+_NEEDS_QUOTES = frozenset(',"\n\r')
+
+
+class _Plan:
+    """What every record of one poll's functions repeats, worked out once (a poll prints hundreds of records
+    of the same functions): how each value is shown, the table's padded names and units, the SenML blocks
+    with each entry's fixed part."""
+
+    def __init__(self, functions: list[Function], device_name: str) -> None:
+        self.functions, self.device_name = functions, device_name
+        self.names = [fn.name for fn in functions]
+        self.kinds = [
+            _PRECISION
+            if fn.precision is not None
+            else _LABELLED
+            if fn.values
+            else _FLOAT32_SHOWN
+            if _plain_float32(fn)
+            else _PLAIN
+            for fn in functions
+        ]
+        width = max((len(n) for n in [TIME_KEY, *self.names]), default=4)
+        self.table_names = [f"{n:<{width}}  " for n in self.names]
+        self.table_units = [f" {u}" if (u := (fn.units or "").strip()) else "" for fn in functions]
+        self.time_row = f"{TIME_KEY:<{width}}  "
+        self.blocks: list[tuple[str, list[tuple[int, str, dict[str, Value]]]]] = []
+        for label, block in _blocks(functions, device_name, _entry_at(functions)).items():
+            entries = []
+            for e in block["e"]:
+                i = cast(int, e.pop("i"))
+                n = str(e.pop("n"))
+                entries.append((i, n, e))
+            self.blocks.append((label, entries))
+
+    def shown(self, i: int, value: Value) -> Value:
+        kind = self.kinds[i]
+        if kind == _PLAIN or value is None or isinstance(value, bool):
+            return value
+        return shown(self.functions[i], value)
+
+
+def _entry_at(functions: list[Function]) -> Callable[[Function, str], dict[str, Value]]:
+    """_entry, with the function's index (the plan's) under the key "i"."""
+    index = {id(fn): i for i, fn in enumerate(functions)}
+    return lambda fn, n: {**_entry(fn, n), "i": index[id(fn)]}
+
+
+_PLANS: dict[tuple[int, str], _Plan] = {}  # by the functions list's identity (the plan holds the list)
+
+
+def _plan(functions: list[Function], device_name: str) -> _Plan:
+    key = (id(functions), device_name)
+    plan = _PLANS.get(key)
+    if plan is None or plan.functions is not functions or len(plan.names) != len(functions):
+        if len(_PLANS) >= 64:  # polls of many devices: the oldest plans go
+            _PLANS.pop(next(iter(_PLANS)))
+        plan = _PLANS[key] = _Plan(functions, device_name)
+    return plan
+
+
+def _csv_cells(cells: list[str]) -> str:
+    """_csv_line, joined directly where no cell needs quotes (most records)."""
+    if any(not _NEEDS_QUOTES.isdisjoint(cell) for cell in cells):
+        return _csv_line(cells)
+    return ",".join(cells) + "\n"
+
+
 def record(functions: list[Function], values: dict[str, Value], fmt: str, when: datetime, device_name: str = "") -> str:
     """One poll's record, ending with a newline: json one object on one line, time first; csv one row, time
     first; table a block (a time row, the values, a blank line); senml one document on one line, each
     block with `bt`, the time in seconds since 1970 (UTC)."""
+    if fmt == "json":
+        return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"
+    plan = _plan(functions, device_name)
+    got = [values[name] for name in plan.names]
     if fmt == "senml":
         bt = round(when.timestamp(), 3)
         doc: dict[str, Any] = {
-            label: {"bn": block["bn"], "bt": bt, "e": block["e"]}
-            for label, block in senml(functions, values, device_name).items()
+            label: {"bn": label, "bt": bt, "e": [_with_value_items(n, rest, plan.shown(i, got[i])) for i, n, rest in e]}
+            for label, e in plan.blocks
         }
         return json.dumps(doc, ensure_ascii=False) + "\n"
-    if fmt == "json":
-        return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"
     if fmt == "csv":
-        return _csv_line([iso_time(when), *(_cell(shown(fn, values[fn.name])) for fn in functions)])
-    rows = [(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
-    return _table([(TIME_KEY, iso_time(when), ""), *rows]) + "\n"
+        return _csv_cells([iso_time(when), *(_cell(plan.shown(i, v)) for i, v in enumerate(got))])
+    lines = [plan.time_row + iso_time(when)]
+    for i, v in enumerate(got):
+        text = _shown_text(plan.functions[i], v) if plan.kinds[i] == _PRECISION else _text(plan.shown(i, v))
+        lines.append(plan.table_names[i] + text + plan.table_units[i])
+    return "\n".join(lines) + "\n\n"
 
 
 DEVICE_KEY = "device"  # the key (json), column (csv) and row (table) naming a record's device when several are polled
