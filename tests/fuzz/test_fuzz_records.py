@@ -70,3 +70,15 @@ def test_records_print_what_the_plain_construction_prints(data, n, fmt):
         values = {fn.name: data.draw(VALUES) for fn in functions}
         expected = oracle(functions, values, fmt, when, "Dev")
         assert output.record(functions, values, fmt, when, "Dev") == expected
+
+
+def test_a_list_changed_in_place_is_planned_again():
+    a = Function("a", "", [0], format="UINT16", units="A")
+    b = Function("b", "", [1], format="UINT16", units="V")
+    functions = [a, b]
+    when = datetime(2026, 11, 26, tzinfo=timezone.utc)
+    assert output.record(functions, {"a": 1, "b": 2}, "csv", when) == "2026-11-26T00:00:00.000Z,1,2\n"
+    functions.reverse()
+    assert output.record(functions, {"a": 1, "b": 2}, "csv", when) == "2026-11-26T00:00:00.000Z,2,1\n"
+    functions[0] = a
+    assert output.record(functions, {"a": 1, "b": 2}, "csv", when) == "2026-11-26T00:00:00.000Z,1,1\n"

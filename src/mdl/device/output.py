@@ -283,6 +283,7 @@ class _Plan:
 
     def __init__(self, functions: list[Function], device_name: str) -> None:
         self.functions, self.device_name = functions, device_name
+        self.members = [id(fn) for fn in functions]  # the list's content when planned (a list is mutable)
         self.names = [fn.name for fn in functions]
         self.kinds = [
             _PRECISION
@@ -320,14 +321,17 @@ def _entry_at(functions: list[Function]) -> Callable[[Function, str], dict[str, 
     return lambda fn, n: {**_entry(fn, n), "i": index[id(fn)]}
 
 
-_PLANS: dict[tuple[int, str], _Plan] = {}  # by the functions list's identity (the plan holds the list)
+# by the functions list's identity; the plan holds the list and its members, and is made again when the
+# list holds other functions (the Function objects themselves are taken as they were: a poll never changes them)
+_PLANS: dict[tuple[int, str], _Plan] = {}
+MAX_PLANS = 1024  # a fleet polls this many devices before plans are made again
 
 
 def _plan(functions: list[Function], device_name: str) -> _Plan:
     key = (id(functions), device_name)
     plan = _PLANS.get(key)
-    if plan is None or plan.functions is not functions or len(plan.names) != len(functions):
-        if len(_PLANS) >= 64:  # polls of many devices: the oldest plans go
+    if plan is None or plan.functions is not functions or plan.members != [id(fn) for fn in functions]:
+        if len(_PLANS) >= MAX_PLANS:  # the oldest plan goes
             _PLANS.pop(next(iter(_PLANS)))
         plan = _PLANS[key] = _Plan(functions, device_name)
     return plan
