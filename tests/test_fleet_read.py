@@ -212,3 +212,27 @@ def test_fuzz_device_records_read_back(device, label, setpoint, fmt):
         assert rows[0][3] == label and rows[1][4] == "°C"
     elif fmt == "senml":
         assert json.loads(text)["Dev"]["bn"] == f"{device}/Dev"
+
+
+def test_records_that_cannot_be_written_end_the_run_with_the_reason(sim_factory):
+    """stdout on a full disk: the run ends at once with exit 1 and the reason, in every format, never a
+    clean exit after polling nothing (review) nor a traceback."""
+    sim = sim_factory([ALL, ALL], "--unit", "3", "--unit", "7")
+    for fmt in ("json", "csv"):
+        with open("/dev/full", "w") as full:
+            proc = subprocess.run(
+                mdl_cmd("read", target(sim, 3), target(sim, 7), "setpoint", "--interval", "0.2", "--count", "3",
+                        "--format", fmt),
+                stdout=full, stderr=subprocess.PIPE, text=True, timeout=RUN,
+            )  # fmt: skip
+        assert proc.returncode == 1, (fmt, proc.stderr)
+        assert "cannot write the records: No space left on device" in proc.stderr
+        assert "Traceback" not in proc.stderr
+
+
+def test_targets_sharing_a_line_must_give_it_the_same_settings(sim_factory):
+    sim = sim_factory([ALL, ALL], "--unit", "3", "--unit", "7", "--framer", "rtu")
+    one = f"{ALL}@rtu+tcp://{sim.host}:{sim.port}?timeout=0.2#3"
+    other = f"{ALL}@rtu+tcp://{sim.host}:{sim.port}?timeout=5#7"
+    proc = run_mdl("read", one, other, "setpoint", "--interval", "0.2", "--count", "1", timeout=RUN)
+    assert_clean_error(proc, 1, "share a line but give it different settings")

@@ -29,7 +29,7 @@ from mdl.device.connection import Connection, split_host
 from mdl.device.frames import Wire
 from mdl.device.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.runtime import ModbusExceptionError, Session
-from mdl.diagnostics import EXIT_DEVICE, MdlError
+from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.exchange.connection import DEVICE_PORT
 from mdl.fileio import input_path
 from mdl.model import Function, Value
@@ -226,6 +226,8 @@ class Printer:
         except BrokenPipeError:  # `| head`: stop printing; publishing goes on
             self.gone = True
             _silence(stream)
+        except OSError as exc:  # a full disk: the run ends with the reason, never a traceback or a clean exit
+            raise error(f"cannot write the records: {exc.strerror or exc}") from None
 
 
 class _Line:
@@ -235,6 +237,11 @@ class _Line:
         self.wire = Wire(connection.rtu)
         self.client: ModbusBaseClient = connection.async_client(self.wire.trace)
         self.lock = asyncio.Lock()
+
+
+def _line_settings(conn: Connection) -> tuple[object, ...]:
+    """What a shared line has one of: its serial settings and its timing."""
+    return (conn.baud, conn.parity, conn.stopbits, conn.bytesize, conn.timeout, conn.retries)
 
 
 def _line_key(target: Target, index: int) -> object:
@@ -259,9 +266,11 @@ async def _fetch(session: Session, client: ModbusBaseClient, req: Request) -> li
     return session.unpacked(req, session.checked(what, result))
 
 
-async def _read(session: Session, line: _Line, functions: list[Function]) -> dict[str, Value]:
-    """Session.read on the line's asyncio client: the same steps (runtime.drive), awaited."""
+async def _read(session: Session, line: _Line, functions: list[Function], turn: list[datetime]) -> dict[str, Value]:
+    """Session.read on the line's asyncio client: the same steps (runtime.drive), awaited. The time its
+    turn on the line came is appended to `turn` (the poll's time, a failed poll's too)."""
     async with line.lock:
+        turn.append(datetime.now(timezone.utc))
         try:
             if not line.client.connected and not await line.client.connect():
                 raise session.connect_error()
@@ -291,10 +300,19 @@ class _Fleet:
         self.polled, self.sinks, self.interval, self.count = polled, sinks, interval, count
         self.status = [0] * len(polled)
         self.stop = asyncio.Event()
-        lines: dict[object, _Line] = {}
-        self.lines = [
-            lines.setdefault(_line_key(p.target, i), _Line(p.target.connection)) for i, p in enumerate(polled)
-        ]
+        lines: dict[object, tuple[_Line, Polled]] = {}
+        self.lines = []
+        for i, p in enumerate(polled):
+            key = _line_key(p.target, i)
+            if key not in lines:
+                lines[key] = (_Line(p.target.connection), p)
+            line, first = lines[key]
+            if _line_settings(p.target.connection) != _line_settings(first.target.connection):
+                raise error(
+                    f"{p.target.text} and {first.target.text} share a line but give it different settings "
+                    "(baud, parity, stop bits, byte size, timeout, retries): a line has one; give both the same"
+                )
+            self.lines.append(line)
 
     async def run(self) -> int:
         loop = asyncio.get_running_loop()
@@ -303,8 +321,11 @@ class _Fleet:
         tasks = [asyncio.create_task(self._poll(i)) for i in range(len(self.polled))]
         stopping: asyncio.Future[Any] = asyncio.ensure_future(self.stop.wait())
         polling: asyncio.Future[Any] = asyncio.ensure_future(asyncio.gather(*tasks))
+        failure: BaseException | None = None
         try:
             await asyncio.wait([polling, stopping], return_when=asyncio.FIRST_COMPLETED)
+            if polling.done() and not polling.cancelled() and polling.exception() is not None:
+                failure = polling.exception()  # a task that failed ends the run, said, never as a clean exit
         finally:
             for task in [*tasks, stopping, polling]:
                 task.cancel()
@@ -313,6 +334,8 @@ class _Fleet:
                 loop.remove_signal_handler(sig)
             for line in {id(line): line for line in self.lines}.values():
                 line.client.close()
+        if failure is not None:
+            raise failure
         return max(self.status, default=0)
 
     async def _poll(self, i: int) -> None:
@@ -330,17 +353,18 @@ class _Fleet:
                 except asyncio.TimeoutError:
                     pass
             next_start = loop.time() + self.interval
-            when = datetime.now(timezone.utc)
+            turn: list[datetime] = []
             try:
-                values = await _read(session, line, p.functions)
+                values = await _read(session, line, p.functions, turn)
             except MdlError as exc:
+                when = turn[0] if turn else datetime.now(timezone.utc)
                 self.status[i] = EXIT_DEVICE
                 for sink in self.sinks:
                     sink.failed(p, when, exc)
             else:
                 self.status[i] = 0
                 for sink in self.sinks:
-                    sink.record(p, values, when)
+                    sink.record(p, values, turn[0])
             polls += 1
 
 
