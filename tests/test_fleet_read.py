@@ -236,3 +236,14 @@ def test_targets_sharing_a_line_must_give_it_the_same_settings(sim_factory):
     other = f"{ALL}@rtu+tcp://{sim.host}:{sim.port}?timeout=5#7"
     proc = run_mdl("read", one, other, "setpoint", "--interval", "0.2", "--count", "1", timeout=RUN)
     assert_clean_error(proc, 1, "share a line but give it different settings")
+
+
+def test_one_device_polled_onto_a_full_disk_is_a_clean_error(sim_factory):
+    sim = sim_factory(ALL)
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run(
+            mdl_cmd("read", ALL, *sim.connection, "setpoint", "--interval", "0.2", "--count", "2"),
+            stdout=full, stderr=subprocess.PIPE, text=True, timeout=RUN,
+        )  # fmt: skip
+    assert proc.returncode == 1 and "cannot write the records: No space left on device" in proc.stderr
+    assert "Traceback" not in proc.stderr

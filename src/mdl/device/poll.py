@@ -141,9 +141,16 @@ def _poll_once(
 
 
 def _emit(stream: TextIO, text: str) -> None:
-    if text:
+    if not text:
+        return
+    try:
         stream.write(text)
         stream.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as exc:  # a full disk: the reason, exit 1, never a traceback
+        _silence(stream)
+        raise error(f"cannot write the records: {exc.strerror or exc}") from None
 
 
 def _silence(out: TextIO) -> None:
