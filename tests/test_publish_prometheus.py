@@ -13,7 +13,7 @@ import subprocess
 import urllib.request
 
 import pytest
-from conftest import DATA, _read_lines, assert_clean_error, mdl_cmd, run_mdl
+from conftest import DATA, _read_lines, assert_clean_error, fn_xml, mdl_cmd, run_mdl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -165,3 +165,19 @@ def test_fuzz_any_url_parses_or_says_why(text):
         assert str(exc)
     else:
         assert 0 <= url.port <= 65535 and url.host
+
+
+def test_function_names_that_meet_the_built_in_metrics_stay_apart(sim_factory, write_device):
+    """A function `poll_up` is mdl_poll_up_value, as is a function `poll_up_value`: the second is numbered,
+    with a note, so the page never holds one series twice (Prometheus refuses such a scrape whole)."""
+    path = write_device(fn_xml("poll_up", 0, format="UINT16") + fn_xml("poll_up_value", 1, format="UINT16"))
+    sim = sim_factory(path, "--set", "poll_up=5", "--set", "poll_up_value=7")
+    exporter = Exporter(f"{path}@tcp://{sim.host}:{sim.port}", "--interval", "0.2")
+    try:
+        exporter.records(1)
+        page = exporter.page()
+    finally:
+        exporter.stop()
+    got = {name: value for (name, _), value in samples(page).items()}
+    assert got["mdl_poll_up_value"] == 5.0 and got["mdl_poll_up_value_2"] == 7.0 and got["mdl_poll_up"] == 1.0
+    assert "metric names taken already: poll_up_value as mdl_poll_up_value_2" in "".join(exporter.said)

@@ -84,20 +84,30 @@ class PrometheusPublisher(Collector):
         for p in polled:
             self._labels[p.ident] = [p.ident, str(p.target.unit)]
             by_name = {f.name: f for f in p.resolved.functions}
-            chosen, left_out = [], []
+            chosen, left_out, renamed = [], [], []
+            seen: set[str] = set()
             for fn in p.functions:
                 f = by_name[fn.name]
                 kind = kind_of(f)
                 if kind == "text":
                     left_out.append(fn.name)
                     continue
-                name = metric_name(f.ident)
+                name = first = metric_name(f.ident)
+                n = 1
+                while name in seen:  # `poll_up` is mdl_poll_up_value, as is `poll_up_value`: the second numbered
+                    n += 1
+                    name = f"{first}_{n}"
+                if name != first:
+                    renamed.append(f"{fn.name} as {name}")
+                seen.add(name)
                 units = (fn.units or "").strip()
                 self._help.setdefault(name, f"{fn.name}{f' ({units})' if units else ''}: {fn.description}".strip())
                 chosen.append((fn, name, kind))
             self._metrics[p.ident] = chosen
             if left_out:
                 self._say(f"{p.ident}: text is not a metric: {', '.join(left_out)} left out", "note")
+            if renamed:
+                self._say(f"{p.ident}: metric names taken already: {', '.join(renamed)}", "note")
         registry = CollectorRegistry(auto_describe=False)
         registry.register(self)
         try:
