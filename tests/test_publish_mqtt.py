@@ -269,3 +269,19 @@ def test_fuzz_any_url_parses_or_says_why(text):
         assert str(exc)
     else:
         assert url.prefix and "+" not in url.prefix and 1 <= url.port <= 65535 and url.queue >= 1
+
+
+def test_a_full_queue_drops_polls_never_a_devices_status():
+    """The queue's bound drops the oldest polls, never a device's online/offline (a retained offline would
+    outlive the values that follow it); a status not yet begun is superseded by the newer one (review)."""
+    import io
+
+    from mdl.device.publish_mqtt import MqttPublisher, _Batch, parse_url
+
+    pub = MqttPublisher(parse_url("mqtt://127.0.0.1:1/p?queue=2"), io.StringIO())  # never started: a queue only
+    pub._status("d", b"offline", "t0")
+    pub._status("d", b"online", "t1")  # supersedes the offline nobody was sent
+    for i in range(3):
+        pub._add(_Batch([("p/d/x", str(i).encode())], f"poll {i}"))
+    kept = [(b.status_of, b.messages) for b in pub._pending]
+    assert kept == [("d", [("p/d/status", b"online")]), (None, [("p/d/x", b"1")]), (None, [("p/d/x", b"2")])]

@@ -114,12 +114,18 @@ class _Batch:
     messages: list[Message]
     what: str  # for the message saying it was dropped
     discovery: bool = False
+    status_of: str | None = None  # a device's online/offline: never dropped, a newer one supersedes it
     unsent: deque[int] = field(default_factory=deque)
     unacked: set[int] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         self.unsent.extend(range(len(self.messages)))
         self.unacked.update(range(len(self.messages)))
+
+    @property
+    def poll(self) -> bool:
+        """A poll's values: what the queue's bound counts and drops (discovery and status are kept)."""
+        return not self.discovery and self.status_of is None
 
 
 def _payload(doc: Any) -> bytes:
@@ -175,16 +181,18 @@ class MqttPublisher:
         ]
         if not self._online.get(polled.ident):
             self._online[polled.ident] = True
-            messages.append((f"{self.url.prefix}/{polled.ident}/status", b"online"))
+            self._status(polled.ident, b"online", stamp)
         self._add(_Batch(messages, f"the poll of {polled.ident} at {stamp}"))
 
     def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None:
         if self._online.get(polled.ident, True):
             self._online[polled.ident] = False
-            stamp = output.iso_time(when)
-            self._add(
-                _Batch([(f"{self.url.prefix}/{polled.ident}/status", b"offline")], f"{polled.ident} offline at {stamp}")
-            )
+            self._status(polled.ident, b"offline", output.iso_time(when))
+
+    def _status(self, ident: str, state: bytes, stamp: str) -> None:
+        """A device's status in a batch of its own, which the queue's bound never drops."""
+        topic = f"{self.url.prefix}/{ident}/status"
+        self._add(_Batch([(topic, state)], f"{ident} {state.decode()} at {stamp}", status_of=ident))
 
     def close(self) -> None:
         """Give the broker FLUSH_GRACE seconds to take what is queued, then disconnect; say what it did not take."""
@@ -196,9 +204,10 @@ class MqttPublisher:
         with self._cond:
             lost = [b for b in self._pending if b.unacked]
             if lost:
-                n = sum(len(b.unacked) for b in lost)
+                n, polls = sum(len(b.unacked) for b in lost), sum(b.poll for b in lost)
                 self._say(
-                    f"{n} messages ({len(lost)} polls) not delivered: the broker did not take them before the end"
+                    f"{n} messages ({polls} polls, {len(lost) - polls} statuses or discovery configs) not "
+                    "delivered: the broker did not take them before the end"
                 )
 
     # discovery
@@ -248,10 +257,18 @@ class MqttPublisher:
 
     def _add(self, batch: _Batch) -> None:
         with self._cond:
+            if batch.status_of is not None:  # a status not yet begun is superseded by the newer one
+                stale = [
+                    b
+                    for b in self._pending
+                    if b.status_of == batch.status_of and len(b.unsent) == len(b.messages) == len(b.unacked)
+                ]
+                for b in stale:
+                    self._pending.remove(b)
             self._pending.append(batch)
-            self._polls += not batch.discovery
+            self._polls += batch.poll
             if self._polls > self._bound:
-                oldest = next(b for b in self._pending if not b.discovery)
+                oldest = next(b for b in self._pending if b.poll)
                 self._pending.remove(oldest)
                 self._polls -= 1
                 self._dropped += 1
@@ -266,7 +283,7 @@ class MqttPublisher:
         with self._cond:
             batch.unacked.discard(index)
             while self._pending and not self._pending[0].unacked:
-                self._polls -= not self._pending.popleft().discovery
+                self._polls -= self._pending.popleft().poll
             self._cond.notify_all()
 
     def _say(self, text: str, severity: str = "warning") -> None:
