@@ -395,3 +395,18 @@ def test_node_options_need_esphome():
 
 def test_esphome_export_is_deterministic():
     assert export(ALL_TABLES).stdout == export(ALL_TABLES).stdout
+
+
+def test_an_enumeration_in_part_of_a_register_is_no_select(write_device):
+    """ESPHome's select compares the whole register with its options: an enumeration in a byte would find
+    no option whenever the other byte is not 0. It is a number with its bitmask, and a warning says why."""
+    path = write_device(
+        fn_xml("mode", 0, format="UINT8", length="Lower byte", values={0: "off", 1: "on"})
+        + fn_xml("level", 1, format="UINT16", values={0: "low", 1: "high"})
+    )
+    proc = export(path, "--serial", "uart")
+    assert proc.returncode == 0, proc.stderr
+    config = yaml.safe_load(proc.stdout)
+    assert [s["name"] for s in config["select"]] == ["level"]
+    assert {"name": "mode", "bitmask": 0xFF}.items() <= next(n for n in config["number"] if n["name"] == "mode").items()
+    assert "function 'mode' (U_WORD): ESPHome: a select maps whole registers, not part of one" in proc.stderr

@@ -314,6 +314,9 @@ class _Writer:
         """A writable enumeration as a select (its labels the options), or False (warned) when it cannot be one."""
         values = f.fn.values or {}
         labels = [display_name(label)[0] for label in values.values()]
+        if vt.bitmask is not None:  # ESPHome's select has no bitmask: it would compare the whole register
+            self.notes.warn(f, "a select maps whole registers, not part of one: exported as a number", vt.name)
+            return False
         if scale_of(f) is not None or vt.name.startswith("FP") or len(set(labels)) != len(labels):
             why = "its labels are not unique" if len(set(labels)) != len(labels) else "its value is scaled or a float"
             self.notes.warn(f, "a select maps labels to register values: exported as a number", why)
