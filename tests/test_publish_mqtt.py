@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import getpass
 import json
+import math
 import shutil
 import signal
 import socket
@@ -285,3 +286,11 @@ def test_a_full_queue_drops_polls_never_a_devices_status():
         pub._add(_Batch([("p/d/x", str(i).encode())], f"poll {i}"))
     kept = [(b.status_of, b.messages) for b in pub._pending]
     assert kept == [("d", [("p/d/status", b"online")]), (None, [("p/d/x", b"1")]), (None, [("p/d/x", b"2")])]
+
+
+def test_a_nan_is_published_as_null():
+    from mdl.device.publish_mqtt import _mqtt_value
+    from mdl.model import Function
+
+    fn = Function("t", "", [0], format="FLOAT32")
+    assert [_mqtt_value(fn, v) for v in (math.nan, math.inf, -math.inf, 1.5, None)] == [None, None, None, 1.5, None]

@@ -19,6 +19,7 @@ resend would race new messages): at least once, never out of order.
 from __future__ import annotations
 
 import json
+import math
 import threading
 import time
 from collections import deque
@@ -128,6 +129,14 @@ class _Batch:
         return not self.discovery and self.status_of is None
 
 
+def _mqtt_value(fn: Function, value: Value) -> Value:
+    """A value as its payload carries it: json records' (labels, exact doubles), but NaN and the infinities
+    as null: Home Assistant's numeric sensors take null as unknown and refuse a text."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return output.json_value(fn, value)
+
+
 def _payload(doc: Any) -> bytes:
     return json.dumps(doc, ensure_ascii=False, separators=(",", ":")).encode()
 
@@ -176,7 +185,7 @@ class MqttPublisher:
     def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None:
         stamp = output.iso_time(when)
         messages = [
-            (topic, _payload({"value": output.json_value(fn, values[fn.name]), "time": stamp}))
+            (topic, _payload({"value": _mqtt_value(fn, values[fn.name]), "time": stamp}))
             for fn, topic in self._topics[polled.ident]
         ]
         if not self._online.get(polled.ident):
