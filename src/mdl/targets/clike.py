@@ -13,6 +13,7 @@ from typing import Generic, Protocol, TypeVar
 
 from mdl.lang.cfrag.tree import int_range
 from mdl.model import Function
+from mdl.model.layout import address_runs
 from mdl.targets.base import Run
 from mdl.values import ir
 
@@ -242,13 +243,7 @@ def chunks(readable: list[F], registers: Callable[[F], int], expression: Callabl
 def ranges(slots: list[int]) -> list[tuple[int, int]]:
     """Sorted slots as (first, end) ranges of consecutive ones: read_all's table of the slots functions
     without an expression need, checked before its values change."""
-    out: list[tuple[int, int]] = []
-    for s in slots:
-        if out and out[-1][1] == s:
-            out[-1] = (out[-1][0], s + 1)
-        else:
-            out.append((s, s + 1))
-    return out
+    return [(start, start + count) for start, count in address_runs(slots)]
 
 
 def first_slot(slots: Sequence[int]) -> int | None:

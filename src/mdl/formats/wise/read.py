@@ -42,7 +42,7 @@ from mdl.formats.wise.sections import (
     section_named,
 )
 from mdl.model import Device, Function
-from mdl.model.layout import MAX_ADDRESS
+from mdl.model.layout import MAX_ADDRESS, address_runs
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -329,13 +329,8 @@ def _span(tag: str, lo: int, hi: int) -> str:
 
 
 def _runs(indices: list[int]) -> list[tuple[int, int]]:
-    out: list[tuple[int, int]] = []
-    for i in indices:
-        if out and out[-1][1] == i:
-            out[-1] = (out[-1][0], i + 1)
-        else:
-            out.append((i, i + 1))
-    return out
+    """(first, end) of each run of indices that follow each other by one."""
+    return [(start, start + count) for start, count in address_runs(indices)]
 
 
 def _fields(key: _Key) -> list[_Field]:
