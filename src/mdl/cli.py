@@ -1213,7 +1213,8 @@ def _read_targets(
     for note in notes:
         click.echo(f"mdl read: note: {note}", err=True)
     printer = fleet.Printer(fmt, len(targets) > 1, sys.stdout, sys.stderr)
-    return fleet.poll_fleet(polled, [printer, *sinks], interval or 1.0, count if interval is not None else 1)
+    # publishers take each poll before it is printed: a record on stdout means every publisher holds it
+    return fleet.poll_fleet(polled, [*sinks, printer], interval or 1.0, count if interval is not None else 1)
 
 
 @main.command()
