@@ -283,7 +283,7 @@ class _Plan:
 
     def __init__(self, functions: list[Function], device_name: str) -> None:
         self.functions, self.device_name = functions, device_name
-        self.members = [id(fn) for fn in functions]  # the list's content when planned (a list is mutable)
+        self.members = list(functions)  # the list's content when planned (a list is mutable)
         self.names = [fn.name for fn in functions]
         self.kinds = [
             _PRECISION
@@ -299,7 +299,13 @@ class _Plan:
         self.table_names = [f"{n:<{width}}  " for n in self.names]
         self.table_units = [f" {u}" if (u := (fn.units or "").strip()) else "" for fn in functions]
         self.time_row = f"{TIME_KEY:<{width}}  "
+        # the values shown otherwise than as their str: labelled, float32, with a precision
+        # the values shown otherwise than as they are: float32 as their shortest decimal, and the rest
+        self.float32 = [i for i, kind in enumerate(self.kinds) if kind == _FLOAT32_SHOWN]
+        self.special = [i for i, kind in enumerate(self.kinds) if kind in (_LABELLED, _PRECISION)]
         self.blocks: list[tuple[str, list[tuple[int, str, dict[str, Value]]]]] = []
+        # each block's JSON around its entries, and each entry's JSON before and after a number value `v`
+        self.senml: list[tuple[str, list[int], list[str], list[str]]] = []
         for label, block in _blocks(functions, device_name, _entry_at(functions)).items():
             entries = []
             for e in block["e"]:
@@ -307,6 +313,16 @@ class _Plan:
                 n = str(e.pop("n"))
                 entries.append((i, n, e))
             self.blocks.append((label, entries))
+            head = f"{_dumps(label)}: {{{_dumps('bn')}: {_dumps(label)}, {_dumps('bt')}: "
+            self.senml.append(
+                (
+                    head,
+                    [i for i, _, _ in entries],
+                    [f"{{{_dumps('n')}: {_dumps(n)}, {_dumps('v')}: " for _, n, _ in entries],
+                    [", " + _dumps(rest)[1:] if rest else "}" for _, _, rest in entries],
+                )
+            )
+        self.unlabelled = not any(fn.values for fn in functions)  # no label: a number is shown as a number
 
     def shown(self, i: int, value: Value) -> Value:
         kind = self.kinds[i]
@@ -330,7 +346,8 @@ MAX_PLANS = 1024  # a fleet polls this many devices before plans are made again
 def _plan(functions: list[Function], device_name: str) -> _Plan:
     key = (id(functions), device_name)
     plan = _PLANS.get(key)
-    if plan is None or plan.functions is not functions or plan.members != [id(fn) for fn in functions]:
+    # the members compared as a list: each one the same object is equal at once, without a call
+    if plan is None or plan.functions is not functions or plan.members != functions:
         if len(_PLANS) >= MAX_PLANS:  # the oldest plan goes
             _PLANS.pop(next(iter(_PLANS)))
         plan = _PLANS[key] = _Plan(functions, device_name)
@@ -339,20 +356,84 @@ def _plan(functions: list[Function], device_name: str) -> _Plan:
 
 def _csv_cells(cells: list[str]) -> str:
     """_csv_line, joined directly where no cell needs quotes (most records)."""
-    if any(not _NEEDS_QUOTES.isdisjoint(cell) for cell in cells):
+    line = ",".join(cells)
+    if line.count(",") != len(cells) - 1 or '"' in line or "\n" in line or "\r" in line:
         return _csv_line(cells)
-    return ",".join(cells) + "\n"
+    return line + "\n"
+
+
+def _dumps(value: object) -> str:
+    return json.dumps(value, ensure_ascii=False)
+
+
+_STR_TYPES = frozenset((int, float, str))  # values whose text, in csv and table, is their str
+
+
+def _plain_texts(plan: _Plan, got: list[Value], text: Callable[[_Plan, int, Value], str]) -> list[str] | None:
+    """Each value's text where every value is an int, a float or a text (most polls): its str, a float32's
+    shortest decimal's, `text` of those labelled or with a precision; None otherwise."""
+    if not _STR_TYPES.issuperset(map(type, got)):
+        return None
+    texts = list(map(str, got))
+    for i in plan.float32:
+        value = got[i]
+        if type(value) is float:
+            texts[i] = str(shortest_float32(value))
+    for i in plan.special:
+        texts[i] = text(plan, i, got[i])
+    return texts
+
+
+def _senml_record(plan: _Plan, got: list[Value], when: datetime) -> str | None:
+    """The senml record written out where every value is a finite number shown as itself (most polls):
+    None otherwise."""
+    if not plan.unlabelled or not _finite_numbers(got):
+        return None
+    for i in plan.float32:
+        value = got[i]
+        if type(value) is float:
+            got[i] = shortest_float32(value)
+    for i in plan.special:
+        got[i] = plan.shown(i, got[i])
+    bt = f"{round(when.timestamp(), 3)!r}, {_dumps('e')}: ["
+    blocks = [
+        head + bt + ", ".join(map("".join, zip(before, map(repr, map(got.__getitem__, at)), after, strict=True))) + "]}"
+        for head, at, before, after in plan.senml
+    ]
+    return "{" + ", ".join(blocks) + "}\n"
+
+
+_NUMBER_TYPES = frozenset((int, float))
+
+
+def _finite_numbers(got: list[Value]) -> bool:
+    """Whether every value is an int or a finite float (not a bool)."""
+    if not _NUMBER_TYPES.issuperset(map(type, got)):
+        return False
+    try:
+        return all(map(math.isfinite, got))  # type: ignore[arg-type]
+    except OverflowError:  # an integer past a double's range: the general way prints it
+        return False
 
 
 def record(functions: list[Function], values: dict[str, Value], fmt: str, when: datetime, device_name: str = "") -> str:
     """One poll's record, ending with a newline: json one object on one line, time first; csv one row, time
     first; table a block (a time row, the values, a blank line); senml one document on one line, each
     block with `bt`, the time in seconds since 1970 (UTC)."""
-    if fmt == "json":
-        return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"
     plan = _plan(functions, device_name)
     got = [values[name] for name in plan.names]
+    if fmt == "json":
+        if plan.unlabelled:  # each value as it is, but NaN and the infinities (allow_nan: ValueError)
+            try:
+                numbers = {TIME_KEY: iso_time(when), **dict(zip(plan.names, got, strict=True))}
+                return json.dumps(numbers, ensure_ascii=False, allow_nan=False) + "\n"
+            except ValueError:
+                pass
+        return json.dumps({TIME_KEY: iso_time(when), **_json_values(functions, values)}, ensure_ascii=False) + "\n"
     if fmt == "senml":
+        fast = _senml_record(plan, got, when)
+        if fast is not None:
+            return fast
         bt = round(when.timestamp(), 3)
         doc: dict[str, Any] = {
             label: {"bn": label, "bt": bt, "e": [_with_value_items(n, rest, plan.shown(i, got[i])) for i, n, rest in e]}
@@ -360,12 +441,21 @@ def record(functions: list[Function], values: dict[str, Value], fmt: str, when: 
         }
         return json.dumps(doc, ensure_ascii=False) + "\n"
     if fmt == "csv":
-        return _csv_cells([iso_time(when), *(_cell(plan.shown(i, v)) for i, v in enumerate(got))])
-    lines = [plan.time_row + iso_time(when)]
-    for i, v in enumerate(got):
-        text = _shown_text(plan.functions[i], v) if plan.kinds[i] == _PRECISION else _text(plan.shown(i, v))
-        lines.append(plan.table_names[i] + text + plan.table_units[i])
-    return "\n".join(lines) + "\n\n"
+        texts = _plain_texts(plan, got, _csv_text) or [_csv_text(plan, i, v) for i, v in enumerate(got)]
+        return _csv_cells([iso_time(when), *texts])
+    texts = _plain_texts(plan, got, _table_text) or [_table_text(plan, i, v) for i, v in enumerate(got)]
+    rows = "\n".join(map("".join, zip(plan.table_names, texts, plan.table_units, strict=True)))
+    return f"{plan.time_row}{iso_time(when)}\n{rows}\n\n" if rows else f"{plan.time_row}{iso_time(when)}\n\n"
+
+
+def _csv_text(plan: _Plan, i: int, value: Value) -> str:
+    return _cell(plan.shown(i, value))
+
+
+def _table_text(plan: _Plan, i: int, value: Value) -> str:
+    if plan.kinds[i] == _PRECISION:
+        return _shown_text(plan.functions[i], value)
+    return _text(plan.shown(i, value))
 
 
 DEVICE_KEY = "device"  # the key (json), column (csv) and row (table) naming a record's device when several are polled
