@@ -48,15 +48,19 @@ def render(
     """File name -> content for the chosen target, or for every target with lang "all". A model
     not yet resolved is resolved here, once for every target. The files carry the stamp of this
     generation (templating.stamp): a C or C++ source compiles only with the header of its run.
+    The targets of a large device render at once (mdl.targets.parallel).
     With a profile's `interface` (mdl.targets.profile), each target adds it and its shared files."""
     from mdl.resolve import ResolvedDevice, resolve
+    from mdl.targets.parallel import render_all
     from mdl.targets.templating import stamp
 
     if not isinstance(device, ResolvedDevice):
         device = resolve(device, source_name)
+    resolved = device
+    chosen = names() if lang == "all" else [lang]
     out: dict[str, str] = {}
-    for name in names() if lang == "all" else [lang]:
-        for file_name, text in target(name).render(device, source_name, interface).items():
+    for files in render_all(resolved, chosen, lambda name: target(name).render(resolved, source_name, interface)):
+        for file_name, text in files.items():
             out[file_name] = shared_header(out[file_name], text) if file_name in out else text
     return stamp(out)
 

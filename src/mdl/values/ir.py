@@ -265,8 +265,12 @@ class ValueType:
 
 
 def find_step(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None, kind: type[T]) -> T | None:
-    """The step of that kind in a program, if it has one."""
-    return next((s for s in steps or () if isinstance(s, kind)), None)
+    """The step of that kind in a program, if it has one (a plain loop: every target asks it of every
+    function several times)."""
+    for step in steps or ():
+        if isinstance(step, kind):
+            return step
+    return None
 
 
 @dataclass(frozen=True)

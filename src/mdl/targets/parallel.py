@@ -1,0 +1,108 @@
+"""Several targets of one large device rendered at once: `mdl gen --lang all` forks a child per target
+after the first, which renders while this process renders the first (docs/performance.md).
+
+The children inherit the resolved device (fork: nothing is copied or pickled on the way in), render
+their target and send its files back through a pipe. The output is the same bytes as rendering one
+target after another: a child that does not send its files (an MdlError, a crash, a signal) has its
+target rendered again here, so that what the user sees, an error included, is what the sequential
+run shows. Used where fork exists, more than one
+CPU is ours and the device is large enough (PARALLEL_MIN functions) for the fork to pay.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import pickle
+import signal
+import sys
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mdl.resolve import ResolvedDevice
+
+Render = Callable[[str], dict[str, str]]  # target name -> file name -> text
+
+# below this many functions a target renders in well under 0.1 s: a fork would cost more than it saves
+PARALLEL_MIN = 1000
+
+
+def cpus() -> int:
+    """The CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def worth_it(device: ResolvedDevice, names: list[str]) -> bool:
+    return len(names) > 1 and len(device.functions) >= PARALLEL_MIN and hasattr(os, "fork") and cpus() > 1
+
+
+def warm(device: ResolvedDevice) -> None:
+    """Work out once, before the fork, what every target asks of the device (read plan, buffer slots,
+    IR shapes, decode order), so that no child works it out again."""
+    device.plan  # noqa: B018 (cached properties: reading them is the work)
+    device.readable  # noqa: B018
+    for f in device.functions:
+        f.decode_shape  # noqa: B018
+        f.encode_shape  # noqa: B018
+        f.deps  # noqa: B018
+        if f.fn.readable:
+            device.slots_of(f)
+        if f.deps:
+            device.closure([f.name])
+
+
+def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list[dict[str, str]]:
+    """Each named target's files, in the order of `names`."""
+    if not worth_it(device, names):
+        return [render(name) for name in names]
+    warm(device)
+    for stream in (sys.stdout, sys.stderr):  # nothing buffered is printed twice by a child
+        stream.flush()
+    gc.freeze()  # the children's collections leave the inherited objects' pages shared
+    children: dict[str, tuple[int, int]] = {}
+    try:
+        for name in names[1:]:
+            children[name] = _fork(name, render)
+        out = [render(names[0])]
+        for name in names[1:]:
+            out.append(_collect(name, *children.pop(name), render))
+        return out
+    finally:
+        gc.unfreeze()
+        for pid, fd in children.values():  # an error here: the children left are stopped and waited for
+            os.close(fd)
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+
+
+def _fork(name: str, render: Render) -> tuple[int, int]:
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: render, send, and leave without running the parent's exit handlers
+        status = 0
+        try:
+            os.close(read_end)
+            files = render(name)
+            with os.fdopen(write_end, "wb") as out:
+                pickle.dump(files, out, protocol=pickle.HIGHEST_PROTOCOL)
+        except BaseException:  # noqa: BLE001 (whatever it was, the parent renders this target itself)
+            status = 1
+        finally:
+            os._exit(status)
+    os.close(write_end)
+    return pid, read_end
+
+
+def _collect(name: str, pid: int, fd: int, render: Render) -> dict[str, str]:
+    with os.fdopen(fd, "rb") as pipe:
+        data = pipe.read()
+    _, status = os.waitpid(pid, 0)
+    if os.waitstatus_to_exitcode(status) == 0 and data:
+        files = pickle.loads(data)  # the child's own whole message: it exits 0 only once it is written
+        if isinstance(files, dict):
+            return files
+    return render(name)  # the child did not finish: render here, as the sequential run would
