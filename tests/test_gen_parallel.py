@@ -41,7 +41,7 @@ def large(tmp_path_factory):
 
 @pytest.fixture
 def forks(monkeypatch):
-    """The children forked (their pids), on any machine: two CPUs are said to be ours."""
+    """The children forked (their pids), on any machine: two CPUs are said to be ours, and one thread."""
     born: list[int] = []
     fork = os.fork
 
@@ -52,6 +52,7 @@ def forks(monkeypatch):
         return pid
 
     monkeypatch.setattr(parallel, "cpus", lambda: 2)
+    monkeypatch.setattr(parallel, "single_threaded", lambda: True)  # a test worker runs a thread of its own
     monkeypatch.setattr(parallel.os, "fork", counting_fork)
     return born
 
@@ -113,3 +114,26 @@ def test_an_error_in_a_child_is_the_error_of_the_sequential_run(large, forks):
     for pid in forks:  # every child was waited for: none is left behind
         with pytest.raises(ChildProcessError):
             os.waitpid(pid, os.WNOHANG)
+
+
+def test_a_fork_the_system_refuses_leaves_the_target_here(large, monkeypatch):
+    resolved = resolve(read_device(large), str(large))
+    monkeypatch.setattr(parallel, "cpus", lambda: 2)
+    monkeypatch.setattr(parallel, "single_threaded", lambda: True)
+
+    def refused() -> int:
+        raise BlockingIOError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(parallel.os, "fork", refused)
+    files = parallel.render_all(resolved, ["python", "cpp", "c"], lambda name: {name: name})
+    assert files == [{"python": "python"}, {"cpp": "cpp"}, {"c": "c"}]
+
+
+def test_a_process_with_threads_renders_one_target_after_another(large, monkeypatch):
+    """A library user's program may hold locks in other threads: it is never forked."""
+    resolved = resolve(read_device(large), str(large))
+    monkeypatch.setattr(parallel, "cpus", lambda: 2)
+    monkeypatch.setattr(parallel.threading, "active_count", lambda: 2)
+    assert not parallel.worth_it(resolved, ["python", "cpp", "c"])
+    monkeypatch.setattr(parallel.threading, "active_count", lambda: 1)
+    assert parallel.worth_it(resolved, ["python", "cpp", "c"])

@@ -59,7 +59,8 @@ def render(
     resolved = device
     chosen = names() if lang == "all" else [lang]
     out: dict[str, str] = {}
-    for files in render_all(resolved, chosen, lambda name: target(name).render(resolved, source_name, interface)):
+    modules = {name: target(name) for name in chosen}  # imported before any fork
+    for files in render_all(resolved, chosen, lambda name: modules[name].render(resolved, source_name, interface)):
         for file_name, text in files.items():
             out[file_name] = shared_header(out[file_name], text) if file_name in out else text
     return stamp(out)

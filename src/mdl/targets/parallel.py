@@ -5,8 +5,10 @@ The children inherit the resolved device (fork: nothing is copied or pickled on 
 their target and send its files back through a pipe. The output is the same bytes as rendering one
 target after another: a child that does not send its files (an MdlError, a crash, a signal) has its
 target rendered again here, so that what the user sees, an error included, is what the sequential
-run shows. Used where fork exists, more than one
-CPU is ours and the device is large enough (PARALLEL_MIN functions) for the fork to pay.
+run shows, and a fork the system refuses leaves its target to this process too. Used where fork
+exists, more than one CPU is ours, the device is large enough (PARALLEL_MIN functions) for the fork to
+pay, and this process runs one thread (`mdl gen` does): a thread holding a lock at the fork would
+leave it held in the child for ever.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import os
 import pickle
 import signal
 import sys
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
@@ -36,8 +39,14 @@ def cpus() -> int:
         return os.cpu_count() or 1
 
 
+def single_threaded() -> bool:
+    return threading.active_count() == 1
+
+
 def worth_it(device: ResolvedDevice, names: list[str]) -> bool:
-    return len(names) > 1 and len(device.functions) >= PARALLEL_MIN and hasattr(os, "fork") and cpus() > 1
+    if len(names) < 2 or len(device.functions) < PARALLEL_MIN or not hasattr(os, "fork"):
+        return False
+    return cpus() > 1 and single_threaded()
 
 
 def warm(device: ResolvedDevice) -> None:
@@ -66,10 +75,12 @@ def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list
     children: dict[str, tuple[int, int]] = {}
     try:
         for name in names[1:]:
-            children[name] = _fork(name, render)
+            child = _fork(name, render)
+            if child is not None:
+                children[name] = child
         out = [render(names[0])]
         for name in names[1:]:
-            out.append(_collect(name, *children.pop(name), render))
+            out.append(_collect(name, *children.pop(name), render) if name in children else render(name))
         return out
     finally:
         gc.unfreeze()
@@ -79,9 +90,19 @@ def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list
             os.waitpid(pid, 0)
 
 
-def _fork(name: str, render: Render) -> tuple[int, int]:
-    read_end, write_end = os.pipe()
-    pid = os.fork()
+def _fork(name: str, render: Render) -> tuple[int, int] | None:
+    """The child rendering `name` and the pipe its files come through; None where the system refuses a
+    pipe or a process (too many open files or processes: the target is rendered here)."""
+    try:
+        read_end, write_end = os.pipe()
+    except OSError:
+        return None
+    try:
+        pid = os.fork()
+    except OSError:
+        os.close(read_end)
+        os.close(write_end)
+        return None
     if pid == 0:  # the child: render, send, and leave without running the parent's exit handlers
         status = 0
         try:
