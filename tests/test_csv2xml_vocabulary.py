@@ -292,6 +292,19 @@ def test_address_cells_with_bits_brackets_and_line_breaks(tmp_path, sim_factory)
     assert values == {"door_open": True, "lamp_on": False, "flow": 0, "energy": 65538}
 
 
+def test_a_column_of_register_then_bit_cells_counts_as_modicon_numbers(tmp_path, sim_factory):
+    """`40001.3` names register 40001 (holding register 0), whatever the column's other cells: the
+    guess of the address base counts its register, and never reads 40001 as a wire address."""
+    table, ini = write(tmp_path, "Address,Description\n40001.3,Door open\n40002/4,Lamp on\n", None)
+    proc, fns = convert(tmp_path, table, ini, "--all")
+    assert proc.returncode == 0, proc.stderr
+    assert "addresses read as Modicon register numbers" in proc.stderr
+    assert (fns["door_open"]["addresses"], fns["door_open"]["bits"]) == ("0", "3")
+    assert (fns["lamp_on"]["addresses"], fns["lamp_on"]["bits"]) == ("1", "4")
+    values = read_values(sim_factory, tmp_path / "out.xml", {"holding": {"0": 8, "1": 16}})
+    assert values == {"door_open": True, "lamp_on": True}
+
+
 def test_an_unmapped_times_scale_is_a_warning_naming_both_readings(tmp_path):
     table = VOCAB / "inverter.csv"
     proc, fns = convert(tmp_path, table, VOCAB / "inverter.ini", "--all")

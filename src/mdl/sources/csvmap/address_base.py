@@ -18,7 +18,7 @@ import re
 from dataclasses import dataclass
 
 from mdl.model.addressing import MODICON_TABLE
-from mdl.sources.csvmap.cells import WORDED_TABLES, CellError, is_modicon_number, parse_table
+from mdl.sources.csvmap.cells import WORDED_TABLES, CellError, bit_of, is_modicon_number, parse_table
 from mdl.sources.csvmap.table import Row
 
 SHARE = 0.75
@@ -44,8 +44,11 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
     for r in rows:
         text = r.cell(index)
         worded = _WORDED.match(text.strip()) if text else None
+        bit = bit_of(text) if text else None
         if worded and worded.group(1).lower() in WORDED_TABLES:
             plain.append((r, [worded.group(2)]))
+        elif bit is not None and bit.group(1).isdigit():  # `40001.3`: the register's number counts
+            plain.append((r, [bit.group(1)]))
         elif text and _PLAIN.match(text):
             plain.append((r, re.findall(r"\d+", text)))
     if not plain:

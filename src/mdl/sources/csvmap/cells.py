@@ -120,12 +120,21 @@ class AddressCell:
     said: str | None = None  # how a cell that could be read two ways was read (for a note)
 
 
+def bit_of(text: str) -> re.Match[str] | None:
+    """A register-then-bit cell (`40001.3`, `40001/3`; `17/18`, whose second number is no bit below the
+    first, is a list): the register is group 1, the bit group 3."""
+    m = _BIT_OF.match(text)
+    if m and int(m.group(3)) <= 15 and (m.group(2) == "." or int(m.group(3)) < int(m.group(1), 0)):
+        return m
+    return None
+
+
 def read_address_cell(text: str, base: str = "0") -> AddressCell:
     """An address cell (parse_addresses), also `40001.3` / `40001/3` (register, then bit: `17/18`, whose
     second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
     wire address in brackets: the bracket wins, and the two must agree)."""
-    m = _BIT_OF.match(text)
-    if m and int(m.group(3)) <= 15 and (m.group(2) == "." or int(m.group(3)) < int(m.group(1), 0)):
+    m = bit_of(text)
+    if m:
         addresses, table = parse_addresses(m.group(1), base)
         said = None
         if m.group(2) == "/":
