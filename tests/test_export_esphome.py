@@ -102,6 +102,19 @@ def test_esphome_config_accepts_every_example(tmp_path, path):
     assert node["modbus_controller"] == [{"address": 3, "update_interval": "60s"}]
 
 
+def test_the_line_options_alone_set_the_uart(tmp_path):
+    """SPEC 11: baud and parity from --baud/--parity; the ESP32 is on the line, which needs no --serial
+    here (another engine still asks for one)."""
+    proc = export(EXAMPLES[0], "--baud", "9600", "--parity", "E", "--stopbits", "2")
+    assert proc.returncode == 0, proc.stderr
+    assert_valid(tmp_path, proc.stdout)
+    uart = yaml.safe_load(proc.stdout)["uart"]
+    assert (uart["baud_rate"], uart["parity"], uart["stop_bits"]) == (9600, "EVEN", 2)
+    assert "the ESP32's UART on GPIO17/GPIO16 runs at 9600 8E2" in proc.stderr
+    other = cli("export", EXAMPLES[0], "--to", "telegraf", "--baud", "9600")
+    assert other.returncode == 2 and "--baud sets a serial line: it needs --serial DEVICE" in other.stderr
+
+
 def test_esphome_config_accepts_an_imported_sunspec_chain_and_roles(tmp_path):
     path = sunspec_chain(tmp_path)
     assert_valid(tmp_path, export(path, "--interval", "0.5").stdout)

@@ -12,8 +12,9 @@ from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 import click
 
 from mdl import __version__, engines, formats, targets
-from mdl.device.connection import Connection, connection_options
+from mdl.device.connection import SERIAL_OPTIONS, Connection, connection_options, line_needs_serial
 from mdl.diagnostics import EXIT_INVALID, Diagnostic, MdlError
+from mdl.exchange.connection import LINE_ONLY
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
 if TYPE_CHECKING:
@@ -684,7 +685,7 @@ def _emit_text(text: str, output: Path | None) -> None:
     type=click.Path(path_type=Path, allow_dash=True),
     help="Output file (default: stdout); a folder for volttron.",
 )
-@connection_options(optional=True)
+@connection_options(optional=True, line_alone=True)
 @unit_option
 @click.option(
     "--interval",
@@ -736,7 +737,7 @@ def export_(
       mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
       mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
       mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
-      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --serial uart --baud 9600 -o node.yaml
+      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --baud 9600 --parity E -o node.yaml
       mdl export examples/temco_tstat/temco_tstat.xml --to thingsboard --host 192.0.2.10 -o modbus.json
     """
     from mdl.diagnostics import error
@@ -749,6 +750,9 @@ def export_(
     node = [n for n in ("board", "tx_pin", "rx_pin") if given(n) is not click.core.ParameterSource.DEFAULT]
     if node and fmt.lower() != "esphome":
         raise click.UsageError(f"--{node[0].replace('_', '-')} sets the ESPHome node: it needs --to esphome")
+    if connection is not None and connection.serial == LINE_ONLY and fmt.lower() != "esphome":
+        line = next(n for n in SERIAL_OPTIONS if given(n) is not click.core.ParameterSource.DEFAULT)
+        raise click.UsageError(line_needs_serial(line))  # only the ESPHome node is on a line it need not name
     settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin)
     resolved = _resolved(file)
     if profile is not None and names.lower() != "roles":

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, TypeVar, cast
 import click
 from click.core import ParameterSource
 
-from mdl.exchange.connection import DEVICE_PORT, SIM_HOST, Endpoint, host_port
+from mdl.exchange.connection import DEVICE_PORT, LINE_ONLY, SIM_HOST, Endpoint, host_port
 
 if TYPE_CHECKING:
     from pymodbus.client import ModbusBaseClient, ModbusBaseSyncClient
@@ -194,7 +194,7 @@ class Connection(Endpoint):
 
 
 def connection_options(
-    serving: bool = False, optional: bool = False, timeout: float = 3.0, retries: int = 1
+    serving: bool = False, optional: bool = False, timeout: float = 3.0, retries: int = 1, line_alone: bool = False
 ) -> Callable[[F], F]:
     """The CONNECTION options of SPEC section 9, handed to the command as one `connection: Connection`.
 
@@ -202,13 +202,15 @@ def connection_options(
     is no --timeout/--retries. Otherwise (a client) --host or --serial is required, --port defaults to 502;
     `optional` (mdl export): neither is required, and without them `connection` is None. `timeout` and
     `retries` are the defaults of --timeout and --retries (mdl discover asks many units that may not
-    answer: one short wait each)."""
+    answer: one short wait each). `line_alone` (mdl export, whose ESPHome node is itself on the line):
+    --baud, --parity, --stopbits and --bytesize without --serial describe a line whose device is not
+    named, a Connection with `serial` LINE_ONLY."""
 
     def decorate(command: F) -> F:
         @functools.wraps(command)
         def wrapper(*args: Any, **kwargs: Any) -> Any:
             given = {name: kwargs.pop(name) for name in OPTION_NAMES if name in kwargs}
-            kwargs["connection"] = _build(given, serving, optional)
+            kwargs["connection"] = _build(given, serving, optional, line_alone)
             return command(*args, **kwargs)
 
         decorated: Callable[..., Any] = wrapper
@@ -293,7 +295,7 @@ def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Deco
     return address + line + client
 
 
-def _build(given: dict[str, Any], serving: bool, optional: bool = False) -> Connection | None:
+def _build(given: dict[str, Any], serving: bool, optional: bool = False, line_alone: bool = False) -> Connection | None:
     """The Connection the options describe (None when `optional` and no --host or --serial is given);
     options that contradict each other are a usage error."""
     ctx = click.get_current_context()
@@ -307,8 +309,13 @@ def _build(given: dict[str, Any], serving: bool, optional: bool = False) -> Conn
             raise click.UsageError("--framer tcp: a serial line carries RTU frames (--framer tcp needs --host)")
     else:
         line_only = [name for name in SERIAL_OPTIONS if name in explicit]
+        if line_only and line_alone and given.get("host") is None:
+            values = {
+                name: given[name] for name in (*SERIAL_OPTIONS, "timeout", "retries") if given.get(name) is not None
+            }
+            return Connection(rtu=True, serial=LINE_ONLY, **values)
         if line_only:
-            raise click.UsageError(f"--{line_only[0]} sets a serial line: it needs --serial DEVICE")
+            raise click.UsageError(line_needs_serial(line_only[0]))
         if not serving and given.get("host") is None:
             if optional:
                 given_too = sorted(explicit & {"port", "framer", "timeout", "retries"})
@@ -320,6 +327,10 @@ def _build(given: dict[str, Any], serving: bool, optional: bool = False) -> Conn
         given["host"], given["port"] = _host_and_port(given["host"], given.get("port"), "port" in explicit, serving)
     values = {name: value for name, value in given.items() if name != "framer" and value is not None}
     return Connection(rtu=serial is not None or framer == "rtu", **values)
+
+
+def line_needs_serial(option: str) -> str:
+    return f"--{option} sets a serial line: it needs --serial DEVICE"
 
 
 def _host_and_port(text: str, port: int | None, port_given: bool, serving: bool) -> tuple[str, int | None]:

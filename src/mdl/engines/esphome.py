@@ -47,7 +47,7 @@ from mdl.engines.esphome_names import UNIT_MAX_BYTES, Names, display_name, inert
 from mdl.engines.esphome_types import FLOAT_EXACT, ValueType, rounds, value_type, with_bits
 from mdl.engines.ha_units import ROLE_CLASSES, ha_unit
 from mdl.engines.homeassistant import _Dumper
-from mdl.exchange.connection import Endpoint
+from mdl.exchange.connection import LINE_ONLY, Endpoint
 from mdl.exchange.export import Export
 from mdl.exchange.text import comment_text
 from mdl.values.ir import Bits, find_step
@@ -374,6 +374,11 @@ def _uart(settings: Settings, notes: Notes) -> Entity:
         notes.note(
             f"no serial line given: the uart runs at {conn.baud} {conn.bytesize}{conn.parity}{conn.stopbits}; give "
             "--serial DEVICE with --baud/--parity for the device's own"
+        )
+    elif conn.serial == LINE_ONLY:  # --baud/--parity alone: the line the ESP32 is on
+        notes.note(
+            f"the ESP32's UART on {settings.tx_pin}/{settings.rx_pin} runs at {conn.baud} "
+            f"{conn.bytesize}{conn.parity}{conn.stopbits}"
         )
     elif conn.serial is None:
         notes.device_warning(

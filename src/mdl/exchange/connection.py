@@ -14,6 +14,9 @@ def host_port(host: str, port: int) -> str:
     return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
+LINE_ONLY = ""  # `serial` of a line given by its settings alone (mdl export --to esphome --baud 9600)
+
+
 @dataclass(frozen=True)
 class Endpoint:
     """Where a device is and how frames travel there. `serial` set: RTU on that serial device;
