@@ -258,12 +258,12 @@ def test_nothing_listening_is_exit_3_naming_the_connection(library):
     assert_clean_error(
         cli("discover", library["family"], "--host", "127.0.0.1", "--port", port),
         3,
-        f"cannot connect to 127.0.0.1:{port}: ",
+        f"cannot connect to 127.0.0.1:{port} for units 1-247: ",
     )
     assert_clean_error(
         cli("discover", library["family"], "--host", "127.0.0.1", "--port", port, "--framer", "rtu"),
         3,
-        f"cannot connect to 127.0.0.1:{port} (RTU over TCP): ",
+        f"cannot connect to 127.0.0.1:{port} (RTU over TCP) for units 1-247: ",
     )
     assert_clean_error(
         cli("discover", library["family"], "--serial", "/nonexistent/ttyX"),

@@ -193,7 +193,7 @@ def test_host_with_port_and_another_port_is_a_usage_error_naming_both():
 def test_a_refused_host_with_port_names_that_port():
     port = _free_port()
     proc = run_mdl("read", TSTAT, "room_temperature", "--host", f"127.0.0.1:{port}")
-    assert_clean_error(proc, 3, f"cannot connect to 127.0.0.1:{port}:")
+    assert_clean_error(proc, 3, f"cannot connect to 127.0.0.1:{port} for unit 1:")
     assert ":502" not in proc.stderr and HINT not in proc.stderr
 
 
@@ -310,7 +310,7 @@ def nothing_on_502():
 @pytest.mark.parametrize("host", ["127.0.0.1", "localhost"])
 def test_refused_on_local_502_asks_whether_the_sim_runs(nothing_on_502, host):
     proc = run_mdl("read", TSTAT, "room_temperature", "--host", host)
-    assert_clean_error(proc, 3, f"cannot connect to {host}:502: no Modbus TCP device answers; {HINT}")
+    assert_clean_error(proc, 3, f"cannot connect to {host}:502 for unit 1: no Modbus TCP device answers; {HINT}")
 
 
 def test_refused_on_local_502_while_polling_and_discovering(nothing_on_502):
@@ -489,14 +489,18 @@ def test_doc_quotes_cannot_connect():
     port = _free_port()
     proc = run_mdl("read", TSTAT, "room_temperature", "--host", "127.0.0.1", "--port", port)
     assert proc.returncode == 3
-    _assert_quoted("cannot connect to H:P: no Modbus TCP device answers", proc.stderr, {"H:P": f"127.0.0.1:{port}"})
+    _assert_quoted(
+        "cannot connect to H:P for unit U: no Modbus TCP device answers",
+        proc.stderr,
+        {"H:P": f"127.0.0.1:{port}", "U": "1"},
+    )
 
 
 def test_doc_quotes_the_sim_hint(nothing_on_502):
     proc = run_mdl("read", TSTAT, "room_temperature", "--host", "127.0.0.1")
     assert proc.returncode == 3
     _assert_quoted(
-        "cannot connect to 127.0.0.1:502: no Modbus TCP device answers; is `mdl sim` running? it "
+        "cannot connect to 127.0.0.1:502 for unit 1: no Modbus TCP device answers; is `mdl sim` running? it "
         "listens on 5020 unless --port says otherwise",
         proc.stderr,
     )

@@ -196,7 +196,8 @@ def test_a_stopped_device_fails_polls_then_is_read_again_when_it_returns(sim_fac
         polling.wait_for(lambda: len(polling.err) >= 2)  # polls go on, and fail
         where = f"127.0.0.1:{first.port}"
         assert all(
-            f"error: {where} unit 1: " in line or f"error: cannot connect to {where}: " in line for line in polling.err
+            f"error: {where} unit 1: " in line or f"error: cannot connect to {where} for unit 1: " in line
+            for line in polling.err
         ), polling.err
         assert all(parse_time(line.split(": ", 1)[0]) for line in polling.err)
         second = sim_factory(ALL, "--set", "setpoint=19.5", port=first.port)

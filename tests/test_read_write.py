@@ -108,9 +108,13 @@ def test_refusals_before_anything_is_sent():
     assert_clean_error(cli("read", ALL, *NOWHERE, "alarm_reset"), 1, "write-only")
 
 
-def test_unreachable_device_exits_3():
-    assert_clean_error(cli("read", TSTAT, *NOWHERE), 3, "cannot connect to 127.0.0.1:1")
-    assert_clean_error(cli("write", TSTAT, *NOWHERE, "fan_speed=1"), 3, "cannot connect to 127.0.0.1:1")
+def test_unreachable_device_exits_3_naming_the_connection_and_the_unit():
+    assert_clean_error(cli("read", TSTAT, *NOWHERE), 3, "cannot connect to 127.0.0.1:1 for unit 1: ")
+    assert_clean_error(
+        cli("write", TSTAT, *NOWHERE, "--unit", "7", "fan_speed=1"), 3, "cannot connect to 127.0.0.1:1 for unit 7: "
+    )
+    proc = cli("probe", *NOWHERE, "--units", "3-5,9")
+    assert_clean_error(proc, 3, "cannot connect to 127.0.0.1:1 for units 3-5, 9: ")
 
 
 def test_retries_resend_a_request_that_got_no_reply():

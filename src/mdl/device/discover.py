@@ -402,6 +402,7 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
         units = [u for u in units if u != 0]
     session = Session(library[0][1] if library else ResolvedDevice(Device("discover", ""), (), ()), connection)
     session.client.set_max_no_responses(len(units) + 3)  # silent units are the rule here, not a broken line
+    session.asking_units(units)
     results: list[UnitResult] = []
     with session:
         _say(

@@ -328,6 +328,7 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
         _say(f"asking {len(waiting)} unit{'s' * (len(waiting) != 1)} on {line}")
         session = Session(ResolvedDevice(Device("probe", ""), (), ()), line)
         session.client.set_max_no_responses(len(waiting) + 3)  # silent units are the rule here
+        session.asking_units(waiting)
         serial = None if line.serial is None else {"baud": line.baud, "parity": line.parity}
         try:
             session.connect()

@@ -19,7 +19,7 @@ from mdl.device.evaluate import BufferDecoder, Evaluator
 from mdl.device.frames import Wire
 from mdl.diagnostics import DeviceError, error
 from mdl.model import Function, Scalar, Value
-from mdl.model.layout import Layout
+from mdl.model.layout import Layout, address_runs
 from mdl.plan import Request, defined_addresses, plan_reads, split_request
 from mdl.resolve import ResolvedDevice
 from mdl.values import codec
@@ -89,6 +89,7 @@ class Session:
     def __init__(self, resolved: ResolvedDevice, connection: Connection, unit: int = 1):
         self.resolved, self.device = resolved, resolved.device  # resolved once, by the caller
         self.connection, self.unit = connection, unit
+        self.asking = f"unit {unit}"  # the unit, or the units, that a connection error names (SPEC 9)
         self.tries = connection.retries + 1
         logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         self.wire = Wire(connection.rtu)
@@ -165,7 +166,13 @@ class Session:
             return DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
         nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
         hint = conn.refused_hint()
-        return DeviceError(f"cannot connect to {conn}: {nobody}{'; ' + hint if hint else ''}")
+        return DeviceError(f"cannot connect to {conn} for {self.asking}: {nobody}{'; ' + hint if hint else ''}")
+
+    def asking_units(self, units: list[int]) -> None:
+        """Name `units` in a connection error (discover and probe ask many through one connection)."""
+        runs = address_runs(sorted(set(units)))
+        spans = ", ".join(str(a) if n == 1 else f"{a}-{a + n - 1}" for a, n in runs)
+        self.asking = f"unit {spans}" if len(units) == 1 else f"units {spans}"
 
     def close(self) -> None:
         close: Callable[[], None] = self.client.close  # typed here: pymodbus leaves it unannotated
