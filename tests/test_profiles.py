@@ -149,7 +149,12 @@ def test_a_users_profile_is_used(tmp_path):
 
 @pytest.mark.parametrize(
     ("models", "profile", "fitted"),
-    [(["203"], "meter", "16 of 16 roles"), (["103", "123"], "inverter", "9 of 9 roles"), (["713"], "battery", "")],
+    [
+        (["203"], "meter", "16 of 16 roles"),
+        (["103", "123"], "inverter", "9 of 9 roles"),
+        (["701", "704"], "inverter", "8 of 9 roles"),  # the DER models: all but dc_power_w (model 714's)
+        (["713"], "battery", ""),
+    ],
 )
 def test_sunspec_imports_carry_their_roles(tmp_path, models, profile, fitted):
     """SunSpec fixes what its points mean: an imported meter, inverter or storage model plays the

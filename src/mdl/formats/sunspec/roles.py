@@ -38,6 +38,7 @@ ROLES: dict[int, dict[str, str]] = {
     **{m: _METER for m in (201, 202, 203, 204)},
     123: {"WMaxLimPct": "power_limit_pct"},
     701: {
+        "St": "status",
         "W": "power_w",
         "TotWhInj": "energy_wh",
         "A": "current_a",
@@ -45,6 +46,7 @@ ROLES: dict[int, dict[str, str]] = {
         "Hz": "frequency_hz",
         "TmpCab": "temperature_c",
     },
+    704: {"WMaxLimPct": "power_limit_pct"},  # 702-712 hold ratings, settings and curves: no other role
     713: {"SoC": "soc_pct", "SoH": "soh_pct", "WHRtg": "capacity_wh"},
     714: {"DCW": "dc_power_w"},
     802: {
