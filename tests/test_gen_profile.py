@@ -91,7 +91,7 @@ def test_interface_files_are_the_same_bytes_for_both_vendors(generated):
         assert (generated["a"] / name).read_bytes() == (generated["b"] / name).read_bytes(), name
     header = (generated["a"] / "mdl_meter.h").read_text()
     assert "class Meter {" in header and "struct mdl_meter {" in header
-    assert "virtual bool read_power_w(double *out) = 0;" in header
+    assert "virtual int read_power_w(double *out) = 0;" in header  # 0, or -1 with errno, as SPEC 5
     assert "int (*read_power_w)(void *ctx, double *out);" in header
 
 
@@ -287,17 +287,17 @@ void line(const char *role, bool ok, double value) {
 
 void show(mdl::Meter &meter) {
     double v = 0.0;
-    bool ok = meter.read_power_w(&v);
+    bool ok = meter.read_power_w(&v) == 0;
     line("power_w", ok, v);
-    ok = meter.read_energy_import_wh(&v);
+    ok = meter.read_energy_import_wh(&v) == 0;
     line("energy_import_wh", ok, v);
-    ok = meter.read_voltage_l1_v(&v);
+    ok = meter.read_voltage_l1_v(&v) == 0;
     line("voltage_l1_v", ok, v);
-    ok = meter.read_power_factor(&v);
+    ok = meter.read_power_factor(&v) == 0;
     line("power_factor", ok, v);
-    ok = meter.read_power_l1_w(&v);
+    ok = meter.read_power_l1_w(&v) == 0;
     line("power_l1_w", ok, v);
-    ok = meter.read_energy_export_wh(&v);
+    ok = meter.read_energy_export_wh(&v) == 0;
     line("energy_export_wh", ok, v);
 }
 
