@@ -227,6 +227,42 @@ def test_a_function_section_without_a_row_is_a_warning(tmp_path):
     assert f"{ini}:3: warning: [function nothing_like_it]: no row matched nothing_like_it" in proc.stderr
 
 
+def test_a_function_sections_name_is_case_insensitive(tmp_path):
+    """SPEC 4.1: section names are case-insensitive; [function amp_L1] is amp_l1's, with a note."""
+    table, ini = write(
+        tmp_path,
+        "Address,Description,Format\n0,Phase current,UINT16\n",
+        "[Function Name Search Synonyms]\nAmp_L1 = Phase current\n[function amp_l1]\nformat = INT16\n",
+    )
+    proc, fns = convert(tmp_path, table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert list(fns) == ["Amp_L1"] and fns["Amp_L1"]["format"] == "INT16"
+    assert f"{ini}:3: note: [function amp_l1] is the section of Amp_L1" in proc.stderr
+    assert "no row matched" not in proc.stderr
+
+
+def test_every_override_is_said_in_mdl_words(tmp_path):
+    """SPEC 4.1: every override is said in a note, one that the table's cell already says too; a field
+    left out is named by what it means (holding, read_write), never as None."""
+    table, ini = write(
+        tmp_path,
+        "Address,Description,Format,Type,Access\n1,Alpha,UINT16,IR,R/-\n",
+        "[Column/Field Indices]\ndescription = Description\naddresses = Address\nformat = Format\n"
+        "register_type = Type\naccess = Access\n"
+        "[Function Name Search Synonyms]\nalpha = Alpha\n[function alpha]\nregister_type = holding\n"
+        "access = read_write\nformat = UINT16\n",
+    )
+    proc, fns = convert(tmp_path, table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert "register_type" not in fns["alpha"] and "access" not in fns["alpha"]
+    assert f"{ini}:10: note: alpha: register_type holding from [function alpha] instead of the table's 'input'" in (
+        proc.stderr
+    )
+    assert f"{ini}:11: note: alpha: access read_write from [function alpha]" in proc.stderr
+    assert f"{ini}:12: note: alpha: format UINT16 from [function alpha]\n" in proc.stderr
+    assert "None" not in proc.stderr
+
+
 # ---- 3. built-in readings -----------------------------------------------------------------------
 
 ACCESS = [

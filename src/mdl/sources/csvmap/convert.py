@@ -41,7 +41,7 @@ from mdl.sources.csvmap.rows import (
 from mdl.sources.csvmap.scoring import EXACT, FUZZY, TIER_NAMES, FunctionName, Score
 from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
 from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
-from mdl.sources.csvmap.vocabulary import apply_sections, multiplier_of, number_of
+from mdl.sources.csvmap.vocabulary import FunctionSection, apply_sections, multiplier_of, number_of
 
 DEFAULT_THRESHOLD = 0.6
 # functions (name -> phrases), the index of the rows, the rows -> the row chosen for each function
@@ -286,6 +286,23 @@ def _functions(ini: DeviceIni | None) -> dict[str, list[str]]:
     for name in ini.functions if ini else {}:  # a [function NAME] of no synonyms is searched by its name
         functions.setdefault(name, [])
     return {name: words + [FunctionName(name.replace("_", " "))] for name, words in functions.items()}
+
+
+def _name_sections(ini: DeviceIni, report: Report) -> None:
+    """Section names are case-insensitive (SPEC 4.1): a [function NAME] whose NAME is a function of the
+    synonyms written another way (`[function amp_L1]` for `amp_l1`) is that function's, with a note."""
+    known = set(ini.synonyms) | (set(DEFAULT_SYNONYMS) if ini.default_synonyms or not ini.synonyms else set())
+    spelled: dict[str, list[str]] = {}
+    for name in known:
+        spelled.setdefault(name.lower(), []).append(name)
+    named: dict[str, FunctionSection] = {}
+    for name, fs in ini.functions.items():
+        same = spelled.get(name.lower(), [])
+        if name not in known and len(same) == 1 and same[0] not in ini.functions:
+            report.note(f"[function {name}] is the section of {same[0]}", fs.line, file=str(ini.path))
+            fs.name = name = same[0]
+        named[name] = fs
+    ini.functions = named
 
 
 def _forced(ini: DeviceIni | None, parsed: Parsed) -> dict[str, int]:
@@ -552,6 +569,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         col = cols.describe(cols.index["addresses"])
         raise error(f"no row of the table has a usable address (addresses read from {col})", csv_path)
 
+    if ini is not None:
+        _name_sections(ini, report)
     functions = _functions(ini)
     forced = _forced(ini, parsed)
     taken = set(forced.values())  # rows the INI gave a function: no other function is matched to them

@@ -158,6 +158,17 @@ def function_problems(fn: Function, functions: Mapping[str, Function]) -> list[s
     return problems
 
 
+# what a field left out means (MDL's defaults), as the notes of [function NAME] name it
+_DEFAULT_SHOWN = {"register_type": "holding", "access": "read_write", "byte_order": "big", "word_order": "big"}
+
+
+def _shown(attr: str, value: object) -> str:
+    """A field's value as a note names it: a number as written, a field left out by what it means."""
+    if value is None or value == "":
+        return _DEFAULT_SHOWN.get(attr, "no value")
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
 def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, str]]:
     """Set the section's fields on `fn`; one note (INI line, text) per field that changed (whether the
     function is still possible is function_problems')."""
@@ -166,11 +177,15 @@ def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, 
 
     def change(key: str, attr: str, new: object) -> None:
         old = getattr(fn, attr)
+        setattr(fn, attr, new)
+        text = f"{fs.name}: {attr} {_shown(attr, new)} from [function {fs.name}]"
         if old != new:
-            setattr(fn, attr, new)
-            was = f"the table's {old:g}" if isinstance(old, float) else f"the table's '{old}'" if old else "no value"
-            shown = f"{new:g}" if isinstance(new, float) else new
-            said.append((fs.lines.get(key), f"{fs.name}: {attr} {shown} from [function {fs.name}] instead of {was}"))
+            text += (
+                f" instead of the table's '{_shown(attr, old)}'"
+                if old not in (None, "")
+                else (f" instead of {_shown(attr, old)}")
+            )
+        said.append((fs.lines.get(key), text))  # every override is said, the table's value kept or not
 
     if "register_type" in v:
         table = parse_table(v["register_type"])
