@@ -126,3 +126,20 @@ def test_a_range_the_device_refuses_whole_is_captured_in_parts(device, tmp_path)
     assert sorted(map(int, image["holding"])) == [0, 1, 2, 3, 4, 10, 11, 12]
     assert image["coil"] == {"3": 1} and image["input"] == {}
     assert "mdl capture: warning:" in proc.stderr and "not captured" in proc.stderr
+
+
+def test_a_write_only_functions_registers_are_captured_too(write_device, sim_factory, tmp_path):
+    """SPEC 14: every register the description names. A write-only coil's state, which the device lets be
+    read, is replayed as it was (`mdl read --raw` of the replay equals the original's)."""
+    path = write_device(
+        fn_xml("level", 0, format="UINT16") + fn_xml("reset", 5, format="BIT", register_type="coil", access="write")
+    )
+    sim = sim_factory(path, "--set", "level=7", "--set", "reset=1")
+    raw = tmp_path / "raw.json"
+    proc = run_mdl("capture", path, *sim.connection, "-o", raw)
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(raw.read_text())["coil"] == {"5": 1}
+    replay = sim_factory(path, "--registers", raw)
+    for server in (sim, replay):
+        got = run_mdl("read", *server.connection, "--raw", "co:5", "--format", "json")
+        assert got.returncode == 0 and json.loads(got.stdout) == {"co:5": True}, got.stdout + got.stderr

@@ -3,7 +3,7 @@ back (SPEC 6's JSON, keys wire addresses), or as an MDL test scenario `mdl test`
 
 With a description, every register its readable functions name is read with the description's read plan
 (the grouped requests; where the device refuses one with exception 2, its smaller requests, as `mdl read`
-falls back); with `--ranges` from `mdl probe --format json`, every address of the unit's ranges, in
+falls back), then those of its write-only functions, run by run (a device that refuses them: a warning); with `--ranges` from `mdl probe --format json`, every address of the unit's ranges, in
 requests of at most 125 registers / 2000 bits. The scenario's expected values are decoded from the very
 registers captured, with the decoders `mdl read` uses, so replaying it gives what `mdl read` got.
 """
@@ -34,13 +34,22 @@ def _empty() -> Image:
 
 
 def capture_described(resolved: ResolvedDevice, connection: Connection, unit: int) -> tuple[Image, list[str]]:
-    """The registers of every readable function, and a warning for each request the device refused even
-    alone (its registers are then not in the image)."""
+    """The registers of every function the description names, and a warning for each request the device
+    refused even alone (its registers are then not in the image). A write-only function's registers are
+    asked too, run by run, after the read plan: a device may let them be read (a coil's state), and
+    replayed by `mdl sim` they should read as they did."""
     image: Image = _empty()
     warnings: list[str] = []
     with Session(resolved, connection, unit) as session:
         for group in resolved.plan:
             _read_into(session, group.request, image, warnings, group.smaller)
+        for f in resolved.functions:
+            if f.fn.readable or f.compiled is not None:
+                continue
+            for start, count in f.runs:
+                missing = [a for a in range(start, start + count) if a not in image[f.layout.table]]
+                for first, n in address_runs(missing):
+                    _read_into(session, Request(f.layout.table, first, n, (f.name,)), image, warnings)
     return image, warnings
 
 
