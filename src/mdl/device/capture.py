@@ -3,8 +3,9 @@ back (SPEC 6's JSON, keys wire addresses), or as an MDL test scenario `mdl test`
 
 With a description, every register its readable functions name is read with the description's read plan
 (the grouped requests; where the device refuses one with exception 2, its smaller requests, as `mdl read`
-falls back), then those of its write-only functions, run by run (a device that refuses them: a warning); with `--ranges` from `mdl probe --format json`, every address of the unit's ranges, in
-requests of at most 125 registers / 2000 bits. The scenario's expected values are decoded from the very
+falls back), then those of its write-only functions, run by run (a device that refuses them: a warning);
+with `--ranges` from `mdl probe --format json`, every address of the unit's ranges, in requests of at most
+125 registers / 2000 bits. The scenario's expected values are decoded from the very
 registers captured, with the decoders `mdl read` uses, so replaying it gives what `mdl read` got.
 """
 
