@@ -369,6 +369,29 @@ def test_a_count_column_wins_over_a_text_formats_width(tmp_path):
 # ---- 4. which cells cost a row ------------------------------------------------------------------
 
 
+def test_a_function_section_reads_a_row_whose_cell_it_sets(tmp_path, sim_factory):
+    """SPEC 4.1: [function NAME] wins over the table's cells, an unreadable one too: the row skipped for its
+    format is read with the section's format, with a note, and the other fields of the section apply."""
+    table, ini = write(
+        tmp_path,
+        "Description,Address,Format\nPhase current L1,0,bitfield\nVoltage,1,UINT16\nOther,2,bitfield\n",
+        "[Column/Field Indices]\ndescription = Description\naddresses = Address\nformat = Format\n"
+        "[Function Name Search Synonyms]\namp_l1 = Phase current L1\nvolts = Voltage\nother = Other\n"
+        "[function amp_l1]\nformat = UINT16\nmultiplier = 0.1\n",
+    )
+    proc, fns = convert(tmp_path, table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert fns["amp_l1"]["format"] == "UINT16" and fns["amp_l1"]["multiplier"] == "0.1"
+    assert (
+        f"{ini}:10: note: amp_l1: line 2 read with format UINT16 from [function amp_l1], which wins over the cell "
+        "'bitfield' that could not be read" in proc.stderr
+    )
+    assert "other" not in fns  # no section sets its format: still skipped, and said
+    assert f"{table}:4: warning: other: line 4 names it" in proc.stderr
+    values = read_values(sim_factory, tmp_path / "out.xml", {"holding": {"0": 123, "1": 230}})
+    assert values == {"amp_l1": 12.3, "volts": 230}
+
+
 def test_essential_cells_skip_the_row_others_keep_it(tmp_path):
     table, ini = write(
         tmp_path,

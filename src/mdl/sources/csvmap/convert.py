@@ -23,6 +23,7 @@ from mdl.sources.csvmap.documents import ini_choice
 from mdl.sources.csvmap.explain import BUDGET, explain, nearest
 from mdl.sources.csvmap.ini import DeviceIni
 from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
+from mdl.sources.csvmap.overrides import read_with_sections
 from mdl.sources.csvmap.report import Progress, Report
 from mdl.sources.csvmap.rows import (
     COMMA,
@@ -86,6 +87,7 @@ class Skipped:
     row: Row
     texts: list[str]
     reason: str
+    key: str | None = None  # the field whose cell could not be read
 
 
 @dataclass
@@ -219,7 +221,9 @@ def _read_rows(
             read += 1
             if isinstance(exc, FieldError):
                 health.failed.setdefault(exc.key, (str(exc), row.line))
-            skipped.append(Skipped(row, row_texts(row, cols), str(exc)))
+            skipped.append(
+                Skipped(row, row_texts(row, cols), str(exc), exc.key if isinstance(exc, FieldError) else None)
+            )
             report.warn(f"row skipped: {exc}", row.line, file=where)
             continue
         if parsed:
@@ -564,7 +568,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     _table_notes(table, ini, report)
     for message in cols.notes:
         report.note(message, file=str(csv_path))
-    parsed = _read_rows(table, cols, data, _settings(table, cols, data, ini, report), report, header)
+    settings = _settings(table, cols, data, ini, report)
+    parsed = _read_rows(table, cols, data, settings, report, header)
     if not parsed.rows:
         col = cols.describe(cols.index["addresses"])
         raise error(f"no row of the table has a usable address (addresses read from {col})", csv_path)
@@ -591,6 +596,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     lines = [r.row.line for r in parsed.rows] + [s.row.line for s in parsed.skipped]
     readable = len(parsed.rows)
     own = bool(ini and ini.synonyms)
+    found: dict[int, ParsedRow] = {}  # skipped rows read after all with a [function] section (by index)
     if opts.explain:
         report.flush_notes()
         matched = _match(matching, index, readable, limit)
@@ -610,6 +616,18 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
         matched = _match(matching, index, readable, limit, progress)
         if progress:
             progress.close()
+        if ini is not None and matched.lost:
+            rescued = read_with_sections(
+                {name: c.row_index - readable for name, c in matched.lost.items()},
+                [(s.row, s.key) for s in parsed.skipped],
+                ini,
+                cols,
+                settings,
+                report,
+            )
+            for name, row in rescued.items():
+                matched.chosen[name] = matched.lost.pop(name)
+                found[matched.chosen[name].row_index] = row
         _say_matches(str(csv_path), matching, index, parsed, matched, limit, lines, opts, own, report)
     chosen = matched.chosen
     for name, row_index in forced.items():
@@ -622,7 +640,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
             f"no row reached the threshold {limit:g} for: {details}; --explain NAME lists a function's nearest rows",
             file=str(ini.path if ini else csv_path),
         )
-    out, extra = _functions_out(parsed.rows, chosen, opts.emit_all)
+    rows = [*parsed.rows, *(found.get(readable + i) for i in range(len(parsed.skipped)))]
+    out, extra = _functions_out(rows, chosen, opts.emit_all)
     if ini is not None:
         _raw_limits(ini, out)
         apply_sections(ini.functions, str(ini.path), out, report)
@@ -656,18 +675,23 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     return device
 
 
-def _functions_out(rows: list[ParsedRow], chosen: dict[str, Candidate], emit_all: bool) -> tuple[list[Function], int]:
+def _functions_out(
+    rows: list[ParsedRow | None], chosen: dict[str, Candidate], emit_all: bool
+) -> tuple[list[Function], int]:
     """The chosen rows' functions under their names, then with --all every other row under its label;
-    and how many of those others there were."""
+    and how many of those others there were. `rows` holds the skipped rows after the others (None, or
+    the row read after all with a [function] section)."""
     out = []
     for name, cand in chosen.items():
-        fn = rows[cand.row_index].function
+        row = rows[cand.row_index]
+        assert row is not None  # a function is given a skipped row only once it is read
+        fn = row.function
         fn.name = name
         out.append(fn)
     if not emit_all:
         return out, 0
     used = {c.row_index for c in chosen.values()}
-    rest = [pr for i, pr in enumerate(rows) if i not in used]
+    rest = [pr for i, pr in enumerate(rows) if i not in used and pr is not None]
     names = unique_identifiers([f.name for f in out] + [pr.label for pr in rest])[len(out) :]
     for pr, name in zip(rest, names, strict=True):
         pr.function.name = name

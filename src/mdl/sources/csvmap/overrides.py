@@ -1,0 +1,55 @@
+"""A row that could not be read, read after all with its function's `[function NAME]` section (SPEC 4.1: the
+section's fields win over the table's cells).
+
+A row is skipped when one of its essential cells (addresses, register type, format, count) cannot be read.
+Where the function whose best row it is has a section that sets that very field, the row is read again
+with the section's value in that cell, and a note says so; the section is then applied as for any row
+(mdl.sources.csvmap.vocabulary.apply_sections), its notes included.
+"""
+
+from __future__ import annotations
+
+from mdl.sources.csvmap.cells import CellError
+from mdl.sources.csvmap.columns import Columns
+from mdl.sources.csvmap.ini import DeviceIni
+from mdl.sources.csvmap.report import Report
+from mdl.sources.csvmap.rows import ParsedRow, RowSettings, parse_row
+from mdl.sources.csvmap.table import Row
+
+ESSENTIAL = ("addresses", "register_type", "format", "count")
+
+
+def read_with_sections(
+    lost: dict[str, int],
+    skipped: list[tuple[Row, str | None]],
+    ini: DeviceIni,
+    cols: Columns,
+    st: RowSettings,
+    report: Report,
+) -> dict[str, ParsedRow]:
+    """`lost`: function name -> the skipped row that is its best (an index into `skipped`, each row with the
+    field whose cell could not be read). The functions whose section sets that field, and their rows read
+    with it."""
+    out: dict[str, ParsedRow] = {}
+    for name, i in lost.items():
+        row, key = skipped[i]
+        fs = ini.functions.get(name)
+        column = cols.index.get(key) if key in ESSENTIAL else None
+        if fs is None or key is None or key not in fs.values or column is None:
+            continue
+        cells = list(row.cells) + [""] * max(0, column + 1 - len(row.cells))
+        was, cells[column] = cells[column].strip(), fs.values[key]
+        try:
+            parsed = parse_row(Row(row.line, cells), cols, st)
+        except CellError:
+            continue
+        if parsed is None:
+            continue
+        out[name] = parsed
+        report.note(
+            f"{name}: line {row.line} read with {key} {fs.values[key]} from [function {name}], which wins over "
+            f"the cell '{was}' that could not be read",
+            fs.lines.get(key),
+            file=str(ini.path),
+        )
+    return out
