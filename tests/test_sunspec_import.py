@@ -180,6 +180,19 @@ def test_base_and_repeat_belong_to_sunspec(tmp_path):
     assert_clean_error(proc, 2, "one FILE")
 
 
+def test_a_base_no_client_looks_at_is_a_warning(tmp_path):
+    out = tmp_path / "odd.xml"
+    proc = run_mdl("import", "--from", "sunspec", "1", "--base", "123", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    assert "warning: the chain starts at 123: SunSpec clients look for its marker at 0, 40000, 50000 only" in (
+        proc.stderr
+    )
+    strict = run_mdl("import", "--from", "sunspec", "1", "--base", "123", "-o", out, "--fail-on-warning")
+    assert strict.returncode == 1
+    quiet = run_mdl("import", "--from", "sunspec", "1", "--base", "50000", "-o", out)
+    assert quiet.returncode == 0 and "warning" not in quiet.stderr
+
+
 def test_bare_simulation_holds_the_headers(tmp_path, sim_factory):
     """No --registers: the marker, IDs, lengths, repeat counts and end marker already answer, so
     pysunspec2's client scans the inverter chain and every model reads whole."""

@@ -41,6 +41,18 @@ def import_chain(models: Sequence[str], base: int | None = None, repeat: int | N
     at = BASES[0] if base is None else base
     if base is None:
         notes.append(Diagnostic(None, None, None, f"the chain starts at {at} (give --base for 0 or 50000)", "note"))
+    elif base not in BASES:
+        where = ", ".join(map(str, sorted(BASES)))
+        notes.append(
+            Diagnostic(
+                None,
+                None,
+                None,
+                f"the chain starts at {base}: SunSpec clients look for its marker at {where} only, so they will "
+                "not find this device without being told where",
+                "warning",
+            )
+        )
     device = build_chain(loaded, at)
     if repeat is None and any(_repeats(m["group"]) for m, _ in loaded):
         notes.append(
