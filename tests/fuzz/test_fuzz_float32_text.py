@@ -39,3 +39,12 @@ def test_a_double_no_float32_holds_is_left_as_it_is(value):
         exact = False
     if not exact:
         assert shortest_float32(value) == value
+
+
+def test_zeros_keep_their_sign_whichever_came_first():
+    """The cache keys equal numbers as one: -0.0 asked first must not make 0.0 read back as -0.0 (a record
+    printing `-0.0` for a register of zeros), nor the other way round."""
+    for first, second in ((-0.0, 0.0), (0.0, -0.0)):
+        assert math.copysign(1.0, shortest_float32(first)) == math.copysign(1.0, first)
+        assert math.copysign(1.0, shortest_float32(second)) == math.copysign(1.0, second)
+    assert str(shortest_float32(0.0)) == "0.0" and str(shortest_float32(-0.0)) == "-0.0"

@@ -59,13 +59,17 @@ def _plain_float32(fn: Function) -> bool:
 _FLOAT32 = struct.Struct(">f")
 
 
-@functools.lru_cache(maxsize=4096)  # a poll's readings mostly repeat the last poll's
 def shortest_float32(value: float) -> float:
     """The double of the fewest significant digits that rounds to the same float32 as `value` (which is one):
     printed, it shows what mbpoll shows; read back as a float32, it is the same bits. NaN and infinities,
-    and a value no float32 holds, as they are."""
-    if not math.isfinite(value):
-        return value
+    zeros (either sign), and a value no float32 holds, as they are."""
+    if value == 0 or not math.isfinite(value):
+        return value  # before the cache: it keys -0.0 and 0.0 as one (they are equal), and NaN as none
+    return _shortest_float32(value)
+
+
+@functools.lru_cache(maxsize=4096, typed=True)  # a poll's readings mostly repeat the last poll's
+def _shortest_float32(value: float) -> float:
     try:
         bits = _FLOAT32.pack(value)
     except OverflowError:
