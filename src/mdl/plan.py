@@ -75,19 +75,20 @@ def plan_reads(
     requests = []
     for table in TABLE_ORDER:
         limit = MAX_BITS if table in ("coil", "discrete") else max_registers
-        points = sorted(needed[table])
+        at = needed[table]
+        points = sorted(at)
         there = defined[table]
-        i = 0
-        while i < len(points):
+        i, n = 0, len(points)
+        while i < n:
             start = end = points[i]
             names_in: dict[str, None] = {}  # ordered, without repeats
-            while (
-                i < len(points)
-                and points[i] - start < limit
-                and (points[i] == end + 1 or all(a in there for a in range(end + 1, points[i] + 1)))
-            ):
-                end = points[i]
-                names_in.update(dict.fromkeys(needed[table][end]))
+            while i < n:
+                point = points[i]
+                if point - start >= limit or (point != end + 1 and not there.issuperset(range(end + 1, point + 1))):
+                    break
+                end = point
+                for name in at[point]:
+                    names_in[name] = None
                 i += 1
             requests.append(Request(table, start, end - start + 1, tuple(names_in)))
     return requests
@@ -101,9 +102,16 @@ def split_request(device: Device, request: Request, layouts: Layouts | None = No
         wanted = set(request.functions)
         layouts = layouts_by_name(fn for fn in device.functions if fn.name in wanted)
     names_of: dict[tuple[int, int], list[str]] = {}  # (start, count) -> the functions whose run it is
+    start, end = request.start, request.end
     for name in request.functions:
-        lay = layouts[name]
-        for run in address_runs(sorted({a for a in lay.addresses if request.start <= a < request.end})):
+        addresses = layouts[name].addresses
+        first = addresses[0] if addresses else 0
+        if addresses and addresses == tuple(range(first, first + len(addresses))):  # one ascending run (most)
+            low, high = max(first, start), min(first + len(addresses), end)  # its part in the request
+            runs: Iterable[tuple[int, int]] = ((low, high - low),) if low < high else ()
+        else:
+            runs = address_runs(sorted({a for a in addresses if start <= a < end}))
+        for run in runs:
             names = names_of.setdefault(run, [])
             if name not in names:
                 names.append(name)

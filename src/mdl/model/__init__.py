@@ -143,7 +143,10 @@ class Function:
     @property
     def scales(self) -> bool:
         """Whether a multiplier or an offset applies (SPEC 2.3: then the value is a float)."""
-        return self.eff_multiplier != 1.0 or self.eff_offset != 0.0
+        # eff_multiplier and eff_offset spelled out: asked several times of every function
+        return (self.multiplier is not None and self.multiplier != 1.0) or (
+            self.offset is not None and self.offset != 0.0
+        )
 
     @property
     def bit_range(self) -> tuple[int, int] | None:
@@ -193,15 +196,17 @@ class Function:
 
     @property
     def readable(self) -> bool:
-        return self.eff_access in ("read", "read_write")
+        # eff_access, spelled out (asked of every function by every consumer): its default is
+        # read or read_write, both readable
+        return not self.access or self.access in ("read", "read_write")
 
     @property
     def writable(self) -> bool:
-        return (
-            self.eff_access in ("write", "read_write")
-            and self.table not in READ_ONLY_TABLES
-            and self.expression is None
-        )
+        # eff_access, spelled out as `readable`: without an expression or a read-only table its
+        # default is read_write
+        if self.expression is not None or self.table in READ_ONLY_TABLES:
+            return False
+        return not self.access or self.access in ("write", "read_write")
 
     def extensions(self) -> list[str]:
         used = [name for name in EXTENSION_FIELDS if getattr(self, name) is not None]

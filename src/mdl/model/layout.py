@@ -77,8 +77,10 @@ def layout(fn: Function, compiled: CompiledExpression | None = None) -> Layout:
         table = lowered.table or "holding"
         unit: Unit = "bit" if table in BIT_TABLES else "word"
         return Layout(table, tuple(lowered.addresses), unit, "expr", 0, False, "big", "big")
-    fmt = fn.eff_format
-    table = fn.table
+    # the defaults of eff_format, table, eff_length, eff_count and the orders spelled out, and the
+    # addresses read once: every function is laid out at least once
+    fmt = fn.format or "INT8"
+    table = fn.register_type or "holding"
     bit_table = table in BIT_TABLES
     if bit_table and fmt != "BIT" and fn.format is not None:
         raise LayoutError(f"a {table} holds one bit; format {fmt} needs registers (use BIT)")
@@ -86,32 +88,32 @@ def layout(fn: Function, compiled: CompiledExpression | None = None) -> Layout:
         unit = "bit" if bit_table else "word"
         needed = 1
     else:
-        unit = UNIT_FOR_LENGTH[fn.eff_length]
+        unit = UNIT_FOR_LENGTH[fn.length or "Full word"]
         unit_bits = 16 if unit == "word" else 8
-        needed = max(fn.eff_count, -(-FORMAT_BITS[fmt] // unit_bits))
-    if not fn.addresses:
+        needed = max(1 if fn.count is None else fn.count, -(-FORMAT_BITS[fmt] // unit_bits))
+    listed = fn.addresses
+    if not listed:
         raise LayoutError("no address")
-    n = len(fn.addresses) if len(fn.addresses) > 1 else needed
+    n = len(listed) if len(listed) > 1 else needed
     limit = MAX_BITS if unit == "bit" else MAX_REGISTERS
     if n > limit:  # before any tuple of n addresses is built: a count may be 3000000000
         raise LayoutError(f"the value needs {n} registers; one request reads at most {limit}")
-    if len(fn.addresses) > 1:
-        if len(fn.addresses) < needed:
-            raise LayoutError(f"needs {needed} registers but lists {len(fn.addresses)} addresses")
-        if len(set(fn.addresses)) != len(fn.addresses):
+    if len(listed) > 1:
+        if len(listed) < needed:
+            raise LayoutError(f"needs {needed} registers but lists {len(listed)} addresses")
+        if len(set(listed)) != len(listed):
             raise LayoutError("an address is listed twice")
-        addresses = tuple(fn.addresses)
+        addresses = tuple(listed)
     else:
-        addresses = tuple(range(fn.addresses[0], fn.addresses[0] + needed))
-    too_high = [a for a in addresses if a > MAX_ADDRESS]
-    if too_high:
-        raise LayoutError(f"address {too_high[0]} is over {MAX_ADDRESS}")
+        addresses = tuple(range(listed[0], listed[0] + needed))
+    if max(addresses) > MAX_ADDRESS:
+        raise LayoutError(f"address {next(a for a in addresses if a > MAX_ADDRESS)} is over {MAX_ADDRESS}")
     if bit_table or fmt == "BIT":
         if n != 1:
             raise LayoutError("a BIT value is one coil or discrete input")
         return Layout(table, addresses, unit, "bool", 1, False, "big", "big")
     span = n * (16 if unit == "word" else 8)
-    byte_order, word_order = fn.eff_byte_order, fn.eff_word_order
+    byte_order, word_order = fn.byte_order or "big", fn.word_order or "big"
     if fmt == "STRING":
         return Layout(table, addresses, unit, "string", span, False, byte_order, word_order)
     if fmt.startswith("FLOAT"):

@@ -115,9 +115,13 @@ GENERATED_CLASSES = frozenset(
 CLASS_RESERVED = PY_BUILTIN_CLASSES | GENERATED_CLASSES
 
 
+_NOT_IDENT = re.compile(r"[^a-z0-9]+")
+
+
 def identifier(name: str) -> str:
-    folded = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode("ascii")
-    ident = re.sub(r"[^a-z0-9]+", "_", folded.lower()).strip("_")
+    # ASCII text is its own NFKD form: only other names need folding (asked of every function)
+    folded = name if name.isascii() else unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode("ascii")
+    ident = _NOT_IDENT.sub("_", folded.lower()).strip("_")
     if not ident:
         ident = "unnamed"
     if ident[0].isdigit():

@@ -9,9 +9,9 @@ derives nothing again.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.model import Device, Function
@@ -24,6 +24,34 @@ from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
 
 if TYPE_CHECKING:
     from mdl.lang.expr.fields import Compiled
+
+T = TypeVar("T")
+
+
+class cached_property(Generic[T]):  # noqa: N801 (it stands in for functools.cached_property)
+    """functools.cached_property without the lock it takes on every first read before Python 3.12:
+    worked out for every function of a large device, the lock cost more than the values. Like it,
+    the value is kept in the instance's __dict__ (a frozen dataclass's too), where later reads find it."""
+
+    def __init__(self, func: Callable[[Any], T]) -> None:
+        self.func = func
+        self.name = func.__name__
+        self.__doc__ = func.__doc__
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+
+    @overload
+    def __get__(self, instance: None, owner: type | None = None) -> cached_property[T]: ...
+
+    @overload
+    def __get__(self, instance: object, owner: type | None = None) -> T: ...
+
+    def __get__(self, instance: object | None, owner: type | None = None) -> T | cached_property[T]:
+        if instance is None:
+            return self
+        value = instance.__dict__[self.name] = self.func(instance)
+        return value
 
 
 @dataclass(frozen=True)
@@ -66,8 +94,11 @@ class ResolvedFunction:
 
 
 def _shape(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None) -> str | None:
-    if steps is None or any(isinstance(s, (Fragment, Expression)) for s in steps):
+    if steps is None:
         return None
+    for s in steps:  # a plain loop: asked of every function's two programs
+        if isinstance(s, (Fragment, Expression)):
+            return None
     return repr(steps)
 
 
@@ -127,7 +158,11 @@ class ResolvedDevice:
             if name in seen:
                 continue
             seen.add(name)
-            stack = [(by_name[name], 0)]
+            first = by_name[name]
+            if not first.deps:  # most functions: nothing to put before it
+                out.append(first)
+                continue
+            stack = [(first, 0)]
             while stack:
                 f, i = stack.pop()
                 if i < len(f.deps):

@@ -84,23 +84,8 @@ def check_device(
             layouts[fn.name] = lay
         if fn.access in ("write", "read_write") and fn.table in READ_ONLY_TABLES:
             err(fn, f"access '{fn.access}' is impossible: the {fn.table} table is read-only")
-        for attr, code in (
-            ("read_function_code", fn.read_function_code),
-            ("write_function_code", fn.write_function_code),
-        ):
-            if code is None or (attr == "write_function_code" and mask_write(fn)):
-                continue
-            from mdl.lang.cfrag import FragmentError, check  # the fragment checker, when needed
-
-            try:
-                check(code, len(lay.addresses))
-            except FragmentError as exc:
-                err(
-                    fn,
-                    f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""),
-                    key=attr,
-                    offset=(exc.col or 1) - 1,
-                )
+        if fn.read_function_code is not None or fn.write_function_code is not None:
+            _check_fragments(fn, lay, err)
         if fn.read_function_code is not None and lay.kind in ("string", "bool"):
             err(fn, f"a fragment computes a number; format {fn.eff_format} cannot use one")
         if fn.write_function_code is not None and lay.kind == "string":
@@ -121,12 +106,35 @@ def check_device(
     return sorted(out, key=_in_file_order)
 
 
+def _check_fragments(fn: Function, lay: Layout, err: Report) -> None:
+    """Report the fragments (read_function_code, write_function_code) that do not check."""
+    for attr, code in (
+        ("read_function_code", fn.read_function_code),
+        ("write_function_code", fn.write_function_code),
+    ):
+        if code is None or (attr == "write_function_code" and mask_write(fn)):
+            continue
+        from mdl.lang.cfrag import FragmentError, check  # the fragment checker, when needed
+
+        try:
+            check(code, len(lay.addresses))
+        except FragmentError as exc:
+            err(
+                fn,
+                f"{attr}: {exc}" + (f" (column {exc.col})" if exc.col else ""),
+                key=attr,
+                offset=(exc.col or 1) - 1,
+            )
+
+
 def _in_file_order(diag: Diagnostic) -> tuple[bool, int, int]:
     return diag.line is None, diag.line or 0, diag.col or 0
 
 
 def not_finite(fn: Function, err: Report) -> bool:
     """Report each float of `fn` that is infinite or NaN (no target can compute with one)."""
+    if fn.multiplier is None and fn.offset is None and fn.minimum is None and fn.maximum is None:
+        return False  # most functions have none of the four FLOAT_FIELDS
     bad = False
     for attr in FLOAT_FIELDS:
         value = getattr(fn, attr)
@@ -155,6 +163,8 @@ def bound_problems(fn: Function, lay: Layout) -> list[str]:
     """minimum/maximum that mean nothing: any on text, or crossed ones.
 
     A bound that excludes one of a bit's values is allowed: a coil that only accepts 1 is a trigger."""
+    if fn.minimum is None and fn.maximum is None:  # most functions
+        return []
     bounds = [(attr, value) for attr, value in (("minimum", fn.minimum), ("maximum", fn.maximum)) if value is not None]
     if lay.kind == "string":
         return [

@@ -4,6 +4,8 @@ formats, byte and word orders, "not implemented", scaling, fragments and express
 
 from __future__ import annotations
 
+import functools
+
 from mdl.lang.cfrag import compile_fragment
 from mdl.model import CompiledExpression, Function
 from mdl.model.layout import Layout, int_type_bits
@@ -51,10 +53,15 @@ def divisor_of(multiplier: float) -> int | None:
 
 def units(lay: Layout) -> tuple[Unit, ...]:
     """The units of a value, most significant first: which register, which part, what shift."""
-    n = len(lay.addresses)
-    order = range(n) if lay.word_order == "big" else reversed(range(n))
-    part = ("word" if lay.byte_order == "big" else "swap") if lay.unit == "word" else lay.unit
-    unit_bits = 16 if lay.unit == "word" else 8
+    return _units(len(lay.addresses), lay.unit, lay.byte_order, lay.word_order)
+
+
+@functools.lru_cache(maxsize=1024)
+def _units(n: int, unit: str, byte_order: str, word_order: str) -> tuple[Unit, ...]:
+    """`units`, built once per shape (units are immutable, and a large device has few shapes)."""
+    order = range(n) if word_order == "big" else reversed(range(n))
+    part = ("word" if byte_order == "big" else "swap") if unit == "word" else unit
+    unit_bits = 16 if unit == "word" else 8
     return tuple(Unit(i, part, unit_bits * (n - 1 - pos)) for pos, i in enumerate(order))  # type: ignore[arg-type]
 
 
@@ -92,8 +99,10 @@ def split_value(units_: tuple[Unit, ...], n: int, v: int) -> tuple[int, ...]:
 
 def bit_fields(fn: Function, lay: Layout) -> tuple[int, int] | None:
     """(shift, width) of the function's bits where it has bits of an integer, else None."""
+    if fn.bits is None or lay.kind != "int":  # most functions: no bits to parse (asked several times of each)
+        return None
     span = fn.bit_range
-    if span is None or lay.kind != "int":
+    if span is None:
         return None
     return span[0], span[1] - span[0] + 1
 
@@ -122,7 +131,11 @@ def value_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = 
     return ValueType("bool", nullable=nullable)
 
 
-def write_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> ValueType:
+def write_type(
+    fn: Function, lay: Layout, compiled: CompiledExpression | None = None, read_type: ValueType | None = None
+) -> ValueType:
+    """The type a write takes; `read_type`, when given, is `value_type(fn, lay, compiled)`, worked out
+    already (`build` has it)."""
     if fn.factor is not None:
         return ValueType("float", 64, True)
     if fn.write_function_code and not fn.mask_write:
@@ -131,7 +144,7 @@ def write_type(fn: Function, lay: Layout, compiled: CompiledExpression | None = 
         return value_type(fn, lay)
     if (lay.kind in ("int", "float")) and fn.scales:
         return ValueType("float", 64, True)
-    return value_type(fn, lay, compiled)
+    return value_type(fn, lay, compiled) if read_type is None else read_type
 
 
 def decode_steps(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> tuple[DecodeStep, ...]:
@@ -207,11 +220,12 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
 def build(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> Codec:
     """The function's IR; `lay` is its layout (mdl.model.layout), computed once by the caller, and
     `compiled` its compiled expression, if it has one (mdl.resolve keeps it)."""
+    read_type = value_type(fn, lay, compiled)
     return Codec(
         table=lay.table,
         addresses=lay.addresses,
-        value_type=value_type(fn, lay, compiled),
-        write_type=write_type(fn, lay, compiled),
+        value_type=read_type,
+        write_type=write_type(fn, lay, compiled, read_type),
         decode=decode_steps(fn, lay, compiled) if fn.readable else None,
         encode=encode_steps(fn, lay) if fn.writable else None,
     )

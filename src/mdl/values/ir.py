@@ -264,6 +264,39 @@ class ValueType:
     expr_type: str = ""
 
 
+def _plain_repr(*classes: type) -> None:
+    """Give each class dataclass's own generated repr without the guard against recursion it wraps
+    it in (IR steps are trees, never cycles): the text is the same, and the targets print every
+    function's IR as text (mdl.resolve's decode_shape), where the guard was much of the cost."""
+    for cls in classes:
+        setattr(cls, "__repr__", getattr(cls.__repr__, "__wrapped__", cls.__repr__))  # noqa: B010
+
+
+_plain_repr(
+    Unit,
+    NotImplemented,
+    ToBool,
+    Compose,
+    ToText,
+    Mask,
+    SignExtend,
+    ToFloat,
+    Scale,
+    Bits,
+    ScaleFactor,
+    UnscaleFactor,
+    PlaceBits,
+    Merge,
+    CheckRange,
+    FromBool,
+    FromText,
+    Unscale,
+    FromFloat,
+    RoundInt,
+    Split,
+)
+
+
 def find_step(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None, kind: type[T]) -> T | None:
     """The step of that kind in a program, if it has one (a plain loop: every target asks it of every
     function several times)."""

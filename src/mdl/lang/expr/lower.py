@@ -82,7 +82,12 @@ def refs_of(node: Node, out: list[str]) -> None:
         refs_of(child, out)
 
 
+_LEAVES = frozenset((Num, Str, Bool, Ref, Registers, Constant))  # the nodes without children
+
+
 def _children(node: Node) -> list[Node]:
+    if type(node) in _LEAVES:  # most nodes: one lookup instead of four isinstance that fail
+        return []
     if isinstance(node, Swap):
         return [node.arg]
     if isinstance(node, Call):
@@ -104,7 +109,7 @@ class Lowerer:
         return f"t{len(self.ops)}"
 
     def emit(self, kind: OpKind, type_: str, args: Iterable[str] = (), **data: Unpack[OpData]) -> tuple[str, str]:
-        op = Op(self.tmp(), kind, type_, list(args), data)
+        op = Op(f"t{len(self.ops)}", kind, type_, list(args), data)  # self.tmp(), written out
         self.ops.append(op)
         return op.tmp, type_
 

@@ -184,7 +184,7 @@ class Parser:
             self.expect(")")
             self.depth -= 1
             return node
-        if _NUMBER.match(ch) or (ch == "." and _NUMBER.match(self.text, self.pos + 1)):
+        if "0" <= ch <= "9" or (ch == "." and _NUMBER.match(self.text, self.pos + 1)):  # _NUMBER's first digit
             return self.number()
         if ch == "'":
             return Str(start + 1, self.string())

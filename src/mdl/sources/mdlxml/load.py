@@ -47,6 +47,12 @@ _DEFAULTED = (
 _CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
 _NAMED = ("bits", "scale_exponent", "scale_by", "role")  # texts kept without the spaces around them
 _SPANNED = _CODE + _FLOATS + _NAMED + ("initial",)  # the texts mdl.resolve may point at
+# sets of the above, for the loop over every child of every function
+_DEFAULTED_SET = frozenset(_DEFAULTED)
+_SPANNED_SET = frozenset(_SPANNED)
+_FLOATS_SET = frozenset(_FLOATS)
+_STRINGS_SET = frozenset(_STRINGS)
+_KEPT_AS_IS = frozenset(("units", "read_function_code", "write_function_code"))  # strings not stripped
 _MAX_DIGITS = 18  # more than any address, count or key of MDL needs; int() refuses over 4300
 
 
@@ -125,6 +131,8 @@ class _Reader:
 
     def integer(self, text: str | None, el: etree._Element, what: str, inside: bool = True) -> int:
         """An integer of the element's text (inside) or of one of its attributes."""
+        if text is not None and len(text) <= _MAX_DIGITS and text.isascii() and text.isdigit():
+            return int(text)  # the usual address or count: plain digits, too few to be too many
         t = (text or "").strip()
         digits = t.lstrip("+-").lstrip("0")  # leading zeros count towards int()'s limit too
         if len(digits) > _MAX_DIGITS:
@@ -150,13 +158,14 @@ class _Reader:
         kw: dict[str, Any] = {"block_labels": [], "line": el.sourceline}
         spans: list[tuple[etree._Element, str]] = [(el, "")]
         for child in el:
-            if not isinstance(child.tag, str):
+            qualified = child.tag  # read once: lxml builds the string at each read
+            if not isinstance(qualified, str):
                 continue
-            tag = _local(child.tag)
-            text = _text(child)
-            if tag in _SPANNED:
+            tag = _local(qualified)
+            text = child.text or ""
+            if tag in _SPANNED_SET:
                 spans.append((child, tag))
-            if tag in _DEFAULTED and not text.strip():
+            if tag in _DEFAULTED_SET and not text.strip():
                 continue
             if tag in ("name", "description"):
                 kw[tag] = text
@@ -166,10 +175,10 @@ class _Reader:
                 kw["count"] = self.integer(text, child, "count")
             elif tag == "block_label":
                 kw["block_labels"].append(text)
-            elif tag in _FLOATS:
+            elif tag in _FLOATS_SET:
                 kw[tag] = self.number(text, child, tag, kw.get("name"))
-            elif tag in _STRINGS:
-                kw[tag] = text.strip() if tag not in ("units", "read_function_code", "write_function_code") else text
+            elif tag in _STRINGS_SET:
+                kw[tag] = text if tag in _KEPT_AS_IS else text.strip()
             elif tag == "not_implemented":
                 kw["not_implemented"] = text.split()
             elif tag == "values":
