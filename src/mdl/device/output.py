@@ -277,7 +277,6 @@ def record_header(functions: list[Function], fmt: str) -> str:
 
 
 _PLAIN, _LABELLED, _FLOAT32_SHOWN, _PRECISION = range(4)  # how a record shows a function's value
-_NEEDS_QUOTES = frozenset(',"\n\r')
 
 
 class _Plan:
@@ -303,7 +302,6 @@ class _Plan:
         self.table_names = [f"{n:<{width}}  " for n in self.names]
         self.table_units = [f" {u}" if (u := (fn.units or "").strip()) else "" for fn in functions]
         self.time_row = f"{TIME_KEY:<{width}}  "
-        # the values shown otherwise than as their str: labelled, float32, with a precision
         # the values shown otherwise than as they are: float32 as their shortest decimal, and the rest
         self.float32 = [i for i, kind in enumerate(self.kinds) if kind == _FLOAT32_SHOWN]
         self.special = [i for i, kind in enumerate(self.kinds) if kind in (_LABELLED, _PRECISION)]
