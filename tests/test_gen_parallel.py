@@ -5,7 +5,9 @@ what the sequential run shows."""
 
 from __future__ import annotations
 
+import gc
 import os
+import signal
 
 import pytest
 from conftest import device_xml, fn_xml, run_mdl
@@ -137,3 +139,28 @@ def test_a_process_with_threads_renders_one_target_after_another(large, monkeypa
     assert not parallel.worth_it(resolved, ["python", "cpp", "c"])
     monkeypatch.setattr(parallel.threading, "active_count", lambda: 1)
     assert parallel.worth_it(resolved, ["python", "cpp", "c"])
+
+
+def test_children_reaped_by_the_system_still_send_their_files(large, forks):
+    """A library user's program may ignore SIGCHLD (the system then reaps children at once): what each
+    child sent is used all the same, and no error comes of it."""
+    resolved = resolve(read_device(large), str(large))
+    before = signal.signal(signal.SIGCHLD, signal.SIG_IGN)
+    try:
+        files = parallel.render_all(resolved, ["python", "cpp", "c"], lambda name: {name: name * 2})
+    finally:
+        signal.signal(signal.SIGCHLD, before)
+    assert files == [{"python": "pythonpython"}, {"cpp": "cppcpp"}, {"c": "cc"}]
+
+
+def test_a_callers_frozen_objects_stay_frozen(large, forks):
+    resolved = resolve(read_device(large), str(large))
+    gc.freeze()
+    try:
+        frozen = gc.get_freeze_count()
+        parallel.render_all(resolved, ["python", "cpp", "c"], lambda name: {name: name})
+        assert gc.get_freeze_count() == frozen
+    finally:
+        gc.unfreeze()
+    parallel.render_all(resolved, ["python", "cpp", "c"], lambda name: {name: name})
+    assert gc.get_freeze_count() == 0  # what it froze itself, it thawed

@@ -20,7 +20,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
     from mdl.resolve import ResolvedDevice
@@ -70,8 +70,11 @@ def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list
         return [render(name) for name in names]
     warm(device)
     for stream in (sys.stdout, sys.stderr):  # nothing buffered is printed twice by a child
-        stream.flush()
-    gc.freeze()  # the children's collections leave the inherited objects' pages shared
+        if stream is not None:
+            stream.flush()
+    freeze = gc.get_freeze_count() == 0  # a caller's own frozen objects stay as the caller left them
+    if freeze:
+        gc.freeze()  # the children's collections leave the inherited objects' pages shared
     children: dict[str, tuple[int, int]] = {}
     try:
         for name in names[1:]:
@@ -80,14 +83,28 @@ def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list
                 children[name] = child
         out = [render(names[0])]
         for name in names[1:]:
-            out.append(_collect(name, *children.pop(name), render) if name in children else render(name))
+            if name not in children:
+                out.append(render(name))
+                continue
+            pid, fd = children[name]
+            data = _read(fd)  # an interrupt here: the child is still listed, and is stopped below
+            del children[name]
+            files = _files(data, _reap(pid))
+            out.append(files if files is not None else render(name))
         return out
     finally:
-        gc.unfreeze()
-        for pid, fd in children.values():  # an error here: the children left are stopped and waited for
-            os.close(fd)
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
+        if freeze:
+            gc.unfreeze()
+        for pid, fd in children.values():  # an error or an interrupt: the children left are stopped and waited for
+            _stop(pid, fd)
+
+
+def _stop(pid: int, fd: int) -> None:
+    for step in (lambda: os.close(fd), lambda: os.kill(pid, signal.SIGKILL), lambda: os.waitpid(pid, 0)):
+        try:
+            step()
+        except OSError:  # closed already, gone already, or reaped by the system (SIGCHLD ignored)
+            pass
 
 
 def _fork(name: str, render: Render) -> tuple[int, int] | None:
@@ -103,27 +120,47 @@ def _fork(name: str, render: Render) -> tuple[int, int] | None:
         os.close(read_end)
         os.close(write_end)
         return None
-    if pid == 0:  # the child: render, send, and leave without running the parent's exit handlers
-        status = 0
-        try:
-            os.close(read_end)
-            files = render(name)
-            with os.fdopen(write_end, "wb") as out:
-                pickle.dump(files, out, protocol=pickle.HIGHEST_PROTOCOL)
-        except BaseException:  # noqa: BLE001 (whatever it was, the parent renders this target itself)
-            status = 1
-        finally:
-            os._exit(status)
+    if pid == 0:
+        _child(name, render, read_end, write_end)
     os.close(write_end)
     return pid, read_end
 
 
-def _collect(name: str, pid: int, fd: int, render: Render) -> dict[str, str]:
+def _child(name: str, render: Render, read_end: int, write_end: int) -> NoReturn:
+    """Render, send, and leave without running the parent's exit handlers or its code after the fork."""
+    status = 1
+    try:
+        os.close(read_end)
+        files = render(name)
+        with os.fdopen(write_end, "wb") as out:
+            pickle.dump(files, out, protocol=pickle.HIGHEST_PROTOCOL)
+        status = 0
+    except BaseException:  # noqa: BLE001,S110 (whatever it was, the parent renders this target itself)
+        pass
+    finally:
+        os._exit(status)
+
+
+def _read(fd: int) -> bytes:
     with os.fdopen(fd, "rb") as pipe:
-        data = pipe.read()
-    _, status = os.waitpid(pid, 0)
-    if os.waitstatus_to_exitcode(status) == 0 and data:
-        files = pickle.loads(data)  # the child's own whole message: it exits 0 only once it is written
-        if isinstance(files, dict):
-            return files
-    return render(name)  # the child did not finish: render here, as the sequential run would
+        return pipe.read()
+
+
+def _reap(pid: int) -> int | None:
+    """The child's exit status, once it has exited; None where the system reaped it (SIGCHLD ignored)."""
+    try:
+        return os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+    except ChildProcessError:
+        return None
+
+
+def _files(data: bytes, status: int | None) -> dict[str, str] | None:
+    """The files a child sent, or None where it did not send them whole (it exits 0 only once they are
+    written; without its status, a message cut short does not unpickle)."""
+    if status not in (0, None):
+        return None
+    try:
+        files = pickle.loads(data)
+    except Exception:  # noqa: BLE001 (cut short: the child was stopped while it wrote)
+        return None
+    return files if isinstance(files, dict) else None
