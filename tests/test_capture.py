@@ -143,3 +143,27 @@ def test_a_write_only_functions_registers_are_captured_too(write_device, sim_fac
     for server in (sim, replay):
         got = run_mdl("read", *server.connection, "--raw", "co:5", "--format", "json")
         assert got.returncode == 0 and json.loads(got.stdout) == {"co:5": True}, got.stdout + got.stderr
+
+
+def test_a_write_only_register_the_device_will_not_read_is_a_warning(write_device, monkeypatch):
+    """However the device refuses reading a write-only function's registers (any exception, a timeout),
+    the rest of the image is kept and a warning says what was not captured."""
+    from mdl.device import capture, runtime
+    from mdl.device.connection import Connection
+    from mdl.sources.loading import load_resolved
+
+    path = write_device(fn_xml("level", 0, format="UINT16") + fn_xml("reset", 10, format="UINT16", access="write"))
+    resolved = load_resolved(path)
+
+    def read_request(self, req):
+        if req.start == 10:
+            raise runtime.ModbusExceptionError("read of registers 10", 1)
+        return [7] * req.count
+
+    monkeypatch.setattr(runtime.Session, "read_request", read_request)
+    monkeypatch.setattr(runtime.Session, "connect", lambda self: None)
+    image, warnings = capture.capture_described(resolved, Connection(host="127.0.0.1"), 1)
+    assert image["holding"] == {0: 7}
+    assert warnings == [
+        "reset is write-only, and read of registers 10: Modbus exception 1 (ILLEGAL FUNCTION): not captured"
+    ]

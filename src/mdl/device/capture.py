@@ -50,7 +50,13 @@ def capture_described(resolved: ResolvedDevice, connection: Connection, unit: in
             for start, count in f.runs:
                 missing = [a for a in range(start, start + count) if a not in image[f.layout.table]]
                 for first, n in address_runs(missing):
-                    _read_into(session, Request(f.layout.table, first, n, (f.name,)), image, warnings)
+                    req = Request(f.layout.table, first, n, (f.name,))
+                    try:
+                        values = session.read_request(req)
+                    except MdlError as exc:  # write-only: a device may refuse reading it in any way
+                        warnings.append(f"{f.name} is write-only, and {exc.diagnostics[0].message}: not captured")
+                        continue
+                    image[req.table].update(zip(range(req.start, req.end), values, strict=True))
     return image, warnings
 
 
