@@ -113,6 +113,8 @@ def test_the_line_options_alone_set_the_uart(tmp_path):
     assert "the ESP32's UART on GPIO17/GPIO16 runs at 9600 8E2" in proc.stderr
     other = cli("export", EXAMPLES[0], "--to", "telegraf", "--baud", "9600")
     assert other.returncode == 2 and "--baud sets a serial line: it needs --serial DEVICE" in other.stderr
+    for to in ("telegraf", "esphome"):  # an empty device name is no line given by its settings alone
+        assert_clean_error(cli("export", EXAMPLES[0], "--to", to, "--serial", ""), 2, "give the serial device's name")
 
 
 def test_esphome_config_accepts_an_imported_sunspec_chain_and_roles(tmp_path):

@@ -344,7 +344,9 @@ def test_doc_quotes_serial_device_missing(tmp_path):
     missing = str(tmp_path / "ttyUSB9")
     proc = run_mdl("read", TSTAT, "--serial", missing)
     assert proc.returncode == 3
-    _assert_quoted("cannot open serial device D: No such file or directory", proc.stderr, {"D": missing})
+    _assert_quoted(
+        "cannot open serial device D for unit U: No such file or directory", proc.stderr, {"D": missing, "U": "1"}
+    )
 
 
 def test_doc_quotes_permission_denied(tmp_path, monkeypatch):
@@ -365,7 +367,9 @@ def test_doc_quotes_permission_denied(tmp_path, monkeypatch):
     proc = cli(*args)
     assert proc.returncode == 3, proc.stderr
     _assert_quoted(
-        "cannot open serial device /dev/ttyUSB0: Permission denied", proc.stderr, {"/dev/ttyUSB0": str(device)}
+        "cannot open serial device /dev/ttyUSB0 for unit 1: Permission denied",
+        proc.stderr,
+        {"/dev/ttyUSB0": str(device)},
     )
     _assert_quoted("... Permission denied", proc.stderr)
 

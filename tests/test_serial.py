@@ -250,10 +250,13 @@ def test_rtu_replies_are_checked_before_they_are_trusted(lie):
 
 def test_serial_device_that_cannot_be_opened(tmp_path):
     missing = tmp_path / "ttyUSB9"
-    for command in (["read", TSTAT], ["write", TSTAT, "fan_speed=1"]):
+    for command in (["read", TSTAT, "--unit", "7"], ["write", TSTAT, "--unit", "7", "fan_speed=1"]):
         assert_clean_error(
-            cli(*command, "--serial", missing), 3, f"cannot open serial device {missing}: No such file or directory"
+            cli(*command, "--serial", missing),
+            3,
+            f"cannot open serial device {missing} for unit 7: No such file or directory",
         )
+    assert_clean_error(cli("read", TSTAT, "--serial", " "), 2, "give the serial device's name")
     not_a_terminal = tmp_path / "plain"
     not_a_terminal.write_text("")
     assert_clean_error(cli("read", TSTAT, "--serial", not_a_terminal), 3, "not a serial device")
@@ -276,7 +279,7 @@ def test_settings_a_serial_device_refuses(serial_line):
     assert_clean_error(
         cli("read", TSTAT, "--serial", end, "--parity", "E"),
         3,
-        f"cannot open serial device {end}: it refuses 19200 8E1 (",
+        f"cannot open serial device {end} for unit 1: it refuses 19200 8E1 (",
     )
 
 
@@ -285,7 +288,7 @@ def test_a_serial_device_another_program_has_open(serial_line, sim_factory):
     assert_clean_error(
         cli("read", TSTAT, "--serial", serial_line.ends[0]),
         3,
-        f"cannot open serial device {serial_line.ends[0]}: another program has it open",
+        f"cannot open serial device {serial_line.ends[0]} for unit 1: another program has it open",
     )
 
 

@@ -301,6 +301,10 @@ def _build(given: dict[str, Any], serving: bool, optional: bool = False, line_al
     ctx = click.get_current_context()
     explicit = {name for name in given if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT}
     serial, framer = given.get("serial"), given.get("framer")
+    if serial is not None and not serial.strip():
+        raise click.BadParameter(
+            "give the serial device's name (such as /dev/ttyUSB0 or COM3)", param_hint="'--serial'"
+        )
     if serial is not None:
         both = sorted(explicit & {"host", "port"})
         if both:

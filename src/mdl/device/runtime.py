@@ -163,7 +163,8 @@ class Session:
         """Why the connection could not be opened."""
         conn = self.connection
         if conn.serial is not None:
-            return DeviceError(f"cannot open serial device {conn.serial}: {conn.open_error() or 'pymodbus refused it'}")
+            why = conn.open_error() or "pymodbus refused it"
+            return DeviceError(f"cannot open serial device {conn.serial} for {self.asking}: {why}")
         nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
         hint = conn.refused_hint()
         return DeviceError(f"cannot connect to {conn} for {self.asking}: {nobody}{'; ' + hint if hint else ''}")
