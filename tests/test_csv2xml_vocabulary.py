@@ -192,7 +192,7 @@ def test_a_function_section_may_set_every_field(tmp_path, sim_factory):
         "100",
     )
     assert fns["setpoint_sf"]["bits"] == "0-3"
-    assert "setpoint: addresses [11] from [function setpoint] instead of the table's '[10]'" in proc.stderr
+    assert "setpoint: addresses 11 from [function setpoint] instead of the table's '10'" in proc.stderr
     values = read_values(sim_factory, tmp_path / "out.xml", {"holding": {"11": 255, "12": 0, "20": 0x00F3}})
     assert values == {"setpoint": 20.5, "setpoint_sf": 3}
 
@@ -390,6 +390,37 @@ def test_a_function_section_reads_a_row_whose_cell_it_sets(tmp_path, sim_factory
     assert f"{table}:4: warning: other: line 4 names it" in proc.stderr
     values = read_values(sim_factory, tmp_path / "out.xml", {"holding": {"0": 123, "1": 230}})
     assert values == {"amp_l1": 12.3, "volts": 230}
+
+
+def test_a_row_is_read_with_every_essential_field_its_section_sets(tmp_path):
+    """The address list and the format clash in the table; the section gives both: the row is read with
+    both. A section that still leaves the row unreadable is a warning saying why."""
+    table, ini = write(
+        tmp_path,
+        "Address,Description,Format\n0 1,Alpha,UINT16\n2,Beta,UINT16\n3 4,Gamma,UINT16\n",
+        "[Column/Field Indices]\ndescription = Description\naddresses = Address\nformat = Format\n"
+        "[Function Name Search Synonyms]\nalpha = Alpha\nbeta = Beta\ngamma = Gamma\n"
+        "[function alpha]\naddresses = 0,1\nformat = UINT32\n[function gamma]\naddresses = 3,4\n",
+    )
+    proc, fns = convert(tmp_path, table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert (fns["alpha"]["addresses"], fns["alpha"]["format"]) == ("0 1", "UINT32")
+    assert f"{ini}:10: note: alpha: line 2 read with addresses 0,1 from [function alpha]" in proc.stderr
+    assert "gamma" not in fns
+    assert f"{ini}:12: warning: gamma: line 4 cannot be read with [function gamma]'s fields either: " in proc.stderr
+
+
+def test_two_spellings_of_one_section_are_an_error(tmp_path):
+    table, ini = write(
+        tmp_path,
+        "Address,Description,Format\n0,Phase current,UINT16\n",
+        "[Function Name Search Synonyms]\nAmp_L1 = Phase current\n[function amp_l1]\nformat = INT16\n"
+        "[function AMP_L1]\nmultiplier = 0.1\n",
+    )
+    proc, _ = convert(tmp_path, table, ini)
+    assert_clean_error(
+        proc, 1, f"{ini}:5: error: function 'AMP_L1' has two [function] sections ([function amp_l1] too)"
+    )
 
 
 def test_essential_cells_skip_the_row_others_keep_it(tmp_path):

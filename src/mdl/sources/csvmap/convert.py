@@ -302,7 +302,7 @@ def _name_sections(ini: DeviceIni, report: Report) -> None:
     named: dict[str, FunctionSection] = {}
     for name, fs in ini.functions.items():
         same = spelled.get(name.lower(), [])
-        if name not in known and len(same) == 1 and same[0] not in ini.functions:
+        if name not in known and len(same) == 1:  # the INI has one section per name, in any case (ini.py)
             report.note(f"[function {name}] is the section of {same[0]}", fs.line, file=str(ini.path))
             fs.name = name = same[0]
         named[name] = fs

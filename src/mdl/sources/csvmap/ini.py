@@ -136,18 +136,20 @@ class DeviceIni:
 
 
 def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
-    """(section, key) -> line, with (section, None) for the header line."""
+    """(section, key) -> line, with (section, None) for the header line; each section both as written and
+    in lower case (names are case-insensitive, but two spellings of one name are two sections)."""
     out: dict[tuple[str, str | None], int] = {}
-    section = ""
+    names: tuple[str, ...] = ()
     for no, line in enumerate(text.splitlines(), 1):
         m = re.match(r"\s*\[(.+?)\]", line)
         if m:
-            section = m.group(1).strip().lower()
-            out.setdefault((section, None), no)
+            names = (m.group(1).strip(), m.group(1).strip().lower())
+            for name in names:
+                out.setdefault((name, None), no)
             continue
         m = re.match(r"\s*([^#;=:\s][^=:]*?)\s*[=:]", line)
-        if m and section:
-            out.setdefault((section, m.group(1).strip()), no)
+        for name in names if m else ():
+            out.setdefault((name, m.group(1).strip()), no)  # type: ignore[union-attr]
     return out
 
 
@@ -218,7 +220,13 @@ def read_ini(path: Path) -> DeviceIni:
     errors: list[Diagnostic] = []
 
     def where(section: str, key: str | None = None) -> int | None:
-        return lines.get((section.lower(), key)) or lines.get((section.lower(), None))
+        exact = section.strip()
+        return (
+            lines.get((exact, key))
+            or lines.get((section.lower(), key))
+            or lines.get((exact, None))
+            or lines.get((section.lower(), None))
+        )
 
     def warn(section: str, key: str | None, message: str) -> None:
         ini.warnings.append(Diagnostic(str(path), where(section, key), None, message, "warning"))
@@ -260,8 +268,9 @@ def read_ini(path: Path) -> DeviceIni:
                 except ValueError as exc:
                     err(section, key, f"[{section}] {lkey} = {value}: {exc}")
                 fs.lines[lkey] = where(section, key) or 0
-            if fs.name in ini.functions:
-                err(section, None, f"function '{fs.name}' has two [function] sections")
+            twin = next((n for n in ini.functions if n.lower() == fs.name.lower()), None)
+            if twin is not None:  # section names are case-insensitive (SPEC 4.1)
+                err(section, None, f"function '{fs.name}' has two [function] sections ([function {twin}] too)")
             ini.functions[fs.name] = fs
             continue
         if kind is None:

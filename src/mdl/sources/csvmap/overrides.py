@@ -9,6 +9,8 @@ with the section's value in that cell, and a note says so; the section is then a
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from mdl.sources.csvmap.cells import CellError
 from mdl.sources.csvmap.columns import Columns
 from mdl.sources.csvmap.ini import DeviceIni
@@ -29,19 +31,30 @@ def read_with_sections(
 ) -> dict[str, ParsedRow]:
     """`lost`: function name -> the skipped row that is its best (an index into `skipped`, each row with the
     field whose cell could not be read). The functions whose section sets that field, and their rows read
-    with it."""
+    with every essential field the section sets in its cell (its addresses as wire addresses, as the
+    section's are); where that still cannot be read, a warning says why."""
     out: dict[str, ParsedRow] = {}
     for name, i in lost.items():
         row, key = skipped[i]
         fs = ini.functions.get(name)
-        column = cols.index.get(key) if key in ESSENTIAL else None
-        if fs is None or key is None or key not in fs.values or column is None:
+        if fs is None or key is None or key not in fs.values or cols.index.get(key) is None:
             continue
-        cells = list(row.cells) + [""] * max(0, column + 1 - len(row.cells))
-        was, cells[column] = cells[column].strip(), fs.values[key]
+        cells = list(row.cells)
+        was = row.cell(cols.index[key])
+        for field in ESSENTIAL:
+            column = cols.index.get(field)
+            if field in fs.values and column is not None:
+                cells += [""] * max(0, column + 1 - len(cells))
+                cells[column] = fs.values[field]
+        wire = replace(st, address_base="0") if "addresses" in fs.values else st
         try:
-            parsed = parse_row(Row(row.line, cells), cols, st)
-        except CellError:
+            parsed = parse_row(Row(row.line, cells), cols, wire)
+        except CellError as exc:
+            report.warn(
+                f"{name}: line {row.line} cannot be read with [function {name}]'s fields either: {exc}",
+                fs.line,
+                file=str(ini.path),
+            )
             continue
         if parsed is None:
             continue

@@ -166,6 +166,8 @@ def _shown(attr: str, value: object) -> str:
     """A field's value as a note names it: a number as written, a field left out by what it means."""
     if value is None or value == "":
         return _DEFAULT_SHOWN.get(attr, "no value")
+    if isinstance(value, list):  # addresses: as MDL writes them
+        return " ".join(map(str, value))
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
