@@ -4,11 +4,15 @@ FILE:LINE:COL: error), never another exception, however deep or large the text."
 
 from __future__ import annotations
 
+import re
+
+import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from mdl.device.evaluate import evaluate
 from mdl.lang.expr.fields import Compiled, compile_device
+from mdl.lang.expr.lower import lower
 from mdl.lang.expr.nodes import ExprError
 from mdl.lang.expr.parser import MAX_DEPTH, parse
 from mdl.model import BIT_TABLES, Device, Function
@@ -201,3 +205,37 @@ def _refs(node) -> list[str]:
 @given(st.lists(st.sampled_from(NAMED), min_size=1, max_size=8), st.sampled_from([" + ", "+", " * ", "-"]))
 def test_references_are_the_longest_field_ids_written(names, op):
     assert _refs(parse(op.join(names), NAMED)) == names
+
+
+@settings(max_examples=600, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(well_formed, min_size=1, max_size=4), st.integers(0, 60))
+def test_expressions_of_one_shape_share_their_operations_and_nothing_else(texts, shift):
+    """Lowering with the shapes lowered before (as compile_device does for a whole device) gives
+    exactly what lowering each expression alone gives, errors and their columns included: the same
+    expressions with their registers moved take the operations of the first ones."""
+    moved = [re.sub(r"hr:(\d+)", lambda m: f"hr:{int(m.group(1)) + shift}", text) for text in texts]
+    types = {"A": "long", "B c": "double"}
+    done: dict = {}
+    for text in texts + moved:
+        try:
+            alone = lower(parse(text, FIELDS), types)
+        except ExprError as exc:
+            with pytest.raises(ExprError) as shared_error:
+                lower(parse(text, FIELDS), types, done=done)
+            assert (str(shared_error.value), shared_error.value.col) == (str(exc), exc.col)
+            continue
+        shared = lower(parse(text, FIELDS), types, done=done)
+        event(
+            "operations shared"
+            if any(shared.ops is other.ops for other in done.values() if other is not shared)
+            else "lowered"
+        )
+        assert repr(shared.ops) == repr(alone.ops)  # repr: 0.0 and -0.0 differ
+        assert (shared.result, shared.type, shared.table, shared.addresses, shared.refs, shared.shape) == (
+            alone.result,
+            alone.type,
+            alone.table,
+            alone.addresses,
+            alone.refs,
+            alone.shape,
+        )

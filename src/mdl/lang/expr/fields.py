@@ -3,12 +3,12 @@ fields so that every field comes after those it names, type-check and lower each
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from mdl.lang.expr.lower import Lowered, lower, refs_of
+from mdl.lang.expr.lower import Lowered, lower, scan
 from mdl.lang.expr.nodes import ExprError, Node
 from mdl.lang.expr.parser import MAX_DEPTH, FieldIndex, parse
 from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
@@ -105,6 +105,7 @@ def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError
     visiting: set[str] = set()
     erred: set[str] = set()  # names with an error, of errors[:seen]
     seen = 0
+    lowered_before: dict[Hashable, Lowered] = {}  # shape -> an expression of that shape (lower)
 
     def refuse_depth(fn: Function) -> None:
         too_deep.add(fn.name)
@@ -130,8 +131,8 @@ def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError
                 errors.append(FieldError(fn, "the expression refers to itself through other fields", 1))
             return None
         visiting.add(fn.name)
-        refs: list[str] = []
-        refs_of(parsed[fn.name], refs)
+        scanned = scan(parsed[fn.name])
+        refs = scanned.refs
         types: dict[str, str] = {}
         block = blocks[fn.block]
         for ref in refs:
@@ -155,7 +156,8 @@ def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError
             refuse_depth(fn)
             return None
         try:
-            lowered = lower(parsed[fn.name], types, device.max_registers or MAX_REGISTERS)
+            limit = device.max_registers or MAX_REGISTERS
+            lowered = lower(parsed[fn.name], types, limit, lowered_before, scanned)
         except ExprError as exc:
             errors.append(FieldError(fn, str(exc), exc.col))
             return None

@@ -10,7 +10,7 @@ name earlier temps or parameters.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -65,38 +65,71 @@ class Lowered:
     # the parameters (indexes) naming a plain UINT64 function: a long is 64 bits, so the expression
     # sees such a value as its 64 bits, two's complement (above 2^63 - 1, negative) in every target
     wide: tuple[int, ...] = ()
+    # what the operations depend on (Scan.shape, the parameters' types, the register limit): two
+    # expressions of one shape have equal operations, so a target prints them once (with `wide`)
+    shape: Hashable = None
 
 
-def registers_of(node: Node, out: list[tuple[str, list[int], int]]) -> None:
-    """Every register set in the tree: (table, addresses, col)."""
-    if isinstance(node, Registers):
-        out.append((node.table, node.addresses, node.col))
-    for child in _children(node):
-        registers_of(child, out)
+@dataclass
+class Scan:
+    """One walk of a tree: its register sets (table, addresses, col), the fields it names in parameter
+    order (first use first), and its shape: the tree with each address as its distance from the first
+    one and each field as its parameter number. Trees of one shape lower to
+    the same operations (the registers an operation reads are indexes into the sorted addresses, the
+    same for addresses at the same distances; a field is its parameter), for the same field types."""
+
+    registers: list[tuple[str, list[int], int]]
+    refs: list[str]
+    shape: Hashable
 
 
-def refs_of(node: Node, out: list[str]) -> None:
-    if isinstance(node, Ref) and node.name not in out:
-        out.append(node.name)
-    for child in _children(node):
-        refs_of(child, out)
+def scan(node: Node) -> Scan:
+    registers: list[tuple[str, list[int], int]] = []
+    refs: list[str] = []
+    numbers: dict[str, int] = {}
 
+    def walk(node: Node) -> Hashable:
+        kind = type(node)
+        if kind is Ref:
+            assert isinstance(node, Ref)
+            number = numbers.get(node.name)
+            if number is None:
+                number = numbers[node.name] = len(refs)
+                refs.append(node.name)
+            return "p", number
+        if kind is Registers:
+            assert isinstance(node, Registers)
+            registers.append((node.table, node.addresses, node.col))
+            base = registers[0][1][0]
+            return "r", node.table, tuple([a - base for a in node.addresses])
+        if kind is Num:
+            assert isinstance(node, Num)
+            value = node.value  # a float by its repr: 0.0 and -0.0 are equal, and 1 and 1.0
+            return ("f", repr(value)) if isinstance(value, float) else ("i", value)
+        if kind is Str or kind is Bool:
+            assert isinstance(node, (Str, Bool))
+            return kind.__name__, node.value
+        if kind is Constant:
+            assert isinstance(node, Constant)
+            return "k", tuple(node.words)
+        if kind is Binary:
+            assert isinstance(node, Binary)
+            return node.op, walk(node.left), walk(node.right)
+        if kind is Unary or kind is Swap:
+            assert isinstance(node, (Unary, Swap))
+            return kind.__name__, node.op if isinstance(node, Unary) else node.kind, walk(node.arg)
+        assert isinstance(node, Call), node  # the one kind of node left
+        return (
+            node.name,
+            tuple([walk(arg) for arg in node.args]),
+            tuple(map(tuple, node.not_implemented)),
+            tuple(node.mapping.items()),
+            node.bit,
+            node.labels,
+        )
 
-_LEAVES = frozenset((Num, Str, Bool, Ref, Registers, Constant))  # the nodes without children
-
-
-def _children(node: Node) -> list[Node]:
-    if type(node) in _LEAVES:  # most nodes: one lookup instead of four isinstance that fail
-        return []
-    if isinstance(node, Swap):
-        return [node.arg]
-    if isinstance(node, Call):
-        return node.args
-    if isinstance(node, Unary):
-        return [node.arg]
-    if isinstance(node, Binary):
-        return [node.left, node.right]
-    return []
+    shape = walk(node)
+    return Scan(registers, refs, shape)
 
 
 class Lowerer:
@@ -113,9 +146,10 @@ class Lowerer:
         self.ops.append(op)
         return op.tmp, type_
 
-    def lower(self, node: Node) -> Lowered:
-        found: list[tuple[str, list[int], int]] = []
-        registers_of(node, found)
+    def lower(self, node: Node, scanned: Scan | None = None) -> Lowered:
+        if scanned is None:
+            scanned = scan(node)
+        found = scanned.registers
         tables = {t for t, _, _ in found}
         if len(tables) > 1:
             first = found[0][0]
@@ -127,8 +161,7 @@ class Lowerer:
         if len(self.addresses) > limit:
             needs = f"the expression needs {len(self.addresses)} registers"
             raise ExprError(f"{needs}; one request reads at most {limit}", 1)
-        self.refs: list[str] = []
-        refs_of(node, self.refs)
+        self.refs = scanned.refs
         result, type_ = self.value(node)
         if type_ == "regs":
             raise ExprError("registers need a function such as int16(...) or utf8(...)", node.col)
@@ -237,5 +270,29 @@ class Lowerer:
         )
 
 
-def lower(node: Node, ref_types: dict[str, str], max_registers: int = MAX_REGISTERS) -> Lowered:
-    return Lowerer(ref_types, max_registers).lower(node)
+def lower(
+    node: Node,
+    ref_types: dict[str, str],
+    max_registers: int = MAX_REGISTERS,
+    done: dict[Hashable, Lowered] | None = None,
+    scanned: Scan | None = None,
+) -> Lowered:
+    """The operations of the tree, given the types of the fields it names. With `done` (shape ->
+    an expression lowered before), an expression of a shape lowered before takes its operations
+    (the same list, never changed after lowering) and only its own registers and fields are worked
+    out; an expression that fails is lowered again each time, so that its error names its column.
+    `scanned` is scan(node), where the caller has it."""
+    if scanned is None:
+        scanned = scan(node)
+    shape = (scanned.shape, tuple([ref_types[r] for r in scanned.refs]), max_registers)
+    before = done.get(shape) if done is not None else None
+    if before is None:
+        lowered = Lowerer(ref_types, max_registers).lower(node, scanned)
+        lowered.shape = shape
+        if done is not None:
+            done[shape] = lowered
+        return lowered
+    found = scanned.registers
+    table = found[0][0] if found else None
+    addresses = sorted({a for _, addrs, _ in found for a in addrs})
+    return Lowered(before.ops, before.result, before.type, table, addresses, scanned.refs, shape=shape)
