@@ -9,7 +9,7 @@ derives nothing again.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
@@ -19,7 +19,7 @@ from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
 from mdl.plan import Request, plan_groups
 from mdl.resolve.checks import check_device
-from mdl.values.build import build
+from mdl.values.build import build, build_shared
 from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
 
 if TYPE_CHECKING:
@@ -91,6 +91,9 @@ class ResolvedFunction:
     def encode_shape(self) -> str | None:
         """Its encode IR as text, as `decode_shape`."""
         return _shape(self.codec.encode)
+
+
+_NO_TEXT = "\0"  # not a shape's text (a repr has no NUL)
 
 
 def _shape(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None) -> str | None:
@@ -239,9 +242,20 @@ def resolve(device: Device, path: str | None = None) -> ResolvedDevice:
         raise MdlError(found)
     names = [fn.name for fn in device.functions]
     functions = []
+    built: dict[Hashable, Codec] = {}  # build_shared's codecs, one per shape
+    texts: dict[int, str | None] = {}  # id of a function's steps -> _shape of them
     for fn, ident in zip(device.functions, unique_identifiers(names), strict=True):
         expression = compiled.get(fn.name)
         lay = layouts[fn.name] if fn.name in layouts else layout(fn, expression)  # an expression's: its registers
-        functions.append(ResolvedFunction(fn, ident, lay, build(fn, lay, expression), expression))
+        codec = build(fn, lay, expression) if expression is not None else build_shared(fn, lay, built)
+        rf = ResolvedFunction(fn, ident, lay, codec, expression)
+        # functions of one shape share their steps (build_shared): each shape's text is made once, and
+        # put where the cached properties keep it (the steps live as long as the functions: ids hold)
+        for attr, steps in (("decode_shape", codec.decode), ("encode_shape", codec.encode)):
+            text = texts.get(id(steps), _NO_TEXT)
+            if text is _NO_TEXT:
+                text = texts[id(steps)] = _shape(steps)
+            rf.__dict__[attr] = text
+        functions.append(rf)
     warnings = [*device.notes, *(d for d in found if d.severity != "error")]
     return ResolvedDevice(device, tuple(functions), tuple(warnings))

@@ -5,6 +5,7 @@ formats, byte and word orders, "not implemented", scaling, fragments and express
 from __future__ import annotations
 
 import functools
+from collections.abc import Hashable
 
 from mdl.lang.cfrag import compile_fragment
 from mdl.model import CompiledExpression, Function
@@ -229,3 +230,40 @@ def build(fn: Function, lay: Layout, compiled: CompiledExpression | None = None)
         decode=decode_steps(fn, lay, compiled) if fn.readable else None,
         encode=encode_steps(fn, lay) if fn.writable else None,
     )
+
+
+def shape_key(fn: Function, lay: Layout) -> Hashable | None:
+    """Everything `build` reads of a function without an expression, a fragment or function 22,
+    apart from its table and addresses: functions of one key have equal types and steps (numbers by
+    their repr, which tells 0.0 from -0.0 and 1 from 1.0). None for the others, built alone."""
+    if fn.read_function_code is not None or fn.write_function_code is not None:
+        return None
+    return (
+        lay.unit,
+        lay.kind,
+        lay.bits,
+        lay.signed,
+        lay.byte_order,
+        lay.word_order,
+        len(lay.addresses),
+        tuple(fn.not_implemented) if fn.not_implemented else (),
+        fn.bits,
+        fn.scale_exponent is not None,
+        fn.scale_by is not None,
+        fn.readable,
+        fn.writable,
+        repr((fn.eff_multiplier, fn.eff_offset, fn.minimum, fn.maximum)),
+    )
+
+
+def build_shared(fn: Function, lay: Layout, built: dict[Hashable, Codec]) -> Codec:
+    """`build` of a function without an expression, its steps and types taken from a function of
+    the same shape_key built before (`built`, key -> its codec): a large device repeats a few shapes."""
+    key = shape_key(fn, lay)
+    if key is None:
+        return build(fn, lay)
+    before = built.get(key)
+    if before is None:
+        before = built[key] = build(fn, lay)
+        return before
+    return Codec(lay.table, lay.addresses, before.value_type, before.write_type, before.decode, before.encode)
