@@ -9,15 +9,17 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model.names import CLASS_RESERVED, camel, identifier, unique_identifiers
-from mdl.profiles.fit import Binding, Fit, fit
-from mdl.profiles.load import RATIO, Profile, Role, load_profile
-from mdl.profiles.report import fit_diagnostics
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.resolve.checks import position
 from mdl.targets.templating import c_int64
+
+if TYPE_CHECKING:  # the profiles (and PyYAML, which reads them) are imported by `mdl gen --profile` alone
+    from mdl.profiles.fit import Binding, Fit
+    from mdl.profiles.load import Profile, Role
 
 # names the shared Python module defines beside the interface's classes
 PY_MODULE_NAMES = frozenset({"NotProvided", "Protocol"})
@@ -52,6 +54,8 @@ class RoleCode:
     @property
     def unit(self) -> str:
         """The role's unit as the interface's documentation says it ("" for an int or bool role)."""
+        from mdl.profiles.load import RATIO
+
         if self.role.unit is None:
             return ""
         return "1" if self.role.unit == RATIO else self.role.unit
@@ -139,6 +143,10 @@ def prepare(spec: str, resolved: ResolvedDevice, path: str) -> tuple[Interface, 
     to say (each guess of the fit, each role renamed) and the device to generate (its functions named
     after their roles give way); MdlError listing every problem when the device does not fit (the
     diagnostics `mdl validate --profile` prints) or a name would clash."""
+    from mdl.profiles.fit import fit
+    from mdl.profiles.load import load_profile
+    from mdl.profiles.report import fit_diagnostics
+
     profile = load_profile(spec)
     fitted = fit(profile, resolved)
     diagnostics = fit_diagnostics(path, fitted, {f.name: f for f in resolved.device.functions})
