@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from mdl.device.evaluate import evaluate
+from mdl.lang.expr import pyemit
 from mdl.lang.expr.fields import Compiled, compile_device
 from mdl.lang.expr.lower import lower
 from mdl.lang.expr.nodes import ExprError
@@ -231,6 +232,7 @@ def test_expressions_of_one_shape_share_their_operations_and_nothing_else(texts,
             else "lowered"
         )
         assert repr(shared.ops) == repr(alone.ops)  # repr: 0.0 and -0.0 differ
+        assert pyemit.body(shared) == pyemit._body(alone)  # printed once per shape: as it prints alone
         assert (shared.result, shared.type, shared.table, shared.addresses, shared.refs, shared.shape) == (
             alone.result,
             alone.type,

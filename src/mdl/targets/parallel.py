@@ -58,6 +58,7 @@ def warm(device: ResolvedDevice) -> None:
         f.decode_shape  # noqa: B018
         f.encode_shape  # noqa: B018
         f.deps  # noqa: B018
+        f.runs  # noqa: B018 (every target asks each function's runs)
         if f.fn.readable:
             device.slots_of(f)
         if f.deps:

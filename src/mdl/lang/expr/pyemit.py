@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from pathlib import Path
 
 from mdl.lang.cfrag import HELPERS_SOURCE as _C_HELPERS
@@ -89,7 +89,24 @@ PRINTER = printer(
 
 def body(lowered: Lowered) -> list[str]:
     """Lines computing the value from `r` (the function's registers, ascending) and p0..pn (a
-    plain UINT64 one first taken as the long it is: its 64 bits, lowered.wide)."""
+    plain UINT64 one first taken as the long it is: its 64 bits, lowered.wide). Printed once per
+    shape (Lowered.shape: equal shapes have equal operations) and `wide`."""
+    if lowered.shape is None:
+        return _body(lowered)
+    key = (lowered.shape, lowered.wide)
+    lines = _BODIES.get(key)
+    if lines is None:
+        if len(_BODIES) >= _BODIES_KEPT:
+            _BODIES.clear()
+        lines = _BODIES[key] = _body(lowered)
+    return list(lines)
+
+
+_BODIES: dict[Hashable, list[str]] = {}  # (shape, wide) -> body
+_BODIES_KEPT = 4096  # shapes: a device has a few dozen; a process that reads many devices starts again past this
+
+
+def _body(lowered: Lowered) -> list[str]:
     wide = [f"p{i} = None if p{i} is None else _x_long(p{i})" for i in lowered.wide]
     return wide + [PRINTER[op.kind](op) for op in lowered.ops] + [f"return {lowered.result}"]
 
