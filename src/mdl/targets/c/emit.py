@@ -65,7 +65,7 @@ class RangeCheck:
     never: bool = False
 
 
-@dataclass(eq=False)  # compared by identity: one per function
+@dataclass(eq=False, slots=True)  # compared by identity: one per function
 class CFunction:
     """A function as the C driver prints it: each fact the printers (mdl.targets.c.functions) and the
     templates ask of it, worked out once."""
@@ -143,14 +143,15 @@ def int_literal(value: int, t: str) -> str:
     return str(value)
 
 
-def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
-    """A CheckRange for a value of C type t: an integer is compared with the integers nearest inside the
-    bounds, and a test no value of its type can fail is left out (-Wtype-limits; clike.int_bounds)."""
-    bounds = int_bounds(step.minimum, step.maximum, t)
+def _range_check(minimum: float | None, maximum: float | None, t: str) -> RangeCheck:
+    """A CheckRange (or a RoundInt's range) for a value of C type t: an integer is compared with the
+    integers nearest inside the bounds, and a test no value of its type can fail is left out
+    (-Wtype-limits; clike.int_bounds)."""
+    bounds = int_bounds(minimum, maximum, t)
     if bounds is None:
         return RangeCheck(
-            None if step.minimum is None else c_double(step.minimum),
-            None if step.maximum is None else c_double(step.maximum),
+            None if minimum is None else c_double(minimum),
+            None if maximum is None else c_double(maximum),
         )
     return RangeCheck(
         None if bounds.low is None else int_literal(bounds.low, t),
@@ -159,10 +160,26 @@ def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
     )
 
 
+class _RangeChecks:
+    """The range checks of a device's functions, each pair of bounds and type worked out once (a
+    device repeats a few: _range_check). A check is never changed: functions share one."""
+
+    def __init__(self) -> None:
+        self.done: dict[tuple[str, str, str], RangeCheck] = {}
+
+    def __call__(self, minimum: float | None, maximum: float | None, t: str) -> RangeCheck:
+        key = (repr(minimum), repr(maximum), t)  # repr: 0.0 and -0.0 (1 and 1.0) print apart
+        found = self.done.get(key)
+        if found is None:
+            found = self.done[key] = _range_check(minimum, maximum, t)
+        return found
+
+
 def _functions(rd: ResolvedDevice) -> list[CFunction]:
     out: dict[str, CFunction] = {}
     stem = rd.stem
     list_type = f"struct {stem}_list"
+    checks = _RangeChecks()
     for rf in rd.functions:
         codec = rf.codec
         vt = codec.value_type
@@ -194,7 +211,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             encode=encode,
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
             slots=slots,
-            at=clike.first_slot(slots),
+            at=slots[0] if len(slots) == 1 else clike.first_slot(slots),
             merge=merge_rows(codec),
             mask_write=fn.mask_write,
             list_type=list_type,
@@ -207,9 +224,9 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             if isinstance(estep, ir.Fragment):
                 f.write_fragment = f"frag_write_{rf.ident}"
             elif isinstance(estep, ir.CheckRange):
-                f.range_check = _range_check(estep, wt)
+                f.range_check = checks(estep.minimum, estep.maximum, wt)
             elif isinstance(estep, ir.RoundInt):
-                f.round_check = _range_check(ir.CheckRange(estep.low, estep.high), wt)
+                f.round_check = checks(estep.low, estep.high, wt)
         out[rf.name] = f
     for f in out.values():
         if f.rf.deps:
@@ -241,6 +258,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
 def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
     out = []
     for f in functions:
+        if f.read_fragment is None and f.write_fragment is None:
+            continue
         for steps, name in ((f.decode, f.read_fragment), (f.encode, f.write_fragment)):
             for step in steps or ():
                 if isinstance(step, ir.Fragment) and name is not None:

@@ -111,26 +111,17 @@ class CExpression:
         caps = self.caps()
         lines: list[str] = []
         for op in self.lowered.ops:
-            lines += self._lines(op, caps)
+            lines += _PRINT_BY_KIND[id(op.kind)](self, op, caps)
         res = self.lowered.result
         t = self.lowered.type
-        value = res if not res.startswith("p") or t in ("string", "list") else res
-        store = {
-            "string": f"memcpy(out, {value}, strlen({value}) + 1U);",
-            "list": f"*out = {'*' if res.startswith('p') else ''}{value};",
-        }.get(t, f"*out = {value};")
-        return lines + [
-            f"if (!{res}_has) {{",
-            "    *has = false;",
-            "    return 0;",
-            "}",
-            store,
-            "*has = true;",
-            "return 0;",
-        ]
-
-    def _lines(self, op: Op, caps: dict[str, int]) -> list[str]:
-        return PRINTER[op.kind](self, op, caps)
+        if t == "string":
+            store = f"memcpy(out, {res}, strlen({res}) + 1U);"
+        elif t == "list":
+            store = f"*out = {'*' if res.startswith('p') else ''}{res};"
+        else:
+            store = f"*out = {res};"
+        lines += [f"if (!{res}_has) {{", "    *has = false;", "    return 0;", "}", store, "*has = true;", "return 0;"]
+        return lines
 
     def declare(self, op: Op, caps: dict[str, int]) -> list[str]:
         """`tN` and `tN_has` (false) declared, for an operation that sets them where its operands are there."""
@@ -139,8 +130,10 @@ class CExpression:
             return [f"char {t}[{caps[t] + 1}] = {{0}};", f"bool {t}_has = false;"]
         if op.type == "list":
             return [f"{self.list_type} {t};", f"bool {t}_has = false;", f"{t}.count = 0U;"]
-        init = {"long": "0", "double": "0.0", "bool": "false"}[op.type]
-        return [f"{C_TYPES[op.type]} {t} = {init};", f"bool {t}_has = false;"]
+        return [f"{C_TYPES[op.type]} {t} = {_INIT[op.type]};", f"bool {t}_has = false;"]
+
+
+_INIT = {"long": "0", "double": "0.0", "bool": "false"}  # a scalar temporary's value until it has one
 
 
 Print = Callable[[CExpression, Op, dict[str, int]], list[str]]
@@ -322,6 +315,11 @@ PRINTER: Mapping[OpKind, Print] = printer(
         ),
     }
 )
+
+
+# PRINTER by the identity of each kind (one per kind: an enum's members are singletons), looked up
+# for every operation of every expression without the enum's hash, a Python method
+_PRINT_BY_KIND = {id(kind): print_ for kind, print_ in PRINTER.items()}
 
 
 @cache

@@ -27,24 +27,24 @@ def header(functions: list[CFunction], readable: list[CFunction], stem: str, cco
     `struct <stem>_values` and the declarations of `<stem>_read_<name>`/`<stem>_write_<name>`."""
     upper = stem.upper()
     sizes = "".join(f"#define {upper}_{f.ident.upper()}_SIZE {f.text_size}\n" for f in functions if f.is_text)
-    members = []
-    for f in readable:
-        fn = f.fn
-        units = f" [{ccomment(fn.units)}]" if fn.units else ""
-        members.append(f"    /** {ccomment(fn.description)}{units} */\n")
-        members.append(f"    char {f.ident}[{f.text_size}];\n" if f.is_text else f"    {f.t} {f.ident};\n")
-        if f.nullable:
-            members.append(f"    bool has_{f.ident};\n")
+    about: dict[str, str] = {}  # each function's description and units, as its comments print them
     declarations = []
     for f in functions:
         fn = f.fn
-        about = ccomment(fn.description) + (f" [{ccomment(fn.units)}]" if fn.units else "")
+        text = about[f.ident] = ccomment(fn.description) + (f" [{ccomment(fn.units)}]" if fn.units else "")
         if f.decode is not None:
-            declarations.append(f"\n/** Read {about} */\nint {stem}_read_{f.ident}(modbus_t *ctx, {f.t} {_out(f)});\n")
+            declarations.append(f"\n/** Read {text} */\nint {stem}_read_{f.ident}(modbus_t *ctx, {f.t} {_out(f)});\n")
         if f.encode is not None:
             declarations.append(
-                f"\n/** Write {about} */\nint {stem}_write_{f.ident}(modbus_t *ctx, {f.wt_param}value);\n"
+                f"\n/** Write {text} */\nint {stem}_write_{f.ident}(modbus_t *ctx, {f.wt_param}value);\n"
             )
+    members = []
+    for f in readable:
+        ident = f.ident
+        members.append(f"    /** {about[ident]} */\n")
+        members.append(f"    char {ident}[{f.text_size}];\n" if f.is_text else f"    {f.t} {ident};\n")
+        if f.nullable:
+            members.append(f"    bool has_{ident};\n")
     return sizes, "".join(members), "".join(declarations)
 
 
