@@ -25,8 +25,9 @@ from mdl.lang.expr.ops import OpKind
 from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
-from mdl.targets.base import Run, Target, plan_rows, runs_at
+from mdl.targets.base import Run, Target, runs_at
 from mdl.targets.c import expressions, functions
+from mdl.targets.c.plan import plan_tables
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
@@ -87,7 +88,6 @@ class CFunction:
     runs: list[Run]
     slots: tuple[int, ...]
     at: int | None  # the first of its slots in read_all's buffer, if they follow each other
-    merge: list[MergeRow]  # bits: the registers its write merges into
     mask_write: bool  # bits written with function 22 (Mask Write Register)
     read_fragment: str | None = None  # the names of its fragment functions
     write_fragment: str | None = None
@@ -107,6 +107,7 @@ class CFunction:
     reader: int | None = None  # read_<reader> reads its one run and decodes it, if shared
     writer: int | None = None  # write_<writer> encodes a value and writes its one run, if shared
     factor: CFunction | None = None  # the function whose value scales it (scale_exponent, scale_by)
+    merge: list[MergeRow] | tuple[()] = ()  # bits: the registers its write merges into
 
     @property
     def own_expression(self) -> bool:
@@ -212,7 +213,6 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
             slots=slots,
             at=slots[0] if len(slots) == 1 else clike.first_slot(slots),
-            merge=merge_rows(codec),
             mask_write=fn.mask_write,
             list_type=list_type,
         )
@@ -227,6 +227,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
                 f.range_check = checks(estep.minimum, estep.maximum, wt)
             elif isinstance(estep, ir.RoundInt):
                 f.round_check = checks(estep.low, estep.high, wt)
+            elif isinstance(estep, ir.Merge):
+                f.merge = merge_rows(codec)
         out[rf.name] = f
     for f in out.values():
         if f.rf.deps:
@@ -269,7 +271,6 @@ def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
 
 def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     file_stem = rd.stem
-    groups, splits = plan_rows(rd, TABLE_CONST)
     raw_total = rd.buffer_size
     functions = _functions(rd)
     by_name = {f.rf.name: f for f in functions}
@@ -312,8 +313,7 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H",
         "functions": functions,
         "readable": readable,
-        "groups": groups,
-        "splits": splits,
+        "plan": plan_tables(rd, TABLE_CONST),
         "raw_total": raw_total,
         "chunks": clike.chunks(readable, lambda f: f.n, lambda f: f.expr is not None),
         "needed": clike.ranges(sorted({s for f in readable if f.expr is None for s in f.slots})),

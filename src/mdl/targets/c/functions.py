@@ -144,54 +144,53 @@ class Accessors:
     def _step(self, g: CFunction, target: str, runs: Sequence[Request]) -> tuple[str, str]:
         """The declarations of a step's value `target` and the block that reads its registers and
         decodes them into it."""
-        decl = f"    char {target}[{g.text_size}];\n" if g.is_text else f"    {g.t} {target};\n"
-        decl += f"    bool {target}_has = true;\n"
+        value = f"char {target}[{g.text_size}]" if g.is_text else f"{g.t} {target}"
         n = g.n
-        block = ["    {\n"]
+        expression = g.expr is not None
         if n:
-            block.append(f"        uint16_t r[{n}];\n")
-            if g.expr is not None:
-                block.append(f"        const bool present[{n}] = {{ {', '.join(['true'] * n)} }};\n")
-            for table, start, count, at in runs:
-                block.append(
+            present = f"        const bool present[{n}] = {{ {', '.join(['true'] * n)} }};\n" if expression else ""
+            reads = "".join(
+                [
                     f"        if (mdl_read_table(ctx, {table}, {start}, {count}, &r[{at}]) == -1) {{\n"
                     "            return -1;\n        }\n"
-                )
+                    for table, start, count, at in runs
+                ]
+            )
+            registers = f"        uint16_t r[{n}];\n{present}{reads}"
         else:
-            block.append("        const uint16_t *r = NULL;\n        const bool *present = NULL;\n")
-        regs = "r, present" if g.expr is not None else "r"
-        args = _decode_args(g, True, target, f"&{target}_has", regs)
-        block.append(f"        if (decode_{g.decoder}({args}) == -1) {{\n            return -1;\n        }}\n    }}\n")
-        return decl, "".join(block)
+            registers = "        const uint16_t *r = NULL;\n        const bool *present = NULL;\n"
+        args = _decode_args(g, True, target, f"&{target}_has", "r, present" if expression else "r")
+        return (
+            f"    {value};\n    bool {target}_has = true;\n",
+            f"    {{\n{registers}        if (decode_{g.decoder}({args}) == -1) {{\n"
+            "            return -1;\n        }\n    }\n",
+        )
 
     def read_body(self, f: CFunction, runs: Sequence[Request]) -> str:
         """The body of a read of f: its registers (from runs for a function without dependencies,
         else each function's own) and those of the functions it needs, each read into r (and
         present) and decoded into its value, the last into *out."""
         steps = f.steps
-        decls = []
-        blocks = []
         if len(steps) == 1:
-            decl, block = self._step(f, "value", runs)
-            decls.append(decl)
-            blocks.append(block)
+            decls, blocks = self._step(f, "value", runs)
         else:
+            done = self.steps
+            parts = []
             for g in steps[:-1]:
-                found = self.steps.get(g.ident)
+                found = done.get(g.ident)
                 if found is None:
-                    found = self.steps[g.ident] = self._step(g, f"v_{g.ident}", g.runs)
-                decls.append(found[0])
-                blocks.append(found[1])
+                    found = done[g.ident] = self._step(g, f"v_{g.ident}", g.runs)
+                parts.append(found)
             last = steps[-1]
-            decl, block = self._step(last, "value", last.runs)
-            decls.append(decl)
-            blocks.append(block)
+            parts.append(self._step(last, "value", last.runs))
+            decls = "".join([decl for decl, _ in parts])
+            blocks = "".join([block for _, block in parts])
         if f.nullable:
             end = "    if (!value_has) {\n        errno = ENODATA;\n        return -1;\n    }\n"
         else:
             end = "    (void)value_has;\n"
         store = "    memcpy(out, value, sizeof value);\n" if f.is_text else "    *out = value;\n"
-        return "".join(decls) + "".join(blocks) + end + store + "    return 0;\n"
+        return f"{decls}{blocks}{end}{store}    return 0;\n"
 
     def write_body(self, f: CFunction, runs: Sequence[Request]) -> str:
         """The body of a write of f: its value encoded (with its scale factor, read first), then written
