@@ -76,17 +76,19 @@ class CExpression:
         return self.caps()[self.lowered.result]
 
     def caps(self) -> dict[str, int]:
+        """The capacity of each text or list value: parameters and temporaries (the statements
+        ask no other's)."""
         caps = dict(self.param_caps)
         for op in self.lowered.ops:
-            caps[op.tmp] = self._cap(op, caps)
+            if op.type == "string" or op.type == "list":
+                caps[op.tmp] = self._cap(op, caps)
         return caps
 
     def _cap(self, op: Op, caps: dict[str, int]) -> int:
+        """The capacity of the value of a text or list operation."""
         d = op.data
         if op.type == "list":
             return 2 + sum(len(label.encode()) + 2 for label in _labels(d.get("mapping", {}), 16 * d["count"]))
-        if op.type != "string":
-            return 0
         if op.kind is OpKind.LIT:
             return len(str(d["value"]).encode("utf-8"))
         if op.kind is OpKind.LABEL:
@@ -161,9 +163,9 @@ def _lit(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
 
 def _regs(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, d = op.tmp, op.data
-    present = " && ".join(f"present[{i}]" for i in d["index"])
+    present = " && ".join([f"present[{i}]" for i in d["index"]])
     return [
-        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
+        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join([f"r[{i}]" for i in d["index"]]) + "};",
         f"const bool {t}_has = {present};",
     ]
 
@@ -240,9 +242,9 @@ def _register(body: Callable[[Op, str, str, int], list[str]]) -> Print:
     def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, a, d = op.tmp, op.args[0], op.data
         guard = f"{a}_has" + "".join(
-            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"]
+            [" && !(" + " && ".join([f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)]) + ")" for g in d["ni"]]
         )
-        return [*e.declare(op, caps), f"if ({guard}) {{", *("    " + line for line in body(op, t, a, d["count"])), "}"]
+        return [*e.declare(op, caps), f"if ({guard}) {{", *["    " + line for line in body(op, t, a, d["count"])], "}"]
 
     return lines
 

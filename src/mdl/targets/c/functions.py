@@ -263,27 +263,23 @@ class Accessors:
             writes = f.encode is not None
             if not reads and not writes:
                 continue
-            out.append(f"\n/* {self.ccomment(f.fn.name)} */\n")
+            text = f"\n/* {self.ccomment(f.fn.name)} */\n"
             if reads:
-                out.append(f"int {stem}_read_{f.ident}(modbus_t *ctx, {f.t} {_out(f)}) {{\n")
                 if f.reader is not None:
                     table, start, _, _ = f.runs[0]
-                    out.append(f"    return read_{f.reader}(ctx, {table}, {start}, out);\n")
+                    body = f"    return read_{f.reader}(ctx, {table}, {start}, out);\n"
                 else:
-                    if not f.reads_device:
-                        out.append("    (void)ctx;\n")
-                    out.append(self.read_body(f, f.runs))
-                out.append("}\n")
+                    body = ("" if f.reads_device else "    (void)ctx;\n") + self.read_body(f, f.runs)
+                text += f"int {stem}_read_{f.ident}(modbus_t *ctx, {f.t} {_out(f)}) {{\n{body}}}\n"
             if writes:
-                if reads:
-                    out.append("\n")
-                out.append(f"int {stem}_write_{f.ident}(modbus_t *ctx, {f.wt_param}value) {{\n")
                 if f.writer is not None:
                     table, start, _, _ = f.runs[0]
-                    out.append(f"    return write_{f.writer}(ctx, {table}, {start}, value);\n")
+                    body = f"    return write_{f.writer}(ctx, {table}, {start}, value);\n"
                 else:
-                    out.append(self.write_body(f, f.runs))
-                out.append("}\n")
+                    body = self.write_body(f, f.runs)
+                between = "\n" if reads else ""
+                text += f"{between}int {stem}_write_{f.ident}(modbus_t *ctx, {f.wt_param}value) {{\n{body}}}\n"
+            out.append(text)
         return "".join(out)
 
 
