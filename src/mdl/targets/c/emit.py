@@ -93,7 +93,6 @@ class CFunction:
     write_fragment: str | None = None
     range_check: RangeCheck | None = None
     round_check: RangeCheck | None = None
-    list_type: str = ""
     list_cap: int = 0  # a list (bitset): the capacity of its text as concat prints it, [a, b]
     deps: list[CFunction] = field(default_factory=list)
     steps: list[CFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
@@ -214,7 +213,6 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
             slots=slots,
             at=slots[0] if len(slots) == 1 else clike.first_slot(slots),
             mask_write=fn.mask_write,
-            list_type=list_type,
         )
         if rf.decode_shape is None:  # a fragment or an expression: the shapes of the others have none
             for step in decode or ():
@@ -313,6 +311,7 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H",
         "functions": functions,
         "readable": readable,
+        "by_name": by_name,  # a profile role's function (roles.j2)
         "plan": plan_tables(rd, TABLE_CONST),
         "raw_total": raw_total,
         "chunks": clike.chunks(readable, lambda f: f.n, lambda f: f.expr is not None),
@@ -387,7 +386,6 @@ def render_resolved(rd: ResolvedDevice, source_name: str, interface: Interface |
         read_all_parts=functions.read_all_parts(ctx["chunks"], stem),
     )
     env.globals["profile"] = interface
-    env.globals["by_name"] = {f.rf.name: f for f in all_functions}
     env.globals["int_write"] = int_write  # a profile role written to an integer function (roles.j2)
     env.globals["not_provided"] = NOT_PROVIDED_ERRNO
     driver = {

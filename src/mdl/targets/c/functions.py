@@ -58,7 +58,7 @@ def _s(count: int) -> str:
     return "s" if count > 1 else ""
 
 
-def expression_decoder(f: CFunction, name: str) -> str:
+def _expression_decoder(f: CFunction, name: str) -> str:
     """`decode_<name>`: the decoder of expression function f (and of every function of the same
     expression), its statements from mdl.targets.c.expressions."""
     params = "".join(f", {d.param_type}p{i}, bool p{i}_has" for i, d in enumerate(f.deps))
@@ -81,7 +81,7 @@ def codecs(functions: list[CFunction], shared: Shared[CFunction], ccomment: Comm
                 f"{d.text}}}\n"
             )
         else:
-            out.append(expression_decoder(d.proto, str(d.k)) + "\n")
+            out.append(_expression_decoder(d.proto, str(d.k)) + "\n")
     for e in shared.encoders:
         first = e.first
         out.append(
@@ -90,10 +90,12 @@ def codecs(functions: list[CFunction], shared: Shared[CFunction], ccomment: Comm
         )
     for f in functions:
         if f.own_expression:
-            out.append(f"\n/* {ccomment(f.fn.name)} */\n{expression_decoder(f, f.ident)}")
+            out.append(f"\n/* {ccomment(f.fn.name)} */\n{_expression_decoder(f, f.ident)}")
         elif f.decode_text:
-            p = "double " if f.factor is not None else None
-            params = "".join(f", {p or d.param_type}p{i}, bool p{i}_has" for i, d in enumerate(f.deps))
+            scaled = f.factor is not None  # its one parameter, the factor, as a double
+            params = "".join(
+                f", {'double ' if scaled else d.param_type}p{i}, bool p{i}_has" for i, d in enumerate(f.deps)
+            )
             out.append(
                 f"\n/* {ccomment(f.fn.name)} */\n"
                 f"static int decode_{f.ident}(const uint16_t *r{params}, {f.t} *out, bool *has) {{\n{f.decode_text}}}\n"
@@ -107,7 +109,7 @@ def codecs(functions: list[CFunction], shared: Shared[CFunction], ccomment: Comm
 
 
 def _factor_param(f: CFunction) -> str:
-    """The scale factor an encoder of f takes, if any."""
+    """The parameter of the scale factor that a shared decoder or an encoder of f takes, if any."""
     return "double p0, bool p0_has, " if f.factor is not None else ""
 
 
