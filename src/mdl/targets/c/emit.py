@@ -1,9 +1,11 @@
 """Resolved device -> C99 driver on libmodbus (<stem>.h / <stem>.c), SPEC section 5, docs/c-api.md.
 
-The templates print each function's value IR (mdl.values.ir) with one Jinja macro per step kind;
-this module only gathers what they print: each function's steps, C types and the registers it
-reads, the read plan, and the runtime the driver carries (the .c files of runtime/, fragments'
-helpers from mdl.lang.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
+The templates print each function's value IR (mdl.values.ir) with one Jinja macro per step kind
+(steps.j2) and the files' skeletons; mdl.targets.c.functions prints the parts of every function
+(declarations, reads and writes, read_all's parts) and mdl.targets.c.plan the read plan's tables.
+This module gathers what they print: each function's steps, C types and the registers it reads,
+the read plan, and the runtime the driver carries (the .c files of runtime/, fragments' helpers
+from mdl.lang.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
 allocates at run time: every buffer is an array of a size known when the driver is generated.
 """
 
@@ -80,7 +82,7 @@ class CFunction:
     wt_param: str  # how a write's parameter of that type is declared, up to its name
     param_type: str  # the C type of an expression's parameter naming it (a scalar one is converted to it)
     text_size: int  # text: the array's size (bytes + NUL), else 0
-    is_text: bool
+    is_text: bool  # text_size > 0 (an expression's text once its capacity is known)
     nullable: bool
     expr: Any  # expressions.CExpression, or None
     decode: tuple[ir.DecodeStep, ...] | None

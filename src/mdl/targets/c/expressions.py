@@ -339,5 +339,6 @@ def _parts() -> list[RuntimePart]:
 def runtime(exprs: list[CExpression]) -> str:
     """The runtime parts the expressions call, and those they call in turn, in expr.c's order
     (templating.pick)."""
-    code = "\n".join({line for e in exprs for line in e.body()})  # each distinct line scanned once
+    # each distinct line that calls the runtime (names x_<name>) scanned once
+    code = "\n".join({line for e in exprs for line in e.body() if "x_" in line})
     return "\n".join(part.source for part in pick(_parts(), _NAME.findall(code)))
