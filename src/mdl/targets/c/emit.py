@@ -1,9 +1,11 @@
 """Resolved device -> C99 driver on libmodbus (<stem>.h / <stem>.c), SPEC section 5, docs/c-api.md.
 
-The templates print each function's value IR (mdl.values.ir) with one Jinja macro per step kind;
-this module only gathers what they print: each function's steps, C types and the registers it
-reads, the read plan, and the runtime the driver carries (the .c files of runtime/, fragments'
-helpers from mdl.lang.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
+The templates print each function's value IR (mdl.values.ir) with one Jinja macro per step kind
+(steps.j2) and the files' skeletons; mdl.targets.c.functions prints the parts of every function
+(declarations, reads and writes, read_all's parts) and mdl.targets.c.plan the read plan's tables.
+This module gathers what they print: each function's steps, C types and the registers it reads,
+the read plan, and the runtime the driver carries (the .c files of runtime/, fragments' helpers
+from mdl.lang.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
 allocates at run time: every buffer is an array of a size known when the driver is generated.
 """
 
@@ -22,10 +24,12 @@ from mdl.diagnostics import error
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.ops import OpKind
+from mdl.model import Function
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
-from mdl.targets.base import Run, Target, plan_rows, runs_at
-from mdl.targets.c import expressions
+from mdl.targets.base import Run, Target, runs_at
+from mdl.targets.c import expressions, functions
+from mdl.targets.c.plan import plan_tables
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
@@ -64,29 +68,37 @@ class RangeCheck:
     never: bool = False
 
 
-@dataclass(eq=False)  # compared by identity: one per function
+@dataclass(eq=False, slots=True)  # compared by identity: one per function
 class CFunction:
+    """A function as the C driver prints it: each fact the printers (mdl.targets.c.functions) and the
+    templates ask of it, worked out once."""
+
     rf: ResolvedFunction
+    fn: Function
     ident: str
     n: int  # registers (or bits)
     t: str  # C type of the value (char for text)
     wt: str  # C type a write takes
+    wt_param: str  # how a write's parameter of that type is declared, up to its name
+    param_type: str  # the C type of an expression's parameter naming it (a scalar one is converted to it)
     text_size: int  # text: the array's size (bytes + NUL), else 0
+    is_text: bool  # text_size > 0 (an expression's text once its capacity is known)
     nullable: bool
     expr: Any  # expressions.CExpression, or None
     decode: tuple[ir.DecodeStep, ...] | None
     encode: tuple[ir.EncodeStep, ...] | None
     runs: list[Run]
-    slots: list[int]
+    slots: tuple[int, ...]
     at: int | None  # the first of its slots in read_all's buffer, if they follow each other
+    mask_write: bool  # bits written with function 22 (Mask Write Register)
     read_fragment: str | None = None  # the names of its fragment functions
     write_fragment: str | None = None
     range_check: RangeCheck | None = None
     round_check: RangeCheck | None = None
-    list_type: str = ""
     list_cap: int = 0  # a list (bitset): the capacity of its text as concat prints it, [a, b]
     deps: list[CFunction] = field(default_factory=list)
     steps: list[CFunction] = field(default_factory=list)  # what read_<name> decodes, dependencies first
+    reads_device: bool = False  # whether read_<ident> reads registers (of its own or of the functions it needs)
     # its decoder decode_<decoder> and encoder encode_<encoder>: a shared one's number, or its own
     # identifier with its body (templates/steps.j2) in decode_text (not for an expression) and encode_text
     decoder: str = ""
@@ -96,33 +108,7 @@ class CFunction:
     reader: int | None = None  # read_<reader> reads its one run and decodes it, if shared
     writer: int | None = None  # write_<writer> encodes a value and writes its one run, if shared
     factor: CFunction | None = None  # the function whose value scales it (scale_exponent, scale_by)
-    merge: list[MergeRow] = field(default_factory=list)  # bits: the registers its write merges into
-    mask_write: bool = False  # bits written with function 22 (Mask Write Register)
-
-    @property
-    def fn(self) -> Any:
-        return self.rf.fn
-
-    @property
-    def reads_device(self) -> bool:
-        """Whether read_<ident> reads registers (of its own or of the functions it needs)."""
-        return any(step.n for step in self.steps)
-
-    @property
-    def is_text(self) -> bool:
-        return self.text_size > 0
-
-    @property
-    def param_type(self) -> str:
-        """The C type of an expression's parameter naming this function (as the expression sees it;
-        a scalar one is converted to it)."""
-        if self.t == "char":
-            return "const char *"
-        if self.t.startswith("struct"):
-            return f"const {self.t} *"
-        if self.expr is None and self.t != "bool":
-            return "int64_t " if self.rf.codec.value_type.kind == "int" else "double "
-        return f"{self.t} "
+    merge: list[MergeRow] | tuple[()] = ()  # bits: the registers its write merges into
 
     @property
     def own_expression(self) -> bool:
@@ -136,6 +122,18 @@ class CFunction:
         return self.read_fragment is not None
 
 
+def _param_type(t: str, expr: object, value_kind: str) -> str:
+    """The C type of an expression's parameter naming a function of C type t (as the expression sees
+    it; a scalar one is converted to it)."""
+    if t == "char":
+        return "const char *"
+    if t.startswith("struct"):
+        return f"const {t} *"
+    if expr is None and t != "bool":
+        return "int64_t " if value_kind == "int" else "double "
+    return f"{t} "
+
+
 def int_literal(value: int, t: str) -> str:
     """A C literal of an integer in a comparison with a value of type t."""
     if t in ("int64_t", "uint64_t") or not -(1 << 31) <= value < (1 << 31):
@@ -147,14 +145,15 @@ def int_literal(value: int, t: str) -> str:
     return str(value)
 
 
-def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
-    """A CheckRange for a value of C type t: an integer is compared with the integers nearest inside the
-    bounds, and a test no value of its type can fail is left out (-Wtype-limits; clike.int_bounds)."""
-    bounds = int_bounds(step.minimum, step.maximum, t)
+def _range_check(minimum: float | None, maximum: float | None, t: str) -> RangeCheck:
+    """A CheckRange (or a RoundInt's range) for a value of C type t: an integer is compared with the
+    integers nearest inside the bounds, and a test no value of its type can fail is left out
+    (-Wtype-limits; clike.int_bounds)."""
+    bounds = int_bounds(minimum, maximum, t)
     if bounds is None:
         return RangeCheck(
-            None if step.minimum is None else c_double(step.minimum),
-            None if step.maximum is None else c_double(step.maximum),
+            None if minimum is None else c_double(minimum),
+            None if maximum is None else c_double(maximum),
         )
     return RangeCheck(
         None if bounds.low is None else int_literal(bounds.low, t),
@@ -163,52 +162,84 @@ def _range_check(step: ir.CheckRange, t: str) -> RangeCheck:
     )
 
 
+class _RangeChecks:
+    """The range checks of a device's functions, each pair of bounds and type worked out once (a
+    device repeats a few: _range_check). A check is never changed: functions share one."""
+
+    def __init__(self) -> None:
+        self.done: dict[tuple[str, str, str], RangeCheck] = {}
+
+    def __call__(self, minimum: float | None, maximum: float | None, t: str) -> RangeCheck:
+        key = (repr(minimum), repr(maximum), t)  # repr: 0.0 and -0.0 (1 and 1.0) print apart
+        found = self.done.get(key)
+        if found is None:
+            found = self.done[key] = _range_check(minimum, maximum, t)
+        return found
+
+
 def _functions(rd: ResolvedDevice) -> list[CFunction]:
     out: dict[str, CFunction] = {}
-    list_type = f"struct {rd.stem}_list"
+    stem = rd.stem
+    list_type = f"struct {stem}_list"
+    checks = _RangeChecks()
     for rf in rd.functions:
         codec = rf.codec
         vt = codec.value_type
+        t = c_type(vt, stem)
+        wt = c_type(codec.write_type, stem)
         text_size = vt.nbytes + 1 if vt.kind == "string" else 0
         expr = None
-        slots = list(rd.slots_of(rf)) if codec.decode else []
-        if vt.kind == "expr" and codec.decode is not None:
-            step = codec.decode[0]
+        decode, encode = codec.decode, codec.encode
+        slots = rd.slots_of(rf) if decode else ()
+        if vt.kind == "expr" and decode is not None:
+            step = decode[0]
             assert isinstance(step, ir.Expression)
             expr = expressions.CExpression(rf.ident, step.lowered, list_type)
+        fn = rf.fn
         f = CFunction(
             rf=rf,
+            fn=fn,
             ident=rf.ident,
             n=len(rf.layout.addresses),
-            t=c_type(vt, rd.stem),
-            wt=c_type(codec.write_type, rd.stem),
+            t=t,
+            wt=wt,
+            wt_param="const char *" if wt == "char" else wt + " ",
+            param_type=_param_type(t, expr, vt.kind),
             text_size=text_size,
+            is_text=text_size > 0,
             nullable=vt.nullable,
             expr=expr,
-            decode=codec.decode,
-            encode=codec.encode,
+            decode=decode,
+            encode=encode,
             runs=runs_at(TABLE_CONST[rf.layout.table], rf.runs),
             slots=slots,
-            at=clike.first_slot(slots),
-            merge=merge_rows(codec),
-            mask_write=rf.fn.mask_write,
+            at=slots[0] if len(slots) == 1 else clike.first_slot(slots),
+            mask_write=fn.mask_write,
         )
-        for step in codec.decode or ():
-            if isinstance(step, ir.Fragment):
-                f.read_fragment = f"frag_read_{rf.ident}"
-        for estep in codec.encode or ():
+        if rf.decode_shape is None:  # a fragment or an expression: the shapes of the others have none
+            for step in decode or ():
+                if isinstance(step, ir.Fragment):
+                    f.read_fragment = f"frag_read_{rf.ident}"
+        for estep in encode or ():
             if isinstance(estep, ir.Fragment):
                 f.write_fragment = f"frag_write_{rf.ident}"
-            if isinstance(estep, ir.CheckRange):
-                f.range_check = _range_check(estep, f.wt)
-            if isinstance(estep, ir.RoundInt):
-                f.round_check = _range_check(ir.CheckRange(estep.low, estep.high), f.wt)
-        f.list_type = list_type
+            elif isinstance(estep, ir.CheckRange):
+                f.range_check = checks(estep.minimum, estep.maximum, wt)
+            elif isinstance(estep, ir.RoundInt):
+                f.round_check = checks(estep.low, estep.high, wt)
+            elif isinstance(estep, ir.Merge):
+                f.merge = merge_rows(codec)
         out[rf.name] = f
     for f in out.values():
-        f.deps = [out[d] for d in f.rf.deps]
-        f.factor = out[f.fn.factor] if f.fn.factor is not None else None
-        f.steps = [out[g.name] for g in rd.closure([f.rf.name])] if f.deps else [f]
+        if f.rf.deps:
+            f.deps = [out[d] for d in f.rf.deps]
+            f.steps = [out[g.name] for g in rd.closure([f.rf.name])]
+            f.reads_device = any(step.n for step in f.steps)
+        else:
+            f.steps = [f]
+            f.reads_device = f.n > 0
+        if f.fn.factor is not None:
+            f.factor = out[f.fn.factor]
     # each expression after the functions it names (whatever their order in the file), so that the
     # text capacity of each text or list parameter is known: its buffers hold its longest value
     for rf in rd.closure([f.rf.name for f in out.values() if f.expr is not None]):
@@ -220,6 +251,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
                 f.expr.param_caps[f"p{i}"] = d.text_size - 1 if d.is_text else d.list_cap
         if f.t == "char":
             f.text_size = f.expr.result_cap + 1
+            f.is_text = True
         elif f.expr.type == "list":
             f.list_cap = f.expr.result_cap
     return list(out.values())
@@ -228,6 +260,8 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
 def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
     out = []
     for f in functions:
+        if f.read_fragment is None and f.write_fragment is None:
+            continue
         for steps, name in ((f.decode, f.read_fragment), (f.encode, f.write_fragment)):
             for step in steps or ():
                 if isinstance(step, ir.Fragment) and name is not None:
@@ -237,7 +271,6 @@ def _fragments(functions: list[CFunction]) -> list[tuple[str, CFragment]]:
 
 def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
     file_stem = rd.stem
-    groups, splits = plan_rows(rd, TABLE_CONST)
     raw_total = rd.buffer_size
     functions = _functions(rd)
     by_name = {f.rf.name: f for f in functions}
@@ -280,8 +313,8 @@ def context(rd: ResolvedDevice, source_name: str) -> dict[str, Any]:
         "guard": f"MDL_{file_stem.upper().rstrip('_')}_C_H",
         "functions": functions,
         "readable": readable,
-        "groups": groups,
-        "splits": splits,
+        "by_name": by_name,  # a profile role's function (roles.j2)
+        "plan": plan_tables(rd, TABLE_CONST),
         "raw_total": raw_total,
         "chunks": clike.chunks(readable, lambda f: f.n, lambda f: f.expr is not None),
         "needed": clike.ranges(sorted({s for f in readable if f.expr is None for s in f.slots})),
@@ -341,20 +374,31 @@ def render_resolved(rd: ResolvedDevice, source_name: str, interface: Interface |
     env = environment()
     env.tests["instance_of"] = lambda obj, name: type(obj).__name__ == name
     env.globals.update(ctx)
-    env.globals["shared"] = share(ctx["functions"], env)
+    all_functions: list[CFunction] = ctx["functions"]
+    shared = share(all_functions, env)
+    ccomment = env.filters["ccomment"]
+    stem = ctx["stem"]
+    sizes, members, declarations = functions.header(all_functions, ctx["readable"], stem, ccomment)
+    env.globals.update(
+        sizes=sizes,
+        members=members,
+        declarations=declarations,
+        codecs=functions.codecs(all_functions, shared, ccomment),
+        accessors=functions.Accessors(stem, ccomment).print(all_functions, shared),
+        read_all_parts=functions.read_all_parts(ctx["chunks"], stem),
+    )
     env.globals["profile"] = interface
-    env.globals["by_name"] = {f.rf.name: f for f in ctx["functions"]}
     env.globals["int_write"] = int_write  # a profile role written to an integer function (roles.j2)
     env.globals["not_provided"] = NOT_PROVIDED_ERRNO
     driver = {
-        f"{ctx['stem']}.h": env.get_template("c/templates/device.h.j2").render(),
-        f"{ctx['stem']}.c": env.get_template("c/templates/device.c.j2").render(),
+        f"{stem}.h": env.get_template("c/templates/device.h.j2").render(),
+        f"{stem}.c": env.get_template("c/templates/device.c.j2").render(),
     }
     if interface is None:
         return driver
     _check_profile_names(interface, rd, driver)
-    shared = env.get_template("c/templates/profile.h.j2").render(iface=interface, version=__version__)
-    return check_files(interface, driver, {interface.header: shared})
+    shared_header = env.get_template("c/templates/profile.h.j2").render(iface=interface, version=__version__)
+    return check_files(interface, driver, {interface.header: shared_header})
 
 
 def _check_profile_names(interface: Interface, rd: ResolvedDevice, driver: dict[str, str]) -> None:

@@ -76,17 +76,19 @@ class CExpression:
         return self.caps()[self.lowered.result]
 
     def caps(self) -> dict[str, int]:
+        """The capacity of each text or list value: parameters and temporaries (the statements
+        ask no other's)."""
         caps = dict(self.param_caps)
         for op in self.lowered.ops:
-            caps[op.tmp] = self._cap(op, caps)
+            if op.type == "string" or op.type == "list":
+                caps[op.tmp] = self._cap(op, caps)
         return caps
 
     def _cap(self, op: Op, caps: dict[str, int]) -> int:
+        """The capacity of the value of a text or list operation."""
         d = op.data
         if op.type == "list":
             return 2 + sum(len(label.encode()) + 2 for label in _labels(d.get("mapping", {}), 16 * d["count"]))
-        if op.type != "string":
-            return 0
         if op.kind is OpKind.LIT:
             return len(str(d["value"]).encode("utf-8"))
         if op.kind is OpKind.LABEL:
@@ -111,26 +113,17 @@ class CExpression:
         caps = self.caps()
         lines: list[str] = []
         for op in self.lowered.ops:
-            lines += self._lines(op, caps)
+            lines += _PRINT_BY_KIND[id(op.kind)](self, op, caps)
         res = self.lowered.result
         t = self.lowered.type
-        value = res if not res.startswith("p") or t in ("string", "list") else res
-        store = {
-            "string": f"memcpy(out, {value}, strlen({value}) + 1U);",
-            "list": f"*out = {'*' if res.startswith('p') else ''}{value};",
-        }.get(t, f"*out = {value};")
-        return lines + [
-            f"if (!{res}_has) {{",
-            "    *has = false;",
-            "    return 0;",
-            "}",
-            store,
-            "*has = true;",
-            "return 0;",
-        ]
-
-    def _lines(self, op: Op, caps: dict[str, int]) -> list[str]:
-        return PRINTER[op.kind](self, op, caps)
+        if t == "string":
+            store = f"memcpy(out, {res}, strlen({res}) + 1U);"
+        elif t == "list":
+            store = f"*out = {'*' if res.startswith('p') else ''}{res};"
+        else:
+            store = f"*out = {res};"
+        lines += [f"if (!{res}_has) {{", "    *has = false;", "    return 0;", "}", store, "*has = true;", "return 0;"]
+        return lines
 
     def declare(self, op: Op, caps: dict[str, int]) -> list[str]:
         """`tN` and `tN_has` (false) declared, for an operation that sets them where its operands are there."""
@@ -139,8 +132,10 @@ class CExpression:
             return [f"char {t}[{caps[t] + 1}] = {{0}};", f"bool {t}_has = false;"]
         if op.type == "list":
             return [f"{self.list_type} {t};", f"bool {t}_has = false;", f"{t}.count = 0U;"]
-        init = {"long": "0", "double": "0.0", "bool": "false"}[op.type]
-        return [f"{C_TYPES[op.type]} {t} = {init};", f"bool {t}_has = false;"]
+        return [f"{C_TYPES[op.type]} {t} = {_INIT[op.type]};", f"bool {t}_has = false;"]
+
+
+_INIT = {"long": "0", "double": "0.0", "bool": "false"}  # a scalar temporary's value until it has one
 
 
 Print = Callable[[CExpression, Op, dict[str, int]], list[str]]
@@ -168,9 +163,9 @@ def _lit(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
 
 def _regs(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
     t, d = op.tmp, op.data
-    present = " && ".join(f"present[{i}]" for i in d["index"])
+    present = " && ".join([f"present[{i}]" for i in d["index"]])
     return [
-        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join(f"r[{i}]" for i in d["index"]) + "};",
+        f"const uint16_t {t}[{d['count']}] = {{" + ", ".join([f"r[{i}]" for i in d["index"]]) + "};",
         f"const bool {t}_has = {present};",
     ]
 
@@ -247,9 +242,9 @@ def _register(body: Callable[[Op, str, str, int], list[str]]) -> Print:
     def lines(e: CExpression, op: Op, caps: dict[str, int]) -> list[str]:
         t, a, d = op.tmp, op.args[0], op.data
         guard = f"{a}_has" + "".join(
-            " && !(" + " && ".join(f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)) + ")" for g in d["ni"]
+            [" && !(" + " && ".join([f"{a}[{i}] == 0x{w:04X}U" for i, w in enumerate(g)]) + ")" for g in d["ni"]]
         )
-        return [*e.declare(op, caps), f"if ({guard}) {{", *("    " + line for line in body(op, t, a, d["count"])), "}"]
+        return [*e.declare(op, caps), f"if ({guard}) {{", *["    " + line for line in body(op, t, a, d["count"])], "}"]
 
     return lines
 
@@ -324,6 +319,11 @@ PRINTER: Mapping[OpKind, Print] = printer(
 )
 
 
+# PRINTER by the identity of each kind (one per kind: an enum's members are singletons), looked up
+# for every operation of every expression without the enum's hash, a Python method
+_PRINT_BY_KIND = {id(kind): print_ for kind, print_ in PRINTER.items()}
+
+
 @cache
 def _parts() -> list[RuntimePart]:
     """The runtime's functions (and types), in expr.c's order: each block between blank lines."""
@@ -339,5 +339,6 @@ def _parts() -> list[RuntimePart]:
 def runtime(exprs: list[CExpression]) -> str:
     """The runtime parts the expressions call, and those they call in turn, in expr.c's order
     (templating.pick)."""
-    code = "\n".join({line for e in exprs for line in e.body()})  # each distinct line scanned once
+    # each distinct line that calls the runtime (names x_<name>) scanned once
+    code = "\n".join({line for e in exprs for line in e.body() if "x_" in line})
     return "\n".join(part.source for part in pick(_parts(), _NAME.findall(code)))
