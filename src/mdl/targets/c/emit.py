@@ -182,6 +182,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
     stem = rd.stem
     list_type = f"struct {stem}_list"
     checks = _RangeChecks()
+    printed: dict[Hashable, list[str]] = {}  # expressions' statements, once per shape (CExpression)
     for rf in rd.functions:
         codec = rf.codec
         vt = codec.value_type
@@ -194,7 +195,7 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
         if vt.kind == "expr" and decode is not None:
             step = decode[0]
             assert isinstance(step, ir.Expression)
-            expr = expressions.CExpression(rf.ident, step.lowered, list_type)
+            expr = expressions.CExpression(rf.ident, step.lowered, list_type, printed)
         fn = rf.fn
         f = CFunction(
             rf=rf,
@@ -241,8 +242,12 @@ def _functions(rd: ResolvedDevice) -> list[CFunction]:
         if f.fn.factor is not None:
             f.factor = out[f.fn.factor]
     # each expression after the functions it names (whatever their order in the file), so that the
-    # text capacity of each text or list parameter is known: its buffers hold its longest value
-    for rf in rd.closure([f.rf.name for f in out.values() if f.expr is not None]):
+    # text capacity of each text or list parameter is known: its buffers hold its longest value (only
+    # where an expression gives a text or a list, or names a text: numbers have no capacity)
+    exprs = [f for f in out.values() if f.expr is not None]
+    if not any(f.t == "char" or f.expr.type == "list" or any(d.is_text for d in f.deps) for f in exprs):
+        exprs = []
+    for rf in rd.closure([f.rf.name for f in exprs]) if exprs else ():
         f = out[rf.name]
         if f.expr is None:
             continue

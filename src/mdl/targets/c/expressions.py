@@ -13,7 +13,7 @@ known when the driver is generated).
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Hashable, Mapping
 from functools import cache
 from pathlib import Path
 
@@ -56,14 +56,17 @@ def _labels(mapping: dict[int, str], nbits: int) -> list[str]:
 class CExpression:
     """A function's expression as the body of its C decoder. `param_caps`: the text capacity of each
     text or list parameter (pN; a list's as concat prints it), given by the functions it names: set
-    for every one of them before the first call of caps(), result_cap or body()."""
+    for every one of them before the first call of caps(), result_cap or body(). `printed`, shared by
+    a device's expressions, keeps the statements of each shape (Lowered.shape: equal shapes have
+    equal operations) for the same `wide`, parameter capacities and list type: printed once."""
 
-    def __init__(self, ident: str, lowered: Lowered, list_type: str):
+    def __init__(self, ident: str, lowered: Lowered, list_type: str, printed: dict[Hashable, list[str]] | None = None):
         self.ident = ident
         self.list_type = list_type
         self.lowered = lowered
         self.param_caps: dict[str, int] = {}
         self._body: list[str] | None = None
+        self._printed = printed
 
     @property
     def type(self) -> str:
@@ -106,7 +109,15 @@ class CExpression:
         """The statements of `decode_<ident>(r, present, params..., out, has)`; *has false for null.
         Worked out once, on the first call: the parameters' capacities are known by then."""
         if self._body is None:
-            self._body = self._statements()
+            shape = self.lowered.shape
+            if shape is None or self._printed is None:
+                self._body = self._statements()
+            else:
+                key = (shape, self.lowered.wide, tuple(sorted(self.param_caps.items())), self.list_type)
+                found = self._printed.get(key)
+                if found is None:
+                    found = self._printed[key] = self._statements()
+                self._body = found
         return self._body
 
     def _statements(self) -> list[str]:
@@ -339,6 +350,8 @@ def _parts() -> list[RuntimePart]:
 def runtime(exprs: list[CExpression]) -> str:
     """The runtime parts the expressions call, and those they call in turn, in expr.c's order
     (templating.pick)."""
-    # each distinct line that calls the runtime (names x_<name>) scanned once
-    code = "\n".join({line for e in exprs for line in e.body() if "x_" in line})
+    # each distinct line that calls the runtime (names x_<name>) scanned once, and each body once
+    # (expressions of one shape share theirs)
+    bodies = {id(body): body for body in (e.body() for e in exprs)}
+    code = "\n".join({line for body in bodies.values() for line in body if "x_" in line})
     return "\n".join(part.source for part in pick(_parts(), _NAME.findall(code)))
