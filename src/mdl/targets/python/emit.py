@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import ast
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -26,6 +26,7 @@ from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.profile import Interface, check_files
+from mdl.targets.python import per_function
 from mdl.targets.templating import RuntimePart, SharedRendering, double_literal, pick, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
@@ -104,17 +105,18 @@ def import_lines(names: set[str]) -> list[str]:
 # -- value types
 
 
+# a value type's kind -> the Python type of its value as read (None aside), and the one a write takes
+# (an int is a float to mypy)
+VALUE_TYPES = {"int": "int", "float": "float", "string": "str", "bool": "bool"}
+WRITE_TYPES = {"int": "float", "float": "float", "string": "str", "bool": "bool"}
+
+
 def value_type(vt: ValueType) -> str:
     """The Python type of a function's value as read."""
     if vt.kind == "expr":
         return EXPR_TYPES[vt.expr_type] + " | None"
-    base = {"int": "int", "float": "float", "string": "str", "bool": "bool"}[vt.kind]
+    base = VALUE_TYPES[vt.kind]
     return base + " | None" if vt.nullable else base
-
-
-def write_type(vt: ValueType) -> str:
-    """The Python type a write method accepts (an int is a float to mypy)."""
-    return {"int": "float", "float": "float", "string": "str", "bool": "bool"}[vt.kind]
 
 
 # -- fragments: mdl.lang.cfrag translates them to Python (docs/fragments.md says what they compute)
@@ -201,17 +203,17 @@ def _typed_dict_form(names: list[str]) -> str:
     return "class" if ok else "call"
 
 
-@dataclass(eq=False)  # compared by identity: one per function
+@dataclass(eq=False, slots=True)  # compared by identity: one per function
 class FunctionCode:
-    """What the templates write for one function."""
+    """What the templates and the printers (per_function.py) write for one function."""
 
     resolved: ResolvedFunction
     fn: Function
     name: str  # its MDL name
     ident: str
     codec: ir.Codec  # its value IR, which templates/ops.j2 prints
-    runs: list[Request]  # the requests reading its registers
-    doc: str
+    runs: str  # the requests reading its registers, (table, first address, count), as a list literal
+    doc: str  # its description, as the string literal its methods' docstring is
     type: str  # of its value
     write_type: str | None
     params: str  # of its decoder
@@ -219,18 +221,19 @@ class FunctionCode:
     slots: tuple[int, ...]  # where its registers are in read_all's buffer, if readable
     span: tuple[int, int] | None  # (first, end) where those are read as a slice
     closure: list[str]  # the functions to decode before it, dependencies first
-    fragment_read: list[str] = field(default_factory=list)  # a read fragment's Python lines
-    fragment_write: list[str] = field(default_factory=list)
-    expression_body: list[str] = field(default_factory=list)  # an expression's Python lines
+    fragment_read: list[str]  # a read fragment's Python lines
+    fragment_write: list[str]
+    expression_body: list[str]  # an expression's Python lines
+    merge: ir.Merge | None  # a function with bits: how its registers are written (read-modify-write or FC22)
     decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
     encode_body: str = ""  # the body of _encode_<ident>, if writable
-    merge: ir.Merge | None = None  # a function with bits: how its registers are written (read-modify-write or FC22)
 
 
 def function_code(
     resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str], idents: dict[str, str]
 ) -> FunctionCode:
     fn, codec = f.fn, f.codec
+    decode, encode = codec.decode, codec.encode
     deps = f.deps
     if f.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
@@ -238,30 +241,42 @@ def function_code(
         params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
     else:
         params = "r: list[int]"
-    read_fragment = ir.find_step(codec.decode, ir.Fragment)
-    write_fragment = ir.find_step(codec.encode, ir.Fragment)
-    expression = ir.find_step(codec.decode, ir.Expression)
+    fragment_read: list[str] = []
+    expression_body: list[str] = []
+    if decode is not None and f.decode_shape is None:  # it has a fragment or an expression
+        read_fragment = ir.find_step(decode, ir.Fragment)
+        expression = ir.find_step(decode, ir.Expression)
+        fragment_read = _fragment_read_lines(fn, read_fragment) if read_fragment else []
+        expression_body = expr_body(expression.lowered) if expression else []
+    fragment_write: list[str] = []
+    merge = None
+    if encode is not None:
+        if f.encode_shape is None:  # it has a fragment
+            write_fragment = ir.find_step(encode, ir.Fragment)
+            fragment_write = _fragment_write_lines(fn, write_fragment) if write_fragment else []
+        merge = ir.find_step(encode, ir.Merge)
     table = f.layout.table
     slots = resolved.slots_of(f) if fn.readable else ()
+    name = fn.name
     return FunctionCode(
-        resolved=f,
-        fn=fn,
-        name=fn.name,
-        ident=f.ident,
-        codec=codec,
-        runs=[(table, start, count) for start, count in f.runs],
-        doc=doc_text(fn),
-        type=types[fn.name],
-        write_type=write_type(codec.write_type) if codec.encode is not None else None,
-        params=params,
-        args="".join(f", v_{idents[d]}" for d in deps),
-        slots=slots,
-        span=span(slots),
-        closure=[g.name for g in resolved.closure([fn.name])[:-1]] if deps else [],
-        fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
-        fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
-        expression_body=expr_body(expression.lowered) if expression else [],
-        merge=ir.find_step(codec.encode, ir.Merge),
+        f,
+        fn,
+        name,
+        f.ident,
+        codec,
+        repr([(table, start, count) for start, count in f.runs]),
+        ascii(doc_text(fn)),  # pyrepr
+        types[name],
+        WRITE_TYPES[codec.write_type.kind] if encode is not None else None,
+        params,
+        "".join([f", v_{idents[d]}" for d in deps]) if deps else "",
+        slots,
+        span(slots),
+        [g.name for g in resolved.closure([name])[:-1]] if deps else [],
+        fragment_read,
+        fragment_write,
+        expression_body,
+        merge,
     )
 
 
@@ -345,23 +360,31 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "ValueRangeError",
     ]
     exports += [name for name in ("FragmentDomainError",) if name in used]
+    values_form = _typed_dict_form([f.name for f in readable])
+    plain = [f for f in readable if f.resolved.compiled is None]
     return {
         "device": device,
         "version": __version__,
         "source": source_name,
         "requirement": PYMODBUS_REQUIREMENT,
-        "functions": functions,
         "infos": infos,
         "readable": readable,
         "class_name": class_name,
         "values_name": f"{class_name}Values",
-        "values_form": _typed_dict_form([f.name for f in readable]),
+        "values_form": values_form,
         "groups": _read_plan(resolved),
         "buffer_size": resolved.buffer_size,
         "imports": import_lines(used),
         "helpers": helpers,
         "uses": used,
-        "plain": [f for f in readable if f.resolved.compiled is None],
+        "plain": plain,
+        "function_methods": per_function.methods(functions, infos),
+        "definitions": per_function.definitions(functions),
+        "slot_rows": per_function.slot_rows(plain),
+        "name_rows": per_function.name_rows(readable),
+        "value_fields": per_function.value_fields(readable, values_form),
+        "decode_lines": per_function.decode_lines(readable),
+        "store_lines": per_function.store_lines(readable),
         "exports": sorted(exports),
         "writes": any(f.encode_body for f in functions),
         "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only

@@ -1,0 +1,123 @@
+"""The parts of a Python driver printed once per function (templates/device.py.j2 puts them in
+place): its read_ and write_ methods, its decoder and encoder definitions, its rows in _SLOTS and
+_NAMES, its key in the values TypedDict and its lines in _values. Printed here with f-strings and
+one join each rather than by template loops, which cost twice as much at 10,000 functions; the
+text is the same those loops printed."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from mdl.targets.python.emit import FunctionCode
+
+# Each function's methods are printed once for both classes: AWAIT and DEF (which no printed text
+# holds: pyrepr escapes control characters) stand for what the sync and the async class put there,
+# `await ` and `async def` or nothing and `def`.
+AWAIT = "\x00AW\x00"
+DEF = "\x00DEFN\x00"
+CLASSES = (("", "def"), ("await ", "async def"))  # (await, def) of the sync and the async class
+
+
+def methods(functions: list[FunctionCode], infos: dict[str, FunctionCode]) -> dict[str, str]:
+    """Every function's read_<ident> (where it reads) and write_<ident> (where it writes), by what
+    the class puts before a call it awaits: "" (the sync class) or "await " (the async class)."""
+    out: list[str] = []
+    for f in functions:
+        ident, doc, runs = f.ident, f.doc, f.runs
+        if f.decode_body:
+            out.append(f"\n    {DEF} read_{ident}(self) -> {f.type}:\n        {doc}\n")
+            for name in f.closure:  # the values its expression names, dependencies first
+                d = infos[name]
+                out.append(f"        v_{d.ident} = _decode_{d.ident}({AWAIT}self._read_runs({d.runs}){d.args})\n")
+            out.append(f"        return _decode_{ident}({AWAIT}self._read_runs({runs}){f.args})\n")
+        if f.encode_body:
+            out.append(f"\n    {DEF} write_{ident}(self, value: {f.write_type}) -> None:\n        {doc}\n")
+            out.append(_write_lines(f, infos))
+    text = "".join(out)
+    return {aw: text.replace(AWAIT, aw).replace(DEF, defn) for aw, defn in CLASSES}
+
+
+def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode]) -> str:
+    """The body of write_<ident>: its value encoded (with the factor read now, for one scaled by
+    another function) and written; bits of a register merged with the others' (function 22, or a
+    read before the write)."""
+    ident, runs, merge, factor = f.ident, f.runs, f.merge, f.fn.factor
+    multiple = ", multiple=True" if f.fn.write_multiple else ""
+    lines = ""
+    if factor:
+        d = infos[factor]
+        lines = (
+            f"        factor = _decode_{d.ident}({AWAIT}self._read_runs({d.runs}))  # read now: never a stale one\n"
+            f"        regs = _encode_{ident}(value, factor)\n"
+        )
+    elif merge:
+        lines = f"        regs = _encode_{ident}(value)\n"
+    if merge and merge.mask_write:
+        return (
+            f"{lines}        for address, mask, bits in zip("
+            f"{list(f.codec.addresses)!r}, {list(merge.masks)!r}, regs, strict=True):\n"
+            "            if mask:  # function 22: the device changes only these bits\n"
+            f"                {AWAIT}self._mask_write(address, ~mask & 0xFFFF, bits)\n"
+        )
+    if merge:
+        return (
+            f"{lines}        current = {AWAIT}self._read_runs({runs})  # only this function's bits change\n"
+            f"        masks = {list(merge.masks)!r}\n"
+            "        regs = [(c & ~m) | (n & m) for c, n, m in zip(current, regs, masks, strict=True)]\n"
+            f"        {AWAIT}self._write_runs({runs}, regs{multiple})\n"
+        )
+    if factor:
+        return f"{lines}        {AWAIT}self._write_runs({runs}, regs{multiple})\n"
+    return f"        {AWAIT}self._write_runs({runs}, _encode_{ident}(value){multiple})\n"
+
+
+def definitions(functions: list[FunctionCode]) -> str:
+    """Every function's _decode_<ident> (where it reads) and _encode_<ident> (where it writes),
+    each after two blank lines."""
+    out: list[str] = []
+    for f in functions:
+        if f.decode_body:
+            out.append(f"\n\ndef _decode_{f.ident}({f.params}) -> {f.type}:\n{f.decode_body}\n")
+        if f.encode_body:
+            factor = ", p0: int | None" if f.fn.factor else ""
+            out.append(f"\n\ndef _encode_{f.ident}(value: {f.write_type}{factor}) -> list[int]:\n{f.encode_body}\n")
+    return "".join(out)
+
+
+def slot_rows(plain: list[FunctionCode]) -> str:
+    """_SLOTS' rows, one a line: each function's name and its slots in the buffer."""
+    return "\n".join([f"    ({ascii(f.name)}, {f.slots!r})," for f in plain])
+
+
+def name_rows(readable: list[FunctionCode]) -> str:
+    """_NAMES' rows, one a line: each function's name."""
+    return "\n".join([f"    {ascii(f.name)}," for f in readable])
+
+
+def value_fields(readable: list[FunctionCode], form: str) -> str:
+    """The values TypedDict's keys and their types, one a line: as class attributes (`form` "class")
+    or as the items of the dict a TypedDict call takes ("call")."""
+    if form == "class":
+        return "\n".join([f"    {f.name}: {f.type}" for f in readable])
+    return "\n".join([f"    {ascii(f.name)}: {f.type}," for f in readable])
+
+
+def decode_lines(readable: list[FunctionCode]) -> str:
+    """_values' decoding of each function from the buffer (`raw` for an expression, which reads
+    None where the device refused a register; else `regs`), one a line, in decode order."""
+    out: list[str] = []
+    for f in readable:
+        ident, span = f.ident, f.span
+        buffer = "raw" if f.resolved.compiled is not None else "regs"
+        if span:
+            regs = f"{buffer}[{span[0]}:{span[1]}]"
+        else:
+            regs = "[" + ", ".join([f"{buffer}[{slot}]" for slot in f.slots]) + "]"
+        out.append(f"    v_{ident} = _decode_{ident}({regs}{f.args})")
+    return "\n".join(out)
+
+
+def store_lines(readable: list[FunctionCode]) -> str:
+    """_values' storing of each function's value under its name, one a line."""
+    return "\n".join([f"    values[{ascii(f.name)}] = v_{f.ident}" for f in readable])
