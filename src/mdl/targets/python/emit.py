@@ -81,7 +81,7 @@ def runtime_helpers() -> list[RuntimePart]:
     for node in ast.parse(RUNTIME_SOURCE).body:
         if isinstance(node, ast.FunctionDef):  # top-level: whole lines, from its `def` (helpers have no decorators)
             source = "".join(lines[node.lineno - 1 : node.end_lineno]).rstrip("\n")
-            names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
+            names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}  # docstrings are not code
             out.append(RuntimePart((node.name,), source, frozenset(names)))
     return out
 
@@ -225,8 +225,18 @@ class FunctionCode:
     fragment_write: list[str]
     expression_body: list[str]  # an expression's Python lines
     merge: ir.Merge | None  # a function with bits: how its registers are written (read-modify-write or FC22)
+    factor: str | None  # the function whose value scales it (scale_exponent, scale_by)
     decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
     encode_body: str = ""  # the body of _encode_<ident>, if writable
+
+
+def _runs(f: ResolvedFunction) -> str:
+    """The requests reading the function's registers, (table, first address, count), as a list literal."""
+    table, runs = f.layout.table, f.runs
+    if len(runs) == 1:  # most functions: one run (its repr spelled out, without the list of one tuple)
+        ((start, count),) = runs
+        return f"[({table!r}, {start}, {count})]"
+    return repr([(table, start, count) for start, count in runs])
 
 
 def function_code(
@@ -237,10 +247,13 @@ def function_code(
     deps = f.deps
     if f.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
+        factor = fn.factor
     elif deps:  # scaled by another function's value
         params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
+        factor = deps[0]
     else:
         params = "r: list[int]"
+        factor = None
     fragment_read: list[str] = []
     expression_body: list[str] = []
     if decode is not None and f.decode_shape is None:  # it has a fragment or an expression
@@ -255,8 +268,7 @@ def function_code(
             write_fragment = ir.find_step(encode, ir.Fragment)
             fragment_write = _fragment_write_lines(fn, write_fragment) if write_fragment else []
         merge = ir.find_step(encode, ir.Merge)
-    table = f.layout.table
-    slots = resolved.slots_of(f) if fn.readable else ()
+    slots = resolved.slots_of(f) if decode is not None else ()  # decode: None where it cannot be read
     name = fn.name
     return FunctionCode(
         f,
@@ -264,7 +276,7 @@ def function_code(
         name,
         f.ident,
         codec,
-        repr([(table, start, count) for start, count in f.runs]),
+        _runs(f),
         ascii(doc_text(fn)),  # pyrepr
         types[name],
         WRITE_TYPES[codec.write_type.kind] if encode is not None else None,
@@ -277,6 +289,7 @@ def function_code(
         fragment_write,
         expression_body,
         merge,
+        factor,
     )
 
 

@@ -11,65 +11,78 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from mdl.targets.python.emit import FunctionCode
 
-# Each function's methods are printed once for both classes: AWAIT and DEF (which no printed text
-# holds: pyrepr escapes control characters) stand for what the sync and the async class put there,
-# `await ` and `async def` or nothing and `def`.
+# Each function's methods are printed once for both classes, as pieces of text and two markers,
+# AWAIT and DEF, that stand for what the sync and the async class put there: nothing and `def`, or
+# `await ` and `async def`. A piece is a marker only where it is that very object.
 AWAIT = "\x00AW\x00"
 DEF = "\x00DEFN\x00"
-CLASSES = (("", "def"), ("await ", "async def"))  # (await, def) of the sync and the async class
+CLASSES = (("", "def"), ("await ", "async def"))  # (AWAIT, DEF) of the sync and the async class
 
 
 def methods(functions: list[FunctionCode], infos: dict[str, FunctionCode]) -> dict[str, str]:
     """Every function's read_<ident> (where it reads) and write_<ident> (where it writes), by what
     the class puts before a call it awaits: "" (the sync class) or "await " (the async class)."""
     out: list[str] = []
+    add = out.extend
     for f in functions:
         ident, doc, runs = f.ident, f.doc, f.runs
         if f.decode_body:
-            out.append(f"\n    {DEF} read_{ident}(self) -> {f.type}:\n        {doc}\n")
+            add(("\n    ", DEF, f" read_{ident}(self) -> {f.type}:\n        {doc}\n"))
             for name in f.closure:  # the values its expression names, dependencies first
                 d = infos[name]
-                out.append(f"        v_{d.ident} = _decode_{d.ident}({AWAIT}self._read_runs({d.runs}){d.args})\n")
-            out.append(f"        return _decode_{ident}({AWAIT}self._read_runs({runs}){f.args})\n")
+                add((f"        v_{d.ident} = _decode_{d.ident}(", AWAIT, f"self._read_runs({d.runs}){d.args})\n"))
+            add((f"        return _decode_{ident}(", AWAIT, f"self._read_runs({runs}){f.args})\n"))
         if f.encode_body:
-            out.append(f"\n    {DEF} write_{ident}(self, value: {f.write_type}) -> None:\n        {doc}\n")
-            out.append(_write_lines(f, infos))
-    text = "".join(out)
-    return {aw: text.replace(AWAIT, aw).replace(DEF, defn) for aw, defn in CLASSES}
+            add(("\n    ", DEF, f" write_{ident}(self, value: {f.write_type}) -> None:\n        {doc}\n"))
+            if f.merge or f.factor:
+                _write_lines(f, infos, out)
+            else:
+                multiple = ", multiple=True" if f.fn.write_multiple else ""
+                add(("        ", AWAIT, f"self._write_runs({runs}, _encode_{ident}(value){multiple})\n"))
+    return {
+        aw: "".join([aw if piece is AWAIT else defn if piece is DEF else piece for piece in out])
+        for aw, defn in CLASSES
+    }
 
 
-def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode]) -> str:
-    """The body of write_<ident>: its value encoded (with the factor read now, for one scaled by
-    another function) and written; bits of a register merged with the others' (function 22, or a
-    read before the write)."""
-    ident, runs, merge, factor = f.ident, f.runs, f.merge, f.fn.factor
+def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]) -> None:
+    """The body of write_<ident> for a function scaled by another one (whose value it reads now) or
+    with bits of registers (merged with the others' bits: with function 22, or read before the
+    write), onto `out`."""
+    ident, runs, merge, factor = f.ident, f.runs, f.merge, f.factor
     multiple = ", multiple=True" if f.fn.write_multiple else ""
-    lines = ""
     if factor:
         d = infos[factor]
-        lines = (
-            f"        factor = _decode_{d.ident}({AWAIT}self._read_runs({d.runs}))  # read now: never a stale one\n"
-            f"        regs = _encode_{ident}(value, factor)\n"
+        out += (
+            f"        factor = _decode_{d.ident}(",
+            AWAIT,
+            f"self._read_runs({d.runs}))  # read now: never a stale one\n"
+            f"        regs = _encode_{ident}(value, factor)\n",
         )
     elif merge:
-        lines = f"        regs = _encode_{ident}(value)\n"
+        out.append(f"        regs = _encode_{ident}(value)\n")
     if merge and merge.mask_write:
-        return (
-            f"{lines}        for address, mask, bits in zip("
+        out += (
+            "        for address, mask, bits in zip("
             f"{list(f.codec.addresses)!r}, {list(merge.masks)!r}, regs, strict=True):\n"
             "            if mask:  # function 22: the device changes only these bits\n"
-            f"                {AWAIT}self._mask_write(address, ~mask & 0xFFFF, bits)\n"
+            "                ",
+            AWAIT,
+            "self._mask_write(address, ~mask & 0xFFFF, bits)\n",
         )
-    if merge:
-        return (
-            f"{lines}        current = {AWAIT}self._read_runs({runs})  # only this function's bits change\n"
+    elif merge:
+        out += (
+            "        current = ",
+            AWAIT,
+            f"self._read_runs({runs})  # only this function's bits change\n"
             f"        masks = {list(merge.masks)!r}\n"
             "        regs = [(c & ~m) | (n & m) for c, n, m in zip(current, regs, masks, strict=True)]\n"
-            f"        {AWAIT}self._write_runs({runs}, regs{multiple})\n"
+            "        ",
+            AWAIT,
+            f"self._write_runs({runs}, regs{multiple})\n",
         )
-    if factor:
-        return f"{lines}        {AWAIT}self._write_runs({runs}, regs{multiple})\n"
-    return f"        {AWAIT}self._write_runs({runs}, _encode_{ident}(value){multiple})\n"
+    else:
+        out += ("        ", AWAIT, f"self._write_runs({runs}, regs{multiple})\n")
 
 
 def definitions(functions: list[FunctionCode]) -> str:
@@ -80,7 +93,7 @@ def definitions(functions: list[FunctionCode]) -> str:
         if f.decode_body:
             out.append(f"\n\ndef _decode_{f.ident}({f.params}) -> {f.type}:\n{f.decode_body}\n")
         if f.encode_body:
-            factor = ", p0: int | None" if f.fn.factor else ""
+            factor = ", p0: int | None" if f.factor else ""
             out.append(f"\n\ndef _encode_{f.ident}(value: {f.write_type}{factor}) -> list[int]:\n{f.encode_body}\n")
     return "".join(out)
 
@@ -108,12 +121,14 @@ def decode_lines(readable: list[FunctionCode]) -> str:
     None where the device refused a register; else `regs`), one a line, in decode order."""
     out: list[str] = []
     for f in readable:
-        ident, span = f.ident, f.span
+        ident, span, slots = f.ident, f.span, f.slots
         buffer = "raw" if f.resolved.compiled is not None else "regs"
         if span:
             regs = f"{buffer}[{span[0]}:{span[1]}]"
+        elif len(slots) == 1:
+            regs = f"[{buffer}[{slots[0]}]]"
         else:
-            regs = "[" + ", ".join([f"{buffer}[{slot}]" for slot in f.slots]) + "]"
+            regs = "[" + ", ".join([f"{buffer}[{slot}]" for slot in slots]) + "]"
         out.append(f"    v_{ident} = _decode_{ident}({regs}{f.args})")
     return "\n".join(out)
 
