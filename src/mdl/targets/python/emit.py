@@ -4,7 +4,8 @@ The module is typed for `mypy --strict` and clean under ruff's default rules: it
 helpers it calls and imports only what it uses. The bodies of decoders and encoders are printed
 from the IR by templates/ops.j2 (once per distinct IR); the names they use decide which runtime
 helpers (fragments' and expressions', copied from their pyhelpers.py) and which standard-library
-imports the module gets.
+imports the module gets. What is printed once per function (methods, definitions, the rows of
+the tables) is printed by per_function.py from each function's FunctionCode, worked out once.
 """
 
 from __future__ import annotations
@@ -250,7 +251,7 @@ def function_code(
         factor = fn.factor
     elif deps:  # scaled by another function's value
         params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
-        factor = deps[0]
+        factor = deps[0]  # without an expression, deps is the factor alone
     else:
         params = "r: list[int]"
         factor = None

@@ -21,7 +21,8 @@ CLASSES = (("", "def"), ("await ", "async def"))  # (AWAIT, DEF) of the sync and
 
 def methods(functions: list[FunctionCode], infos: dict[str, FunctionCode]) -> dict[str, str]:
     """Every function's read_<ident> (where it reads) and write_<ident> (where it writes), by what
-    the class puts before a call it awaits: "" (the sync class) or "await " (the async class)."""
+    the class puts before a call it awaits: "" (the sync class) or "await " (the async class).
+    Replaced device.py.j2's per_function macro."""
     out: list[str] = []
     add = out.extend
     for f in functions:
@@ -87,7 +88,7 @@ def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]
 
 def definitions(functions: list[FunctionCode]) -> str:
     """Every function's _decode_<ident> (where it reads) and _encode_<ident> (where it writes),
-    each after two blank lines."""
+    each after two blank lines (device.py.j2's loop over the functions after the helpers)."""
     out: list[str] = []
     for f in functions:
         if f.decode_body:
@@ -99,18 +100,20 @@ def definitions(functions: list[FunctionCode]) -> str:
 
 
 def slot_rows(plain: list[FunctionCode]) -> str:
-    """_SLOTS' rows, one a line: each function's name and its slots in the buffer."""
+    """_SLOTS' rows, one a line: each function's name and its slots in the buffer (its loop in
+    device.py.j2)."""
     return "\n".join([f"    ({ascii(f.name)}, {f.slots!r})," for f in plain])
 
 
 def name_rows(readable: list[FunctionCode]) -> str:
-    """_NAMES' rows, one a line: each function's name."""
+    """_NAMES' rows, one a line: each function's name (its loop in device.py.j2)."""
     return "\n".join([f"    {ascii(f.name)}," for f in readable])
 
 
 def value_fields(readable: list[FunctionCode], form: str) -> str:
     """The values TypedDict's keys and their types, one a line: as class attributes (`form` "class")
-    or as the items of the dict a TypedDict call takes ("call")."""
+    or as the items of the dict a TypedDict call takes ("call"): the loops of either form in
+    device.py.j2."""
     if form == "class":
         return "\n".join([f"    {f.name}: {f.type}" for f in readable])
     return "\n".join([f"    {ascii(f.name)}: {f.type}," for f in readable])
@@ -118,7 +121,8 @@ def value_fields(readable: list[FunctionCode], form: str) -> str:
 
 def decode_lines(readable: list[FunctionCode]) -> str:
     """_values' decoding of each function from the buffer (`raw` for an expression, which reads
-    None where the device refused a register; else `regs`), one a line, in decode order."""
+    None where the device refused a register; else `regs`), one a line, in decode order: _values'
+    first loop in device.py.j2."""
     out: list[str] = []
     for f in readable:
         ident, span, slots = f.ident, f.span, f.slots
@@ -134,5 +138,6 @@ def decode_lines(readable: list[FunctionCode]) -> str:
 
 
 def store_lines(readable: list[FunctionCode]) -> str:
-    """_values' storing of each function's value under its name, one a line."""
+    """_values' storing of each function's value under its name, one a line: its second loop in
+    device.py.j2."""
     return "\n".join([f"    values[{ascii(f.name)}] = v_{f.ident}" for f in readable])
