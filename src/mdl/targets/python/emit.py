@@ -87,9 +87,16 @@ def runtime_helpers() -> list[RuntimePart]:
     return out
 
 
+# every name a `def` at the start of a line of the runtime defines (its helpers, and maybe more),
+# found without parsing it
+_RUNTIME_DEFS = frozenset(re.findall(r"^def (\w+)", RUNTIME_SOURCE, re.MULTILINE))
+
+
 def helpers_for(names: set[str]) -> list[str]:
     """Sources of the runtime helpers `names` call, and of those they call in turn, in file order
     (templating.pick)."""
+    if _RUNTIME_DEFS.isdisjoint(names):  # it calls none (most devices): the runtime is not parsed
+        return []
     return [part.source for part in pick(runtime_helpers(), names)]
 
 
