@@ -11,9 +11,9 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from mdl.targets.python.emit import FunctionCode
 
-# Each function's methods are printed once for both classes, as pieces of text and two markers,
-# AWAIT and DEF, that stand for what the sync and the async class put there: nothing and `def`, or
-# `await ` and `async def`. A piece is a marker only where it is that very object.
+# Each function's methods are printed once for both classes, as triples of a text, a marker and a
+# text: the markers AWAIT and DEF stand for what the sync and the async class put there, nothing and
+# `def`, or `await ` and `async def`.
 AWAIT = "\x00AW\x00"
 DEF = "\x00DEFN\x00"
 CLASSES = (("", "def"), ("await ", "async def"))  # (AWAIT, DEF) of the sync and the async class
@@ -23,7 +23,7 @@ def methods(functions: list[FunctionCode], infos: dict[str, FunctionCode]) -> di
     """Every function's read_<ident> (where it reads) and write_<ident> (where it writes), by what
     the class puts before a call it awaits: "" (the sync class) or "await " (the async class).
     Replaced device.py.j2's per_function macro."""
-    out: list[str] = []
+    out: list[str] = []  # triples: a text, a marker, a text
     add = out.extend
     for f in functions:
         ident, doc, runs = f.ident, f.doc, f.runs
@@ -40,18 +40,21 @@ def methods(functions: list[FunctionCode], infos: dict[str, FunctionCode]) -> di
             else:
                 multiple = ", multiple=True" if f.fn.write_multiple else ""
                 add(("        ", AWAIT, f"self._write_runs({runs}, _encode_{ident}(value){multiple})\n"))
-    return {
-        aw: "".join([aw if piece is AWAIT else defn if piece is DEF else piece for piece in out])
-        for aw, defn in CLASSES
-    }
+    markers = out[1::3]
+    texts: dict[str, str] = {}
+    for aw, defn in CLASSES:
+        out[1::3] = [aw if marker is AWAIT else defn for marker in markers]
+        texts[aw] = "".join(out)
+    return texts
 
 
 def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]) -> None:
     """The body of write_<ident> for a function scaled by another one (whose value it reads now) or
     with bits of registers (merged with the others' bits: with function 22, or read before the
-    write), onto `out`."""
+    write), onto `out` (in triples, as `methods`)."""
     ident, runs, merge, factor = f.ident, f.runs, f.merge, f.factor
     multiple = ", multiple=True" if f.fn.write_multiple else ""
+    encode = ""  # where the encoding is a line of its own, before the writing
     if factor:
         d = infos[factor]
         out += (
@@ -61,10 +64,10 @@ def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]
             f"        regs = _encode_{ident}(value, factor)\n",
         )
     elif merge:
-        out.append(f"        regs = _encode_{ident}(value)\n")
+        encode = f"        regs = _encode_{ident}(value)\n"
     if merge and merge.mask_write:
         out += (
-            "        for address, mask, bits in zip("
+            f"{encode}        for address, mask, bits in zip("
             f"{list(f.codec.addresses)!r}, {list(merge.masks)!r}, regs, strict=True):\n"
             "            if mask:  # function 22: the device changes only these bits\n"
             "                ",
@@ -73,12 +76,13 @@ def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]
         )
     elif merge:
         out += (
-            "        current = ",
+            f"{encode}        current = ",
             AWAIT,
             f"self._read_runs({runs})  # only this function's bits change\n"
             f"        masks = {list(merge.masks)!r}\n"
             "        regs = [(c & ~m) | (n & m) for c, n, m in zip(current, regs, masks, strict=True)]\n"
             "        ",
+            "",
             AWAIT,
             f"self._write_runs({runs}, regs{multiple})\n",
         )
