@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -228,10 +229,12 @@ class FunctionCode:
     args: str  # ", v_a, v_b": the values of the functions its expression names
     slots: tuple[int, ...]  # where its registers are in read_all's buffer, if readable
     span: tuple[int, int] | None  # (first, end) where those are read as a slice
-    closure: list[str]  # the functions to decode before it, dependencies first
-    fragment_read: list[str]  # a read fragment's Python lines
-    fragment_write: list[str]
-    expression_body: list[str]  # an expression's Python lines
+    # (the sequences below are () where empty, the one empty tuple: no object of its own per function,
+    # fewer for the garbage collector to count)
+    closure: Sequence[str]  # the functions to decode before it, dependencies first
+    fragment_read: Sequence[str]  # a read fragment's Python lines
+    fragment_write: Sequence[str]
+    expression_body: Sequence[str]  # an expression's Python lines
     merge: ir.Merge | None  # a function with bits: how its registers are written (read-modify-write or FC22)
     factor: str | None  # the function whose value scales it (scale_exponent, scale_by)
     decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
@@ -262,19 +265,19 @@ def function_code(
     else:
         params = "r: list[int]"
         factor = None
-    fragment_read: list[str] = []
-    expression_body: list[str] = []
+    fragment_read: Sequence[str] = ()
+    expression_body: Sequence[str] = ()
     if decode is not None and f.decode_shape is None:  # it has a fragment or an expression
         read_fragment = ir.find_step(decode, ir.Fragment)
         expression = ir.find_step(decode, ir.Expression)
-        fragment_read = _fragment_read_lines(fn, read_fragment) if read_fragment else []
-        expression_body = expr_body(expression.lowered) if expression else []
-    fragment_write: list[str] = []
+        fragment_read = _fragment_read_lines(fn, read_fragment) if read_fragment else ()
+        expression_body = expr_body(expression.lowered) if expression else ()
+    fragment_write: Sequence[str] = ()
     merge = None
     if encode is not None:
         if f.encode_shape is None:  # it has a fragment
             write_fragment = ir.find_step(encode, ir.Fragment)
-            fragment_write = _fragment_write_lines(fn, write_fragment) if write_fragment else []
+            fragment_write = _fragment_write_lines(fn, write_fragment) if write_fragment else ()
         merge = ir.find_step(encode, ir.Merge)
     slots = resolved.slots_of(f) if decode is not None else ()  # decode: None where it cannot be read
     name = fn.name
@@ -292,7 +295,7 @@ def function_code(
         "".join([f", v_{idents[d]}" for d in deps]) if deps else "",
         slots,
         span(slots),
-        [g.name for g in resolved.closure([name])[:-1]] if deps else [],
+        [g.name for g in resolved.closure([name])[:-1]] if deps else (),
         fragment_read,
         fragment_write,
         expression_body,
