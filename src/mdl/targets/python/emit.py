@@ -4,14 +4,16 @@ The module is typed for `mypy --strict` and clean under ruff's default rules: it
 helpers it calls and imports only what it uses. The bodies of decoders and encoders are printed
 from the IR by templates/ops.j2 (once per distinct IR); the names they use decide which runtime
 helpers (fragments' and expressions', copied from their pyhelpers.py) and which standard-library
-imports the module gets.
+imports the module gets. What is printed once per function (methods, definitions, the rows of
+the tables) is printed by per_function.py from each function's FunctionCode, worked out once.
 """
 
 from __future__ import annotations
 
 import ast
 import re
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -26,6 +28,7 @@ from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolve import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.profile import Interface, check_files
+from mdl.targets.python import per_function
 from mdl.targets.templating import RuntimePart, SharedRendering, double_literal, pick, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
 from mdl.values import ir
@@ -80,14 +83,21 @@ def runtime_helpers() -> list[RuntimePart]:
     for node in ast.parse(RUNTIME_SOURCE).body:
         if isinstance(node, ast.FunctionDef):  # top-level: whole lines, from its `def` (helpers have no decorators)
             source = "".join(lines[node.lineno - 1 : node.end_lineno]).rstrip("\n")
-            names = {n.id for n in ast.walk(ast.parse(source)) if isinstance(n, ast.Name)}  # docstrings are not code
+            names = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}  # docstrings are not code
             out.append(RuntimePart((node.name,), source, frozenset(names)))
     return out
+
+
+# every name a `def` at the start of a line of the runtime defines (its helpers, and maybe more),
+# found without parsing it
+_RUNTIME_DEFS = frozenset(re.findall(r"^def (\w+)", RUNTIME_SOURCE, re.MULTILINE))
 
 
 def helpers_for(names: set[str]) -> list[str]:
     """Sources of the runtime helpers `names` call, and of those they call in turn, in file order
     (templating.pick)."""
+    if _RUNTIME_DEFS.isdisjoint(names):  # it calls none (most devices): the runtime is not parsed
+        return []
     return [part.source for part in pick(runtime_helpers(), names)]
 
 
@@ -104,17 +114,18 @@ def import_lines(names: set[str]) -> list[str]:
 # -- value types
 
 
+# a value type's kind -> the Python type of its value as read (None aside), and the one a write takes
+# (an int is a float to mypy)
+VALUE_TYPES = {"int": "int", "float": "float", "string": "str", "bool": "bool"}
+WRITE_TYPES = {"int": "float", "float": "float", "string": "str", "bool": "bool"}
+
+
 def value_type(vt: ValueType) -> str:
     """The Python type of a function's value as read."""
     if vt.kind == "expr":
         return EXPR_TYPES[vt.expr_type] + " | None"
-    base = {"int": "int", "float": "float", "string": "str", "bool": "bool"}[vt.kind]
+    base = VALUE_TYPES[vt.kind]
     return base + " | None" if vt.nullable else base
-
-
-def write_type(vt: ValueType) -> str:
-    """The Python type a write method accepts (an int is a float to mypy)."""
-    return {"int": "float", "float": "float", "string": "str", "bool": "bool"}[vt.kind]
 
 
 # -- fragments: mdl.lang.cfrag translates them to Python (docs/fragments.md says what they compute)
@@ -201,67 +212,95 @@ def _typed_dict_form(names: list[str]) -> str:
     return "class" if ok else "call"
 
 
-@dataclass(eq=False)  # compared by identity: one per function
+@dataclass(eq=False, slots=True)  # compared by identity: one per function
 class FunctionCode:
-    """What the templates write for one function."""
+    """What the templates and the printers (per_function.py) write for one function."""
 
     resolved: ResolvedFunction
     fn: Function
     name: str  # its MDL name
     ident: str
     codec: ir.Codec  # its value IR, which templates/ops.j2 prints
-    runs: list[Request]  # the requests reading its registers
-    doc: str
+    runs: str  # the requests reading its registers, (table, first address, count), as a list literal
+    doc: str  # its description, as the string literal its methods' docstring is
     type: str  # of its value
     write_type: str | None
     params: str  # of its decoder
     args: str  # ", v_a, v_b": the values of the functions its expression names
     slots: tuple[int, ...]  # where its registers are in read_all's buffer, if readable
     span: tuple[int, int] | None  # (first, end) where those are read as a slice
-    closure: list[str]  # the functions to decode before it, dependencies first
-    fragment_read: list[str] = field(default_factory=list)  # a read fragment's Python lines
-    fragment_write: list[str] = field(default_factory=list)
-    expression_body: list[str] = field(default_factory=list)  # an expression's Python lines
+    # (the sequences below are () where empty, the one empty tuple: no object of its own per function,
+    # fewer for the garbage collector to count)
+    closure: Sequence[str]  # the functions to decode before it, dependencies first
+    fragment_read: Sequence[str]  # a read fragment's Python lines
+    fragment_write: Sequence[str]
+    expression_body: Sequence[str]  # an expression's Python lines
+    merge: ir.Merge | None  # a function with bits: how its registers are written (read-modify-write or FC22)
+    factor: str | None  # the function whose value scales it (scale_exponent, scale_by)
     decode_body: str = ""  # the body of _decode_<ident> (ops.j2), if readable
     encode_body: str = ""  # the body of _encode_<ident>, if writable
-    merge: ir.Merge | None = None  # a function with bits: how its registers are written (read-modify-write or FC22)
+
+
+def _runs(f: ResolvedFunction) -> str:
+    """The requests reading the function's registers, (table, first address, count), as a list literal."""
+    table, runs = f.layout.table, f.runs
+    if len(runs) == 1:  # most functions: one run (its repr spelled out, without the list of one tuple)
+        ((start, count),) = runs
+        return f"[({table!r}, {start}, {count})]"
+    return repr([(table, start, count) for start, count in runs])
 
 
 def function_code(
     resolved: ResolvedDevice, f: ResolvedFunction, types: dict[str, str], idents: dict[str, str]
 ) -> FunctionCode:
     fn, codec = f.fn, f.codec
+    decode, encode = codec.decode, codec.encode
     deps = f.deps
     if f.compiled is not None:
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
+        factor = fn.factor
     elif deps:  # scaled by another function's value
         params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
+        factor = deps[0]  # without an expression, deps is the factor alone
     else:
         params = "r: list[int]"
-    read_fragment = ir.find_step(codec.decode, ir.Fragment)
-    write_fragment = ir.find_step(codec.encode, ir.Fragment)
-    expression = ir.find_step(codec.decode, ir.Expression)
-    table = f.layout.table
-    slots = resolved.slots_of(f) if fn.readable else ()
+        factor = None
+    fragment_read: Sequence[str] = ()
+    expression_body: Sequence[str] = ()
+    if decode is not None and f.decode_shape is None:  # it has a fragment or an expression
+        read_fragment = ir.find_step(decode, ir.Fragment)
+        expression = ir.find_step(decode, ir.Expression)
+        fragment_read = _fragment_read_lines(fn, read_fragment) if read_fragment else ()
+        expression_body = expr_body(expression.lowered) if expression else ()
+    fragment_write: Sequence[str] = ()
+    merge = None
+    if encode is not None:
+        if f.encode_shape is None:  # it has a fragment
+            write_fragment = ir.find_step(encode, ir.Fragment)
+            fragment_write = _fragment_write_lines(fn, write_fragment) if write_fragment else ()
+        merge = ir.find_step(encode, ir.Merge)
+    slots = resolved.slots_of(f) if decode is not None else ()  # decode: None where it cannot be read
+    name = fn.name
     return FunctionCode(
-        resolved=f,
-        fn=fn,
-        name=fn.name,
-        ident=f.ident,
-        codec=codec,
-        runs=[(table, start, count) for start, count in f.runs],
-        doc=doc_text(fn),
-        type=types[fn.name],
-        write_type=write_type(codec.write_type) if codec.encode is not None else None,
-        params=params,
-        args="".join(f", v_{idents[d]}" for d in deps),
-        slots=slots,
-        span=span(slots),
-        closure=[g.name for g in resolved.closure([fn.name])[:-1]] if deps else [],
-        fragment_read=_fragment_read_lines(fn, read_fragment) if read_fragment else [],
-        fragment_write=_fragment_write_lines(fn, write_fragment) if write_fragment else [],
-        expression_body=expr_body(expression.lowered) if expression else [],
-        merge=ir.find_step(codec.encode, ir.Merge),
+        f,
+        fn,
+        name,
+        f.ident,
+        codec,
+        _runs(f),
+        ascii(doc_text(fn)),  # pyrepr
+        types[name],
+        WRITE_TYPES[codec.write_type.kind] if encode is not None else None,
+        params,
+        "".join([f", v_{idents[d]}" for d in deps]) if deps else "",
+        slots,
+        span(slots),
+        [g.name for g in resolved.closure([name])[:-1]] if deps else (),
+        fragment_read,
+        fragment_write,
+        expression_body,
+        merge,
+        factor,
     )
 
 
@@ -345,23 +384,31 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "ValueRangeError",
     ]
     exports += [name for name in ("FragmentDomainError",) if name in used]
+    values_form = _typed_dict_form([f.name for f in readable])
+    plain = [f for f in readable if f.resolved.compiled is None]
     return {
         "device": device,
         "version": __version__,
         "source": source_name,
         "requirement": PYMODBUS_REQUIREMENT,
-        "functions": functions,
         "infos": infos,
         "readable": readable,
         "class_name": class_name,
         "values_name": f"{class_name}Values",
-        "values_form": _typed_dict_form([f.name for f in readable]),
+        "values_form": values_form,
         "groups": _read_plan(resolved),
         "buffer_size": resolved.buffer_size,
         "imports": import_lines(used),
         "helpers": helpers,
         "uses": used,
-        "plain": [f for f in readable if f.resolved.compiled is None],
+        "plain": plain,
+        "function_methods": per_function.methods(functions, infos),
+        "definitions": per_function.definitions(functions),
+        "slot_rows": per_function.slot_rows(plain),
+        "name_rows": per_function.name_rows(readable),
+        "value_fields": per_function.value_fields(readable, values_form),
+        "decode_lines": per_function.decode_lines(readable),
+        "store_lines": per_function.store_lines(readable),
         "exports": sorted(exports),
         "writes": any(f.encode_body for f in functions),
         "writes_multiple": any(f.encode_body and f.fn.write_multiple for f in functions),  # FC15/FC16 only
