@@ -121,16 +121,18 @@ def decode_parts(chunks: list[Chunk[CppFunction]], raw_total: int, class_name: s
             if not n:
                 out.append(decode_into(f, "values." + f.ident, "values.", "    ") + "\n")
                 continue
-            slots = f.slots
-            raw = ", ".join([f"raw[{s}]" for s in slots])
-            out.append(f"    {{\n        const std::array<uint16_t, {n}> r{{ {raw} }};\n")
+            regs = "raw[" + "], raw[".join(map(str, f.slots)) + "]"
+            if not (f.expr or f.status or f.factor is not None):  # most
+                out.append(
+                    f"    {{\n        const std::array<uint16_t, {n}> r{{ {regs} }};\n"
+                    f"        values.{f.ident} = decode_{f.decoder}(r);\n    }}\n"
+                )
+                continue
+            out.append(f"    {{\n        const std::array<uint16_t, {n}> r{{ {regs} }};\n")
             if f.expr:
-                have = ", ".join([f"have[{s}]" for s in slots])
-                out.append(f"        const std::array<bool, {n}> present{{ {have} }};\n")
-            if f.expr or f.status or f.factor is not None:
-                out.append(decode_into(f, "values." + f.ident, "values.", "        ") + "\n    }\n")
-            else:
-                out.append(f"        values.{f.ident} = decode_{f.decoder}(r);\n    }}\n")
+                answered = "have[" + "], have[".join(map(str, f.slots)) + "]"
+                out.append(f"        const std::array<bool, {n}> present{{ {answered} }};\n")
+            out.append(decode_into(f, "values." + f.ident, "values.", "        ") + "\n    }\n")
         out.append("    return 0;\n}\n")
     return "".join(out)
 

@@ -181,8 +181,6 @@ class _Builder:
             self.fragments.append(tree)
             encode_lines = tree.body()
         deps = f.deps
-        runs = f.runs
-        table = TABLE_CONST[codec.table]
         return CppFunction(
             resolved=f,
             fn=fn,
@@ -196,7 +194,7 @@ class _Builder:
             deps=[self.ident_of[d] for d in deps] if deps else [],
             dep_types=[],
             dep_args=[],
-            runs=[(table, runs[0][0], runs[0][1], 0)] if len(runs) == 1 else runs_at(table, runs),
+            runs=_runs(f),
             slots=self.resolved.slots_of(f) if decode is not None else (),
             readable=decode is not None,
             writable=encode is not None,
@@ -209,6 +207,19 @@ class _Builder:
             mask_write=mask_write,
             lowered=expression.lowered if expression is not None else None,
         )
+
+
+def _runs(f: ResolvedFunction) -> list[Run]:
+    """f's requests as runs_at gives them. Registers that follow each other (most functions') are one
+    run, found without working out the runs of its layout (ResolvedFunction.runs)."""
+    table = TABLE_CONST[f.layout.table]
+    addresses = f.layout.addresses
+    n = len(addresses)
+    if n:
+        first = addresses[0]
+        if addresses[-1] - first == n - 1 and (n < 3 or addresses == tuple(range(first, first + n))):
+            return [(table, first, n, 0)]
+    return runs_at(table, f.runs)
 
 
 def param_type(g: CppFunction) -> str:
