@@ -30,7 +30,7 @@ def split_rows(splits: list[SplitRow]) -> str:
 
 
 def range_rows(ranges: list[tuple[int, int]]) -> str:
-    """The rows of kNeeded, the ranges of read_all's buffer functions without an expression read."""
+    """The rows of kNeeded, the ranges of read_all's buffer that functions without an expression read."""
     return "".join([f"    {{{first}, {end}}},\n" for first, end in ranges])
 
 
@@ -222,10 +222,8 @@ def _write(f: CppFunction) -> list[str]:
                 out.append(f"    r[{i}] = current[{i}];\n")
     write = "write_multiple_" if f.fn.write_multiple else "write_table_"
     for table, start, count, at in f.runs:
-        out.append(
-            f"    if ({write}({table}, {start}, {count}, {f'&r[{at}]' if at else 'r.data()'}) == -1) {{\n"
-            "        return -1;\n    }\n"
-        )
+        into = f"&r[{at}]" if at else "r.data()"
+        out.append(f"    if ({write}({table}, {start}, {count}, {into}) == -1) {{\n        return -1;\n    }}\n")
     out.append("    return 0;\n}\n")
     return out
 

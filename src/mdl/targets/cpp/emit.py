@@ -6,7 +6,10 @@ out, every buffer is a std::array of a size known here, and read_all allocates n
 Values are packed and unpacked with the generated code's own shifts for every byte and word order
 (libmodbus 3.1.6's float helpers do not round-trip). Fragments are printed by mdl.lang.cfrag (as C
 drivers get them), expressions by mdl.targets.cpp.expressions; text from the input reaches comments through
-`ccomment` and string literals through `cstring` (mdl.targets.templating).
+`ccomment` and string literals through `cstring` (mdl.targets.templating). The templates print each file's
+skeleton; what repeats for every function is printed in Python (mdl.targets.cpp.declarations for the
+header, mdl.targets.cpp.definitions for the source), which a device of 10,000 functions renders in a
+fraction of the time loops of Jinja took.
 """
 
 from __future__ import annotations
@@ -142,13 +145,14 @@ class _Builder:
         self.fragments: list[CFragment] = []  # every fragment's C++ tree, in the functions' order
 
     def function(self, f: ResolvedFunction) -> CppFunction:
+        """f as the templates print it, but for what depends on other functions (_functions)."""
         fn, codec = f.fn, f.codec
         decode, encode = codec.decode, codec.encode
         read_fragment = expression = write_fragment = None
         if decode is not None and f.decode_shape is None:  # a shape has neither
             read_fragment = ir.find_step(decode, ir.Fragment)
             expression = ir.find_step(decode, ir.Expression)
-        mask_write = fn.write_function_code is not None and fn.mask_write
+        mask_write = fn.write_function_code is not None and fn.mask_write  # asked only where a code is given
         # SPEC 5: T is double wherever a fragment applies, for the read and the write alike
         t = "double" if fn.write_function_code and fn.writable and not mask_write else value_type(codec.value_type)
         decode_lines: list[str] = []  # an expression's are printed once its parameters' types are known
@@ -241,7 +245,7 @@ def _functions(resolved: ResolvedDevice) -> tuple[dict[str, CppFunction], list[C
     out = {f.ident: function(f) for f in resolved.functions}
     ident_of = builder.ident_of
     for f in out.values():
-        if not f.deps:
+        if not f.deps:  # a scale factor is a dependency too
             f.steps = [f]
         elif f.fn.factor is not None:  # its decoder and encoder take the factor's value as a double
             f.factor = out[ident_of[f.fn.factor]]
