@@ -33,6 +33,7 @@ from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.cpp import declarations, definitions
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
+from mdl.targets.cpp.expressions import shape as expr_shape
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ccomment, ctext, double_literal, generation_macro
 from mdl.targets.templating import environment as render_environment
@@ -244,6 +245,7 @@ def _functions(resolved: ResolvedDevice) -> tuple[dict[str, CppFunction], list[C
     function = builder.function
     out = {f.ident: function(f) for f in resolved.functions}
     ident_of = builder.ident_of
+    bodies: dict[Hashable, list[str]] = {}  # an expression's statements by its shape and parameter types
     for f in out.values():
         if not f.deps:  # a scale factor is a dependency too
             f.steps = [f]
@@ -261,7 +263,11 @@ def _functions(resolved: ResolvedDevice) -> tuple[dict[str, CppFunction], list[C
                 for d, t in zip(f.deps, f.dep_types, strict=True)
             ]
         if f.lowered is not None:
-            f.decode_lines = expr_body(f.lowered, f.dep_types)
+            key = expr_shape(f.lowered), tuple(f.dep_types)
+            lines = bodies.get(key)
+            if lines is None:
+                lines = bodies[key] = expr_body(f.lowered, f.dep_types)
+            f.decode_lines = lines
     return out, builder.fragments
 
 
