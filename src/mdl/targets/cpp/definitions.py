@@ -137,10 +137,29 @@ def decode_parts(chunks: list[Chunk[CppFunction]], raw_total: int, class_name: s
     return "".join(out)
 
 
-def _read(f: CppFunction) -> list[str]:
+def _step(g: CppFunction, target: str, indent: str) -> str:
+    """g's registers read into r (and present) and decoded into target, as a read_<name> does it."""
+    out = []
+    n = g.n
+    if n:
+        out.append(f"{indent}std::array<uint16_t, {n}> r{{}};\n")
+        if g.expr:
+            out.append(f"{indent}const std::array<bool, {n}> present{{ {', '.join(['true'] * n)} }};\n")
+        for table, start, count, at in g.runs:
+            into = f"&r[{at}]" if at else "r.data()"
+            out.append(
+                f"{indent}if (read_table_({table}, {start}, {count}, {into}) == -1) {{\n"
+                f"{indent}    return -1;\n{indent}}}\n"
+            )
+    out.append(decode_into(g, target, "v_", indent) + "\n")
+    return "".join(out)
+
+
+def _read(f: CppFunction, blocks: dict[str, str]) -> list[str]:
     """The definition of f's read_<name>: each of its steps' registers read into r (and present) and
     decoded into its value, the last into *out; with several (the value depends on others), each in a
-    block of its own."""
+    block of its own. `blocks`: the block of each function read before another's value, by identifier
+    (the same in every read that needs it)."""
     steps = f.steps
     out = []
     if not f.reads_device:
@@ -148,29 +167,16 @@ def _read(f: CppFunction) -> list[str]:
             "// NOLINTNEXTLINE(readability-convert-member-functions-to-static): every read is a member function\n"
         )
     out.append(f"int {f.owner}::read_{f.ident}({f.rt} *out) {{\n")
-    multi = len(steps) > 1
-    indent = "        " if multi else "    "
-    last = len(steps) - 1
-    for i, g in enumerate(steps):
-        target = "*out" if i == last else "v_" + g.ident
-        n = g.n
-        if multi:
-            if i != last:
-                out.append(f"    {g.rt} {target}{{}};\n")
-            out.append("    {\n")
-        if n:
-            out.append(f"{indent}std::array<uint16_t, {n}> r{{}};\n")
-            if g.expr:
-                out.append(f"{indent}const std::array<bool, {n}> present{{ {', '.join(['true'] * n)} }};\n")
-            for table, start, count, at in g.runs:
-                into = f"&r[{at}]" if at else "r.data()"
-                out.append(
-                    f"{indent}if (read_table_({table}, {start}, {count}, {into}) == -1) {{\n"
-                    f"{indent}    return -1;\n{indent}}}\n"
-                )
-        out.append(decode_into(g, target, "v_", indent) + "\n")
-        if multi:
-            out.append("    }\n")
+    if len(steps) == 1:
+        out.append(_step(steps[0], "*out", "    "))
+    else:
+        for g in steps[:-1]:
+            block = blocks.get(g.ident)
+            if block is None:
+                target = "v_" + g.ident
+                block = blocks[g.ident] = f"    {g.rt} {target}{{}};\n    {{\n{_step(g, target, '        ')}    }}\n"
+            out.append(block)
+        out.append(f"    {{\n{_step(steps[-1], '*out', '        ')}    }}\n")
     out.append("    return 0;\n}\n")
     return out
 
@@ -232,6 +238,7 @@ def methods(functions: list[CppFunction]) -> str:
     """The read_<name> and write_<name> defined here (those not calling a shared read_<k>_ or
     write_<j>_ inline), each function's after a blank line and a comment naming it."""
     out: list[str] = []
+    blocks: dict[str, str] = {}
     for f in functions:
         reads = f.readable and f.reader is None
         writes = f.writable and f.writer is None
@@ -239,7 +246,7 @@ def methods(functions: list[CppFunction]) -> str:
             continue
         out.append(f"\n// {ccomment(f.fn.name)}\n")
         if reads:
-            out += _read(f)
+            out += _read(f, blocks)
         if writes:
             if reads:
                 out.append("\n")
