@@ -276,3 +276,25 @@ def test_cached_property_keeps_its_value():
     assert thing.value == 7 and thing.value == 7 and Thing.calls == 1
     assert thing.__dict__["value"] == 7
     assert Thing.__dict__["value"].__doc__ == "The doc."
+
+
+def ref_address_runs(addresses: list[int]) -> tuple[tuple[int, int], ...]:
+    out: list[tuple[int, int]] = []
+    for a in addresses:
+        if out and a == out[-1][0] + out[-1][1]:
+            out[-1] = (out[-1][0], out[-1][1] + 1)
+        else:
+            out.append((a, 1))
+    return tuple(out)
+
+
+@settings(max_examples=500, deadline=None)
+@given(
+    st.one_of(
+        st.lists(st.integers(0, 40), max_size=8),
+        st.builds(lambda a, n: list(range(a, a + n)), st.integers(0, 65535), st.integers(1, 130)),
+    )
+)
+def test_address_runs_is_the_plain_one(addresses):
+    """A layout's addresses (a tuple) in one run are told at once; any other are walked."""
+    assert address_runs(tuple(addresses)) == address_runs(addresses) == ref_address_runs(addresses)

@@ -128,6 +128,10 @@ def layout(fn: Function, compiled: CompiledExpression | None = None) -> Layout:
 
 def address_runs(addresses: Iterable[int]) -> tuple[tuple[int, int], ...]:
     """(start, count) of each run of addresses that follow each other by one."""
+    if isinstance(addresses, tuple) and addresses:  # a layout's (most often one run): told at once
+        first, n = addresses[0], len(addresses)
+        if addresses[-1] - first == n - 1 and (n < 3 or addresses == tuple(range(first, first + n))):
+            return ((first, n),)
     out: list[tuple[int, int]] = []
     for a in addresses:
         if out and a == out[-1][0] + out[-1][1]:

@@ -177,8 +177,9 @@ def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
             out.decoders.append(d)
             one_run = [f for f in group if len(f.runs) == 1 and not f.deps]
             d.reads = one_run[0] if len(one_run) > 1 else None
+            number = str(d.k)
             for f in group:
-                f.decoder, f.decode_text = str(d.k), ""
+                f.decoder, f.decode_text = number, ""
             for f in one_run if d.reads is not None else ():
                 f.reader = d.k
     writers: dict[tuple[int, bool], list[F]] = {}
@@ -186,8 +187,9 @@ def share(functions: list[F], printing: Printing[F]) -> Shared[F]:
         if len(group) > 1:
             e = SharedCode(len(out.encoders), group, group[0].encode_text)
             out.encoders.append(e)
+            number = str(e.k)
             for f in group:
-                f.encoder, f.encode_text = str(e.k), ""
+                f.encoder, f.encode_text = number, ""
                 if len(f.runs) == 1 and not printing.own_write(f):
                     writers.setdefault((e.k, bool(f.fn.write_multiple)), []).append(f)
     for (k, multiple), group in writers.items():

@@ -39,6 +39,7 @@ REGISTER_FUNCTIONS = (
     "bitsetbit",
 )
 FUNCTIONS = REGISTER_FUNCTIONS + ("concat", "boolean", "swapbytes", "swapendian")
+_FUNCTION_SET = frozenset(FUNCTIONS)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?")
 _IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _HEXWORD = re.compile(r"0[xX]([0-9A-Fa-f]{1,4})(?![0-9A-Za-z])")
@@ -124,12 +125,13 @@ class Parser:
     def additive(self) -> Node:
         depth = self.depth
         left = self.multiplicative()
-        while self.peek() in ("+", "-") and self.peek():
+        op = self.peek()
+        while op in ("+", "-") and op:
             start = self.pos
-            op = self.text[self.pos]
             self.descend()
             self.pos += 1
             left = Binary(start + 1, op, left, self.multiplicative())
+            op = self.peek()
         self.depth = depth
         return left
 
@@ -194,10 +196,10 @@ class Parser:
         if m:
             word = m.group(0)
             after = self.pos + len(word)
-            follows = self.next_char(after)
-            if word.lower() in FUNCTIONS and follows == "(":
+            lower = word.lower()
+            if lower in _FUNCTION_SET and self.next_char(after) == "(":
                 self.pos = after
-                return self.call(word.lower(), start)
+                return self.call(lower, start)
             # the identifier a field id begins with is the whole of `word` (field ids may hold
             # spaces: 'Boolean Value'), so only the fields it leads can match here
             for field_id in self.fields.by_lead.get(word, ()):
@@ -207,9 +209,10 @@ class Parser:
                 ):
                     self.pos = end
                     return Ref(start + 1, field_id)
-            if word.lower() in ("true", "false"):
+            if lower in ("true", "false"):
                 self.pos = after
-                return Bool(start + 1, word.lower() == "true")
+                return Bool(start + 1, lower == "true")
+            follows = self.next_char(after)
             if follows == ":":
                 raise self.error("registers are only allowed inside a function such as int16(...)", start)
             if follows == "(":

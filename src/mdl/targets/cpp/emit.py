@@ -33,7 +33,6 @@ from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.cpp import declarations, definitions
 from mdl.targets.cpp.expressions import body as expr_body
 from mdl.targets.cpp.expressions import cpp_type, helpers
-from mdl.targets.cpp.expressions import shape as expr_shape
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ccomment, ctext, double_literal, generation_macro
 from mdl.targets.templating import environment as render_environment
@@ -199,7 +198,7 @@ class _Builder:
             deps=[self.ident_of[d] for d in deps] if deps else [],
             dep_types=[],
             dep_args=[],
-            runs=_runs(f),
+            runs=runs_at(TABLE_CONST[f.layout.table], f.runs),
             slots=self.resolved.slots_of(f) if decode is not None else (),
             readable=decode is not None,
             writable=encode is not None,
@@ -212,19 +211,6 @@ class _Builder:
             mask_write=mask_write,
             lowered=expression.lowered if expression is not None else None,
         )
-
-
-def _runs(f: ResolvedFunction) -> list[Run]:
-    """f's requests as runs_at gives them. Registers that follow each other (most functions') are one
-    run, found without working out the runs of its layout (ResolvedFunction.runs)."""
-    table = TABLE_CONST[f.layout.table]
-    addresses = f.layout.addresses
-    n = len(addresses)
-    if n:
-        first = addresses[0]
-        if addresses[-1] - first == n - 1 and (n < 3 or addresses == tuple(range(first, first + n))):
-            return [(table, first, n, 0)]
-    return runs_at(table, f.runs)
 
 
 def param_type(g: CppFunction) -> str:
@@ -262,8 +248,10 @@ def _functions(resolved: ResolvedDevice) -> tuple[dict[str, CppFunction], list[C
                 f"%s{d}" if out[d].t == t else f"std::optional<{t}>(%s{d})"
                 for d, t in zip(f.deps, f.dep_types, strict=True)
             ]
-        if f.lowered is not None:
-            key = expr_shape(f.lowered), tuple(f.dep_types)
+        if f.lowered is not None and f.lowered.shape is None:
+            f.decode_lines = expr_body(f.lowered, f.dep_types)
+        elif f.lowered is not None:  # printed once per shape (equal shapes: equal operations) and parameter types
+            key = f.lowered.shape, f.lowered.wide, tuple(f.dep_types)
             lines = bodies.get(key)
             if lines is None:
                 lines = bodies[key] = expr_body(f.lowered, f.dep_types)

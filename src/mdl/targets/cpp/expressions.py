@@ -9,7 +9,7 @@ reading and converting registers allocates nothing; only text and list results o
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Hashable, Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -215,13 +215,6 @@ PRINTER: Mapping[OpKind, Print] = printer(
         OpKind.BITSETBIT: _register(lambda op, decls: f"x_bit(*{op.args[0]}, {op.data['bit']})"),
     }
 )
-
-
-def shape(lowered: Lowered) -> Hashable:
-    """All `body` prints from an expression, as a value: its result and every field of every operation
-    (its data as its repr). Expressions of the same shape, given parameters of the same types, print the
-    same statements (a large device repeats a few shapes: each is printed once, mdl.targets.cpp.emit)."""
-    return lowered.result, tuple([(op.tmp, op.kind, op.type, tuple(op.args), repr(op.data)) for op in lowered.ops])
 
 
 def body(lowered: Lowered, params: list[str]) -> list[str]:
