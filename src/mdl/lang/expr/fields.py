@@ -88,17 +88,28 @@ def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError
     for fn in device.functions:
         blocks.setdefault(fn.block, {})[fn.field_id] = fn
     parsed: dict[str, Node] = {}
-    indexes: dict[str, FieldIndex] = {}
+    indexes: dict[str, FieldIndex] = {}  # block -> the index of its field ids
+    alike: dict[frozenset[str], FieldIndex] = {}  # blocks of the same field ids share one index
+    trees: dict[tuple[str, int], Node] = {}  # (text, id of its index) -> its tree (never changed after parsing)
     for fn in device.functions:
         if fn.expression is None:
             continue
         index = indexes.get(fn.block)
         if index is None:
-            index = indexes[fn.block] = FieldIndex(blocks[fn.block])
-        try:
-            parsed[fn.name] = parse(fn.expression, index)
-        except ExprError as exc:
-            errors.append(FieldError(fn, str(exc), exc.col))
+            ids = frozenset(blocks[fn.block])
+            index = alike.get(ids)
+            if index is None:
+                index = alike[ids] = FieldIndex(ids)
+            indexes[fn.block] = index
+        key = (fn.expression, id(index))
+        tree = trees.get(key)
+        if tree is None:
+            try:
+                tree = trees[key] = parse(fn.expression, index)
+            except ExprError as exc:
+                errors.append(FieldError(fn, str(exc), exc.col))
+                continue
+        parsed[fn.name] = tree
     done: dict[str, str] = {}  # name -> type, for compiled or plain functions
     chain: dict[str, int] = {}  # name -> how many fields deep its references go
     too_deep: set[str] = set()
