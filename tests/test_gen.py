@@ -132,3 +132,27 @@ def test_gen_output_dir_must_be_a_directory(tmp_path):
     afile = tmp_path / "afile"
     afile.write_text("x")
     assert_clean_error(run_mdl("gen", DATA / "all_tables.xml", "-o", afile, "--lang", "python"), 1, "not a directory")
+
+
+def test_gen_runs_without_cyclic_collection_and_restores_the_collector(tmp_path, monkeypatch):
+    """`mdl gen` pauses the cyclic collector while it works (docs/performance.md), and gives it back
+    as it found it, after a failure too."""
+    import gc
+
+    import mdl.targets
+
+    seen = []
+    real = mdl.targets.generate
+
+    def generate(*args, **kwargs):
+        seen.append(gc.isenabled())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mdl.targets, "generate", generate)
+    assert gc.isenabled()
+    source = EXAMPLE / "temco_tstat.xml"
+    assert run_mdl("gen", source, "--lang", "python", "-o", tmp_path).returncode == 0
+    assert seen == [False] and gc.isenabled()
+    (tmp_path / "file").write_text("x")
+    assert run_mdl("gen", source, "--lang", "python", "-o", tmp_path / "file").returncode != 0
+    assert gc.isenabled()

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
@@ -114,6 +115,21 @@ def _resolved(path: Path, fmt: str | None = None) -> ResolvedDevice:
 # Python's default thresholds (700, 10, 10) the collector walks all of them again and again while
 # they are built (a third of `mdl gen`'s time in resolve). Collections stay on, just rarer.
 GC_THRESHOLDS = (100_000, 50, 100)
+
+
+@contextlib.contextmanager
+def _collector_paused() -> Iterator[None]:
+    """No cyclic garbage collection while `mdl gen` runs: what it builds lives until it ends, and each
+    collection walked 100,000 young objects that were all still in use (5 to 8 collections, 7 % of
+    generating 10,000 functions), while the cycles left unfreed add some 4 % to its peak memory. The
+    collector's state is restored after (the tests run commands in one process)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 class Group(click.Group):
@@ -383,11 +399,16 @@ def gen(file: Path, lang: str, outdir: Path, check: bool, profile: str | None) -
       mdl gen examples/temco_tstat/temco_tstat.xml --lang all -o drivers/
       mdl gen examples/profiles/meter_a.xml --lang python --profile meter -o drivers/
     """
+    if str(outdir) == STDIO_ARG:
+        raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
+    with _collector_paused():
+        _gen(file, lang, outdir, check, profile)
+
+
+def _gen(file: Path, lang: str, outdir: Path, check: bool, profile: str | None) -> None:
     from mdl.fileio import all_or_none
     from mdl.targets import generate
 
-    if str(outdir) == STDIO_ARG:
-        raise click.BadParameter("mdl gen writes several files: give a directory, not -", param_hint="'-o'")
     resolved = _resolved(file)
     for note in targets.notes(resolved, file):
         click.echo(str(note), err=True)
