@@ -88,45 +88,39 @@ def scan(node: Node) -> Scan:
     refs: list[str] = []
     numbers: dict[str, int] = {}
 
-    def walk(node: Node) -> Hashable:
-        kind = type(node)
-        if kind is Ref:
-            assert isinstance(node, Ref)
+    def walk(node: Node) -> Hashable:  # the kinds most trees hold first
+        if isinstance(node, Binary):
+            return node.op, walk(node.left), walk(node.right)
+        if isinstance(node, Ref):
             number = numbers.get(node.name)
             if number is None:
                 number = numbers[node.name] = len(refs)
                 refs.append(node.name)
             return "p", number
-        if kind is Registers:
-            assert isinstance(node, Registers)
+        if isinstance(node, Call):
+            return (
+                node.name,
+                tuple([walk(arg) for arg in node.args]),
+                tuple(map(tuple, node.not_implemented)) if node.not_implemented else (),
+                tuple(node.mapping.items()) if node.mapping else (),
+                node.bit,
+                node.labels,
+            )
+        if isinstance(node, Registers):
             registers.append((node.table, node.addresses, node.col))
             base = registers[0][1][0]
             return "r", node.table, tuple([a - base for a in node.addresses])
-        if kind is Num:
-            assert isinstance(node, Num)
+        if isinstance(node, Num):
             value = node.value  # a float by its repr: 0.0 and -0.0 are equal, and 1 and 1.0
             return ("f", repr(value)) if isinstance(value, float) else ("i", value)
-        if kind is Str or kind is Bool:
-            assert isinstance(node, (Str, Bool))
-            return kind.__name__, node.value
-        if kind is Constant:
-            assert isinstance(node, Constant)
+        if isinstance(node, (Str, Bool)):
+            return type(node).__name__, node.value
+        if isinstance(node, Constant):
             return "k", tuple(node.words)
-        if kind is Binary:
-            assert isinstance(node, Binary)
-            return node.op, walk(node.left), walk(node.right)
-        if kind is Unary or kind is Swap:
-            assert isinstance(node, (Unary, Swap))
-            return kind.__name__, node.op if isinstance(node, Unary) else node.kind, walk(node.arg)
-        assert isinstance(node, Call), node  # the one kind of node left
-        return (
-            node.name,
-            tuple([walk(arg) for arg in node.args]),
-            tuple(map(tuple, node.not_implemented)),
-            tuple(node.mapping.items()),
-            node.bit,
-            node.labels,
-        )
+        if isinstance(node, Unary):
+            return "Unary", node.op, walk(node.arg)
+        assert isinstance(node, Swap), node  # the one kind of node left
+        return "Swap", node.kind, walk(node.arg)
 
     shape = walk(node)
     return Scan(registers, refs, shape)
