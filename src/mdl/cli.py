@@ -113,7 +113,8 @@ def _resolved(path: Path, fmt: str | None = None) -> ResolvedDevice:
 
 # A model of 10,000 functions is some 10^6 small objects that live until the command ends: with
 # Python's default thresholds (700, 10, 10) the collector walks all of them again and again while
-# they are built (a third of `mdl gen`'s time in resolve). Collections stay on, just rarer.
+# they are built (a third of `mdl gen`'s time in resolve). Collections stay on, just rarer (`mdl gen`
+# pauses them: _collector_paused).
 GC_THRESHOLDS = (100_000, 50, 100)
 
 

@@ -75,7 +75,7 @@ def render_all(device: ResolvedDevice, names: list[str], render: Render) -> list
             stream.flush()
     freeze = gc.get_freeze_count() == 0  # a caller's own frozen objects stay as the caller left them
     if freeze:
-        gc.freeze()  # the children's collections leave the inherited objects' pages shared
+        gc.freeze()  # the children's collections, if any (mdl gen pauses them), leave the inherited pages shared
     children: dict[str, tuple[int, int]] = {}
     try:
         for name in names[1:]:

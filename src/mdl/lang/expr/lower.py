@@ -140,9 +140,8 @@ class Lowerer:
         self.ops.append(op)
         return op.tmp, type_
 
-    def lower(self, node: Node, scanned: Scan | None = None) -> Lowered:
-        if scanned is None:
-            scanned = scan(node)
+    def lower(self, node: Node, scanned: Scan) -> Lowered:
+        """The operations of the tree; `scanned` is scan(node)."""
         found = scanned.registers
         tables = {t for t, _, _ in found}
         if len(tables) > 1:

@@ -126,7 +126,7 @@ class Parser:
         depth = self.depth
         left = self.multiplicative()
         op = self.peek()
-        while op in ("+", "-") and op:
+        while op in ("+", "-"):
             start = self.pos
             self.descend()
             self.pos += 1

@@ -58,7 +58,7 @@ def c_type(vt: ir.ValueType, stem: str) -> str:
     return "bool"
 
 
-@dataclass
+@dataclass(frozen=True)
 class RangeCheck:
     """A CheckRange as the template prints it: `low`/`high` are C literals (None: no such bound),
     `never`: no value of the type is within the bounds."""

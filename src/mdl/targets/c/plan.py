@@ -12,9 +12,9 @@ from mdl.resolve import ResolvedDevice
 
 @dataclass(frozen=True)
 class PlanTables:
-    """`groups` rows of mdl_groups (table, start, count, offset in read_all's buffer, first and number
-    of its smaller requests) and `splits` rows of mdl_splits (table, start, count, first slot within
-    its group), each row a line ending with a newline."""
+    """The `groups` rows of mdl_groups (`group_rows`: table, start, count, offset in read_all's buffer,
+    first and number of its smaller requests) and the `splits` rows of mdl_splits (`split_rows`: table,
+    start, count, first slot within its group), each row a line ending with a newline."""
 
     groups: int
     group_rows: str
