@@ -20,27 +20,14 @@ class Target:
     render: Callable[[ResolvedDevice, str, Interface | None], dict[str, str]]
 
 
-@dataclass(frozen=True)
-class GroupRow:
-    """A request of the read plan as a row of the C and C++ drivers' groups table."""
-
-    table: str  # as the target spells it
-    start: int
-    count: int
-    offset: int  # its first slot in read_all's buffer
-    split_first: int  # its smaller requests (used when the device refuses it): first row in splits
-    split_count: int
-
-
-@dataclass(frozen=True)
-class SplitRow:
-    """One of a group's smaller requests, as a row of the splits table."""
-
-    table: str
-    start: int
-    count: int
-    delta: int  # its first slot within its group
-
+# A request of the read plan as a row of the C and C++ drivers' groups table: (table as the target
+# spells it, start, count, its first slot in read_all's buffer, the first row of its smaller requests
+# (used when the device refuses it) in the splits table, their number). Tuples: some 10,000 rows are
+# made for a large device.
+GroupRow = tuple[str, int, int, int, int, int]
+# one of a group's smaller requests as a row of the splits table: (table, start, count, its first slot
+# within its group)
+SplitRow = tuple[str, int, int, int]
 
 Run = tuple[str, int, int, int]  # (table as the target spells it, first address, count, first register in r)
 
@@ -64,6 +51,6 @@ def plan_rows(resolved: ResolvedDevice, table_names: Mapping[str, str]) -> tuple
     splits: list[SplitRow] = []
     for group in resolved.plan:
         req, smaller = group.request, group.smaller
-        groups.append(GroupRow(table_names[req.table], req.start, req.count, group.offset, len(splits), len(smaller)))
-        splits += [SplitRow(table_names[s.table], s.start, s.count, s.start - req.start) for s in smaller]
+        groups.append((table_names[req.table], req.start, req.count, group.offset, len(splits), len(smaller)))
+        splits += [(table_names[s.table], s.start, s.count, s.start - req.start) for s in smaller]
     return groups, splits

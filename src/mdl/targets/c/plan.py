@@ -1,6 +1,6 @@
 """The read plan as the C driver's tables print it (device.c.j2's `mdl_groups` and `mdl_splits`): one row
 per request, some 10,000 of the smaller requests for a device of 10,000 functions, printed with Python
-rather than a template loop."""
+rather than a template loop from the rows mdl.targets.base.plan_rows gives both C and C++."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from mdl.resolve import ResolvedDevice
+from mdl.targets.base import plan_rows
 
 
 @dataclass(frozen=True)
@@ -23,15 +24,8 @@ class PlanTables:
 
 
 def plan_tables(rd: ResolvedDevice, table_names: Mapping[str, str]) -> PlanTables:
-    """The rows of the device's read plan (as mdl.targets.base.plan_rows gives them), `table_names`
-    spelling each table."""
-    groups: list[str] = []
-    splits: list[str] = []
-    for group in rd.plan:
-        req, smaller = group.request, group.smaller
-        groups.append(
-            f"    {{{table_names[req.table]}, {req.start}, {req.count}, {group.offset}U, {len(splits)}U,"
-            f" {len(smaller)}U}},\n"
-        )
-        splits += [f"    {{{table_names[s.table]}, {s.start}, {s.count}, {s.start - req.start}U}},\n" for s in smaller]
-    return PlanTables(len(groups), "".join(groups), len(splits), "".join(splits))
+    """The rows of the device's read plan (mdl.targets.base.plan_rows), `table_names` spelling each table."""
+    groups, splits = plan_rows(rd, table_names)
+    group_rows = "".join([f"    {{{t}, {s}, {c}, {o}U, {first}U, {n}U}},\n" for t, s, c, o, first, n in groups])
+    split_rows = "".join([f"    {{{t}, {s}, {c}, {delta}U}},\n" for t, s, c, delta in splits])
+    return PlanTables(len(groups), group_rows, len(splits), split_rows)

@@ -19,14 +19,12 @@ if TYPE_CHECKING:
 
 def group_rows(groups: list[GroupRow]) -> str:
     """The rows of the read plan's table kGroups, a line each."""
-    return "".join(
-        [f"    {{{g.table}, {g.start}, {g.count}, {g.offset}, {g.split_first}, {g.split_count}}},\n" for g in groups]
-    )
+    return "".join([f"    {{{t}, {s}, {c}, {o}, {first}, {n}}},\n" for t, s, c, o, first, n in groups])
 
 
 def split_rows(splits: list[SplitRow]) -> str:
     """The rows of kSplits, the smaller requests of the plan's groups, a line each."""
-    return "".join([f"    {{{s.table}, {s.start}, {s.count}, {s.delta}}},\n" for s in splits])
+    return "".join([f"    {{{t}, {s}, {c}, {delta}}},\n" for t, s, c, delta in splits])
 
 
 def range_rows(ranges: list[tuple[int, int]]) -> str:
