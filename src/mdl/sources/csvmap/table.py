@@ -207,6 +207,22 @@ def synonym_rank(key: str, norm: str) -> int | None:
     return None
 
 
+# the longest cell any table reader accepts (docs/limits.md): a register table's longest cells are
+# descriptions of a few hundred characters; a longer one is refused with its position, before any pass
+# (or the XML writer, whose own limit is 10 MB a text node) works on it
+MAX_CELL_CHARS = 65_536
+
+
+def cell_too_long(path: Path, line: int | None, column: int | None, length: int) -> MdlError:
+    """The one refusal of an over-long cell, for every reader (CSV, Markdown, HTML, workbooks)."""
+    return error(
+        f"a cell of {length:,} characters: the limit is {MAX_CELL_CHARS:,} (is this a register table?)",
+        path,
+        line,
+        column,
+    )
+
+
 @dataclass
 class Row:
     line: int
