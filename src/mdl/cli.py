@@ -663,6 +663,7 @@ def import_(
     """
     from mdl.sources.loading import import_format
     from mdl.sources.mdlxml import device_to_xml
+    from mdl.sources.mdlxml.load import check_written
 
     if fmt is not None and fmt.lower() == "sunspec":
         from mdl.formats.sunspec.read import import_chain
@@ -670,7 +671,7 @@ def import_(
 
         resolved = resolve(import_chain(sources, base, repeat), "sunspec")
         _report_warnings(resolved.warnings, Path("sunspec"))
-        _emit_text(device_to_xml(resolved.device), output)
+        _emit_text(check_written(device_to_xml(resolved.device), "import"), output)
         return
     if base is not None or repeat is not None:
         raise click.UsageError("--base and --repeat are options of --from sunspec")
@@ -679,7 +680,7 @@ def import_(
     file = INPUT.convert(sources[0], None, None)
     fmt = fmt or import_format(file)
     xml = device_to_xml(formats.by_name(fmt).to_mdl(_resolved(file, fmt)))
-    _emit_text(xml, output)
+    _emit_text(check_written(xml, "import"), output)
 
 
 def _emit_text(text: str, output: Path | None) -> None:
@@ -885,6 +886,7 @@ def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int
     from mdl.device.sunspec_discover import discover_sunspec
     from mdl.resolve import resolve
     from mdl.sources.mdlxml import device_to_xml
+    from mdl.sources.mdlxml.load import check_written
 
     given = click.get_current_context().get_parameter_source
     if files:
@@ -896,7 +898,7 @@ def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int
         raise click.UsageError("unit 0 is the broadcast address on a serial line, which no device answers")
     resolved = resolve(discover_sunspec(connection, 1 if unit is None else unit), "sunspec")
     _report_warnings(resolved.warnings, Path("sunspec"))
-    _emit_text(device_to_xml(resolved.device), output)
+    _emit_text(check_written(device_to_xml(resolved.device), "discover --sunspec"), output)
 
 
 @main.command()

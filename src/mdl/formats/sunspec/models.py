@@ -25,6 +25,13 @@ TYPE_REGISTERS: dict[str, int | None] = {
     "int64": 4, "uint64": 4, "acc64": 4, "float64": 4, "eui48": 4,
     "ipv6addr": 8, "string": None,
 }  # fmt: skip
+# the values a symbol of an enum (the raw value) or a bitfield (the bit's number) can take
+SYMBOL_RANGE: dict[str, tuple[int, int, str]] = {
+    "enum16": (0, 0xFFFF, "raw values"),
+    "enum32": (0, 0xFFFFFFFF, "raw values"),
+    "bitfield16": (0, 15, "bit numbers"),
+    "bitfield32": (0, 31, "bit numbers"),
+}
 MAX_FILE_BYTES = 4 * 1024 * 1024  # the largest shipped model is under 200 kB
 MAX_GROUP_DEPTH = 16  # groups in groups; every step of a chain's build is then bounded
 SHOWN_PROBLEMS = 10  # problems of one definition said in full
@@ -161,3 +168,14 @@ def _check_point(p: object, where: str, scopes: list[dict[str, object]], problem
         isinstance(s, dict) and isinstance(s.get("name"), str) and isinstance(s.get("value"), int) for s in symbols
     ):
         problems.append(f"{where} ({p['name']}): 'symbols' must be a list of objects with a name and an integer value")
+    elif symbols and kind in SYMBOL_RANGE:
+        low, high, what = SYMBOL_RANGE[kind]
+        for s in symbols:
+            if isinstance(s["value"], bool) or not low <= s["value"] <= high:
+                value = str(s["value"])
+                value = value if len(value) <= 12 else f"{value[:12]}... ({len(value)} digits)"
+                problems.append(
+                    f"{where} ({p['name']}): symbol {s['name']!r} = {value} is outside {low}..{high}, "
+                    f"the {what} of {kind}"
+                )
+                break

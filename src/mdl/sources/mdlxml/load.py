@@ -11,7 +11,15 @@ from lxml import etree
 
 from mdl.diagnostics import Collector, Diagnostic, MdlError, TextSpan, defer_spans, record_span
 from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
-from mdl.sources.mdlxml.parse import NS, StartTag, decoded, element_tags, parse_source, schema_errors
+from mdl.sources.mdlxml.parse import (
+    NS,
+    StartTag,
+    decoded,
+    element_tags,
+    parse_source,
+    schema_errors,
+    secure_parser,
+)
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -273,3 +281,31 @@ def load_device(path: StrPath, version: str = "1.0") -> Device:
     from mdl.resolve import resolve
 
     return resolve(read_device(path, version), str(path)).device
+
+
+def check_written(xml: str, what: str) -> str:
+    """MDL a command made (an import, csv2xml) read back as `mdl validate` reads a file: the XSD, the
+    model, the checks of SPEC 2. A problem is mdl's own (a converter let through what MDL cannot say),
+    so it is refused as an internal error before anything is written: nothing invalid is ever written.
+    Returns `xml`."""
+    from mdl.resolve.checks import check_device
+
+    data = xml.encode("ascii")
+    where = f"<{what} output>"
+    try:
+        tree = etree.fromstring(data, secure_parser()).getroottree()
+        problems = schema_errors(tree, where, "1.0", data)  # as `mdl validate` checks by default
+        if not problems:
+            problems = [d for d in check_device(tree_to_device(tree, where, data), where) if d.severity == "error"]
+    except etree.XMLSyntaxError as exc:
+        problems = [Diagnostic(where, None, None, str(exc))]
+    except MdlError as exc:
+        problems = list(exc.diagnostics)
+    if problems:
+        raise MdlError(
+            [
+                Diagnostic(d.file, d.line, d.col, f"internal error, the output would not validate: {d.message}")
+                for d in problems
+            ]
+        )
+    return xml
