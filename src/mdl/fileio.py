@@ -3,13 +3,22 @@
 `-` on the command line means standard input: input_path() turns it into STDIN, which read_bytes()
 reads from sys.stdin and every message names `<stdin>`.
 
-An output is written to a temporary file beside it and renamed into place, so no reader ever sees
-half a file. A new file gets the permissions the umask gives (as any program creating a file); an
-existing file keeps its mode, as editors do. Inside all_or_none() the renames wait until every file
-of the run is written, and a failed rename puts back the files already replaced: a run changes all
-its files or none. Temporary files are removed on every error, on SIGINT (KeyboardInterrupt), and on
-SIGTERM/SIGHUP, which raise SystemExit(128 + signal) while files are being written; those a run
-killed outright (SIGKILL, a power cut) leaves, remove_leftovers() removes on the next run.
+What an output path names decides how it is written (SPEC section 1, "Output files"):
+- a regular file (or none yet) is written to a temporary file beside it and renamed into place, so no
+  reader ever sees half a file. A new file gets the permissions the umask gives (as any program
+  creating a file); an existing file keeps its mode, as editors do.
+- a symbolic link (a chain of them) stays a link: the file it finally names is replaced as above, in
+  its own folder; a dangling link's file is created.
+- a FIFO, a device or a socket (`/dev/null`, a named pipe, a terminal), and a descriptor of this
+  process (`/dev/stdout`, `/dev/fd/N` as `>(cmd)` gives) is written to in place, never replaced: no
+  temporary file, no rename, no chmod. A folder is refused (the rename over it fails).
+Inside all_or_none() nothing is renamed or written in place until every output of the run is ready;
+then the files are renamed, and a failed rename puts back the files already replaced; then the
+in-place outputs are written, and a failed one puts back every file: a run changes all its files or
+none (what a stream has taken cannot be taken back). Temporary files are removed on every error, on
+SIGINT (KeyboardInterrupt), and on SIGTERM/SIGHUP, which raise SystemExit(128 + signal) while files
+are being written; those a run killed outright (SIGKILL, a power cut) leaves, remove_leftovers()
+removes on the next run.
 """
 
 from __future__ import annotations
@@ -20,6 +29,7 @@ import re
 import secrets
 import shutil
 import signal
+import socket
 import stat
 import sys
 import threading
@@ -96,53 +106,141 @@ def read_text(path: StrPath, encodings: tuple[str, ...] = ("utf-8",)) -> str:
 
 
 def would_change(path: StrPath, content: str) -> bool:
+    """Whether writing `content` to `path` changes it. Only a regular file is read and compared: a
+    FIFO, a device or a descriptor is written every time (reading a FIFO would wait for a writer)."""
+    target = Path(path)
+    if _own_descriptor(target) is not None:
+        return True
     try:
-        return Path(path).read_bytes() != content.encode("utf-8")
+        if not stat.S_ISREG(os.stat(target).st_mode):
+            return True
+        return target.read_bytes() != content.encode("utf-8")
     except OSError:
         return True
 
 
+MAX_LINKS = 40  # symbolic links followed to an output's file, as many as Linux's path lookup follows
+
+
 @dataclass
 class _Staged:
-    """One output of a run: its final path, the written temporary file, the old file's second name."""
+    """One output of a run. `shown`: the path as given, for messages; `path`: where the bytes go (the
+    file a link names). Replaced whole: `tmp`, the written temporary file, and while the run is put in
+    place `old`, the old file's second name. Written in place: its bytes `data`, and `fd` if it is a
+    descriptor of this process or `socket` if it is a socket."""
 
+    shown: Path
     path: Path
-    tmp: Path
+    in_place: bool = False
+    tmp: Path | None = None
     old: Path | None = None
+    data: bytes = b""
+    fd: int | None = None
+    socket: bool = False
 
 
 _run: list[_Staged] | None = None  # the outputs staged inside all_or_none()
 
 
 def write_atomic(path: StrPath, content: str | bytes) -> None:
-    """Write one file whole; inside all_or_none() it is put in place with the run's other files."""
+    """Write one output: a file replaced whole, a FIFO, device, socket or descriptor written in place
+    (the module docstring); inside all_or_none() it is put in place with the run's other outputs."""
     if _run is None:
         with all_or_none():
             write_atomic(path, content)
         return
-    target = Path(path)
+    shown = Path(path)
     try:
         data = content.encode("utf-8") if isinstance(content, str) else content
     except UnicodeEncodeError as exc:  # a lone surrogate from an input no writer refused
         bad = f"U+{ord(exc.object[exc.start]):04X}"
-        raise error(f"cannot write: the text holds {bad}, which no file can carry (UTF-8)", target) from None
+        raise error(f"cannot write: the text holds {bad}, which no file can carry (UTF-8)", shown) from None
+    item = _staged(shown)
+    if item.in_place:
+        item.data = data
+        _run.append(item)
+    else:
+        _stage_file(item, data)
+
+
+def _staged(shown: Path) -> _Staged:
+    """What `shown` names: a descriptor of this process, a stream (kept as it is), or the file to replace."""
+    fd = _own_descriptor(shown)
+    if fd is not None:
+        return _Staged(shown, shown, in_place=True, fd=fd)
+    try:
+        mode = os.stat(shown).st_mode
+    except FileNotFoundError:
+        return _Staged(shown, _linked_file(shown))  # no file yet, or a dangling link: its file is created
+    except OSError as exc:
+        raise _cannot_write(exc, shown, shown) from None
+    if stat.S_ISREG(mode) or stat.S_ISDIR(mode):  # a folder: the rename over it fails, the run puts back
+        return _Staged(shown, _linked_file(shown))
+    return _Staged(shown, shown, in_place=True, socket=stat.S_ISSOCK(mode))  # opened through its links
+
+
+def _stage_file(item: _Staged, data: bytes) -> None:
+    """Write the temporary file that will replace `item.path`, beside it, with the old file's mode."""
+    assert _run is not None
+    target = item.path
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         with _signals_blocked():  # the run knows the temporary file before a signal can stop it
-            tmp, fd = _create_beside(target)
-            _run.append(_Staged(target, tmp))
+            item.tmp, fd = _create_beside(target)
+            _run.append(item)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         mode = _regular_file_mode(target)
         if mode is not None:
-            os.chmod(tmp, mode)
+            os.chmod(item.tmp, mode)
     except OSError as exc:
-        raise error(f"cannot write: {exc.strerror}", target) from None
+        raise _cannot_write(exc, item.shown, target) from None
+
+
+def _cannot_write(exc: OSError, shown: Path, path: Path) -> MdlError:
+    """`cannot write: REASON` at the path as given, naming the file its link leads to if that is another."""
+    linked = "" if path == shown else f" {path}, the file its link names"
+    return error(f"cannot write{linked}: {exc.strerror or exc}", shown)
+
+
+_DESCRIPTOR = re.compile(
+    r"/dev/(?:std(?P<std>out|err)|fd/(?P<fd>[0-9]+))|/proc/(?P<pid>self|thread-self|[0-9]+)/fd/(?P<pfd>[0-9]+)"
+)
+
+
+def _own_descriptor(path: Path) -> int | None:
+    """The open descriptor of this process `/dev/stdout`, `/dev/stderr`, `/dev/fd/N` or `/proc/self/fd/N`
+    names: written to as it is, as bash does (reopening a socket fails, and reopening a file would
+    start it over at its beginning, or replace a file `>>` appends to)."""
+    match = _DESCRIPTOR.fullmatch(os.path.normpath(os.path.abspath(path)))
+    if match is None or match["pid"] not in (None, "self", "thread-self", str(os.getpid())):
+        return None
+    fd = {"out": 1, "err": 2}[match["std"]] if match["std"] else int(match["fd"] or match["pfd"])
+    try:
+        os.fstat(fd)
+    except OSError:
+        return None  # not open here: the path is looked up as any other
+    return fd
+
+
+def _linked_file(path: Path) -> Path:
+    """The file `path` finally names through its symbolic links (`path` itself if it is no link); a
+    relative link is taken from its own folder. A chain longer than MAX_LINKS (a loop) is an error."""
+    at = path
+    for _ in range(MAX_LINKS + 1):
+        try:
+            link = os.readlink(at)
+        except OSError:  # not a link (or not there): this is the file
+            return at
+        at = Path(os.path.join(os.path.dirname(at), link))
+    raise error(f"cannot write: cannot follow its symbolic links, more than {MAX_LINKS} (a loop?)", path)
 
 
 @contextlib.contextmanager
 def all_or_none() -> Iterator[None]:
-    """Every write_atomic() inside is staged; on leaving without error all of them are put in place."""
+    """Every write_atomic() inside is staged; on leaving without error all of them are put in place:
+    first the files renamed, then the outputs written in place, which cannot be taken back: if one of
+    them fails (a reader gone, a device full), the files are put back too."""
     global _run
     if _run is not None:
         raise RuntimeError("all_or_none() does not nest")
@@ -151,11 +249,49 @@ def all_or_none() -> Iterator[None]:
     try:
         with _signals_exit():
             yield
+            files = [item for item in staged if not item.in_place]
             with _signals_blocked():
-                _commit(staged)
+                _commit(files)
+            try:
+                for item in staged:
+                    if item.in_place:
+                        _write_in_place(item)  # signals not held: a FIFO nobody reads can be interrupted
+            except BaseException:
+                with _signals_blocked():
+                    for item in reversed(files):
+                        _put_back(item)
+                raise
     finally:
         _run = None
         _discard(staged)
+
+
+def _write_in_place(item: _Staged) -> None:
+    """Write `item.data` into the descriptor, socket, FIFO or device it names, as `cat > PATH` does."""
+    try:
+        if item.fd is not None:
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()  # what was printed before comes first
+            _write_all(item.fd, item.data)
+        elif item.socket:
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as sock:
+                sock.connect(str(item.path))
+                sock.sendall(item.data)
+        else:
+            fd = os.open(item.path, os.O_WRONLY | os.O_NOCTTY | getattr(os, "O_CLOEXEC", 0))
+            try:
+                _write_all(fd, item.data)
+            finally:
+                os.close(fd)
+    except OSError as exc:
+        raise _cannot_write(exc, item.shown, item.path) from None
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view) :]
 
 
 _TOKEN_BYTES = 6  # RANDOM in the names below: 12 hex digits
@@ -171,6 +307,12 @@ def remove_leftovers(path: StrPath) -> None:
     _hidden_name's pattern for this very file, never another file. (Two runs writing the same file at
     once are not supported: the later one's leftovers may be the earlier one's files in progress.)"""
     target = Path(path)
+    if _own_descriptor(target) is not None or not _is_file_or_none(target):
+        return  # written in place: nothing is ever left beside it
+    try:
+        target = _linked_file(target)  # a link's temporary files are beside the file it names
+    except MdlError:
+        return
     pattern = re.compile(rf"\.{re.escape(target.name)}\.[0-9a-f]{{{2 * _TOKEN_BYTES}}}\.(?:tmp|old)")
     try:
         names = os.listdir(target.parent)
@@ -180,6 +322,13 @@ def remove_leftovers(path: StrPath) -> None:
         if pattern.fullmatch(name):
             with contextlib.suppress(OSError):
                 os.unlink(target.parent / name)
+
+
+def _is_file_or_none(path: Path) -> bool:
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except OSError:
+        return True
 
 
 def _create_beside(path: Path) -> tuple[Path, int]:
@@ -208,10 +357,11 @@ def _commit(staged: list[_Staged]) -> None:
     done: list[_Staged] = []
     try:
         for item in staged:
+            assert item.tmp is not None
             try:
                 os.replace(item.tmp, item.path)
             except OSError as exc:
-                raise error(f"cannot write: {exc.strerror}", item.path) from None
+                raise _cannot_write(exc, item.shown, item.path) from None
             done.append(item)
     except BaseException:
         for item in reversed(done):
