@@ -49,17 +49,19 @@ def wait_for(predicate, timeout: float = RUN, what: str = "") -> None:
 
 
 class Broker:
-    """mosquitto on a free loopback port, persistent (sessions and retained messages survive a restart)."""
+    """mosquitto on a free loopback port, persistent (sessions and retained messages survive a restart);
+    `extra`: more configuration for the listener (TLS files, a password file)."""
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, extra: str = "") -> None:
         exe = shutil.which("mosquitto") or ("/usr/sbin/mosquitto" if Path("/usr/sbin/mosquitto").exists() else None)
         if exe is None:
             skip_or_fail("mosquitto is not installed: the MQTT tests need a broker (apt-get install mosquitto)")
         self.exe, self.port, self.proc = exe, free_port(), None
         self.config = folder / "mosquitto.conf"
         self.config.write_text(
-            f"listener {self.port} 127.0.0.1\nallow_anonymous true\npersistence true\n"
+            f"listener {self.port} 127.0.0.1\n{extra}persistence true\n"
             f"persistence_location {folder}/\nuser {getpass.getuser()}\n"
+            + ("" if "allow_anonymous" in extra else "allow_anonymous true\n")
         )
         self.start()
 
@@ -93,11 +95,15 @@ class Subscriber:
     """Everything published under `topics`, in arrival order, over a persistent session (QoS 1): messages
     published while it was away (a broker restart) are kept for it by the broker."""
 
-    def __init__(self, port: int, topics: list[str]) -> None:
+    def __init__(self, port: int, topics: list[str], auth: tuple[str, str] | None = None, ca: Path | None = None):
         self.messages: list[tuple[str, bytes, bool]] = []
         self.ready = threading.Event()
         self.client = mqtt.Client(CallbackAPIVersion.VERSION2, client_id=f"test-{port}", clean_session=False)
         self.client.reconnect_delay_set(0.1, 0.5)
+        if auth is not None:
+            self.client.username_pw_set(*auth)
+        if ca is not None:
+            self.client.tls_set(ca_certs=str(ca))
 
         def on_connect(c, u, flags, reason, props):
             c.subscribe([(topic, 1) for topic in topics])
@@ -149,25 +155,28 @@ def test_every_poll_arrives_in_order_with_discovery_configs(broker, sim_factory)
     assert all(retain is False for t, _, retain in sub.messages)  # it was listening: live, not the retained copy
     configs = {t: json.loads(p) for t, p, _ in sub.messages if t.startswith("homeassistant/")}
     assert set(configs) == {
-        "homeassistant/sensor/all_tables/setpoint/config",
-        "homeassistant/sensor/all_tables/mode/config",
-        "homeassistant/binary_sensor/all_tables/pump/config",
-        "homeassistant/sensor/all_tables/energy/config",
+        "homeassistant/sensor/pfx-all_tables/setpoint/config",
+        "homeassistant/sensor/pfx-all_tables/mode/config",
+        "homeassistant/binary_sensor/pfx-all_tables/pump/config",
+        "homeassistant/sensor/pfx-all_tables/energy/config",
     }
-    setpoint = configs["homeassistant/sensor/all_tables/setpoint/config"]
+    setpoint = configs["homeassistant/sensor/pfx-all_tables/setpoint/config"]
     assert setpoint["state_topic"] == "pfx/all_tables/setpoint"
     assert (setpoint["device_class"], setpoint["state_class"], setpoint["unit_of_measurement"]) == (
         "temperature",
         "measurement",
         "°C",
     )
-    energy = configs["homeassistant/sensor/all_tables/energy/config"]
+    energy = configs["homeassistant/sensor/pfx-all_tables/energy/config"]
     assert (energy["device_class"], energy["state_class"]) == ("energy", "total_increasing")
     assert "a meter's counter" in proc.stderr  # the guess is said
-    assert "device_class" not in configs["homeassistant/sensor/all_tables/mode/config"]  # an enumeration
-    assert configs["homeassistant/sensor/all_tables/mode/config"]["device"]["identifiers"] == ["mdl_all_tables"]
+    mode = configs["homeassistant/sensor/pfx-all_tables/mode/config"]
+    assert "device_class" not in mode  # an enumeration
+    assert mode["device"]["identifiers"] == ["mdl-pfx-all_tables"]
+    assert mode["unique_id"] == "mdl-pfx-all_tables-mode"
+    assert mode["availability"] == [{"topic": "pfx/status"}, {"topic": "pfx/all_tables/$status"}]
     first = [t for t, _, _ in sub.messages].index
-    assert first("homeassistant/sensor/all_tables/setpoint/config") < first("pfx/all_tables/setpoint")
+    assert first("homeassistant/sensor/pfx-all_tables/setpoint/config") < first("pfx/all_tables/setpoint")
     # retained: a client that comes later finds the last poll and the configs
     late = Subscriber(broker.port, ["pfx/#", "homeassistant/#"])
     try:
@@ -224,7 +233,7 @@ def test_broker_and_device_outages_lose_no_poll_and_no_order(broker, sim_factory
     got = sub.payloads("pfx/all_tables/setpoint")
     assert times_in_order(got) == [r["time"] for r in polled]
     assert {p["value"] for p in got} == {21.5, 22.5}
-    statuses = [p for t, p, _ in sub.messages if t == "pfx/all_tables/status"]
+    statuses = [p for t, p, _ in sub.messages if t == "pfx/all_tables/$status"]
     assert b"offline" in statuses and statuses[-1] == b"online"
 
 
@@ -247,7 +256,8 @@ def test_the_queue_is_bounded_and_says_what_it_drops(sim_factory):
         ("mqtt://127.0.0.1:99999/p", "not in the range"),
         ("mqtt://127.0.0.1/p?queue=0", "queue=0"),
         ("mqtt://127.0.0.1/p?qos=2", "unknown setting 'qos'"),
-        ("http://127.0.0.1/p", "publish to mqtt://"),
+        ("http://127.0.0.1/p", "publish to mqtt[s]://"),
+        ("mqtt://127.0.0.1/$SYS/x", "leading '$'"),
     ],
 )
 def test_bad_urls_are_usage_errors(url, fragment, tmp_path):
@@ -285,7 +295,7 @@ def test_a_full_queue_drops_polls_never_a_devices_status():
     for i in range(3):
         pub._add(_Batch([("p/d/x", str(i).encode())], f"poll {i}"))
     kept = [(b.status_of, b.messages) for b in pub._pending]
-    assert kept == [("d", [("p/d/status", b"online")]), (None, [("p/d/x", b"1")]), (None, [("p/d/x", b"2")])]
+    assert kept == [("d", [("p/d/$status", b"online")]), (None, [("p/d/x", b"1")]), (None, [("p/d/x", b"2")])]
 
 
 def test_a_nan_is_published_as_null():

@@ -1099,8 +1099,14 @@ def _select(device: Device, names: Iterable[str], want_write: bool = False) -> l
     "--publish",
     multiple=True,
     metavar="URL",
-    help="With --interval: send each poll on: mqtt://HOST[:PORT]/PREFIX (MQTT, Home Assistant discovery), "
-    "prometheus://[HOST]:PORT (metrics of the last poll). See docs/fleet.md.",
+    help="With --interval: send each poll on: mqtt://HOST[:PORT]/PREFIX (MQTT, Home Assistant discovery; "
+    "mqtts:// with TLS), prometheus://[HOST]:PORT (metrics of the last poll). See docs/fleet.md.",
+)
+@click.option(
+    "--mqtt-ca",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    metavar="FILE",
+    help="With --publish mqtts://: trust only the CA certificates (PEM) in FILE, not the system's.",
 )
 @fail_on_warning_option
 def read(
@@ -1116,6 +1122,7 @@ def read(
     interval: float | None,
     count: int | None,
     publish: tuple[str, ...],
+    mqtt_ca: Path | None,
 ) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
@@ -1160,10 +1167,12 @@ def read(
         raise click.UsageError("--count needs --interval (polling)")
     if publish and interval is None:
         raise click.UsageError("--publish needs --interval (polling)")
+    if mqtt_ca is not None and not any(url.lower().startswith("mqtts://") for url in publish):
+        raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
     from mdl.device.fleet import looks_like_target
 
     if isinstance(file, str) or publish or any(map(looks_like_target, names)):
-        sys.exit(_read_targets(file, names, connection, unit, fmt, interval, count, publish))
+        sys.exit(_read_targets(file, names, connection, unit, fmt, interval, count, publish, mqtt_ca))
     if connection is None:
         raise click.UsageError(NO_CONNECTION)
     if raw or file is None:
@@ -1195,6 +1204,7 @@ def _read_targets(
     interval: float | None,
     count: int | None,
     publish: tuple[str, ...],
+    mqtt_ca: Path | None = None,
 ) -> int:
     """`mdl read` of several FILE@CONNECTION targets, or of one FILE with --publish (mdl.device.fleet)."""
     from click.core import ParameterSource
@@ -1225,9 +1235,9 @@ def _read_targets(
     sinks: list[fleet.Sink] = []
     for url in publish:
         try:
-            sinks.append(fleet.publisher(url, sys.stderr, ha_unit))
+            sinks.append(fleet.publisher(url, sys.stderr, ha_unit, mqtt_ca))
         except ValueError as exc:
-            raise click.BadParameter(f"{url!r}: {exc}", param_hint="'--publish'") from None
+            raise click.BadParameter(f"{fleet.redacted(url)!r}: {exc}", param_hint="'--publish'") from None
     files: dict[Path, ResolvedDevice] = {}
     polled = []
     for target in targets:

@@ -19,7 +19,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol, TextIO
+from typing import TYPE_CHECKING, Any, Protocol, TextIO, runtime_checkable
 from urllib.parse import parse_qsl
 
 from pymodbus.exceptions import ModbusException
@@ -184,6 +184,13 @@ class Sink(Protocol):
     def close(self) -> None: ...
 
 
+@runtime_checkable
+class Stoppable(Protocol):
+    """A sink that can end the run (a broker that refuses mdl): it calls `abort` from any thread."""
+
+    def stop_with(self, abort: Callable[[MdlError], None]) -> None: ...
+
+
 class Printer:
     """Records on stdout, as `mdl read --interval` prints them (one device), or naming their device
     (several: output.device_record); failed polls on stderr."""
@@ -318,6 +325,21 @@ class _Fleet:
         loop = asyncio.get_running_loop()
         for sig in STOP_SIGNALS:
             loop.add_signal_handler(sig, self.stop.set)
+        aborted: list[MdlError] = []
+
+        def abort_here(exc: MdlError) -> None:
+            aborted.append(exc)
+            self.stop.set()
+
+        def abort(exc: MdlError) -> None:  # from a sink's thread
+            try:
+                loop.call_soon_threadsafe(abort_here, exc)
+            except RuntimeError:  # the loop is closed: the run is over, the sink's close says it
+                pass
+
+        for sink in self.sinks:
+            if isinstance(sink, Stoppable):
+                sink.stop_with(abort)
         tasks = [asyncio.create_task(self._poll(i)) for i in range(len(self.polled))]
         stopping: asyncio.Future[Any] = asyncio.ensure_future(self.stop.wait())
         polling: asyncio.Future[Any] = asyncio.ensure_future(asyncio.gather(*tasks))
@@ -336,6 +358,8 @@ class _Fleet:
                 line.client.close()
         if failure is not None:
             raise failure
+        if aborted:
+            raise aborted[0]
         return max(self.status, default=0)
 
     async def _poll(self, i: int) -> None:
@@ -381,20 +405,39 @@ def poll_fleet(polled: list[Polled], sinks: list[Sink], interval: float, count: 
 
         return asyncio.run(main())
     finally:
+        closing: list[MdlError] = []
         for sink in reversed(started):
-            sink.close()
+            try:
+                sink.close()
+            except MdlError as exc:  # every sink is closed; the first failure is the run's
+                closing.append(exc)
+        if closing:
+            raise closing[0]
 
 
-def publisher(url: str, err: TextIO, classify: Classify | None = None) -> Sink:
-    """The publisher a --publish URL names (mqtt://, prometheus://); ValueError saying what is wrong.
-    `classify`: Home Assistant's classes of a unit (mdl.engines.ha_units.ha_unit), for MQTT discovery."""
+def redacted(url: str) -> str:
+    """A URL as messages show it: a password in it as `***` (`mqtt://user:***@host/p`), in a malformed URL
+    too (a password holding '/' or '@': the last '@' ends the user's part)."""
+    scheme, sep, rest = url.partition("://")
+    userinfo, at, hostpart = rest.rpartition("@")
+    user, colon, _ = userinfo.partition(":")
+    return f"{scheme}{sep}{user}:***{at}{hostpart}" if at and colon else url
+
+
+def publisher(url: str, err: TextIO, classify: Classify | None = None, mqtt_ca: Path | None = None) -> Sink:
+    """The publisher a --publish URL names (mqtt://, mqtts://, prometheus://); ValueError saying what is
+    wrong, never quoting a password. `classify`: Home Assistant's classes of a unit
+    (mdl.engines.ha_units.ha_unit), for MQTT discovery; `mqtt_ca`: the CA certificates of mqtts://
+    (the system's without it), MdlError (exit 1) if the file holds none."""
     scheme = url.partition("://")[0].lower()
-    if scheme == "mqtt":
+    if scheme in ("mqtt", "mqtts"):
         from mdl.device import publish_mqtt
 
-        return publish_mqtt.MqttPublisher(publish_mqtt.parse_url(url), err, classify)
+        parsed = publish_mqtt.parse_url(url)
+        tls = publish_mqtt.tls_context(mqtt_ca) if parsed.tls else None
+        return publish_mqtt.MqttPublisher(parsed, err, classify, tls)
     if scheme == "prometheus":
         from mdl.device import publish_prometheus
 
         return publish_prometheus.PrometheusPublisher(publish_prometheus.parse_url(url), err)
-    raise ValueError("publish to mqtt://HOST[:PORT]/PREFIX or prometheus://[HOST]:PORT")
+    raise ValueError("publish to mqtt[s]://HOST[:PORT]/PREFIX or prometheus://[HOST]:PORT")

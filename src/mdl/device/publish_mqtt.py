@@ -1,12 +1,19 @@
-"""`mdl read --interval S --publish mqtt://HOST[:PORT]/PREFIX` (SPEC section 11, docs/fleet.md): each
-poll's values to an MQTT broker with paho-mqtt, and Home Assistant MQTT discovery configs.
+"""`mdl read --interval S --publish mqtt[s]://HOST[:PORT]/PREFIX` (SPEC section 11, docs/fleet.md): each
+poll's values to an MQTT broker with paho-mqtt (TLS for mqtts://), and Home Assistant MQTT discovery configs.
 
 Topics (all retained, QoS 1, JSON): `PREFIX/<device>/<function>` {"value": V, "time": T} per function
 per poll (the device's name as mdl.device.fleet gives it, the function's identifier, SPEC 3);
-`PREFIX/<device>/status` `online`/`offline` as the device's polls succeed or fail; `PREFIX/status`
-`online`, `offline` when mdl ends (the broker says it for mdl when the connection is lost: the will);
-`homeassistant/<sensor|binary_sensor>/<device>/<function>/config` once at start, and again whenever
-Home Assistant announces itself on `homeassistant/status`.
+`PREFIX/<device>/$status` `online`/`offline` as the device's polls succeed or fail (`$` is in no
+identifier: a function named `status` keeps its own topic); `PREFIX/status` `online`, `offline` when mdl
+ends (the broker says it for mdl when the connection is lost: the will);
+`homeassistant/<sensor|binary_sensor>/<node>/<function>/config` once at start, and again whenever Home
+Assistant announces itself on `homeassistant/status` and no configs wait unacknowledged in the queue (a
+flood of announcements costs one batch at a time); <node> and the unique_ids name the prefix too, so two
+prefixes never share an entity.
+
+A broker that refuses mdl (bad user name or password, not authorized, banned) or whose TLS certificate is
+not trusted ends the run with exit 3: retrying cannot change its answer. The first connection's answer is
+awaited (up to START_WAIT s) before polling starts; a refusal later ends polling at once.
 
 The broker and the devices fail independently. Polls queue here in order (at most `queue` polls of each
 device, 100 unless the URL says `?queue=N`; the oldest are dropped beyond, and said); one thread owns the broker
@@ -18,14 +25,18 @@ resend would race new messages): at least once, never out of order.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import re
+import ssl
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
+from pathlib import Path
 from typing import Any, Protocol, TextIO
 from urllib.parse import parse_qsl, unquote, urlsplit
 
@@ -35,17 +46,29 @@ from paho.mqtt.enums import CallbackAPIVersion
 from mdl.device import output
 from mdl.device.connection import split_host
 from mdl.device.fleet import Polled, kind_of
-from mdl.diagnostics import MdlError
+from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.exchange.connection import host_port
 from mdl.model import Function, Value
 
 DEFAULT_PORT = 1883
+TLS_PORT = 8883
 QUEUE_POLLS = 100  # polls of each device kept while the broker is away
 WINDOW = 100  # messages sent and not yet acknowledged
 FLUSH_GRACE = 5.0  # seconds the end of polling waits for the broker to take what is queued
 DISCOVERY = "homeassistant"
 BIRTH = f"{DISCOVERY}/status"
 KEEPALIVE = 15
+START_WAIT = 5.0  # seconds polling waits at start for the broker's answer to the first connection
+DEVICE_STATUS = "$status"  # a device's availability topic level: `$` is in no identifier (SPEC 3)
+# CONNACK reason codes retrying cannot change (MQTT 5; paho maps MQTT 3.1.1's 1, 4, 5 to 132, 134, 135)
+REFUSALS = {
+    132: "unsupported protocol version",
+    134: "bad user name or password",
+    135: "not authorized",
+    138: "banned",
+    140: "bad authentication method",
+}
+_PLAIN = re.compile(r"[A-Za-z0-9_]+")
 Message = tuple[str, bytes]
 
 
@@ -73,17 +96,23 @@ class MqttUrl:
     prefix: str
     queue: int = QUEUE_POLLS
     username: str | None = None
-    password: str | None = None
+    password: str | None = field(default=None, repr=False)  # never shown
+    tls: bool = False
 
     def __str__(self) -> str:
-        return f"mqtt://{host_port(self.host, self.port)}/{self.prefix}"
+        return f"{'mqtts' if self.tls else 'mqtt'}://{host_port(self.host, self.port)}/{self.prefix}"
 
 
 def parse_url(text: str) -> MqttUrl:
-    """`mqtt://[USER[:PASSWORD]@]HOST[:PORT]/PREFIX[?queue=N]` -> MqttUrl; ValueError saying what is wrong."""
+    """`mqtt[s]://[USER[:PASSWORD]@]HOST[:PORT]/PREFIX[?queue=N]` -> MqttUrl; ValueError saying what is wrong
+    (never quoting the password)."""
     parts = urlsplit(text)
-    if parts.scheme != "mqtt":
-        raise ValueError("write mqtt://HOST[:PORT]/PREFIX")
+    if parts.scheme not in ("mqtt", "mqtts"):
+        raise ValueError("write mqtt://HOST[:PORT]/PREFIX or mqtts://HOST[:PORT]/PREFIX (TLS)")
+    if "@" in text.partition("://")[2].removeprefix(parts.netloc):  # what follows HOST would be a password's
+        raise ValueError(
+            "an '@' after HOST: a prefix has none, and a password's '/', '?', '#' are written %2F, %3F, %23"
+        )
     userinfo, at, hostport = parts.netloc.rpartition("@")
     if not hostport:
         raise ValueError("no broker: write mqtt://HOST[:PORT]/PREFIX")
@@ -93,8 +122,8 @@ def parse_url(text: str) -> MqttUrl:
     prefix = unquote(parts.path).strip("/")
     if not prefix:
         raise ValueError("no topic prefix: write mqtt://HOST[:PORT]/PREFIX, e.g. mqtt://localhost/mdl")
-    if any(c in prefix for c in "+#\0") or "//" in prefix:
-        raise ValueError(f"the prefix {prefix!r} is not a topic: no '+', '#' or empty levels")
+    if any(c in prefix for c in "+#\0") or "//" in prefix or prefix.startswith("$"):
+        raise ValueError(f"the prefix {prefix!r} is not a topic: no '+', '#', empty levels or leading '$'")
     queue = QUEUE_POLLS
     for key, value in parse_qsl(parts.query, keep_blank_values=True):
         if key != "queue":
@@ -103,9 +132,37 @@ def parse_url(text: str) -> MqttUrl:
             raise ValueError(f"queue={value}: a number of polls of each device, 1 or more")
         queue = int(value)
     user, _, password = userinfo.partition(":")
+    tls = parts.scheme == "mqtts"
     return MqttUrl(
-        host, port or DEFAULT_PORT, prefix, queue, unquote(user) if at else None, unquote(password) if at else None
+        host,
+        port or (TLS_PORT if tls else DEFAULT_PORT),
+        prefix,
+        queue,
+        unquote(user) if at else None,
+        unquote(password) if at else None,
+        tls,
     )
+
+
+def tls_context(ca: Path | None) -> ssl.SSLContext:
+    """The TLS context of mqtts://: the system's CA store, or only the CA certificates (PEM) in `ca`
+    (--mqtt-ca); MdlError (exit 1) naming the file when it holds none."""
+    try:
+        return ssl.create_default_context(cafile=None if ca is None else str(ca))
+    except (ssl.SSLError, OSError, ValueError) as exc:
+        what = getattr(exc, "strerror", None) or getattr(exc, "reason", None) or exc
+        raise error(f"not a CA certificate file (PEM) for --mqtt-ca: {what}", ca) from None
+
+
+def node_id(prefix: str, ident: str) -> str:
+    """A device's node in Home Assistant's discovery topics and ids: the prefix and the device, distinct for
+    every (prefix, device) and the same on every run. A prefix of letters, digits and `_` is itself
+    (`site1-meter`); another is spelled so and followed by a digest of it (`site_hall-1c2d3e4f-meter`).
+    Device names are identifiers (no `-`), so the last `-` parts them."""
+    if _PLAIN.fullmatch(prefix):
+        return f"{prefix}-{ident}"
+    digest = hashlib.sha256(prefix.encode()).hexdigest()[:8]
+    return f"{re.sub(r'[^A-Za-z0-9_]', '_', prefix)}-{digest}-{ident}"
 
 
 @dataclass
@@ -153,8 +210,11 @@ def _templates(kind: str) -> dict[str, str]:
 class MqttPublisher:
     """A sink of mdl.device.fleet: polls to the broker, in order, from a thread of its own."""
 
-    def __init__(self, url: MqttUrl, err: TextIO, classify: Classify | None = None) -> None:
+    def __init__(
+        self, url: MqttUrl, err: TextIO, classify: Classify | None = None, tls: ssl.SSLContext | None = None
+    ) -> None:
         self.url, self.err, self.classify = url, err, classify
+        self.tls = tls_context(None) if tls is None and url.tls else tls
         self.status_topic = f"{url.prefix}/status"
         self._cond = threading.Condition()
         self._pending: deque[_Batch] = deque()
@@ -168,6 +228,9 @@ class MqttPublisher:
         self._online: dict[str, bool] = {}
         self._discovery: list[Message] = []
         self._thread = threading.Thread(target=self._run, name="mdl-mqtt", daemon=True)
+        self._answered = threading.Event()  # the first connection attempt has its answer
+        self.fatal: MdlError | None = None  # the broker refused mdl: the run ends with it
+        self._abort: Callable[[MdlError], None] | None = None
 
     # the sink: called on the polling thread
 
@@ -181,6 +244,18 @@ class MqttPublisher:
             self._discovery += self._configs(p)
         self._add(_Batch(list(self._discovery), "the discovery configs", discovery=True))
         self._thread.start()
+        self._answered.wait(START_WAIT)
+        if self.fatal is not None:  # refused at start: nothing is polled
+            self._thread.join(KEEPALIVE)
+            raise self.fatal
+
+    def stop_with(self, abort: Callable[[MdlError], None]) -> None:
+        """How a refusal later ends the polling (mdl.device.fleet.Stoppable)."""
+        with self._cond:
+            self._abort = abort
+            fatal = self.fatal
+        if fatal is not None:
+            abort(fatal)
 
     def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None:
         stamp = output.iso_time(when)
@@ -200,11 +275,15 @@ class MqttPublisher:
 
     def _status(self, ident: str, state: bytes, stamp: str) -> None:
         """A device's status in a batch of its own, which the queue's bound never drops."""
-        topic = f"{self.url.prefix}/{ident}/status"
+        topic = self._device_status(ident)
         self._add(_Batch([(topic, state)], f"{ident} {state.decode()} at {stamp}", status_of=ident))
 
+    def _device_status(self, ident: str) -> str:
+        return f"{self.url.prefix}/{ident}/{DEVICE_STATUS}"
+
     def close(self) -> None:
-        """Give the broker FLUSH_GRACE seconds to take what is queued, then disconnect; say what it did not take."""
+        """Give the broker FLUSH_GRACE seconds to take what is queued, then disconnect; say what it did not take.
+        MdlError (exit 3) if the broker refused mdl."""
         with self._cond:
             self._closing = True
             self._deadline = time.monotonic() + FLUSH_GRACE
@@ -218,13 +297,16 @@ class MqttPublisher:
                     f"{n} messages ({polls} polls, {len(lost) - polls} statuses or discovery configs) not "
                     "delivered: the broker did not take them before the end"
                 )
+        if self.fatal is not None:
+            raise self.fatal
 
     # discovery
 
     def _configs(self, p: Polled) -> list[Message]:
         """Home Assistant's discovery config of each function of a polled device."""
         device = p.resolved.device
-        info: dict[str, Any] = {"identifiers": [f"mdl_{p.ident}"], "name": device.name}
+        node = node_id(self.url.prefix, p.ident)
+        info: dict[str, Any] = {"identifiers": [f"mdl-{node}"], "name": device.name}
         if device.manufacturer:
             info["manufacturer"] = device.manufacturer
         if device.product:
@@ -236,10 +318,10 @@ class MqttPublisher:
             kind = kind_of(f)
             config: dict[str, Any] = {
                 "name": fn.name,
-                "unique_id": f"mdl_{p.ident}_{f.ident}",
+                "unique_id": f"mdl-{node}-{f.ident}",
                 "state_topic": topic,
                 **_templates(kind),
-                "availability": [{"topic": self.status_topic}, {"topic": f"{self.url.prefix}/{p.ident}/status"}],
+                "availability": [{"topic": self.status_topic}, {"topic": self._device_status(p.ident)}],
                 "availability_mode": "all",
                 "device": info,
             }
@@ -259,7 +341,7 @@ class MqttPublisher:
                 for guess in found.guesses:
                     self._say(f"{p.ident}: {fn.name}: {guess}", "note")
             component = "binary_sensor" if kind == "bool" else "sensor"
-            out.append((f"{DISCOVERY}/{component}/{p.ident}/{f.ident}/config", _payload(config)))
+            out.append((f"{DISCOVERY}/{component}/{node}/{f.ident}/config", _payload(config)))
         return out
 
     # the queue
@@ -288,6 +370,15 @@ class MqttPublisher:
                     )
             self._cond.notify_all()
 
+    def _rediscover(self) -> None:
+        """Home Assistant asked for the configs: queue them again, unless configs the broker has not yet
+        acknowledged wait in the queue already (they are retained: Home Assistant gets them on subscribing). A
+        flood of births costs one batch at a time, never one each; the polls keep their order and bound."""
+        with self._cond:
+            if any(b.discovery and b.unacked for b in self._pending):
+                return
+        self._add(_Batch(list(self._discovery), "the discovery configs", discovery=True))
+
     def _acked(self, batch: _Batch, index: int) -> None:
         with self._cond:
             batch.unacked.discard(index)
@@ -310,15 +401,28 @@ class MqttPublisher:
         return self._closing and (not any(b.unacked for b in self._pending) or time.monotonic() > self._deadline)
 
     def _run(self) -> None:
+        try:
+            self._connect_and_send()
+        finally:
+            self._answered.set()
+
+    def _connect_and_send(self) -> None:
         backoff = 0.2
         while True:
             with self._cond:
-                if self._finished():
+                if self._finished() or self.fatal is not None:
                     return
             client = self._client()
             try:
                 client.connect(self.url.host, self.url.port, keepalive=KEEPALIVE)
+            except ssl.SSLCertVerificationError as exc:
+                self._refused(
+                    f"the broker's TLS certificate is not trusted ({exc.verify_message}): "
+                    "give its CA with --mqtt-ca FILE"
+                )
+                return
             except (OSError, ValueError) as exc:
+                self._answered.set()
                 self._down(f"cannot connect: {getattr(exc, 'strerror', None) or exc}")
                 with self._cond:
                     self._cond.wait(backoff)
@@ -326,6 +430,16 @@ class MqttPublisher:
                 continue
             if self._session(client):
                 backoff = 0.2
+
+    def _refused(self, why: str) -> None:
+        """A broker that will not take mdl: the run ends (exit 3), at start or later."""
+        with self._cond:
+            self.fatal = MdlError(f"{self.url}: {why}", exit_code=EXIT_DEVICE)
+            abort = self._abort
+            self._cond.notify_all()
+        self._answered.set()
+        if abort is not None:
+            abort(self.fatal)
 
     def _down(self, why: str) -> None:
         if not self._down_said:
@@ -338,6 +452,8 @@ class MqttPublisher:
         client.max_inflight_messages_set(WINDOW)
         client.connect_timeout = 5.0
         client.will_set(self.status_topic, b"offline", qos=1, retain=True)
+        if self.tls is not None:
+            client.tls_set_context(self.tls)
         if self.url.username is not None:
             client.username_pw_set(self.url.username, self.url.password or None)
         return client
@@ -351,6 +467,7 @@ class MqttPublisher:
             state["up"] = not reason.is_failure
             if reason.is_failure:
                 state["why"] = str(reason)
+                state["code"] = reason.value
 
         def on_disconnect(c: mqtt.Client, u: Any, flags: Any, reason: Any, props: Any) -> None:
             state["lost"] = True
@@ -362,7 +479,7 @@ class MqttPublisher:
 
         def on_message(c: mqtt.Client, u: Any, message: mqtt.MQTTMessage) -> None:
             if message.topic == BIRTH and message.payload == b"online":  # Home Assistant (re)started
-                self._add(_Batch(list(self._discovery), "the discovery configs", discovery=True))
+                self._rediscover()
 
         client.on_connect, client.on_disconnect = on_connect, on_disconnect
         client.on_publish, client.on_message = on_publish, on_message
@@ -371,9 +488,15 @@ class MqttPublisher:
             if client.loop(0.05) != mqtt.MQTT_ERR_SUCCESS:
                 break
         if not state["up"]:
-            self._down(state.get("why", "no answer to CONNECT"))
             client.disconnect()
+            if state.get("code") in REFUSALS:
+                who = f"as {self.url.username!r}" if self.url.username is not None else "without a user name"
+                self._refused(f"the broker refused the connection {who}: {REFUSALS[state['code']]}")
+            else:
+                self._answered.set()
+                self._down(state.get("why", "no answer to CONNECT"))
             return False
+        self._answered.set()
         client.subscribe(BIRTH, qos=1)
         client.publish(self.status_topic, b"online", qos=1, retain=True)
         with self._cond:
