@@ -338,7 +338,7 @@ def test_gen_writes_only_changed_files_and_check_writes_nothing(tmp_path):
     assert proc.returncode == 1 and "would change" in proc.stderr and "temco_tstat.h" in proc.stderr
     assert (tmp_path / "temco_tstat.h").read_text() == "// edited\n"
     proc = run_mdl("gen", TSTAT, "-o", tmp_path)
-    assert proc.returncode == 0 and proc.stdout.split() == ["wrote", str(tmp_path / "temco_tstat.h")]
+    assert proc.returncode == 0 and proc.stderr.split() == ["wrote", str(tmp_path / "temco_tstat.h")]
     assert (tmp_path / "temco_tstat.py").stat().st_mtime_ns == before["temco_tstat.py"]
     assert hidden(tmp_path) == []
 
@@ -415,3 +415,43 @@ def test_gen_keeps_compiled_templates_in_the_user_cache_and_works_without_one(tm
     blocked = tmp_path / "blocked"
     blocked.write_text("")
     assert gen(blocked, "uncached") == first
+
+
+XIF_METER = EXAMPLE.parent / "xif_meter" / "meter.mod"
+
+
+@pytest.mark.parametrize(
+    ("args", "written"),
+    [
+        (("import", XIF_METER, "-o", "{d}/m.xml"), ["m.xml"]),
+        (("export", TSTAT, "--to", "telegraf", "-o", "{d}/t.toml"), ["t.toml"]),
+        (
+            ("export", TSTAT, "--to", "volttron", "-o", "{d}/v"),
+            ["v/temco_tstat_map.csv", "v/temco_tstat.csv", "v/temco_tstat.config"],
+        ),
+        (("gen", TSTAT, "--lang", "python", "-o", "{d}"), ["temco_tstat.py"]),
+        (("csv2xml", EXAMPLE / "temco_tstat.csv", "--ini", EXAMPLE / "temco_tstat.ini", "-o", "{d}/c.xml"), ["c.xml"]),
+    ],
+)
+def test_every_command_that_writes_says_so_on_stderr_and_quiet_silences_it(tmp_path, args, written):
+    """SPEC 1: `wrote FILE` on stderr for each file written (never on stdout, which may be piped on);
+    -q/--quiet on every command leaves only warnings and errors."""
+    argv = [str(a).format(d=tmp_path) for a in args]
+    loud = run_mdl(*argv)
+    assert loud.returncode == 0, loud.stderr
+    for name in written:
+        assert f"wrote {tmp_path / name}" in loud.stderr
+    assert "wrote" not in loud.stdout
+    for name in written:
+        (tmp_path / name).unlink()
+    quiet = run_mdl(*argv, "-q")
+    assert quiet.returncode == 0, quiet.stderr
+    assert all((tmp_path / name).exists() for name in written)
+    assert not [line for line in quiet.stderr.splitlines() if "warning" not in line and "error" not in line]
+
+
+def test_every_command_takes_quiet():
+    from mdl.cli import main
+
+    lacking = [name for name, cmd in main.commands.items() if not any(p.name == "quiet" for p in cmd.params)]
+    assert not lacking

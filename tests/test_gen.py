@@ -36,7 +36,7 @@ def test_header_names_source_and_version_without_timestamp(tmp_path):
 
 def test_writes_only_when_changed_and_check(tmp_path):
     proc = run_mdl("gen", DATA / "all_tables.xml", "--lang", "python", "-o", tmp_path)
-    assert proc.returncode == 0 and "wrote" in proc.stdout
+    assert proc.returncode == 0 and "wrote" in proc.stderr and not proc.stdout
     target = tmp_path / "all_tables.py"
     old = time.time() - 1000
     os.utime(target, (old, old))

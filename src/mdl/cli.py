@@ -61,6 +61,38 @@ def _stdin_once(paths: Iterable[Path]) -> None:
         raise click.UsageError("standard input (-) can be read only once")
 
 
+_QUIET = "mdl.quiet"
+
+
+def _remember_quiet(ctx: click.Context, param: click.Parameter, value: bool) -> None:
+    ctx.meta[_QUIET] = ctx.meta.get(_QUIET, False) or value
+
+
+QUIET_HELP = "Print no notes, summary or progress: only warnings and errors."
+
+
+def quiet_option() -> click.Option:
+    """-q/--quiet, which Group gives every command (SPEC 1): notes, `wrote FILE` and progress go."""
+    return click.Option(["-q", "--quiet"], is_flag=True, expose_value=False, callback=_remember_quiet, help=QUIET_HELP)
+
+
+def _quiet() -> bool:
+    ctx = click.get_current_context(silent=True)
+    return ctx is not None and bool(ctx.meta.get(_QUIET) or ctx.params.get("quiet"))
+
+
+def _say(diag: Diagnostic | str) -> None:
+    """A diagnostic on stderr, or a note's own text; notes not under -q/--quiet."""
+    if (isinstance(diag, str) or diag.severity == "note") and _quiet():
+        return
+    click.echo(str(diag), err=True)
+
+
+def _wrote(path: Path | str) -> None:
+    """`wrote FILE` on stderr, as every command that writes a file says (SPEC 1); not under -q."""
+    _say(f"wrote {path}")
+
+
 def _fail(exc: MdlError) -> NoReturn:
     for diag in exc.diagnostics:
         click.echo(str(diag), err=True)
@@ -95,7 +127,7 @@ def _report_warnings(warnings: Iterable[Diagnostic], file: Path) -> None:
     """Print each warning once; with --fail-on-warning, any of them ends the command (exit 1)."""
     warnings = list(warnings)
     for diag in warnings:
-        click.echo(str(diag), err=True)
+        _say(diag)
     refusal = _warning_refusal(warnings, file)
     if refusal is not None:
         raise MdlError(refusal)
@@ -134,6 +166,11 @@ def _collector_paused() -> Iterator[None]:
 
 
 class Group(click.Group):
+    def add_command(self, cmd: click.Command, name: str | None = None) -> None:
+        if not any(param.name == "quiet" for param in cmd.params):
+            cmd.params.append(quiet_option())
+        super().add_command(cmd, name)
+
     def invoke(self, ctx: click.Context) -> Any:
         gc.set_threshold(*GC_THRESHOLDS)
         try:
@@ -212,7 +249,7 @@ def main() -> None:
     help="Read the Nth table of a .md or .html file (or sheet of an .xlsx; default: the first with an address column).",
 )
 @click.option("--sheet", help="Read this sheet of an .xlsx workbook (default: the first with an address column).")
-@click.option("-q", "--quiet", is_flag=True, help="Print no notes, summary or progress: only warnings and errors.")
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @fail_on_warning_option
 def csv2xml(
     source: Path,
@@ -305,7 +342,7 @@ def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None
         device, diagnostics = validate_file(path, version)  # the XSD, then the resolve step
         refusal = _warning_refusal(diagnostics, path)
         for diag in [*diagnostics, *([refusal] if refusal else [])]:
-            click.echo(str(diag), err=True)
+            _say(diag)
         if device is None or any(d.severity == "error" for d in diagnostics) or refusal:
             bad = True
             continue
@@ -323,7 +360,7 @@ def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None
             for line in fit_lines(str(path), fitted):
                 click.echo(line)
             for diag in fit_diagnostics(str(path), fitted, {f.name: f for f in device.functions}):
-                click.echo(str(diag), err=True)
+                _say(diag)
             bad = bad or not fitted.ok
     sys.exit(EXIT_INVALID if bad else 0)
 
@@ -412,18 +449,21 @@ def _gen(file: Path, lang: str, outdir: Path, check: bool, profile: str | None) 
 
     resolved = _resolved(file)
     for note in targets.notes(resolved, file):
-        click.echo(str(note), err=True)
+        _say(note)
     interface = None
     if profile is not None:
         from mdl.targets.profile import prepare
 
         interface, said, resolved = prepare(profile, resolved, str(file))
         for note in said:
-            click.echo(str(note), err=True)
+            _say(note)
     with all_or_none():
         changed = generate(resolved, file, lang, outdir, check, interface)
     for path in changed:
-        click.echo(f"{'would change' if check else 'wrote'} {path}", err=check)
+        if check:
+            click.echo(f"would change {path}", err=True)
+        else:
+            _wrote(path)
     if check and changed:
         sys.exit(EXIT_INVALID)
 
@@ -691,6 +731,7 @@ def _emit_text(text: str, output: Path | None) -> None:
         click.echo(text, nl=False)
     else:
         write_atomic(output, text)
+        _wrote(output)
 
 
 @main.command(name="export")
@@ -786,7 +827,7 @@ def export_(
 
         resolved, said = named_by_roles(resolved, load_profile(profile) if profile else None)
         for diag in said:
-            click.echo(str(diag), err=True)
+            _say(diag)
     result = engines.export(resolved, fmt, settings)
     _report_warnings(result.warnings, file)
     if result.text is not None:
@@ -801,6 +842,8 @@ def export_(
     with all_or_none():
         for name, text in result.files.items():
             write_atomic(output / name, text)
+    for name in result.files:
+        _wrote(output / name)
 
 
 @main.command()
@@ -943,7 +986,7 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
     if fmt == "json":
         for r in results:
             for note in r.notes:
-                click.echo(f"mdl probe: unit {r.unit}: {note}", err=True)
+                _say(f"mdl probe: unit {r.unit}: {note}")
     click.echo(render(results, fmt), nl=False)
 
 
@@ -952,7 +995,12 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
 @connection_options()
 @click.option("--unit", type=click.IntRange(0, 255), help="Unit id (default 1; with --ranges, the file's one unit).")
 @click.option("--ranges", type=INPUT, metavar="PROBE.json", help="Read the ranges mdl probe --format json found.")
-@click.option("-o", "--output", type=click.Path(path_type=Path), help="Write here (default: stdout).")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Write here, - for stdout (default: stdout).",
+)
 @click.option("--scenario", metavar="NAME", help="Write FILE with a test scenario NAME of the values read.")
 @fail_on_warning_option
 def capture(
@@ -1249,7 +1297,7 @@ def _read_targets(
     for p, ident in zip(polled, ids, strict=True):
         p.ident = ident
     for note in notes:
-        click.echo(f"mdl read: note: {note}", err=True)
+        _say(f"mdl read: note: {note}")
     printer = fleet.Printer(fmt, len(targets) > 1, sys.stdout, sys.stderr)
     # publishers take each poll before it is printed: a record on stdout means every publisher holds it
     return fleet.poll_fleet(polled, [*sinks, printer], interval or 1.0, count if interval is not None else 1)
