@@ -28,6 +28,20 @@ def one_line(text: str) -> str:
     return "".join(repr(ch)[1:-1] if unicodedata.category(ch) in _LINE_BREAKING else ch for ch in text)
 
 
+SHOWN_CHARS = 40  # of a cell or a field said back in a message: a longer one is cut, with its length
+
+
+def said(text: str) -> str:
+    """A field as a message says it: cut to its first SHOWN_CHARS characters and its length when
+    longer, so that no message repeats a whole oversized field."""
+    return text if len(text) <= SHOWN_CHARS else f"{text[:SHOWN_CHARS]}... ({len(text):,} characters)"
+
+
+def shown(text: str) -> str:
+    """A field quoted for a message (`said`): `'text'`, or `'first 40...' (N characters)`."""
+    return f"'{text}'" if len(text) <= SHOWN_CHARS else f"'{text[:SHOWN_CHARS]}...' ({len(text):,} characters)"
+
+
 @dataclass(frozen=True)
 class Diagnostic:
     file: str | None

@@ -31,7 +31,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mdl.diagnostics import Collector, Diagnostic, MdlError, TextSpan, line_order, message_kind, record_span
+from mdl.diagnostics import (
+    Collector,
+    Diagnostic,
+    MdlError,
+    TextSpan,
+    line_order,
+    message_kind,
+    record_span,
+    said,
+    shown,
+)
 from mdl.fileio import is_stdin, read_bytes
 from mdl.formats.wise.lua import Affine, affine, kept_in_description
 from mdl.formats.wise.sections import (
@@ -50,7 +60,9 @@ if TYPE_CHECKING:
 _LINE_BREAK = re.compile(r"\r\n|\r|\n")
 _HEADER = re.compile(r"\[(?P<name>[^\]]*)\]\s*")
 _INDEX = re.compile(r"(?P<tag>[A-Za-z]+?)(?P<index>[0-9]{1,6})")
-_NUMBER = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+# digits, then a point and more digits: one way to match each number, so a long run of digits that is
+# no number (`1111...x`) is refused in one pass, not tried at every split of the run (quadratic)
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 _DIGITS = re.compile(r"[0-9]{1,9}")
 ENCODINGS = ("utf-8-sig", "cp1252", "latin-1")  # latin-1 decodes any byte: the last resort
 MAX_FILE_BYTES = 4 * 1024 * 1024  # the agent's samples are a few kB; a full table of entries is some 2 MB
@@ -202,7 +214,7 @@ def _blocks(text: str, reader: _Reader) -> list[_Block]:
         key, _, value = raw.lstrip().partition("=")
         value_col = indent + len(key) + 2 + (len(value) - len(value.lstrip()))
         if current is None:
-            reader.report(number, indent + 1, f"'{key.strip()}' is outside any section: not read", "warning")
+            reader.report(number, indent + 1, f"{shown(key.strip())} is outside any section: not read", "warning")
             continue
         current.keys.append(_Key(key.strip(), value.strip(), number, value_col, indent + 1))
     return blocks
@@ -215,7 +227,7 @@ def _platform(blocks: list[_Block], path: StrPath, reader: _Reader) -> str:
     name = next((k for k in keys if k.key.lower() == "name" and k.value), None)
     others = [k for k in keys if k is not name]
     if others:
-        settings = ", ".join(f"{k.key}={k.value}" for k in others)
+        settings = ", ".join(said(f"{k.key}={k.value}") for k in others)
         reader.report(
             others[0].line,
             None,
@@ -250,7 +262,7 @@ def _section_functions(block: _Block, section: Section, reader: _Reader, claims:
             reader.report(
                 key.line,
                 key.key_col,
-                f"[{section.name}] has no key '{key.key}' (entries are "
+                f"[{section.name}] has no key {shown(key.key)} (entries are "
                 f"{section.tag}0, {section.tag}1, ... and {section.count_key}): not read",
                 "warning",
             )
@@ -278,7 +290,7 @@ def _count(key: _Key | None, section: Section, reader: _Reader) -> int | None:
     if key is None:
         return None
     if _DIGITS.fullmatch(key.value) is None:
-        reader.report(key.line, key.col, f"{section.count_key} must be a whole number, not '{key.value}'")
+        reader.report(key.line, key.col, f"{section.count_key} must be a whole number, not {shown(key.value)}")
         return None
     return int(key.value)
 
@@ -427,7 +439,7 @@ def _claim(section: Section, offset: int, label: str, key: _Key, fields: list[_F
 
 def _offset(fld: _Field, label: str, key: _Key, reader: _Reader) -> int | None:
     if _DIGITS.fullmatch(fld.text) is None or int(fld.text) > MAX_ADDRESS:
-        what = f"'{fld.text}'" if fld.text else "nothing"
+        what = shown(fld.text) if fld.text else "nothing"
         reader.report(key.line, fld.col, f"{label}: the offset must be a wire address 0..{MAX_ADDRESS}, not {what}")
         return None
     return int(fld.text)
@@ -437,11 +449,11 @@ def _number(fld: _Field | None, what: str, label: str, key: _Key, reader: _Reade
     if fld is None or not fld.text:
         return None
     if _NUMBER.fullmatch(fld.text) is None:
-        reader.report(key.line, fld.col, f"{label}: {what} must be a number, not '{fld.text}'")
+        reader.report(key.line, fld.col, f"{label}: {what} must be a number, not {shown(fld.text)}")
         return None
     value = float(fld.text)
     if value in (float("inf"), float("-inf")):
-        reader.report(key.line, fld.col, f"{label}: {what} {fld.text} is too large")
+        reader.report(key.line, fld.col, f"{label}: {what} {said(fld.text)} is too large")
         return None
     return value
 
@@ -460,7 +472,7 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
     type_field = at(6)
     if type_field is not None and type_field.text:
         if _DIGITS.fullmatch(type_field.text) is None or int(type_field.text) >= len(DATA_TYPES):
-            reader.report(key.line, type_field.col, f"{label}: datatype '{type_field.text}' is outside 0-8")
+            reader.report(key.line, type_field.col, f"{label}: datatype {shown(type_field.text)} is outside 0-8")
         else:
             dtype = DATA_TYPES[int(type_field.text)]
     lua = _lua_column(fields, label, key, reader) if len(fields) > 7 else None
@@ -474,7 +486,7 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
             reader.report(
                 key.line,
                 fields[7].col,
-                f"{label} '{fn.name}': the Lua column '{text}' is not plain "
+                f"{label} {shown(fn.name)}: the Lua column {shown(text)} is not plain "
                 "arithmetic on modbus_val: kept in the description (export "
                 f"writes it back), not applied{cut}",
                 "warning",
@@ -491,17 +503,19 @@ def _register_fields(fn: Function, fields: list[_Field], label: str, key: _Key, 
     low_col = fields[2].col if len(fields) > 2 else None
     if (low is None) != (high is None):  # the agent reads an absent one as 0
         absent = "max" if high is None else "min"
-        reader.report(key.line, low_col, f"{label} '{fn.name}': no {absent}: read as 0, as the agent does", "note")
+        reader.report(key.line, low_col, f"{label} {shown(fn.name)}: no {absent}: read as 0, as the agent does", "note")
         low, high = low or 0.0, high or 0.0
     if low is not None and high is not None:
         if low == high == 0:
-            reader.report(key.line, low_col, f"{label} '{fn.name}': min and max are both 0: read as no range", "note")
+            reader.report(
+                key.line, low_col, f"{label} {shown(fn.name)}: min and max are both 0: read as no range", "note"
+            )
             return
         if low > high:
             reader.report(
                 key.line,
                 low_col,
-                f"{label} '{fn.name}': min {low:g} is above max {high:g}: swapped, as the agent does",
+                f"{label} {shown(fn.name)}: min {low:g} is above max {high:g}: swapped, as the agent does",
                 "warning",
             )
             low, high = high, low
@@ -526,7 +540,7 @@ def _lua_column(fields: list[_Field], label: str, key: _Key, reader: _Reader) ->
             reader.report(
                 key.line,
                 column.col,
-                f"{label}: the Lua column '{column.text}' has nothing between quotes "
+                f"{label}: the Lua column {shown(column.text)} has nothing between quotes "
                 "for the agent, which then reports -1 for the value",
             )
             return None
@@ -540,13 +554,13 @@ def _lua_column(fields: list[_Field], label: str, key: _Key, reader: _Reader) ->
         return None
     agent = agent.strip() if agent is not None else None
     plain = affine(agent) if agent else None
-    if plain is not None and agent != whole:
+    if plain is not None and agent is not None and agent != whole:
         reader.report(
             key.line,
             column.col,
-            f"{label}: the agent runs '{agent}' as this line's Lua conversion (the "
+            f"{label}: the agent runs {shown(agent)} as this line's Lua conversion (the "
             "column up to its first comma, between its first quotes), not "
-            f"'{whole}': write the column as one quoted expression without commas",
+            f"{shown(whole)}: write the column as one quoted expression without commas",
         )
         return None
     text = whole or agent
@@ -599,8 +613,8 @@ def _unique_names(functions: list[Function], reader: _Reader) -> None:
         reader.report(
             fn.line,
             None,
-            f"'{original}' is also the name of line {other.line}"
+            f"{shown(original)} is also the name of line {other.line}"
             f"{' in the same section' if same else f' ([{other.block}])'}: "
-            f"this one is named '{fn.name}'",
+            f"this one is named {shown(fn.name)}",
             "warning" if same else "note",
         )

@@ -7,6 +7,7 @@ import struct
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from mdl.diagnostics import shown
 from mdl.model.addressing import (
     MODICON_TABLE,
     NAMED,
@@ -27,6 +28,16 @@ _HEX = re.compile(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
 _RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—)\s*(.+)$")
 
 
+_SPACE_RUN = re.compile(r"\s+")
+
+
+def squeeze(text: str) -> str:
+    """`text` with each run of whitespace one character: a line break if it holds one, else a space.
+    An address cell is read after this, so that no pattern's `\\s*` walks a long run from each of its
+    characters (quadratic: `1`, 20,000 spaces, `x`)."""
+    return _SPACE_RUN.sub(lambda m: "\n" if "\n" in m.group() else " ", text)
+
+
 def is_digits(text: str) -> bool:
     """ASCII decimal digits only (str.isdigit() also takes '²' and other scripts' digits, which int() refuses)."""
     return text.isascii() and text.isdigit()
@@ -43,7 +54,7 @@ def _addresses(build: Callable[[int, int], range], first: int, other: int, part:
     try:
         return list(build(first, other))
     except AddressError as exc:
-        raise CellError(f"'{part}': {exc}") from None
+        raise CellError(f"{shown(part)}: {exc}") from None
 
 
 def is_modicon_number(text: str) -> bool:
@@ -88,15 +99,15 @@ def _one(text: str, base: str) -> tuple[int, str | None]:
         number, _ = _one(worded.group(2), "0" if base == "modicon" else base)
         return number, WORDED_TABLES[worded.group(1).lower()]
     if not is_digits(t):
-        raise CellError(f"'{t}' is not an address")
+        raise CellError(f"{shown(t)} is not an address")
     if base == "modicon":
         if not is_modicon_number(t):
-            raise CellError(f"'{t}' is not a Modicon 5- or 6-digit register number")
+            raise CellError(f"{shown(t)} is not a Modicon 5- or 6-digit register number")
         return int(t[1:]) - 1, MODICON_TABLE[t[0]]
     value = _number(t, "address")
     if base == "1":
         if value < 1:
-            raise CellError(f"'{t}' is not a 1-based address")
+            raise CellError(f"{shown(t)} is not a 1-based address")
         return value - 1, None
     return value, None
 
@@ -133,22 +144,23 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
     """An address cell (parse_addresses), also `40001.3` / `40001/3` (register, then bit: `17/18`, whose
     second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
     wire address in brackets: the bracket wins, and the two must agree)."""
+    text = squeeze(text)
     m = bit_of(text)
     if m:
         addresses, table = parse_addresses(m.group(1), base)
         said = None
         if m.group(2) == "/":
-            said = f"'{text.strip()}' read as bit {int(m.group(3))} of register {m.group(1)}, not as a list of two"
+            said = f"{shown(text.strip())} read as bit {int(m.group(3))} of register {m.group(1)}, not as a list of two"
         return AddressCell(addresses, table, str(int(m.group(3))), said)
     parts = [p for p in re.split(r"\s*[,;\n]\s*", text.strip()) if p]
     if len(parts) > 1 and all(_BRACKETED.match(p) for p in parts):  # `31003 (1002)` on each line of a list
         cells = [read_address_cell(p, base) for p in parts]
         tables = {c.table for c in cells} - {None}
         if len(tables) > 1:
-            raise CellError(f"'{' '.join(text.split())}' mixes register tables")
+            raise CellError(f"{shown(' '.join(text.split()))} mixes register tables")
         addresses = [a for c in cells for a in c.addresses]
         if len(set(addresses)) != len(addresses):
-            raise CellError(f"'{' '.join(text.split())}' lists an address twice")
+            raise CellError(f"{shown(' '.join(text.split()))} lists an address twice")
         return AddressCell(addresses, tables.pop() if tables else None)
     m = _BRACKETED.match(text)
     if m:
@@ -157,7 +169,7 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
         agree = {int(number), int(number) - 1} | ({int(number[1:]) - 1} if table else set())
         if wire not in agree:
             raise CellError(
-                f"'{text.strip()}': register {number} and the address {m.group(2)} in brackets disagree "
+                f"{shown(text.strip())}: register {number} and the address {m.group(2)} in brackets disagree "
                 f"({number} is address {int(number[1:]) - 1 if table else int(number) - 1})"
             )
         if wire > MAX_ADDRESS:
@@ -172,7 +184,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
     Accepts numbers, hex, Modicon numbers (when base is 'modicon'), 4x0102, hr:101 ...,
     ranges (`0 to 3`, `22to100`, `566 - 583`, `hr:2..hr:5`, `hr:2#4`) and lists (`17,18,19`).
     """
-    text = text.strip()
+    text = squeeze(text).strip()
     if not text:
         raise CellError("the address cell is empty")
     parts = [p for p in re.split(r"\s*[,;/&\n]\s*|\s+and\s+", text) if p]
@@ -183,7 +195,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
             first, _, count = part.partition("#")
             start, tbl = _one(first, base)
             if not is_digits(count.strip()):
-                raise CellError(f"'{part}': the count after '#' must be a positive number")
+                raise CellError(f"{shown(part)}: the count after '#' must be a positive number")
             run = _addresses(address_run, start, _number(count.strip(), "count"), part)
         else:
             m = _RANGE.match(part)
@@ -191,20 +203,20 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
                 start, tbl = _one(m.group(1), base)
                 end, tbl2 = _one(m.group(2), base)
                 if tbl2 and tbl and tbl != tbl2:
-                    raise CellError(f"'{part}' mixes register tables")
+                    raise CellError(f"{shown(part)} mixes register tables")
                 tbl = tbl or tbl2
                 run = _addresses(address_range, start, end, part)
             else:
                 start, tbl = _one(part, base)
                 run = [start]
         if tbl and table and tbl != table:
-            raise CellError(f"'{text}' mixes register tables")
+            raise CellError(f"{shown(text)} mixes register tables")
         table = table or tbl
         addresses += run
     if any(a > MAX_ADDRESS for a in addresses):
         raise CellError(f"address {max(addresses)} is over {MAX_ADDRESS}")
     if len(set(addresses)) != len(addresses):
-        raise CellError(f"'{text}' lists an address twice")
+        raise CellError(f"{shown(text)} lists an address twice")
     return addresses, table
 
 
@@ -259,12 +271,12 @@ def _struct_type(t: str) -> TypeCell | None:
     if size == 1:
         if bool(pad_before) == bool(pad_after):
             raise CellError(
-                f"struct type '{t}' is one byte: it needs one pad byte to fill a register "
+                f"struct type {shown(t)} is one byte: it needs one pad byte to fill a register "
                 f"('{prefix}x{code}' the lower byte, '{prefix}{code}x' the upper)"
             )
         return TypeCell(fmt, length="Lower byte" if pad_before else "Upper byte")
     if pad_before or pad_after:
-        raise CellError(f"struct type '{t}': a pad byte (x) beside a value of {size} bytes fills no register")
+        raise CellError(f"struct type {shown(t)}: a pad byte (x) beside a value of {size} bytes fills no register")
     return TypeCell(fmt, order=STRUCT_ORDERS[prefix], native=prefix == "=")
 
 
@@ -281,7 +293,7 @@ def parse_bit_cell(text: str) -> str:
     m = _BIT_RANGE.match(t)
     if m:
         return str(int(m.group(1))) + (f"-{int(m.group(2))}" if m.group(2) is not None else "")
-    raise CellError(f"unknown bits '{text.strip()}' (expected a bit number such as 3 or B3, or a range 0-3)")
+    raise CellError(f"unknown bits {shown(text.strip())} (expected a bit number such as 3 or B3, or a range 0-3)")
 
 
 def read_type(text: str) -> TypeCell:
@@ -302,7 +314,7 @@ def read_type(text: str) -> TypeCell:
     for rx, fmt in _FORMATS:
         if rx.match(t):
             return TypeCell(fmt, widthless=bool(_WIDTHLESS.match(t)))
-    raise CellError(f"unknown format '{text.strip()}'")
+    raise CellError(f"unknown format {shown(text.strip())}")
 
 
 @dataclass(frozen=True)
@@ -330,7 +342,7 @@ def read_mapped_format(text: str) -> MappedFormat:
         return MappedFormat(typed, bits=parse_bit_cell(m.group(2)))
     count = int(m.group(3))
     if count < 1:
-        raise CellError(f"the count in '{text.strip()}' must be 1 or more")
+        raise CellError(f"the count in {shown(text.strip())} must be 1 or more")
     return MappedFormat(typed, count=count)
 
 
@@ -350,7 +362,7 @@ def parse_length(text: str) -> str:
         return "Upper byte"
     if "full" in t or "word" in t:
         return "Full word"
-    raise CellError(f"unknown length '{text.strip()}' (expected Lower byte, Upper byte or Full word)")
+    raise CellError(f"unknown length {shown(text.strip())} (expected Lower byte, Upper byte or Full word)")
 
 
 ACCESS_WORDS = {
@@ -407,12 +419,13 @@ def access_words(cells: list[str]) -> str:
 
 def parse_access(text: str, w_alone: str = "write") -> str:
     t = " ".join(text.strip().lower().split())
-    t = re.sub(r"\s*\(.*\)$", "", t) or t  # W/R(Reboot after write): the remark says nothing of access
+    if t.endswith(")") and "(" in t:  # W/R(Reboot after write): the remark says nothing of access
+        t = t[: t.index("(")].rstrip() or t
     if t == "w":
         return w_alone
     if t in ACCESS_WORDS:
         return ACCESS_WORDS[t]
-    raise CellError(f"unknown access '{text.strip()}' (expected R, W or R/W)")
+    raise CellError(f"unknown access {shown(text.strip())} (expected R, W or R/W)")
 
 
 # a word-order column (VOLTTRON's `Mixed Endian`, `Word Swap`): swapped or not, relative to the type's own order
@@ -481,7 +494,8 @@ def parse_word_order(text: str) -> WordOrderCell:
         byte, word = _BYTE_ORDERS[t.replace(" ", "")]
         return WordOrderCell(word_order=word, byte_order=byte)
     raise CellError(
-        f"unknown word order '{text.strip()}' (expected TRUE/FALSE for swapped, big/little, or ABCD/CDAB/BADC/DCBA)"
+        f"unknown word order {shown(text.strip())} (expected TRUE/FALSE for swapped, big/little, "
+        "or ABCD/CDAB/BADC/DCBA)"
     )
 
 
@@ -553,12 +567,14 @@ def parse_table(text: str) -> str:
             assert m is not None
             code = int(m.group(1))
             if code not in FUNCTION_CODES:
-                raise CellError(f"function code {code} in '{text.strip()}' reads or writes no register table")
+                raise CellError(f"function code {code} in {shown(text.strip())} reads or writes no register table")
             tables.add(FUNCTION_CODES[code])
         if len(tables) > 1:
-            raise CellError(f"'{text.strip()}' names function codes of different tables ({', '.join(sorted(tables))})")
+            raise CellError(
+                f"{shown(text.strip())} names function codes of different tables ({', '.join(sorted(tables))})"
+            )
         return tables.pop()
     found = {FUNCTION_CODES.get(int(a or b)) for a, b in _CODE_IN_TEXT.findall(t)}
     if len(found) == 1 and None not in found:
         return found.pop()  # type: ignore[return-value]
-    raise CellError(f"unknown register type '{text.strip()}'")
+    raise CellError(f"unknown register type {shown(text.strip())}")

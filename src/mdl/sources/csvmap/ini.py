@@ -8,10 +8,10 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.diagnostics import Diagnostic, MdlError
+from mdl.diagnostics import Diagnostic, MdlError, shown
 from mdl.exchange.text import unwritable
 from mdl.fileio import read_bytes
-from mdl.sources.csvmap.table import decode_table
+from mdl.sources.csvmap.table import MAX_CELL_CHARS, decode_table
 from mdl.sources.csvmap.vocabulary import (
     CELL_SECTION,
     FUNCTION_SECTION,
@@ -135,6 +135,11 @@ class DeviceIni:
         return self.lines.get((kind, key))
 
 
+# a key: up to its first = or :, without the spaces before it (tried only where a run of spaces starts,
+# so that a long run not followed by = or : is passed over once, not once for each of its characters)
+_KEY = re.compile(r"\s*([^#;=:\s][^=:]*?)(?<!\s)\s*[=:]")
+
+
 def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
     """(section, key) -> line, with (section, None) for the header line; each section both as written and
     in lower case (names are case-insensitive, but two spellings of one name are two sections)."""
@@ -147,7 +152,7 @@ def _line_numbers(text: str) -> dict[tuple[str, str | None], int]:
             for name in names:
                 out.setdefault((name, None), no)
             continue
-        m = re.match(r"\s*([^#;=:\s][^=:]*?)\s*[=:]", line)
+        m = _KEY.match(line)
         for name in names if m else ():
             out.setdefault((name, m.group(1).strip()), no)  # type: ignore[union-attr]
     return out
@@ -159,7 +164,10 @@ def _whole(value: str) -> int | None:
 
 
 class _CaseKeepingParser(configparser.ConfigParser):
-    """Keys keep their case: they name functions."""
+    """Keys keep their case: they name functions. A key line is read by the linear twin of
+    configparser's own pattern (whose `.*?\\s*` is quadratic in a long run of spaces)."""
+
+    OPTCRE = re.compile(r"(?P<option>[^=:]*?)(?<!\s)\s*(?P<vi>[=:])\s*(?P<value>.*)$")
 
     def optionxform(self, optionstr: str) -> str:
         return optionstr
@@ -186,7 +194,7 @@ def _problem(exc: configparser.Error) -> str:
     if isinstance(exc, configparser.DuplicateSectionError):
         return f"section [{exc.section}] appears twice"
     if isinstance(exc, configparser.DuplicateOptionError):
-        return f"key '{exc.option}' appears twice in [{exc.section}]"
+        return f"key {shown(exc.option)} appears twice in [{exc.section}]"
     return f"not an INI file: {exc.message.splitlines()[0]}"
 
 
@@ -207,8 +215,19 @@ def _codec(value: str) -> str | None:
     return name
 
 
+def _refuse_long_lines(text: str, path: Path) -> None:
+    """A line of the INI longer than a table's longest cell (MAX_CELL_CHARS) is refused with its number:
+    no key or value is that long, and every value becomes a cell's match or an element of the MDL."""
+    for no, line in enumerate(text.splitlines(), 1):
+        if len(line) > MAX_CELL_CHARS:
+            raise MdlError(
+                Diagnostic(str(path), no, None, f"a line of {len(line):,} characters: the limit is {MAX_CELL_CHARS:,}")
+            )
+
+
 def read_ini(path: Path) -> DeviceIni:
     text, guess = decode_table(read_bytes(path), path)
+    _refuse_long_lines(text, path)
     text, quoted = quoted_keys(text)
     lines = _line_numbers(text)
     parser = _parse(text, path)
@@ -249,19 +268,19 @@ def read_ini(path: Path) -> DeviceIni:
                 try:
                     value = check_cell_value(name, (raw or "").strip())
                 except ValueError as exc:
-                    err(section, key, f"[{section}] '{quoted.get(key, key)}': {exc}")
+                    err(section, key, f"[{section}] {shown(quoted.get(key, key))}: {exc}")
                     continue
                 ini.cells.setdefault(name, {})[cell] = value
             continue
         if cell_field:
-            err(section, None, f"[{section}]: no field '{cell_field.group(1)}' (fields: {', '.join(COLUMN_KEYS)})")
+            err(section, None, f"[{section}]: no field {shown(cell_field.group(1))} (fields: {', '.join(COLUMN_KEYS)})")
             continue
         if function:
             fs = FunctionSection(function.group(1).strip(), where(section))
             for key, raw in parser.items(section):
                 lkey, value = key.strip().lower(), (raw or "").strip()
                 if lkey not in FUNCTION_KEYS:
-                    err(section, key, f"[{section}] cannot set '{key}' (it sets {', '.join(FUNCTION_KEYS)})")
+                    err(section, key, f"[{section}] cannot set {shown(key)} (it sets {', '.join(FUNCTION_KEYS)})")
                     continue
                 try:
                     fs.values[lkey] = check_function_value(lkey, value)
@@ -270,7 +289,7 @@ def read_ini(path: Path) -> DeviceIni:
                 fs.lines[lkey] = where(section, key) or 0
             twin = next((n for n in ini.functions if n.lower() == fs.name.lower()), None)
             if twin is not None:  # section names are case-insensitive (SPEC 4.1)
-                err(section, None, f"function '{fs.name}' has two [function] sections ([function {twin}] too)")
+                err(section, None, f"function {shown(fs.name)} has two [function] sections ([function {twin}] too)")
             ini.functions[fs.name] = fs
             continue
         if kind is None:
@@ -286,16 +305,17 @@ def read_ini(path: Path) -> DeviceIni:
                 err(
                     section,
                     key,
-                    f"the value of '{key}' goes on over the next line: an indented line continues the one before it",
+                    f"the value of {shown(key)} goes on over the next line: an indented line continues the one "
+                    "before it",
                 )
             elif kind == "synonyms":
                 try:
                     words = split_synonyms(value)
                 except ValueError as exc:
-                    err(section, key, f"synonyms of '{key}': {exc}")
+                    err(section, key, f"synonyms of {shown(key)}: {exc}")
                     continue
                 if not words:
-                    err(section, key, f"function '{key}' has no synonyms")
+                    err(section, key, f"function {shown(key)} has no synonyms")
                 ini.synonyms[key.strip()] = words
             elif kind == "additional":
                 if value:  # user-defined columns (e.g. operation_info): informational, never guessed
@@ -303,7 +323,7 @@ def read_ini(path: Path) -> DeviceIni:
                     ini.claimed.append(value if index is None else index)
             elif kind == "columns":
                 if lkey not in COLUMN_KEYS:
-                    warn(section, key, f"unknown column key '{key}' is ignored")
+                    warn(section, key, f"unknown column key {shown(key)} is ignored")
                 elif value:
                     index = _whole(value)
                     ini.columns[lkey] = value if index is None else index
@@ -311,31 +331,31 @@ def read_ini(path: Path) -> DeviceIni:
                     ini.blank_columns.add(lkey)
             elif kind == "device":
                 if lkey not in DEVICE_KEYS:
-                    warn(section, key, f"unknown key '{key}' in [{section}] is ignored")
+                    warn(section, key, f"unknown key {shown(key)} in [{section}] is ignored")
                 elif lkey == "threshold":
                     try:
                         ini.threshold = float(value)
                         if not 0 <= ini.threshold <= 1:
                             raise ValueError
                     except ValueError:
-                        err(section, key, f"threshold must be a number from 0 to 1, not '{value}'")
+                        err(section, key, f"threshold must be a number from 0 to 1, not {shown(value)}")
                 elif lkey in CHOICES and value and value.lower() not in CHOICES[lkey]:
-                    err(section, key, f"{lkey} must be one of {', '.join(CHOICES[lkey])}, not '{value}'")
+                    err(section, key, f"{lkey} must be one of {', '.join(CHOICES[lkey])}, not {shown(value)}")
                 elif unwritable(value):
                     err(section, key, f"{lkey} holds the character {unwritable(value)}, which MDL (XML) cannot carry")
                 elif value:
                     ini.device[lkey] = value.lower() if lkey in CHOICES else value
             elif kind == "io":
                 if lkey not in IO_KEYS:
-                    warn(section, key, f"unknown key '{key}' in [{section}] is ignored")
+                    warn(section, key, f"unknown key {shown(key)} in [{section}] is ignored")
                 elif lkey == "lines_to_skip" and value:
                     ini.lines_to_skip = _whole(value)
                     if ini.lines_to_skip is None:
-                        err(section, key, f"lines_to_skip must be a whole number, not '{value}'")
+                        err(section, key, f"lines_to_skip must be a whole number, not {shown(value)}")
                 elif lkey == "table" and value:
                     ini.table = _whole(value)
                     if not ini.table:
-                        err(section, key, f"table must be a table's number, 1 or more, not '{value}'")
+                        err(section, key, f"table must be a table's number, 1 or more, not {shown(value)}")
                 elif lkey == "sheet" and value:
                     ini.sheet = value
                 elif lkey == "address_map_csv_file" and value:
@@ -345,19 +365,20 @@ def read_ini(path: Path) -> DeviceIni:
                 elif lkey == "delimiter" and value:
                     ini.delimiter = DELIMITER_WORDS.get(value.lower())
                     if ini.delimiter is None:
-                        err(section, key, f"delimiter must be one of comma, semicolon, tab, pipe, not '{value}'")
+                        err(section, key, f"delimiter must be one of comma, semicolon, tab, pipe, not {shown(value)}")
                 elif lkey == "encoding" and value:
                     ini.encoding = _codec(value)
                     if ini.encoding is None:
                         err(
                             section,
                             key,
-                            f"encoding must name a text encoding (utf-8, cp1252, latin-1, utf-16 ...), not '{value}'",
+                            f"encoding must name a text encoding (utf-8, cp1252, latin-1, utf-16 ...), "
+                            f"not {shown(value)}",
                         )
                 elif lkey == "decimal_separator" and value:
                     ini.decimal = DECIMAL_WORDS.get(value.lower())
                     if ini.decimal is None:
-                        err(section, key, f"decimal_separator must be point or comma, not '{value}'")
+                        err(section, key, f"decimal_separator must be point or comma, not {shown(value)}")
     ini.default_synonyms = ini.device.pop("default_synonyms", "no") in ("yes", "true", "1", "on")
     if errors:
         raise MdlError(errors)

@@ -19,6 +19,7 @@ import math
 import re
 from dataclasses import dataclass
 
+from mdl.diagnostics import shown
 from mdl.sources.csvmap.cells import CellError
 
 _DIGITS = r"(?:\d+(?:[.,]\d+)*\.?|[.,]\d+)"
@@ -96,13 +97,13 @@ def _digits_to_float(text: str, decimal: str) -> tuple[float, bool]:
 def _unit(text: str | None) -> str | None:
     unit = (text or "").strip() or None
     if unit in _PREFIX_ONLY:
-        raise CellError(f"'{unit}' after the number: a thousands suffix or a unit?")
+        raise CellError(f"{shown(unit)} after the number: a thousands suffix or a unit?")
     return unit
 
 
 def _finite(value: float, cell: str, what: str) -> float:
     if not math.isfinite(value):  # 1e999: no target computes with it
-        raise _NotFinite(f"{what} '{cell}' is not a finite number".lstrip())
+        raise _NotFinite(f"{what} {shown(cell)} is not a finite number".lstrip())
     return value
 
 
@@ -117,16 +118,15 @@ def parse_number(text: str, decimal: str = "auto", what: str = "", scale: bool =
     cell = " ".join(text.replace("\u2212", "-").split())
     if not cell or cell.lower() in NO_VALUE:
         return None
-    shown = cell if len(cell) <= 40 else cell[:40] + "..."
     kinds = "a scale (0.1, 0.1V, scale(0.1), x10, 1/10)" if scale else "a number"
     try:
         found = _read(cell, decimal, what, scale)
     except _NotFinite:
         raise
     except CellError as exc:
-        raise CellError(f"{what} '{shown}' is not {kinds}: {exc}".lstrip()) from None
+        raise CellError(f"{what} {shown(cell)} is not {kinds}: {exc}".lstrip()) from None
     if found is None:
-        raise CellError(f"{what} '{shown}' is not {kinds}".lstrip())
+        raise CellError(f"{what} {shown(cell)} is not {kinds}".lstrip())
     return found
 
 
@@ -139,7 +139,7 @@ def _read(cell: str, decimal: str, what: str, scale: bool) -> Number | None:
         if form is _POWER:
             exponent = int(m.group(1))
             if abs(exponent) > 300:
-                raise _NotFinite(f"{what} '{cell}' is not a finite number".lstrip())
+                raise _NotFinite(f"{what} {shown(cell)} is not a finite number".lstrip())
             return Number(10.0**exponent, _unit(m.group(2)))
         if form is _FRACTION:
             top, comma1 = _digits_to_float(m.group(1), decimal)
@@ -164,5 +164,5 @@ def parse_int(text: str) -> int:
         pass
     number = parse_number(t, "point")
     if number is None or not number.value.is_integer() or abs(number.value) > 1e12:
-        raise CellError(f"'{t}' is not a whole number")
+        raise CellError(f"{shown(t)} is not a whole number")
     return int(number.value)

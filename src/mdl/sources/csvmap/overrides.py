@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from mdl.diagnostics import shown
 from mdl.sources.csvmap.cells import CellError
 from mdl.sources.csvmap.columns import Columns
 from mdl.sources.csvmap.ini import DeviceIni
@@ -61,7 +62,7 @@ def read_with_sections(
         out[name] = parsed
         report.note(
             f"{name}: line {row.line} read with {key} {fs.values[key]} from [function {name}], which wins over "
-            f"the cell '{was}' that could not be read",
+            f"the cell {shown(was)} that could not be read",
             fs.lines.get(key),
             file=str(ini.path),
         )

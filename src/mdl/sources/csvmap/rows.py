@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from functools import partial
 from typing import TypeVar
 
+from mdl.diagnostics import shown
 from mdl.exchange.text import unwritable
 from mdl.lang.cfrag import FragmentError, check
 from mdl.model import BIT_TABLES, Function
@@ -115,8 +116,8 @@ class _Cells:
         self.notes.append(
             (
                 f"cells {key} {raw.strip().lower()}",
-                f"{key} cell '{raw.strip()}' on line {self.row.line} (and any like it) "
-                f"read as '{found}', as [{key} cells] in the INI says",
+                f"{key} cell {shown(raw.strip())} on line {self.row.line} (and any like it) "
+                f"read as {shown(found)}, as [{key} cells] in the INI says",
             )
         )
         return found
@@ -130,7 +131,7 @@ class _Cells:
         try:
             value = reader(text)
         except CellError as exc:
-            message = f"{self.cols.describe(self.cols.index[key])} {key} cell '{self.raw(key).strip()}': {exc}"
+            message = f"{self.cols.describe(self.cols.index[key])} {key} cell {shown(self.raw(key).strip())}: {exc}"
             if key in ESSENTIAL and key not in self.cols.guessed:
                 raise FieldError(message, key) from None
             self.problems.append((key, f"{message}; {key} left at its default (the row is kept)"))
@@ -174,16 +175,16 @@ def _listed_width(
     said = []
     width = FIXED_WIDTH.get(fmt or "") if typed is not None and not typed.widthless and unit_bits == 16 else None
     if width is not None and listed != width:
-        said.append(f"format '{cells.raw('format')}' is {width} register{'s' * (width > 1)}")
+        said.append(f"format {shown(cells.raw('format'))} is {width} register{'s' * (width > 1)}")
     if mapped_format and mapped_format.count and mapped_format.count != listed:
-        said.append(f"format '{cells.raw('format')}' is {mapped_format.count} registers as [format cells] says")
+        said.append(f"format {shown(cells.raw('format'))} is {mapped_format.count} registers as [format cells] says")
     if counted is not None:
         count = -(-counted * 8 // unit_bits) if st.count_unit == "bytes" else counted
         if count != listed:
             said.append(f"the count column says {count}")
     if said:
         raise FieldError(
-            f"the address cell '{cell[:60]}' lists {listed} registers but {' and '.join(said)}: "
+            f"the address cell {shown(cell[:60])} lists {listed} registers but {' and '.join(said)}: "
             "the row says two widths (several values in one row, or a list cut short); "
             "give the function its own addresses in [function NAME] (addresses, format)",
             "addresses",
@@ -220,7 +221,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     if column_table is not None:
         if table and column_table != table:
             raise FieldError(
-                f"address '{address_text}' is a {table} but the register type column says {column_table}",
+                f"address {shown(address_text)} is a {table} but the register type column says {column_table}",
                 "register_type",
             )
         table = column_table
@@ -240,14 +241,15 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     if typed and typed.length:
         if length not in (None, typed.length):
             raise FieldError(
-                f"format '{cells.raw('format')}' is the {typed.length.lower()} but the length column says {length}",
+                f"format {shown(cells.raw('format'))} is the {typed.length.lower()} but the length column "
+                f"says {length}",
                 "format",
             )
         length = typed.length
     unit_bits = 16 if (length or "Full word") == "Full word" else 8
     counted = cells.read("count", parse_int)
     if counted is not None and counted < 1:
-        raise FieldError(f"count '{cells.raw('count')}' must be 1 or more", "count")
+        raise FieldError(f"count {shown(cells.raw('count'))} must be 1 or more", "count")
     count = None
     if len(addresses) > 1:
         count = len(addresses)
@@ -260,7 +262,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
             cells.notes.append(
                 (
                     "count over width",
-                    f"format '{cells.raw('format')}' on line {row.line} (and any like it) is "
+                    f"format {shown(cells.raw('format'))} on line {row.line} (and any like it) is "
                     f"{-(-strlen * 8 // unit_bits)} registers wide but the count column says {count}: the count wins",
                 )
             )
@@ -298,7 +300,8 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
                 cells.problems.append(
                     (
                         "",
-                        f"{cols.describe(ix['access'])} access '{cells.raw('access')}' is impossible for a {table}: "
+                        f"{cols.describe(ix['access'])} access {shown(cells.raw('access'))} is impossible for a "
+                        f"{table}: "
                         "read only (the row is kept)",
                     )
                 )
@@ -329,7 +332,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
                 cells.problems.append(
                     (
                         key,
-                        f"{where} {key} cell '{code.strip()[:40]}': not a C fragment ({exc}); the row is kept "
+                        f"{where} {key} cell {shown(code.strip()[:40])}: not a C fragment ({exc}); the row is kept "
                         f"without it ({key} holds C code, docs/fragments.md; a column of Modbus function "
                         "codes is register_type)",
                     )
@@ -443,7 +446,7 @@ def _scale_of(cells: _Cells, st: RowSettings, key: str) -> Number | None:
         cells.problems.append(
             (
                 "",
-                f"{cols.describe(cols.index[key])} {key} cell '{cells.raw(key).strip()}' may mean multiply by "
+                f"{cols.describe(cols.index[key])} {key} cell {shown(cells.raw(key).strip())} may mean multiply by "
                 f"{n.value:g} or stored {n.value:g} times larger (divide by {n.value:g}): read as {key} {n.value:g}; "
                 f"map it in [{key} cells] of the INI to say which",
             )
@@ -462,7 +465,7 @@ def _scale(cells: _Cells, st: RowSettings) -> tuple[Number | None, str]:
         cells.problems.append(
             (
                 "",
-                f"both a multiplier ('{raw['multiplier']}') and a divisor ('{raw['divisor']}'): "
+                f"both a multiplier ({shown(raw['multiplier'])}) and a divisor ({shown(raw['divisor'])}): "
                 "a row is scaled one way, not both; no scale read (the row is kept)",
             )
         )
@@ -474,7 +477,7 @@ def _scale(cells: _Cells, st: RowSettings) -> tuple[Number | None, str]:
             cells.problems.append(
                 (
                     "",
-                    f"{cells.cols.describe(ix['divisor'])} divisor '{raw['divisor']}' "
+                    f"{cells.cols.describe(ix['divisor'])} divisor {shown(raw['divisor'])} "
                     f"{'is 0: no value can be divided by it' if d.value == 0 else 'is out of range'}; "
                     "divisor left at its default (the row is kept)",
                 )
@@ -486,7 +489,8 @@ def _scale(cells: _Cells, st: RowSettings) -> tuple[Number | None, str]:
         cells.problems.append(
             (
                 "",
-                f"{cells.cols.describe(ix['multiplier'])} multiplier '{raw['multiplier']}': 0 would lose every value; "
+                f"{cells.cols.describe(ix['multiplier'])} multiplier {shown(raw['multiplier'])}: "
+                "0 would lose every value; "
                 "multiplier left at its default (the row is kept)",
             )
         )

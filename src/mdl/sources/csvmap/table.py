@@ -191,8 +191,12 @@ QUALIFIERS = frozenset(("modbus", "protocol", "start", "starting", "hex", "hexad
 
 
 def normalize_header(text: str) -> str:
-    text = re.sub(r"\(.*?\)|\[.*?\]", lambda m: " " + m.group(0)[1:-1] + " ", text.lower())
-    return " ".join(re.sub(r"[^a-z0-9]+", " ", text).split())
+    """Lowercase words of a header, single spaces: brackets, like all punctuation, only part words
+    ('Value (raw)' is 'value raw'). One linear pass, whatever the cell holds."""
+    return " ".join(_NOT_WORD.sub(" ", text.lower()).split())
+
+
+_NOT_WORD = re.compile(r"[^a-z0-9]+")
 
 
 def synonym_rank(key: str, norm: str) -> int | None:
@@ -250,7 +254,9 @@ class Table:
 _RULE = re.compile(r"^\s*:?-{2,}:?\s*$")
 
 
-def _records(text: str, delimiter: str, markdown: bool = False) -> list[Row]:
+def _records(text: str, delimiter: str, path: Path, markdown: bool = False) -> list[Row]:
+    """The rows of CSV text: each non-blank, non-comment row with its first line. A cell longer than
+    MAX_CELL_CHARS is refused (`_long_cell` says where), as is a cell past the csv module's own limit."""
     reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter, quotechar='"', skipinitialspace=False)
     rows = []
     last = 0
@@ -258,6 +264,8 @@ def _records(text: str, delimiter: str, markdown: bool = False) -> list[Row]:
         for cells in reader:
             first = last + 1
             last = reader.line_num
+            if any(len(c) > MAX_CELL_CHARS for c in cells):
+                raise _long_cell(text, first, delimiter, path)
             if not any(c.strip() for c in cells):
                 continue
             if cells[0].lstrip().startswith("#"):
@@ -271,8 +279,45 @@ def _records(text: str, delimiter: str, markdown: bool = False) -> list[Row]:
                     continue  # the |---|---| rule under a Markdown header
             rows.append(Row(first, cells))
     except csv.Error as exc:
-        raise error(f"malformed CSV: {exc}", None, reader.line_num) from None
+        if "field limit" in str(exc):  # a cell of more than 131,072 characters: the csv module's own bound
+            raise _long_cell(text, last + 1, delimiter, path) from None
+        raise error(f"malformed CSV: {exc}", path, reader.line_num) from None
     return rows
+
+
+def _long_cell(text: str, line: int, delimiter: str, path: Path) -> MdlError:
+    """The refusal of the first over-long cell of the row starting on `line`: the line and column where
+    the cell starts and its length as the csv module reads it (quotes, doubled quotes, quoted line
+    breaks), found by one pass over the row."""
+    lines = io.StringIO(text, newline="")
+    row = sum(len(lines.readline()) for _ in range(line - 1))
+    other = re.compile(f'({re.escape(delimiter)})|(\r\n|\r|\n)|[^{re.escape(delimiter)}"\r\n]+|"')
+    cell = at = row
+    length = 0
+    while at < len(text):
+        if at == cell and text.startswith('"', at):
+            quoted = _QUOTED.match(text, at)
+            assert quoted is not None, "a quote starts a quoted cell"
+            body = quoted.group()[1:]
+            body = body.removesuffix('"')
+            length, at = len(body) - body.count('""'), quoted.end()
+            continue
+        token = other.match(text, at)
+        assert token is not None, "every character is a token"
+        if token.group(1) or token.group(2):  # the cell ends
+            if length > MAX_CELL_CHARS or token.group(2):
+                break
+            cell = at = token.end()
+            length = 0
+            continue
+        length += len(token.group())
+        at = token.end()
+    breaks = list(_LINE_END.finditer(text, row, cell))
+    return cell_too_long(path, line + len(breaks), cell - (breaks[-1].end() if breaks else row) + 1, length)
+
+
+_QUOTED = re.compile(r'"[^"]*(?:""[^"]*)*"?')  # a quoted cell: a doubled quote is one quote in it
+_LINE_END = re.compile(r"\r\n|\r|\n")
 
 
 def _sample(text: str) -> str:
@@ -401,13 +446,7 @@ def read_table(path: Path, delimiter: str | None = None, encoding: str | None = 
         delimiter = "|"
     elif delimiter is None:
         delimiter = _pick_delimiter(text)
-    try:
-        rows = _records(text, delimiter, markdown)
-    except Exception as exc:  # csv.Error re-raised as MdlError without the path
-        if hasattr(exc, "diagnostics"):
-            d = exc.diagnostics[0]
-            raise error(d.message, path, d.line) from None
-        raise
+    rows = _records(text, delimiter, path, markdown)
     if not rows:
         raise error("the table has no rows", path)
     return Table(path, delimiter, rows, delimiter_guessed=guessed, markdown=markdown, encoding_guess=guess)

@@ -11,7 +11,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.diagnostics import Diagnostic, MdlError, error, shown
 from mdl.model import Function
 from mdl.model.layout import LayoutError, layout
 from mdl.resolve.checks import bound_problems
@@ -31,7 +31,8 @@ from mdl.sources.csvmap.report import Report
 
 CELL_SECTION = re.compile(r"(?i)^(\w+)\s+cells$")
 FUNCTION_SECTION = re.compile(r"(?i)^function\s+(\S.*)$")
-_QUOTED_KEY = re.compile(r'^(\s*)"([^"\n]*)"(?=\s*[=:])', re.MULTILINE)
+# the indent is spaces and tabs only: a run of blank lines before it is not tried from each of its lines
+_QUOTED_KEY = re.compile(r'^([^\S\n]*)"([^"\n]*)"(?=\s*[=:])', re.MULTILINE)
 _IDENTIFIER = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 ORDERS = ("big", "little")
 
@@ -63,7 +64,7 @@ def split_synonyms(value: str) -> list[str]:
     words: list[str] = []
     for line in value.splitlines():
         if line.count('"') % 2:
-            raise ValueError(f"a '\"' is not closed in '{line.strip()}'")
+            raise ValueError(f"a '\"' is not closed in {shown(line.strip())}")
         for cell in next(csv.reader([line], skipinitialspace=True)):
             if cell.strip():
                 words.append(cell.strip())
