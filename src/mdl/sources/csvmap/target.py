@@ -6,7 +6,8 @@ stdout. An INI is input like any other, so the file it names is held to rules:
 - for `output_xml_file`: inside the INI's folder (`--allow-outside` lifts that) and never in a hidden
   folder (`.git/hooks/pre-commit`, `.ssh/…`) or a hidden file;
 - for `output_xml_file`: an existing file that is not an MDL document (an earlier output) is replaced
-  only with `--force`. `-o` is the user's own word and replaces what it names, as `cp` does.
+  only with `--force`. `-o` is the user's own word and replaces what it names, as `cp` does (a FIFO,
+  a device or a socket is written in place: mdl.fileio).
 """
 
 from __future__ import annotations
@@ -83,8 +84,9 @@ def _resolved(path: Path, file: Path, line: int | None) -> Path:
 
 
 def _check_kind(target: Path, named_by: str, file: Path, line: int | None) -> None:
-    """Refuse an output that is not a file csv2xml can replace whole: a folder, a FIFO, a device (writing
-    the output beside it and renaming it over it would replace /dev/null itself)."""
+    """Refuse a folder, and a link that loops. `-o` may name a FIFO, a device or a socket: it is written
+    in place (mdl.fileio). The INI's output_xml_file may not: it is read to see whether it is an MDL
+    document (a FIFO would be waited on for ever), and an INI is input, not the user's own word."""
     try:
         mode = target.stat().st_mode
     except FileNotFoundError:
@@ -95,10 +97,10 @@ def _check_kind(target: Path, named_by: str, file: Path, line: int | None) -> No
         raise error(f"{named_by} names {target}: {exc}", file, line) from None
     if stat.S_ISDIR(mode):
         raise error(f"{named_by} names {target}, a folder: give a file name", file, line)
-    if not stat.S_ISREG(mode):
+    if not stat.S_ISREG(mode) and named_by != "-o":
         raise error(
-            f"{named_by} names {target}, which is not a regular file (a FIFO or a device): mdl csv2xml replaces "
-            "its output whole; write to standard output (-o -) and redirect it there",
+            f"{named_by} names {target}, which is not a regular file (a FIFO or a device): give -o {target} "
+            "to write into it",
             file,
             line,
         )
