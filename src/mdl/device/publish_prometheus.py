@@ -7,18 +7,30 @@ metric. An enumeration is its number, a boolean 1 or 0; text and bitsets are not
 which). A device whose last poll failed has no values, only `mdl_poll_up 0`; `mdl_poll_up` and
 `mdl_poll_timestamp_seconds` (of its last good poll) are there for every device. Without HOST, every
 interface (as exporters listen); port 0 picks a free port, and the note at start says which.
+
+The HTTP server is bounded, so that clients cannot take the files and threads the poller needs: at most
+SCRAPERS_MOST connections at once, each closed after IDLE_TIMEOUT seconds without a byte either way and
+CONNECTION_TIME seconds in all; one connection more closes the oldest that has not yet sent its request
+(or, if every one has, is itself closed at once). What a client does wrong is never a traceback.
 """
 
 from __future__ import annotations
 
+import io
+import socket
+import sys
 import threading
+import time
 from collections.abc import Iterator
+from contextlib import suppress
 from dataclasses import dataclass
 from datetime import datetime
+from socketserver import ThreadingMixIn
 from typing import Any, TextIO
 from urllib.parse import urlsplit
+from wsgiref.simple_server import WSGIRequestHandler, WSGIServer
 
-from prometheus_client import CollectorRegistry, start_http_server
+from prometheus_client import CollectorRegistry, make_wsgi_app
 from prometheus_client.core import GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
@@ -30,6 +42,9 @@ from mdl.model import Function, Value
 
 UP, TIMESTAMP = "mdl_poll_up", "mdl_poll_timestamp_seconds"
 ALL_INTERFACES = "0.0.0.0"
+SCRAPERS_MOST = 16  # connections served at once (Prometheus scrapes with one)
+IDLE_TIMEOUT = 10.0  # seconds a connection may wait for its client, at each read or write
+CONNECTION_TIME = 30.0  # seconds a connection may last in all (a request sent a byte at a time)
 
 
 @dataclass(frozen=True)
@@ -111,7 +126,7 @@ class PrometheusPublisher(Collector):
         registry = CollectorRegistry(auto_describe=False)
         registry.register(self)
         try:
-            self._server, _ = start_http_server(self.url.port, addr=self.url.host, registry=registry)
+            self._server = serve_metrics(self.url, registry)
         except OSError as exc:
             where = host_port(self.url.host, self.url.port)
             raise error(f"cannot serve Prometheus metrics on {where}: {exc.strerror or exc}") from None
@@ -163,3 +178,84 @@ class PrometheusPublisher(Collector):
     def _say(self, text: str, severity: str) -> None:
         self.err.write(f"mdl read: {severity}: prometheus://{host_port(self.url.host, self.url.port)}: {text}\n")
         self.err.flush()
+
+
+class _Handler(WSGIRequestHandler):
+    """One connection: one request (HTTP/1.0), waiting at most IDLE_TIMEOUT seconds for each read or write;
+    nothing logged (a client that goes away or times out is no news)."""
+
+    timeout = IDLE_TIMEOUT
+    server: BoundedServer
+
+    def parse_request(self) -> bool:
+        self.server.requested(self.connection)
+        return super().parse_request()
+
+    def get_stderr(self) -> TextIO:
+        return io.StringIO()  # wsgiref's traceback of a reply the client stopped reading: dropped
+
+    def log_message(self, format: str, *args: Any) -> None:  # noqa: A002  (the standard library's name)
+        pass
+
+
+class BoundedServer(ThreadingMixIn, WSGIServer):
+    """A thread per connection, at most SCRAPERS_MOST of them (see the module's docstring)."""
+
+    daemon_threads = True
+    request_queue_size = 64
+
+    def __init__(self, address: tuple[str, int], family: socket.AddressFamily) -> None:
+        self.address_family = family
+        self.lock = threading.Lock()
+        self.open: dict[socket.socket, tuple[float, bool]] = {}  # connection -> (opened, still reading its request)
+        super().__init__(address, _Handler)
+
+    def verify_request(self, request: Any, client_address: Any) -> bool:
+        now = time.monotonic()
+        with self.lock:
+            self._reap(now)
+            if len(self.open) >= SCRAPERS_MOST:
+                waiting = [(since, i) for i, (since, reading) in enumerate(self.open.values()) if reading]
+                if not waiting:
+                    return False  # socketserver closes it
+                self._cut(list(self.open)[min(waiting)[1]])
+            self.open[request] = (now, True)
+        return True
+
+    def requested(self, connection: socket.socket) -> None:
+        with self.lock:
+            if connection in self.open:
+                self.open[connection] = (self.open[connection][0], False)
+
+    def service_actions(self) -> None:  # serve_forever calls it twice a second
+        with self.lock:
+            self._reap(time.monotonic())
+
+    def _reap(self, now: float) -> None:
+        for connection, (since, _) in list(self.open.items()):
+            if now - since > CONNECTION_TIME:
+                self._cut(connection)
+
+    def _cut(self, connection: socket.socket) -> None:
+        """End a connection: its thread's next read or write fails, and it closes the socket."""
+        del self.open[connection]
+        with suppress(OSError):
+            connection.shutdown(socket.SHUT_RDWR)
+
+    def shutdown_request(self, request: Any) -> None:
+        with self.lock:
+            self.open.pop(request, None)
+        super().shutdown_request(request)
+
+    def handle_error(self, request: Any, client_address: Any) -> None:
+        if not isinstance(sys.exc_info()[1], OSError):  # a client that went away or timed out says nothing
+            super().handle_error(request, client_address)
+
+
+def serve_metrics(url: PromUrl, registry: CollectorRegistry) -> BoundedServer:
+    """The registry's metrics on http://HOST:PORT/metrics, served by a daemon thread; OSError if it cannot listen."""
+    family = socket.getaddrinfo(url.host, url.port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)[0][0]
+    server = BoundedServer((url.host, url.port), family)
+    server.set_app(make_wsgi_app(registry))
+    threading.Thread(target=server.serve_forever, name="mdl prometheus", daemon=True).start()
+    return server

@@ -7,7 +7,9 @@ connection, is a DeviceError (exit 3) naming the connection, the unit and what w
 
 from __future__ import annotations
 
+import errno
 import logging
+import socket
 from collections.abc import Callable, Generator
 from typing import Any
 
@@ -36,6 +38,31 @@ EXCEPTION_NAMES = {
     10: "GATEWAY PATH UNAVAILABLE",
     11: "GATEWAY TARGET DEVICE FAILED TO RESPOND",
 }
+
+
+def local_shortage() -> str | None:
+    """Why this process cannot open a socket now (its open files, the system's, or memory used up), in words
+    that say the fault is here, not at the device; None if it can. pymodbus's clients only say that they
+    could not connect: this asks the system the same question again."""
+    try:
+        socket.socket(socket.AF_INET, socket.SOCK_STREAM).close()
+    except OSError as exc:
+        if exc.errno == errno.EMFILE:
+            return f"too many open files in mdl ({_file_limit()}); the device was not asked"
+        if exc.errno == errno.ENFILE:
+            return "too many open files on this machine; the device was not asked"
+        if exc.errno in (errno.ENOBUFS, errno.ENOMEM):
+            return "this machine has no memory left for a connection; the device was not asked"
+    return None
+
+
+def _file_limit() -> str:
+    try:
+        import resource
+    except ImportError:  # not a POSIX system
+        return "the system's limit"
+    soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
+    return "its limit" if soft == resource.RLIM_INFINITY else f"its limit is {soft}: raise it with ulimit -n"
 
 
 class ModbusExceptionError(DeviceError):
@@ -165,6 +192,9 @@ class Session:
         if conn.serial is not None:
             why = conn.open_error() or "pymodbus refused it"
             return DeviceError(f"cannot open serial device {conn.serial} for {self.asking}: {why}")
+        shortage = local_shortage()
+        if shortage is not None:
+            return DeviceError(f"cannot connect to {conn} for {self.asking}: {shortage}")
         nobody = "no converter or device accepts connections there" if conn.rtu else "no Modbus TCP device answers"
         hint = conn.refused_hint()
         return DeviceError(f"cannot connect to {conn} for {self.asking}: {nobody}{'; ' + hint if hint else ''}")

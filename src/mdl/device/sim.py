@@ -8,6 +8,12 @@ functions the description marks read-only are refused with exception 2 as well.
 Function 43 / MEI 14 (Read Device Identification) is answered by each unit from its own device's
 identity elements (SPEC 2.2 and 10): pymodbus answers it from one identity per process (a global
 control block), so the server's decoder is given a request class of ours that asks the unit.
+
+A server on TCP holds at most `most_clients()` connections (CLIENTS_MOST, fewer where the open-file limit is
+low, keeping FILES_KEPT files for the process itself and a gateway's connection to its device): one more
+closes the connection idle the longest, one that never sent a request first, so that clients that ask
+keep being answered. That, and a connection the system refuses to accept (out of open files), is said in
+one line at most every NOTICE_EVERY seconds (`Crowd`), never as a traceback per attempt.
 """
 
 from __future__ import annotations
@@ -71,6 +77,10 @@ IDENTIFICATION = (("VendorName", "manufacturer"), ("ProductCode", "product"), ("
 MAX_OBJECT_BYTES = 240
 # what pymodbus logs while serving: at most this many lines per client and in all per window of seconds
 LOG_PER_CLIENT, LOG_TOTAL, LOG_WINDOW = 3, 20, 1.0
+CLIENTS_MOST = 100  # connections one server holds at once, at most
+FILES_KEPT = 32  # open files no client may take: the process's own, a gateway's connection to its device
+NOTICE_EVERY = 10.0  # seconds between two lines about connections closed or not accepted
+ACCEPT_BURST = 32  # the listen backlog, which is also how many connections asyncio accepts at once
 CLIENT: ContextVar[str] = ContextVar("mdl_sim_client", default="")  # host:port of the client being served
 
 
@@ -351,24 +361,99 @@ class SimDecoder(DecodePDU):
         return pdu
 
 
+def most_clients() -> int:
+    """The connections one server holds at once: CLIENTS_MOST, or fewer where the open-file limit is low
+    (half of what FILES_KEPT leaves: asyncio accepts bursts of ACCEPT_BURST connections before it closes any)."""
+    try:
+        import resource
+    except ImportError:  # not a POSIX system
+        return CLIENTS_MOST
+    soft = resource.getrlimit(resource.RLIMIT_NOFILE)[0]
+    if soft == resource.RLIM_INFINITY:
+        return CLIENTS_MOST
+    return max(1, min(CLIENTS_MOST, (soft - FILES_KEPT) // 2))
+
+
+class Crowd:
+    """The connections of one server: at most `most`, and what is said when more arrive (connections closed
+    for newer ones, connections the system refused to accept), one line at most every NOTICE_EVERY seconds."""
+
+    def __init__(self, most: int, stream: TextIO | None = None) -> None:
+        self.most, self.stream = most, stream
+        self.closed, self.refused, self.why = 0, 0, ""
+        self.said = -NOTICE_EVERY
+
+    def admit(self, new: ClientHandler) -> None:
+        """Make room for `new`: close the connection idle the longest (one that never asked first)."""
+        listener = new.listener
+        others = [c for c in getattr(listener, "active_connections", {}).values() if c is not new and c.transport]
+        if len(others) < self.most:
+            return
+        oldest = min(others, key=lambda c: (getattr(c, "asked", True), getattr(c, "last", 0.0)))
+        oldest.close()
+        self.closed += 1
+        self.tell()
+
+    def accept_failed(self, exc: OSError) -> None:
+        self.refused += 1
+        self.why = exc.strerror or str(exc)
+        self.tell()
+
+    def tell(self, now: bool = False) -> None:
+        """Say what happened since the last line, if anything did and (unless `now`) NOTICE_EVERY has passed."""
+        if not (self.closed or self.refused) or (not now and time.monotonic() - self.said < NOTICE_EVERY):
+            return
+        parts = []
+        if self.closed:
+            parts.append(
+                f"{self.closed} connection{'s' * (self.closed != 1)} closed for newer ones "
+                f"({self.most} at once at most: the one idle the longest goes)"
+            )
+        if self.refused:
+            parts.append(f"{self.refused} connection{'s' * (self.refused != 1)} not accepted ({self.why})")
+        stream = self.stream or sys.stderr
+        stream.write(f"mdl sim: {'; '.join(parts)}\n")
+        stream.flush()
+        self.closed, self.refused, self.said = 0, 0, time.monotonic()
+
+    def handle_loop_error(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """The event loop's exception handler: an accept the system refused (out of open files) is counted,
+        not logged with its traceback; anything else as asyncio says it."""
+        exc = context.get("exception")
+        if context.get("message") == "socket.accept() out of system resource" and isinstance(exc, OSError):
+            self.accept_failed(exc)
+            return
+        loop.default_exception_handler(context)
+
+
 class ClientHandler(ServerRequestHandler):
     """pymodbus's handler of one client connection, which names the client (CLIENT) while it decodes and
-    answers its requests, so that what pymodbus logs meanwhile is counted against that client."""
+    answers its requests, so that what pymodbus logs meanwhile is counted against that client; and takes
+    its place among the server's connections (`Crowd`), noting when it last asked."""
 
     name = ""
+    crowd: Crowd | None = None
+    asked = False  # whether it ever sent a request
+    last = 0.0  # when it connected or last sent something (time.monotonic)
 
     @classmethod
-    def serving(cls, server: ModbusBaseServer) -> ClientHandler:
+    def serving(cls, server: ModbusBaseServer, crowd: Crowd | None = None) -> ClientHandler:
         make: Callable[..., ClientHandler] = cls  # typed here: pymodbus leaves the constructor untyped
-        return make(server, server.trace_packet, server.trace_pdu, server.trace_connect)
+        handler = make(server, server.trace_packet, server.trace_pdu, server.trace_connect)
+        handler.crowd = crowd
+        return handler
 
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         peer = transport.get_extra_info("peername")
         if isinstance(peer, tuple) and len(peer) >= 2:
             self.name = f"{peer[0]}:{peer[1]}"
+        self.last = time.monotonic()
         super().connection_made(transport)
+        if self.crowd is not None:
+            self.crowd.admit(self)
 
     def callback_data(self, data: bytes, addr: tuple[Any, ...] | None = None) -> int:
+        self.asked, self.last = True, time.monotonic()
         token = CLIENT.set(self.name)  # call_soon copies it into the task that answers the request
         try:
             handle: Callable[[bytes, tuple[Any, ...] | None], int] = super().callback_data
@@ -439,11 +524,14 @@ def quiet_pymodbus(connection: Connection) -> LogLimiter:
     return limiter
 
 
-async def _roll_every_window(limiter: LogLimiter) -> None:
-    """Say what was suppressed once a window ends, also when nothing more is logged."""
+async def _roll_every_window(limiter: LogLimiter, crowd: Crowd | None = None) -> None:
+    """Say what was suppressed once a window ends, also when nothing more is logged (and what the crowd of
+    connections did, once NOTICE_EVERY has passed)."""
     while True:
         await asyncio.sleep(LOG_WINDOW / 4)
         limiter.roll_if_due()
+        if crowd is not None:
+            crowd.tell()
 
 
 async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
@@ -458,7 +546,11 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     server = connection.server(SimContext(units, silent=connection.rtu))
     server.decoder = SimDecoder()
     limiter = quiet_pymodbus(connection)
-    server.callback_new_connection = functools.partial(ClientHandler.serving, server)  # type: ignore[method-assign]
+    crowd = None if connection.serial is not None else Crowd(most_clients())
+    if crowd is not None:  # pymodbus's listener is asyncio's create_server, made when it starts serving
+        listen: Callable[..., Any] = server.call_create  # a partial of create_server: it takes the backlog too
+        server.call_create = functools.partial(listen, backlog=ACCEPT_BURST)
+    server.callback_new_connection = functools.partial(ClientHandler.serving, server, crowd)  # type: ignore[method-assign]
     refused: tuple[type[Exception], ...] = (OSError,)
     if os.name == "posix":
         import termios
@@ -474,6 +566,8 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     sockets = getattr(server.transport, "sockets", None) or []
     where = connection.serving_at(sockets[0].getsockname()[1] if sockets else connection.port)
     loop = asyncio.get_running_loop()
+    if crowd is not None:
+        loop.set_exception_handler(crowd.handle_loop_error)
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
@@ -484,7 +578,7 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
         )
     )
     out.flush()
-    rolling = asyncio.create_task(_roll_every_window(limiter))
+    rolling = asyncio.create_task(_roll_every_window(limiter, crowd))
     try:
         await stop.wait()
     finally:
@@ -492,6 +586,8 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
         shutdown: Callable[[], Awaitable[None]] = server.shutdown  # typed here: pymodbus leaves it unannotated
         await shutdown()
         limiter.roll()
+        if crowd is not None:
+            crowd.tell(now=True)
 
 
 def run(units: dict[int, Registers], connection: Connection) -> None:
