@@ -14,13 +14,14 @@ from pathlib import Path
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
-from mdl.sources.csvmap.table import Row, Table, decode_table, find_header
+from mdl.sources.csvmap.table import MAX_CELL_CHARS, Row, Table, cell_too_long, decode_table, find_header
 
 MARKDOWN = (".md", ".markdown")
 HTML = (".html", ".htm", ".xhtml")
 EXCEL = (".xlsx", ".xlsm", ".xls")
 LISTED = 8  # tables an error lists with their first cells
-MAX_CELLS = 1_000_000  # of one table or sheet: a register table has thousands
+MAX_CELLS = 1_000_000  # of one table, or of a workbook's sheets together: a register table has thousands
+MAX_PAGE_BYTES = 32_000_000  # of a Markdown or HTML file: a vendor's page of register tables has a few MB
 
 
 @dataclass(frozen=True)
@@ -166,9 +167,9 @@ def read_document(path: Path, encoding: str | None) -> Table:
         chosen_one = pick(path, _excel_candidates(path), "sheet", "--sheet")
         guess = None
     else:
-        text, guess = decode_table(read_bytes(path), path, encoding)
+        text, guess = decode_table(read_bytes(path, MAX_PAGE_BYTES), path, encoding)
         if suffix in MARKDOWN:
-            chosen_one = pick(path, _markdown_candidates(text), "Markdown table", "--table")
+            chosen_one = pick(path, _markdown_candidates(path, text), "Markdown table", "--table")
         else:
             chosen_one = pick(path, _html_candidates(path, text), "HTML table", "--table")
     table = Table(
@@ -183,10 +184,10 @@ def read_document(path: Path, encoding: str | None) -> Table:
     return table
 
 
-def _markdown_candidates(text: str) -> list[Candidate]:
+def _markdown_candidates(path: Path, text: str) -> list[Candidate]:
     from mdl.sources.csvmap.md_table import markdown_tables
 
-    tables = enumerate(markdown_tables(text), 1)
+    tables = enumerate(markdown_tables(text, path), 1)
     return [Candidate(f"table {n} (line {line})", str(n), rows) for n, (line, rows) in tables]
 
 
@@ -197,6 +198,9 @@ def _html_candidates(path: Path, text: str) -> list[Candidate]:
     for n, table in enumerate(html_tables(text), 1):
         if size(table) > MAX_CELLS:
             raise error(f"the table has more than {MAX_CELLS:,} cells (colspan and rowspan counted)", path, table.line)
+        for cell in (cell for cells in table.rows for cell in cells):
+            if len(cell.text()) > MAX_CELL_CHARS:
+                raise cell_too_long(path, cell.line, cell.col, len(cell.text()))
         g = grid(table)
         label = f"table {n} (line {table.line}, column {table.col})"
         lines = g.lines
@@ -221,10 +225,11 @@ def _html_candidates(path: Path, text: str) -> list[Candidate]:
 def _excel_candidates(path: Path) -> list[Candidate]:
     from mdl.sources.csvmap.xlsx_table import cell_ref, open_book, read_sheet, sheet_names
 
-    book = open_book(path)
+    with open_book(path) as book:
+        sheets = [read_sheet(path, book, name) for name in sheet_names(book)]
     out = []
-    for name in sheet_names(book):
-        sheet = read_sheet(path, book, name)
+    for sheet in sheets:
+        name = sheet.name
         notes = [f"lines in messages are the sheet's row numbers (line 7 is row 7: {cell_ref(name, 'A7')}, B7 ...)"]
         if sheet.merged:
             notes.append(

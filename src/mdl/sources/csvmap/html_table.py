@@ -1,17 +1,24 @@
-"""HTML tables as a browser shows them, with Python's html.parser: every `<table>` of the page (nested
-ones apart from the table around them), `<th>`/`<td>` cells with their line and column, `<br>` and
-block elements as line breaks, other whitespace collapsed, tags, scripts and styles dropped; a
-`colspan` cell fills its first column, a `rowspan` cell's text is read on each row it spans."""
+"""HTML tables as a browser shows them: every `<table>` of the page (nested ones apart from the table
+around them), `<th>`/`<td>` cells with their line and column, `<br>` and block elements as line
+breaks, other whitespace collapsed, tags, comments, scripts and styles dropped; a `colspan` cell fills
+its first column, a `rowspan` cell's text is read on each row it spans.
+
+The page is read by a tokenizer of its own, after the HTML standard's: each step moves on past what
+it looked at (a tag, comment or quoted value left open runs to the end of the page, where it is
+dropped), so reading takes time in proportion to the page, whatever it holds; Python's html.parser
+looks again from every `<` a tag left open follows, which a few kilobytes make minutes."""
 
 from __future__ import annotations
 
+import html
+import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from html.parser import HTMLParser
 
 MAX_COLSPAN = 1000  # the HTML standard's own limits
 MAX_ROWSPAN = 65534
 _BLOCKS = frozenset(("p", "div", "li", "ul", "ol", "dl", "dt", "dd", "h1", "h2", "h3", "h4", "h5", "h6", "pre"))
-_HIDDEN = frozenset(("script", "style"))  # html.parser reads their content as raw text up to the end tag
+_HIDDEN = frozenset(("script", "style"))  # their content is raw text up to their end tag, not shown
 
 
 @dataclass
@@ -21,8 +28,14 @@ class Cell:
     colspan: int = 1
     rowspan: int = 1
     parts: list[str | None] = field(default_factory=list)  # text; None: a line break
+    shown: str | None = None  # the text, once made
 
     def text(self) -> str:
+        if self.shown is None:
+            self.shown = self._text()
+        return self.shown
+
+    def _text(self) -> str:
         lines: list[str] = []
         current: list[str] = []
         for part in [*self.parts, None]:
@@ -66,12 +79,111 @@ def _span(value: str | None, limit: int) -> int:
     return min(max(n, 1), limit)
 
 
-class _Parser(HTMLParser):
-    def __init__(self) -> None:
-        super().__init__(convert_charrefs=True)
+_SPACE = "\t\n\f\r "
+_NAME = re.compile(r"[A-Za-z][^\t\n\f\r />]*")
+_SKIP = re.compile(r"[\t\n\f\r /]*")
+_ATTRIBUTE = re.compile(r"[^\t\n\f\r />][^\t\n\f\r /=>]*")
+_EQUALS = re.compile(r"[\t\n\f\r ]*=[\t\n\f\r ]*")
+_BARE = re.compile(r"[^\t\n\f\r >]*")
+_COMMENT_END = re.compile(r"--!?>")
+_RAW_END = {tag: re.compile(rf"</{tag}(?=[\t\n\f\r />])", re.I) for tag in _HIDDEN}
+
+
+@dataclass
+class _Tag:
+    name: str
+    end: bool  # an end tag
+    at: int  # the offset of its `<`
+    attrs: dict[str, str | None]
+    closes_itself: bool = False  # `<br/>`: a start tag and its end
+
+
+def _tag(text: str, at: int, end: bool) -> tuple[_Tag, int] | None:
+    """The tag whose `<` is at `at` and the offset after its `>`; None when the page ends first (the
+    standard drops such a tag). Attribute values in quotes may hold `>`."""
+    name = _NAME.match(text, at + (2 if end else 1))
+    assert name is not None, "a tag's name starts with a letter"
+    tag = _Tag(name.group().lower(), end, at, {})
+    i = name.end()
+    while True:
+        skipped = i
+        i = _SKIP.match(text, i).end()  # type: ignore[union-attr]
+        if i >= len(text):
+            return None
+        if text[i] == ">":
+            tag.closes_itself = i > skipped and text[i - 1] == "/"
+            return tag, i + 1
+        key = _ATTRIBUTE.match(text, i)
+        assert key is not None, "_SKIP stops at an attribute's first character"
+        i, value = key.end(), None
+        equals = _EQUALS.match(text, i)
+        if equals:
+            i = equals.end()
+            quote = text[i : i + 1]
+            if quote in ("'", '"'):
+                close = text.find(quote, i + 1)
+                if close < 0:
+                    return None
+                value, i = html.unescape(text[i + 1 : close]), close + 1
+            else:
+                bare = _BARE.match(text, i)
+                assert bare is not None, "_BARE matches the empty string"
+                value, i = html.unescape(bare.group()), bare.end()
+        tag.attrs.setdefault(key.group().lower(), value)
+
+
+def _tokens(text: str) -> Iterator[_Tag | str]:
+    """The page's tags and text (character references read), comments and the content of scripts and
+    styles left out, each found by one scan forward."""
+    i, n = 0, len(text)
+    while i < n:
+        at = text.find("<", i)
+        if at < 0:
+            yield html.unescape(text[i:])
+            return
+        if at > i:
+            yield html.unescape(text[i:at])
+        after = text[at + 1 : at + 3]
+        first, second = after[:1], after[1:]
+        if first.isascii() and first.isalpha() or first == "/" and second.isascii() and second.isalpha():
+            found = _tag(text, at, first == "/")
+            if found is None:
+                return
+            tag, i = found
+            yield tag
+            if tag.name in _RAW_END and not tag.end and not tag.closes_itself:
+                raw_end = _RAW_END[tag.name].search(text, i)
+                i = raw_end.start() if raw_end else n
+        elif text.startswith("<!--", at):
+            if text.startswith(">", at + 4) or text.startswith("->", at + 4):
+                i = text.index(">", at + 4) + 1
+            else:
+                comment_end = _COMMENT_END.search(text, at + 4)
+                i = comment_end.end() if comment_end else n
+        elif first in ("!", "?") or first == "/" and second not in ("", ">"):
+            close = text.find(">", at + 2)  # a declaration, a processing instruction: shown as nothing
+            i = close + 1 if close >= 0 else n
+        elif after == "/>":
+            i = at + 3
+        else:
+            yield "<"  # a `<` that starts no tag is text
+            i = at + 1
+
+
+class _Builder:
+    """The tables of the page from its tokens, as a browser builds them."""
+
+    def __init__(self, text: str) -> None:
         self.tables: list[HtmlTable] = []
         self.open: list[HtmlTable] = []
-        self.hidden = 0
+        self.text = text
+        self.seen, self.line = 0, 1  # the offset lines are counted up to, and the line there
+
+    def position(self, at: int) -> tuple[int, int]:
+        """The line and column (both from 1) of an offset of the page (at or after the one asked before)."""
+        self.line += self.text.count("\n", self.seen, at)
+        self.seen = at
+        return self.line, at - (self.text.rfind("\n", 0, at) + 1) + 1
 
     def _cell(self) -> Cell | None:
         return self.open[-1].open_cell if self.open else None
@@ -81,60 +193,65 @@ class _Parser(HTMLParser):
         if cell is not None:
             cell.parts.append(None)
 
-    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
-        if tag in _HIDDEN:
-            self.hidden += 1
+    def start(self, tag: _Tag) -> None:
+        name = tag.name
+        if name in _HIDDEN:
             return
-        line, offset = self.getpos()
-        if tag == "table":
+        if name == "table":
             self._break()  # a table inside a cell is apart from the cell's text
-            table = HtmlTable(line, offset + 1)
+            table = HtmlTable(*self.position(tag.at))
             self.tables.append(table)
             self.open.append(table)
         elif not self.open:
             return
-        elif tag == "tr":
+        elif name == "tr":
             self.open[-1].close_row()
             self.open[-1].open_row = []
-        elif tag in ("td", "th"):
+        elif name in ("td", "th"):
             table = self.open[-1]
             table.close_cell()
-            given = dict(attrs)
-            colspan, rowspan = _span(given.get("colspan"), MAX_COLSPAN), _span(given.get("rowspan"), MAX_ROWSPAN)
-            table.open_cell = Cell(line, offset + 1, colspan, rowspan)
-        elif tag == "br" or tag in _BLOCKS:
+            colspan, rowspan = (
+                _span(tag.attrs.get("colspan"), MAX_COLSPAN),
+                _span(tag.attrs.get("rowspan"), MAX_ROWSPAN),
+            )
+            table.open_cell = Cell(*self.position(tag.at), colspan, rowspan)
+        elif name == "br" or name in _BLOCKS:
             self._break()
 
-    def handle_endtag(self, tag: str) -> None:
-        if tag in _HIDDEN:
-            self.hidden = max(self.hidden - 1, 0)
+    def end(self, name: str) -> None:
+        if not self.open or name in _HIDDEN:
             return
-        if not self.open:
-            return
-        if tag == "table":
+        if name == "table":
             self.open.pop().close_row()
             self._break()
-        elif tag == "tr":
+        elif name == "tr":
             self.open[-1].close_row()
-        elif tag in ("td", "th"):
+        elif name in ("td", "th"):
             self.open[-1].close_cell()
-        elif tag in _BLOCKS:
+        elif name in _BLOCKS:
             self._break()
 
-    def handle_data(self, data: str) -> None:
+    def data(self, data: str) -> None:
         cell = self._cell()
-        if cell is not None and not self.hidden:
+        if cell is not None:
             cell.parts.append(data)
 
 
 def html_tables(text: str) -> list[HtmlTable]:
     """Every table of the page, in the order they start."""
-    parser = _Parser()
-    parser.feed(text)
-    parser.close()
-    for table in parser.open:
+    builder = _Builder(text)
+    for token in _tokens(text):
+        if isinstance(token, str):
+            builder.data(token)
+        elif token.end:
+            builder.end(token.name)
+        else:
+            builder.start(token)
+            if token.closes_itself:
+                builder.end(token.name)
+    for table in builder.open:
         table.close_row()
-    return [t for t in parser.tables if t.rows]
+    return [t for t in builder.tables if t.rows]
 
 
 @dataclass
@@ -177,9 +294,9 @@ def grid(table: HtmlTable) -> Grid:
                     if text and k == 0:
                         spanned.append(cell)
                 texts.append(text)
-        while pending and max(pending) >= len(texts):
-            _fill(texts, pending)
-            if len(texts) not in pending and max(pending, default=-1) >= len(texts):
-                texts.append("")
+        for column in sorted(c for c in pending if c >= len(texts)):  # rowspan cells past the row's own
+            if column >= len(texts):
+                texts.extend([""] * (column - len(texts)))
+                _fill(texts, pending)
         rows.append(texts)
     return Grid(rows, spanned, [cells[0].line for cells in table.rows])

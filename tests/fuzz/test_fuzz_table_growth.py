@@ -1,0 +1,66 @@
+"""The document readers of `mdl csv2xml` are linear (issue 34): each pattern that once made one of
+them quadratic (an emphasis mark or bracket left open in a Markdown cell, an HTML tag, quoted value
+or comment left open, a rowspan layout over many columns) is read at a size N and at 8N; the work
+(the best of three runs) may grow by 8, not by the 64 a quadratic reader takes. No clock limit: a
+ratio between two sizes of the same input, with room for a noisy machine."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import pytest
+
+from mdl.sources.csvmap.html_table import grid, html_tables
+from mdl.sources.csvmap.md_table import shown
+
+GROWTH = 8  # the larger input is this many times the smaller
+ALLOWED = 20  # linear work grows by about GROWTH; quadratic by GROWTH**2
+TABLE = "<table><tr><td>x</td></tr></table>"
+
+
+def _rowspans(n: int) -> object:
+    rows = 40
+    return html_tables(
+        "<table><tr><td>a" + f"<td rowspan={rows}>x<td>z" * (n // 20) + "<tr><td>y" * (rows - 1) + "</table>"
+    )[0]
+
+
+# (name, the input of size n, what reads it)
+PATTERNS: list[tuple[str, Callable[[int], object], Callable[[object], object]]] = [
+    ("markdown **a", lambda n: "**a " * (n // 4), shown),
+    ("markdown *a", lambda n: "*a " * (n // 3), shown),
+    ("markdown _a", lambda n: " _a" * (n // 3), shown),
+    ("markdown [", lambda n: "[" * n, shown),
+    ("markdown [x](", lambda n: "[x](" * (n // 4), shown),
+    ("markdown backticks", lambda n: "`" * (n // 2) + "a" * (n // 2), shown),
+    ("html <a", lambda n: TABLE + "<a " * (n // 3), html_tables),
+    ('html <td a="', lambda n: "<table><tr>" + '<td a="' * (n // 7), html_tables),
+    ("html <!--", lambda n: TABLE + "<!-- x >" * (n // 8), html_tables),
+    ("html <![CDATA[", lambda n: TABLE + "<![CDATA[ x" * (n // 11), html_tables),
+    ("html attributes", lambda n: "<table><tr><td " + 'a="b" ' * (n // 6), html_tables),
+    ("html rowspan layout", _rowspans, grid),
+]
+
+
+def _work(read: Callable[[object], object], given: object) -> float:
+    """The best of three runs, each long enough for the clock to resolve."""
+    best = float("inf")
+    for _ in range(3):
+        start, runs = time.perf_counter(), 0
+        while True:
+            read(given)
+            runs += 1
+            spent = time.perf_counter() - start
+            if spent > 0.02:
+                break
+        best = min(best, spent / runs)
+    return best
+
+
+@pytest.mark.parametrize("name, make, read", PATTERNS, ids=[p[0] for p in PATTERNS])
+def test_reading_grows_linearly(name, make, read):
+    n = 2000
+    small, large = make(n), make(GROWTH * n)
+    ratio = _work(read, large) / _work(read, small)
+    assert ratio < ALLOWED, f"{name}: {GROWTH}x the input took {ratio:.1f}x the time"
