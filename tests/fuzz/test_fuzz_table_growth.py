@@ -7,6 +7,7 @@ ratio between two sizes of the same input, with room for a noisy machine."""
 from __future__ import annotations
 
 import time
+import tracemalloc
 from collections.abc import Callable
 
 import pytest
@@ -64,3 +65,22 @@ def test_reading_grows_linearly(name, make, read):
     small, large = make(n), make(GROWTH * n)
     ratio = _work(read, large) / _work(read, small)
     assert ratio < ALLOWED, f"{name}: {GROWTH}x the input took {ratio:.1f}x the time"
+
+
+def _peak(read: Callable[[object], object], given: object) -> int:
+    """The most memory reading `given` holds at once (tracemalloc's peak), in bytes."""
+    tracemalloc.start()
+    try:
+        read(given)
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.parametrize("name, make, read", PATTERNS, ids=[p[0] for p in PATTERNS])
+def test_memory_grows_linearly(name, make, read):
+    """The memory a reader holds grows with its input, not with its square (a count of bytes: no noise)."""
+    n = 2000
+    small, large = make(n), make(GROWTH * n)
+    ratio = _peak(read, large) / max(_peak(read, small), 1)
+    assert ratio < ALLOWED, f"{name}: {GROWTH}x the input held {ratio:.1f}x the memory"
