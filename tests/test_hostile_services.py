@@ -165,6 +165,50 @@ def test_a_flood_of_metrics_connections_never_starves_the_poller(sim_factory):
     assert "open files" not in poller.stderr, poller.stderr[-3000:]
 
 
+def test_clients_that_trickle_their_headers_never_hold_the_metrics_shut(sim_factory):
+    """16 clients (the most the endpoint holds) send a request line and then a header now and then: they
+    have not asked yet, so a scraper pushes them out, and every scrape is answered."""
+    sim = sim_factory(ALL)
+    poller = Process("read", ALL, *sim.connection, "--interval", "0.5", "--publish", "prometheus://127.0.0.1:0")
+    hogs: list[socket.socket] = []
+    try:
+        note = poller.wait_for(poller.err, lambda line: "serving Prometheus metrics on" in line)
+        port = int(note.rsplit(":", 1)[1].split("/", 1)[0])
+        for _ in range(16):
+            hog = socket.create_connection(("127.0.0.1", port), timeout=GUARD)
+            hog.sendall(b"GET /metrics HTTP/1.0\r\nX-a: 1\r\n")
+            hogs.append(hog)
+        time.sleep(0.3)
+        for _ in range(3):
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=GUARD) as reply:
+                assert reply.status == 200
+            for hog in hogs:
+                with suppress(OSError):
+                    hog.sendall(b"X-b: 1\r\n")  # never idle long enough to be closed for it
+            time.sleep(0.3)
+    finally:
+        for hog in hogs:
+            hog.close()
+        poller.stop()
+    assert "Traceback" not in poller.stderr, poller.stderr[-3000:]
+
+
+def test_the_gateway_serves_a_slow_lines_values_between_its_polls():
+    """A poll that takes longer than the interval (a slow RTU line answering every request) leaves its
+    values served until the next poll should have ended: a slow device is no silent one."""
+    from mdl.device.serve import Poller
+
+    poller = Poller.__new__(Poller)
+    poller.interval, poller.timeout = 1.0, 3.0
+    now = time.monotonic()
+    poller.latest = ({"power_w": 1.0}, now - 6.0, 5.0)  # a 5 s poll ended 6 s ago: the next is still running
+    assert poller.current() == {"power_w": 1.0}
+    poller.latest = ({"power_w": 1.0}, now - 8.5, 5.0)  # past its own time plus a request's: stale
+    assert poller.current() is None
+    poller.latest = ({"power_w": 1.0}, now - 4.5, 0.1)  # a quick poll: the interval plus a request's time
+    assert poller.current() is None
+
+
 def test_a_local_shortage_of_files_is_not_blamed_on_the_device(sim_factory, monkeypatch):
     """The system refuses mdl a socket (EMFILE) while the device is up: the message says it is mdl's."""
     sim = sim_factory(ALL)

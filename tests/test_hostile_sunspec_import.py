@@ -34,7 +34,9 @@ def test_a_symbol_the_point_cannot_hold_is_refused(tmp_path: Path, kind: str, va
     src.write_text(json.dumps(_model(kind, value)))
     out = tmp_path / "out.xml"
     proc = run_mdl("import", "--from", "sunspec", src, "-o", out)
-    assert_clean_error(proc, 1, f"{src}: error: not a SunSpec model definition: group.points[2] (St): symbol 'OFF'", shown)
+    assert_clean_error(
+        proc, 1, f"{src}: error: not a SunSpec model definition: group.points[2] (St): symbol 'OFF'", shown
+    )
     assert not out.exists()
 
 

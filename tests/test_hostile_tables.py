@@ -139,6 +139,22 @@ def test_parts_read_whole_are_bounded(tmp_path):
     )
 
 
+def test_a_pivot_cache_openpyxl_never_reads_is_no_reason_to_refuse(tmp_path):
+    """A register workbook with a pivot table over a large data set: its cache holds every row, but
+    read-only openpyxl never parses it, so it does not count against the parts read whole."""
+    records = b"".join(b'<r><n v="%d"/></r>' % i for i in range(MAX_ELEMENTS))
+    cache = (
+        b'<?xml version="1.0" encoding="UTF-8"?><pivotCacheRecords '
+        b'xmlns="http://schemas.openxmlformats.org/spreadsheetml/2006/main">' + records + b"</pivotCacheRecords>"
+    )
+    path = workbook(tmp_path)
+    with zipfile.ZipFile(path, "a", zipfile.ZIP_DEFLATED) as book:
+        book.writestr("xl/pivotCache/pivotCacheRecords1.xml", cache)
+    proc = convert(tmp_path, path)
+    assert proc.returncode == 0, proc.stderr
+    assert "<name>room_temperature</name>" in proc.stdout
+
+
 def test_entities_are_refused(tmp_path):
     bomb = b'<?xml version="1.0"?><!DOCTYPE s [<!ENTITY a "aaaaaaaaaa"><!ENTITY b "&a;&a;&a;&a;&a;&a;">]>'
 

@@ -84,3 +84,30 @@ def test_memory_grows_linearly(name, make, read):
     small, large = make(n), make(GROWTH * n)
     ratio = _peak(read, large) / max(_peak(read, small), 1)
     assert ratio < ALLOWED, f"{name}: {GROWTH}x the input held {ratio:.1f}x the memory"
+
+
+class _Scanned(str):
+    """A page that adds up the stretches its line searches are given (count, rfind): each stretch once
+    means linear work, whatever the search finds."""
+
+    looked = 0
+
+    def count(self, sub, start=0, end=None):  # type: ignore[override]
+        _Scanned.looked += (len(self) if end is None else end) - start
+        return super().count(sub, start, end)
+
+    def rfind(self, sub, start=0, end=None):  # type: ignore[override]
+        _Scanned.looked += (len(self) if end is None else end) - start
+        return super().rfind(sub, start, end)
+
+
+@pytest.mark.parametrize("lines", [1, 1000], ids=["one line (minified)", "a line per cell"])
+def test_positions_look_at_each_character_once(lines):
+    """Every cell's line and column is worked out without searching the page before it again: on a
+    minified page of one line, searching back to the line's start for each cell was quadratic (2.3 MB:
+    11 s)."""
+    page = "<table><tr>" + ("<td>x" * 5000 if lines == 1 else "\n<td>x" * 5000)
+    _Scanned.looked = 0
+    tables = html_tables(_Scanned(page))
+    assert len(tables[0].rows[0]) == 5000
+    assert _Scanned.looked <= 3 * len(page), f"searched {_Scanned.looked:,} characters of a page of {len(page):,}"

@@ -188,8 +188,12 @@ class _Handler(WSGIRequestHandler):
     server: BoundedServer
 
     def parse_request(self) -> bool:
-        self.server.requested(self.connection)
-        return super().parse_request()
+        """Counted as having asked only once the request's headers are in: a client that trickles its
+        headers is still one a newcomer may push out."""
+        ok = super().parse_request()
+        if ok:
+            self.server.requested(self.connection)
+        return ok
 
     def get_stderr(self) -> TextIO:
         return io.StringIO()  # wsgiref's traceback of a reply the client stopped reading: dropped

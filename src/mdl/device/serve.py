@@ -4,9 +4,10 @@ device's roles served as SunSpec models (mdl.device.sunspec_gateway) by the sim'
 `mdl sim --as sunspec` computes the points from the simulated device's registers at every read. `mdl
 serve` polls the real device every `interval` seconds with a mdl.device.runtime.Session (the read plan
 of `mdl read`) on a thread of its own and serves the last poll; while the device does not answer, every
-point is "not implemented", never the last numbers it gave. Values are served for at most `interval` plus
-one request's time (`--timeout`) after the poll that read them ended: a device that goes silent is "not
-implemented" from then on, not only once its poll has waited out every retry. Each change (the device
+point is "not implemented", never the last numbers it gave. Values are served for at most `interval` (or
+the last poll's own time, where polls take longer) plus one request's time (`--timeout`) after the poll
+that read them ended: a device that goes silent is "not implemented" from then on, not only once its poll
+has waited out every retry. Each change (the device
 stops or starts answering) is said once on stderr.
 """
 
@@ -74,9 +75,10 @@ class Poller:
     def __init__(self, resolved: ResolvedDevice, fitted: Fit, connection: Connection, unit: int, interval: float):
         self.session = Session(resolved, connection, unit)
         self.fitted, self.interval = fitted, interval
-        self.fresh_for = interval + connection.timeout  # seconds a poll's values are served after it ended
+        self.timeout = connection.timeout
         self.functions = [b.function.fn for b in fitted.bound.values()]
-        self.latest: tuple[RoleValues | None, float] = (None, 0.0)  # one tuple: read whole by the server
+        # the last poll's values, when it ended and how long it took: one tuple, read whole by the server
+        self.latest: tuple[RoleValues | None, float, float] = (None, 0.0, 0.0)
         self.answering: bool | None = None  # None: not polled yet
         self.refused: set[str] = set()  # functions the device refuses even alone (said once)
         self.polled = threading.Event()  # set once the first poll has ended
@@ -103,6 +105,7 @@ class Poller:
         return values
 
     def poll_once(self) -> None:
+        started = time.monotonic()
         try:
             self.session.connect()
             try:
@@ -112,22 +115,25 @@ class Poller:
         except MdlError as exc:
             if not isinstance(exc, ModbusExceptionError):
                 self.session.close()  # the next poll connects again
-            self.latest = (None, time.monotonic())
+            self.latest = (None, time.monotonic(), 0.0)
             if self.answering is not False:
                 reason = "; ".join(d.message for d in exc.diagnostics)
                 _say(f"the device does not answer ({reason}): serving 'not implemented' until it does")
             self.answering = False
             return
-        self.latest = (role_values(self.fitted, values), time.monotonic())
+        ended = time.monotonic()
+        self.latest = (role_values(self.fitted, values), ended, ended - started)
         if self.answering is False:
             _say("the device answers again: serving its values")
         self.answering = True
 
     def current(self) -> RoleValues | None:
-        """The last poll's values while they are fresh (`fresh_for` seconds after the poll ended); None after,
-        while the next poll still waits for a device that may have gone silent."""
-        values, read_at = self.latest
-        return None if time.monotonic() - read_at > self.fresh_for else values
+        """The last poll's values while they are fresh: until the next poll should have ended (the interval,
+        or the last poll's own time where a poll takes longer: a slow line is no silent device) plus one
+        request's time (`--timeout`); None after, while the next poll still waits for a device that may
+        have gone silent."""
+        values, ended, took = self.latest
+        return None if time.monotonic() - ended > max(self.interval, took) + self.timeout else values
 
     def _run(self) -> None:
         try:
@@ -138,7 +144,7 @@ class Poller:
                 next_start = time.monotonic() + self.interval
                 self.poll_once()
         except Exception as exc:  # a fault of mdl's own: polling ends, and no value is served as if current
-            self.latest = (None, time.monotonic())
+            self.latest = (None, time.monotonic(), 0.0)
             _say(f"polling stopped ({type(exc).__name__}: {exc}): serving 'not implemented' from now on")
         finally:
             self.polled.set()

@@ -177,13 +177,17 @@ class _Builder:
         self.tables: list[HtmlTable] = []
         self.open: list[HtmlTable] = []
         self.text = text
-        self.seen, self.line = 0, 1  # the offset lines are counted up to, and the line there
+        self.seen, self.line, self.line_start = 0, 1, 0  # offset counted up to, its line, where that line starts
 
     def position(self, at: int) -> tuple[int, int]:
-        """The line and column (both from 1) of an offset of the page (at or after the one asked before)."""
-        self.line += self.text.count("\n", self.seen, at)
+        """The line and column (both from 1) of an offset of the page (at or after the one asked before):
+        each stretch of the page is looked at once, a one-line (minified) page too."""
+        breaks = self.text.count("\n", self.seen, at)
+        if breaks:
+            self.line += breaks
+            self.line_start = self.text.rfind("\n", self.seen, at) + 1
         self.seen = at
-        return self.line, at - (self.text.rfind("\n", 0, at) + 1) + 1
+        return self.line, at - self.line_start + 1
 
     def _cell(self) -> Cell | None:
         return self.open[-1].open_cell if self.open else None

@@ -123,6 +123,21 @@ def _scan(path: Path, source: IO[bytes], on_start: Callable[[str, dict[str, str]
     parser.ParseFile(source)
 
 
+# parts read-only openpyxl never parses (a pivot table's cache can hold every row of its data: a
+# workbook with one is read, not refused), and the sheets, streamed and measured by _measure
+UNREAD_PARTS = (
+    "xl/worksheets/",
+    "xl/pivotCache/",
+    "xl/pivotTables/",
+    "xl/comments",
+    "xl/threadedComments/",
+    "xl/persons/",
+    "xl/queryTables/",
+    "xl/tables/",
+    "customXml/",
+)
+
+
 def _refuse_archive(path: Path, archive: zipfile.ZipFile) -> None:
     """The archive's limits, before openpyxl reads any part whole: the bytes it unzips to (zipfile
     reads no more than a part declares), the elements of the parts read whole, the shared strings."""
@@ -133,8 +148,8 @@ def _refuse_archive(path: Path, archive: zipfile.ZipFile) -> None:
         )
     for info in archive.infolist():
         name = info.filename
-        if not name.endswith((".xml", ".rels")) or name.startswith("xl/worksheets/"):
-            continue  # not XML openpyxl reads, or a sheet (streamed, measured by _measure)
+        if not name.endswith((".xml", ".rels")) or name.startswith(UNREAD_PARTS):
+            continue  # not XML, XML that read-only openpyxl never opens, or a sheet (streamed: _measure)
         with archive.open(info) as source:
             _count(path, source, name)
 
