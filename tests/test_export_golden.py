@@ -45,7 +45,9 @@ def render(path: Path) -> dict[str, str]:
             if proc.returncode != 0:  # an error, not a traceback, for python3 scripts/regen_golden.py too
                 said = "; ".join(proc.stderr.strip().splitlines())
                 raise error(f"mdl export --to {engine} exited {proc.returncode}: {said}", source)
-            out[f"{engine}.warnings.txt"] = proc.stderr
+            # what it printed, less the `wrote FILE` lines (a temporary folder's name, new each run)
+            said = [line for line in proc.stderr.splitlines(keepends=True) if not line.startswith("wrote ")]
+            out[f"{engine}.warnings.txt"] = "".join(said)
             if engine == "volttron":
                 for file in sorted(folder.iterdir()):
                     out[f"volttron/{file.name}"] = file.read_text(encoding="utf-8")

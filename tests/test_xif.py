@@ -74,7 +74,7 @@ def registers(tmp_path: Path, tables: dict) -> Path:
 def test_example_meter_imports_cleanly_with_identity_and_marker(tmp_path):
     out = tmp_path / "meter.xml"
     proc = run_mdl("import", METER, "-o", out)
-    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    assert proc.returncode == 0 and proc.stderr == f"wrote {out}\n", proc.stderr
     proc = run_mdl("validate", out)
     assert proc.returncode == 0 and "valid MDL 1.0" in proc.stdout, proc.stdout + proc.stderr
     device = load_any(out)

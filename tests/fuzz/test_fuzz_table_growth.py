@@ -63,8 +63,12 @@ def _work(read: Callable[[object], object], given: object) -> float:
 def test_reading_grows_linearly(name, make, read):
     n = 2000
     small, large = make(n), make(GROWTH * n)
-    ratio = _work(read, large) / _work(read, small)
-    assert ratio < ALLOWED, f"{name}: {GROWTH}x the input took {ratio:.1f}x the time"
+    ratios = []
+    for _ in range(2):  # a busy machine can slow one measurement: a linear reader passes the second
+        ratios.append(_work(read, large) / _work(read, small))
+        if ratios[-1] < ALLOWED:
+            return
+    assert min(ratios) < ALLOWED, f"{name}: {GROWTH}x the input took {min(ratios):.1f}x the time"
 
 
 def _peak(read: Callable[[object], object], given: object) -> int:
