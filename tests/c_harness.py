@@ -21,7 +21,7 @@ from conftest import skip_or_fail
 from cpp_harness import modbus_flags
 
 from mdl.model import Device
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.targets import render
 from mdl.targets.c import emit as cgen
 from mdl.targets.templating import cstring

@@ -36,7 +36,7 @@ from pathlib import Path
 from conftest import skip_or_fail
 
 from mdl.model import Device
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.targets import render
 from mdl.targets.cpp import emit as cppgen
 from mdl.targets.templating import cstring

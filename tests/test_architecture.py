@@ -65,7 +65,7 @@ STAGES = [
     "plan",
     "lang",
     "values",
-    "resolve",
+    "resolver",
     "exchange",
     "formats",
     "profiles",
@@ -82,9 +82,9 @@ HELPERS = {"diagnostics", "fileio", "resources"}
 def test_the_graph_sees_known_edges():
     """A control: the checks below would see a wrong edge if there were one, because they see these."""
     graph = import_graph()
-    assert {"model", "lang", "values"} <= graph["resolve"]
-    assert "resolve" in graph["targets"] and "model" in graph["lang"]
-    assert {"exchange", "resolve"} <= graph["formats"] and "formats" in graph["sources"]
+    assert {"model", "lang", "values"} <= graph["resolver"]
+    assert "resolver" in graph["targets"] and "model" in graph["lang"]
+    assert {"exchange", "resolver"} <= graph["formats"] and "formats" in graph["sources"]
     assert {"device", "formats", "exchange"} <= graph["engines"] and "exchange" in graph["device"]
 
 

@@ -24,7 +24,7 @@ from test_c_driver import assert_exactly, mdl_read
 from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import MdlError
 from mdl.model import Device, Function
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 from mdl.values import codec, ir

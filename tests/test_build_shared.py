@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from mdl.model import Device, Function
 from mdl.model.layout import FORMAT_BITS, LayoutError, layout
-from mdl.resolve import ResolvedFunction, _shape, resolve
+from mdl.resolver import ResolvedFunction, _shape, resolve
 from mdl.values.build import build, build_shared, shape_key
 
 NUMBERS = [None, 0.0, -0.0, 1, 1.0, 0.1, 0.5, -3.0, 5, 100.25, 1e-300]

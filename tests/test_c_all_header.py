@@ -22,7 +22,7 @@ from cpp_harness import STRICT as CXX_STRICT
 from cpp_harness import compile_driver as compile_cxx
 from cpp_harness import modbus_flags
 
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 

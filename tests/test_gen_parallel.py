@@ -13,7 +13,7 @@ import pytest
 from conftest import device_xml, fn_xml, run_mdl
 
 from mdl.diagnostics import MdlError
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml.load import read_device
 from mdl.targets import parallel, render
 

@@ -1,6 +1,6 @@
 """One resolve (issue 19): a command resolves each description once and the session, the simulator and
 the scenarios read that resolved device; resolving reads the model and never writes it (compiled
-expressions live on mdl.resolve.ResolvedFunction). And the one collector of diagnostics
+expressions live on mdl.resolver.ResolvedFunction). And the one collector of diagnostics
 (mdl.diagnostics.Collector): kinds, grouping of repeated messages, the cap on errors."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import sys
 import pytest
 from conftest import DATA, cli
 
-import mdl.resolve
+import mdl.resolver
 from mdl.diagnostics import Collector, Diagnostic, message_kind
 from mdl.model import Function
 from mdl.sources.loading import load_any
@@ -23,9 +23,9 @@ ALL = DATA / "all_tables.xml"
 
 
 def _count_resolves(monkeypatch) -> list[str]:
-    """From now on, the name of the device of every call of mdl.resolve.resolve, wherever a loaded module
+    """From now on, the name of the device of every call of mdl.resolver.resolve, wherever a loaded module
     imported it from."""
-    original = mdl.resolve.resolve
+    original = mdl.resolver.resolve
     calls: list[str] = []
 
     def counted(device, path=None):
@@ -71,8 +71,8 @@ def _snapshot(functions: list[Function]) -> list[dict]:
 def test_resolving_leaves_the_model_as_it_is(path):
     device = load_any(path)
     before = _snapshot(device.functions)
-    first = mdl.resolve.resolve(device, str(path))
-    second = mdl.resolve.resolve(device, str(path))
+    first = mdl.resolver.resolve(device, str(path))
+    second = mdl.resolver.resolve(device, str(path))
     assert _snapshot(device.functions) == before  # nothing written onto the model, not even a cache
     assert "compiled" not in {f.name for f in dataclasses.fields(Function)}
     assert not any(hasattr(fn, "compiled") for fn in device.functions)
@@ -88,7 +88,7 @@ def test_a_resolved_expression_reads_from_the_resolved_device_only():
     """What the model says of an expression function is what the file said: its registers, known only
     once compiled, are the resolved function's layout."""
     device = load_any(HEAT_PUMP)
-    resolved = mdl.resolve.resolve(device, str(HEAT_PUMP))
+    resolved = mdl.resolver.resolve(device, str(HEAT_PUMP))
     f = next(f for f in resolved.functions if f.compiled is not None and f.deps)
     assert f.fn.addresses == [] and f.layout.addresses == tuple(f.compiled.lowered.addresses)
     assert f.deps == tuple(f.compiled.deps)

@@ -26,7 +26,7 @@ from mdl.model.layout import (
 )
 from mdl.model.names import identifier
 from mdl.plan import TABLE_ORDER, Request, plan_reads, split_request
-from mdl.resolve import cached_property
+from mdl.resolver import cached_property
 from mdl.values import ir
 from mdl.values.build import units
 

@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from mdl.lang.expr.ops import OpKind, printer
 from mdl.lang.expr.pyemit import PRINTER as PYTHON
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml import load_device
 from mdl.targets.c.expressions import PRINTER as C
 from mdl.targets.clike import int_bounds, int_limits

@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from mdl.diagnostics import MdlError
 from mdl.formats.sunspec.build import build_chain
 from mdl.formats.sunspec.models import TYPE_REGISTERS, parse_model
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml.load import read_device
 
 pytest.importorskip("sunspec2")

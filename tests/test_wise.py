@@ -702,7 +702,7 @@ def test_fuzz_reader_gives_a_device_or_an_error(tmp_path_factory, text):
     except MdlError as exc:
         assert exc.diagnostics and all(d.file == str(path) for d in exc.diagnostics)
         return
-    from mdl.resolve import resolve
+    from mdl.resolver import resolve
 
     try:
         resolve(device, str(path))

@@ -22,7 +22,7 @@ from mdl.formats import guess_format
 from mdl.formats.xif.read import read_xif
 from mdl.formats.xif.write import export_xif
 from mdl.model import Device
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.loading import load_any
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import secure_parser

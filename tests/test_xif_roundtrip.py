@@ -22,7 +22,7 @@ from mdl.exchange.export import Settings
 from mdl.formats.xif.read import read_xif
 from mdl.formats.xif.write import export_xif
 from mdl.model import Device
-from mdl.resolve import ResolvedDevice, resolve
+from mdl.resolver import ResolvedDevice, resolve
 from mdl.sources.loading import load_any
 
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"

@@ -20,7 +20,7 @@ from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
 if TYPE_CHECKING:
     from mdl.model import Device, Function
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 SCHEMAS = click.Choice(["0.9b", "1.0"], case_sensitive=False)
 STDOUT = Path(STDIO_ARG)
@@ -354,7 +354,7 @@ def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None
         if chosen is not None:
             from mdl.profiles.fit import fit
             from mdl.profiles.report import fit_diagnostics, fit_lines
-            from mdl.resolve import resolve
+            from mdl.resolver import resolve
 
             fitted = fit(chosen, resolve(device, str(path)))
             for line in fit_lines(str(path), fitted):
@@ -707,7 +707,7 @@ def import_(
 
     if fmt is not None and fmt.lower() == "sunspec":
         from mdl.formats.sunspec.read import import_chain
-        from mdl.resolve import resolve
+        from mdl.resolver import resolve
 
         resolved = resolve(import_chain(sources, base, repeat), "sunspec")
         _report_warnings(resolved.warnings, Path("sunspec"))
@@ -927,7 +927,7 @@ def discover(
 def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int | None, output: Path | None) -> None:
     """`mdl discover --sunspec`: the MDL of the device's chain to `output` (stdout), written whole or not at all."""
     from mdl.device.sunspec_discover import discover_sunspec
-    from mdl.resolve import resolve
+    from mdl.resolver import resolve
     from mdl.sources.mdlxml import device_to_xml
     from mdl.sources.mdlxml.load import check_written
 

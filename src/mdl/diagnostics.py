@@ -338,7 +338,7 @@ class TextSpan:
         return 1
 
 
-# Where each text of a model object came from: the sources record it, the checks of mdl.resolve read it.
+# Where each text of a model object came from: the sources record it, the checks of mdl.resolver read it.
 # Keyed by the object's identity (model objects are mutable dataclasses, so not hashable); an entry
 # goes when its object does.
 _SPANS: dict[int, tuple[weakref.ref[object], dict[str, TextSpan]]] = {}

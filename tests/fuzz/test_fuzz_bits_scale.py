@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import MdlError
 from mdl.model import Device, Function
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml.load import tree_to_device
 from mdl.sources.mdlxml.parse import parse_source
 from mdl.sources.mdlxml.write import device_to_xml
@@ -171,7 +171,7 @@ def test_any_bits_text_is_a_range_or_refused_with_a_position(text):
     found = fn.bit_range
     problems = [
         d
-        for d in __import__("mdl.resolve.checks", fromlist=["check_device"]).check_device(
+        for d in __import__("mdl.resolver.checks", fromlist=["check_device"]).check_device(
             Device("D", "d", [fn], version="1.0")
         )
         if d.severity == "error"

@@ -17,7 +17,7 @@ import mdl.formats.yamlnodes as yamlnodes
 from mdl.device.evaluate import Evaluator
 from mdl.device.scenarios import run_scenario
 from mdl.diagnostics import MdlError
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 
 SMALL_LIMIT = 60_000
 

@@ -18,7 +18,7 @@ from lxml import etree
 
 from mdl.diagnostics import Diagnostic
 from mdl.plan import plan_reads, split_request
-from mdl.resolve import resolve
+from mdl.resolver import resolve
 from mdl.sources.mdlxml import device_to_xml, load_device, validate_file
 
 BASE = (DATA / "all_tables.xml").read_bytes()

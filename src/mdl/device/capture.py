@@ -25,7 +25,7 @@ from mdl.fileio import read_text
 from mdl.model import BIT_TABLES, REGISTER_TYPES, Device, Scenario, ScenarioInput, Value
 from mdl.model.layout import MAX_ADDRESS, MAX_BITS, MAX_REGISTERS, address_runs
 from mdl.plan import Request
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 Image = dict[str, dict[int, int]]  # table -> wire address -> register or bit value
 

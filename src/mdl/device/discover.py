@@ -54,7 +54,7 @@ from mdl.diagnostics import DeviceError, Diagnostic, one_line
 from mdl.model import Device, Function, Value
 from mdl.model.layout import Layout
 from mdl.plan import Request
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 from mdl.values.build import decode_steps
 from mdl.values.codec import Decoder, compile_decoder
 

@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from mdl.lang.expr.fields import python_function
 from mdl.model import Device, Scalar, Value
-from mdl.resolve import ResolvedDevice, resolve
+from mdl.resolver import ResolvedDevice, resolve
 from mdl.values.build import decode_steps
 from mdl.values.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
 from mdl.values.ir import DecodeStep

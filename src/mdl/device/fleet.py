@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 
     from mdl.device.publish_mqtt import Classify
     from mdl.plan import Request
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 SCHEMES = ("tcp", "rtu+tcp", "rtu")
 _AT = re.compile(r"@(?=(?:tcp|rtu\+tcp|rtu)://)")

@@ -33,7 +33,7 @@ from mdl.diagnostics import DeviceError
 from mdl.model import BIT_TABLES, REGISTER_TYPES, Device
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 from mdl.plan import Request
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 STRUGGLING = 3  # signs in a row that a unit is struggling before it is left alone
 STRUGGLE_CODES = (4, 5, 6)  # SERVER DEVICE FAILURE, ACKNOWLEDGE, SERVER DEVICE BUSY

@@ -19,7 +19,7 @@ from mdl.device.runtime import Session
 from mdl.model import BIT_TABLES, Device, Function, Value
 from mdl.model.addressing import NAMED_TABLE, TABLE_PREFIX, AddressError, whole_number
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
-from mdl.resolve import ResolvedDevice, resolve
+from mdl.resolver import ResolvedDevice, resolve
 
 # --as TYPE -> (MDL format, registers per value); string: the whole range is one value
 AS_TYPES: dict[str, tuple[str, int]] = {

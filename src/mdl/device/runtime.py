@@ -23,7 +23,7 @@ from mdl.diagnostics import DeviceError, error
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import Layout, address_runs
 from mdl.plan import Request, defined_addresses, plan_reads, split_request
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 from mdl.values import codec
 from mdl.values.ir import Merge, find_step
 

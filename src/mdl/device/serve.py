@@ -30,7 +30,7 @@ from mdl.device.sunspec_gateway import FacadeRegisters, RoleValues, Source, choo
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.model import Value
 from mdl.profiles.fit import Fit
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 FROM_HELP = (
     "The device to poll, as a URL: HOST[:PORT] or tcp://HOST[:PORT] (Modbus TCP, port 502), rtu+tcp://HOST:PORT "

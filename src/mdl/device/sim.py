@@ -45,7 +45,7 @@ from mdl.diagnostics import error, one_line
 from mdl.fileio import read_text
 from mdl.model import Device, Function, Scenario, Value
 from mdl.plan import TABLE_ORDER, defined_addresses
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 from mdl.values import codec, ir
 from mdl.values.build import encode_steps
 

@@ -33,7 +33,7 @@ from mdl.formats.sunspec.read import DEFAULT_REPEAT
 from mdl.model import Device
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 from mdl.plan import Request
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 MAX_MODELS = 200  # a real device holds a few dozen models; more is a device answering garbage
 HEADER = 2  # a model's ID and L

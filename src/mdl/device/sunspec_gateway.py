@@ -26,7 +26,7 @@ from mdl.model import Device, Function, Value
 from mdl.profiles.fit import Fit, fit
 from mdl.profiles.load import load_profile, shipped
 from mdl.profiles.report import fit_diagnostics
-from mdl.resolve import ResolvedDevice, resolve
+from mdl.resolver import ResolvedDevice, resolve
 
 RoleValues = dict[str, float | None]  # role -> its value in the role's unit; None: none now
 Source = Callable[[], RoleValues | None]  # None: the device does not answer

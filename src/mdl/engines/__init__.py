@@ -17,7 +17,7 @@ from mdl.formats import FORMATS, lazy
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Export, Settings, Writer
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 
 @dataclass(frozen=True)

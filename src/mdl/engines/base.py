@@ -35,7 +35,7 @@ from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, ScaleFact
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 
 UNREADABLE = "cannot be read as mdl does: {}: left out"

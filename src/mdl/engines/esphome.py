@@ -54,7 +54,7 @@ from mdl.values.ir import Bits, find_step
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "ESPHome"
 PLATFORMS = ("sensor", "binary_sensor", "text_sensor", "number", "switch", "select")

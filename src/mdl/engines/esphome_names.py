@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from mdl.engines.base import Notes
-    from mdl.resolve import ResolvedFunction
+    from mdl.resolver import ResolvedFunction
 
 NAME_MAX_BYTES = 120  # esphome.config_validation NAME_MAX_LENGTH, and FRIENDLY_NAME_MAX_LEN
 UNIT_MAX_BYTES = 63  # esphome.core.config UNIT_OF_MEASUREMENT_MAX_LENGTH

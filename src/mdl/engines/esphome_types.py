@@ -16,7 +16,7 @@ from mdl.values.ir import Bits, Mask, Scale, SignExtend, ToFloat, find_step
 
 if TYPE_CHECKING:
     from mdl.model.layout import Layout
-    from mdl.resolve import ResolvedFunction
+    from mdl.resolver import ResolvedFunction
 
 FLOAT_EXACT = 1 << 24  # the integers a 32-bit float holds exactly: up to 2^24
 _INT = {16: "WORD", 32: "DWORD", 64: "QWORD"}

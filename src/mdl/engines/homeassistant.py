@@ -65,7 +65,7 @@ from mdl.exchange.text import comment_text
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "Home Assistant"
 _TYPES = {

@@ -16,7 +16,7 @@ from mdl.model import Function
 from mdl.profiles.fit import Binding, fit
 from mdl.profiles.load import RATIO, Profile
 from mdl.profiles.report import fit_diagnostics
-from mdl.resolve import ResolvedDevice, resolve
+from mdl.resolver import ResolvedDevice, resolve
 
 
 def _referenced(device_functions: list[Function]) -> set[str]:

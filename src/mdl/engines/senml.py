@@ -7,7 +7,7 @@ from mdl.device.output import capability
 from mdl.diagnostics import Diagnostic
 from mdl.exchange.export import Export, Settings
 from mdl.exchange.text import json_text
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 
 def export_capability(resolved: ResolvedDevice, settings: Settings) -> Export:

@@ -53,7 +53,7 @@ from mdl.exchange.text import comment_text, toml_string
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "Telegraf"
 ORDERS = ("ABCD", "CDAB", "DCBA", "BADC")  # tried in this order for a section

@@ -39,7 +39,7 @@ from mdl.exchange.text import json_text
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "ThingsBoard"
 NOT_IMPLEMENTED = "no 'not implemented' value: the values that mean it read as values"

@@ -70,7 +70,7 @@ from mdl.exchange.text import json_text, spreadsheet_cell
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
     from mdl.model.layout import Layout
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "VOLTTRON"
 MAP_COLUMNS = (

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from mdl.diagnostics import Diagnostic
     from mdl.exchange.connection import Endpoint
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 DEFAULT_INTERVAL = 60.0  # seconds between polls where the command line gives no --interval (SPEC 11)
 

@@ -11,7 +11,7 @@ from mdl.diagnostics import Diagnostic
 
 if TYPE_CHECKING:
     from mdl.model import Function
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 
 Lost = tuple[str, str | None]  # a kind of loss and what is particular to one function (or None)

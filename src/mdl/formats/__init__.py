@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
     from mdl.exchange.export import Writer
     from mdl.model import Device
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 Reader = Callable[["StrPath"], "Device"]
 HEAD_BYTES = 64 * 1024  # what guess_format reads of a file

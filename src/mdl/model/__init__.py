@@ -28,7 +28,7 @@ Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bi
 
 class CompiledExpression(Protocol):
     """A function's expression as the resolve step compiles it (mdl.lang.expr.fields.Compiled, kept on
-    mdl.resolve.ResolvedFunction, never on the model): the model names only what its layout reads,
+    mdl.resolver.ResolvedFunction, never on the model): the model names only what its layout reads,
     so it does not depend on the expression language."""
 
     @property
@@ -151,7 +151,7 @@ class Function:
     @property
     def bit_range(self) -> tuple[int, int] | None:
         """(lowest, highest) bit of `bits`, either order accepted; None without `bits` or where the
-        text is not `N` or `N-M` (mdl.resolve says so)."""
+        text is not `N` or `N-M` (mdl.resolver says so)."""
         return parse_bits(self.bits) if self.bits is not None else None
 
     @property

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 from mdl.model.units import conversion, spell
 from mdl.profiles.load import RATIO, Profile, Role
-from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 _KINDS = {"float": ("int", "float"), "int": ("int",), "bool": ("bool",)}
 _EXPR_KINDS = {"float": ("long", "double"), "int": ("long",), "bool": ("bool",)}

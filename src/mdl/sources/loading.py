@@ -15,7 +15,7 @@ if TYPE_CHECKING:
     from _typeshed import StrPath
 
     from mdl.model import Device
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 
 def import_format(path: StrPath) -> str:
@@ -50,8 +50,8 @@ def load_any(path: StrPath, fmt: str | None = None) -> Device:
 
 
 def load_resolved(path: StrPath, fmt: str | None = None) -> ResolvedDevice:
-    """The file's model through `mdl.resolve.resolve`: MdlError with every error (file:line:col), or
+    """The file's model through `mdl.resolver.resolve`: MdlError with every error (file:line:col), or
     the resolved device with its warnings, for the caller to print once."""
-    from mdl.resolve import resolve
+    from mdl.resolver import resolve
 
     return resolve(load_any(path, fmt), str(path))

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at every start
     from mdl.diagnostics import Diagnostic
     from mdl.model import Device
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
     from mdl.targets.base import Target
     from mdl.targets.profile import Interface
 
@@ -50,7 +50,7 @@ def render(
     generation (templating.stamp): a C or C++ source compiles only with the header of its run.
     The targets of a large device render at once (mdl.targets.parallel).
     With a profile's `interface` (mdl.targets.profile), each target adds it and its shared files."""
-    from mdl.resolve import ResolvedDevice, resolve
+    from mdl.resolver import ResolvedDevice, resolve
     from mdl.targets.parallel import render_all
     from mdl.targets.templating import stamp
 
@@ -80,7 +80,7 @@ def notes(device: ResolvedDevice, source: Path) -> list[Diagnostic]:
     """What `mdl gen` tells about the names it chose: a stem shortened (mdl.model.names, rule 3b)."""
     from mdl.diagnostics import Diagnostic
     from mdl.model.names import STEM_LIMIT, stem_shortened
-    from mdl.resolve.checks import position
+    from mdl.resolver.checks import position
 
     if not stem_shortened(device.name):
         return []

@@ -7,7 +7,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 
 if TYPE_CHECKING:
     from mdl.targets.profile import Interface

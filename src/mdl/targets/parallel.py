@@ -23,7 +23,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
-    from mdl.resolve import ResolvedDevice
+    from mdl.resolver import ResolvedDevice
 
 Render = Callable[[str], dict[str, str]]  # target name -> file name -> text
 

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model.names import CLASS_RESERVED, camel, identifier, unique_identifiers
-from mdl.resolve import ResolvedDevice, ResolvedFunction
-from mdl.resolve.checks import position
+from mdl.resolver import ResolvedDevice, ResolvedFunction
+from mdl.resolver.checks import position
 from mdl.targets.templating import c_int64
 
 if TYPE_CHECKING:  # the profiles (and PyYAML, which reads them) are imported by `mdl gen --profile` alone

@@ -1,6 +1,6 @@
 """A function of the model -> its value IR (`mdl.values.ir.Codec`), the one place that knows how
 formats, byte and word orders, "not implemented", scaling, fragments and expressions combine
-(SPEC section 2.3). Every consumer gets the IR from here through `mdl.resolve`."""
+(SPEC section 2.3). Every consumer gets the IR from here through `mdl.resolver`."""
 
 from __future__ import annotations
 
@@ -220,7 +220,7 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
 
 def build(fn: Function, lay: Layout, compiled: CompiledExpression | None = None) -> Codec:
     """The function's IR; `lay` is its layout (mdl.model.layout), computed once by the caller, and
-    `compiled` its compiled expression, if it has one (mdl.resolve keeps it)."""
+    `compiled` its compiled expression, if it has one (mdl.resolver keeps it)."""
     read_type = value_type(fn, lay, compiled)
     return Codec(
         table=lay.table,

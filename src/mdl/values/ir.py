@@ -267,7 +267,7 @@ class ValueType:
 def _plain_repr(*classes: type) -> None:
     """Give each class dataclass's own generated repr without the guard against recursion it wraps
     it in (IR steps are trees, never cycles): the text is the same, and the targets print every
-    function's IR as text (mdl.resolve's decode_shape), where the guard was much of the cost."""
+    function's IR as text (mdl.resolver's decode_shape), where the guard was much of the cost."""
     for cls in classes:
         setattr(cls, "__repr__", getattr(cls.__repr__, "__wrapped__", cls.__repr__))  # noqa: B010
 

@@ -23,13 +23,13 @@ from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 if TYPE_CHECKING:
     from _typeshed import StrPath
 
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 
 def import_schema(path: StrPath) -> Device:
     """`read_schema`, resolved (MdlError with every error), with each field's registers written into
     the model (`addresses`, `register_type`) as an MDL document needs them."""
-    from mdl.resolve import resolve
+    from mdl.resolver import resolve
 
     return with_registers(resolve(read_schema(path), str(Path(path))))
 
@@ -86,7 +86,7 @@ def as_bits(rf: ResolvedFunction) -> bool:
 
 def read_schema(path: StrPath) -> Device:
     """The model of a Toolkit file: its fields as functions with expressions (not compiled: that and
-    every check is mdl.resolve's), the positions of their texts recorded."""
+    every check is mdl.resolver's), the positions of their texts recorded."""
     path = Path(path)
     root = load_yaml(path, "a Modbus Schema Toolkit file")
     desc = opt(root, "description", path, Text)

@@ -48,7 +48,7 @@ from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
 
 if TYPE_CHECKING:
     from mdl.model.layout import Layout
-    from mdl.resolve import ResolvedDevice, ResolvedFunction
+    from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 FLOAT32_MAX = 3.4028234663852886e38
 _RAW_RANGE = {

@@ -31,7 +31,7 @@ from mdl.formats.xif import columns as C
 from mdl.formats.xif.scaling import decimal_text, points
 from mdl.model import Function
 from mdl.model.layout import Layout
-from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 
 class _Inexpressible(LeftOut):

@@ -47,7 +47,7 @@ def run_csv2xml(
     fail_on_warning (--strict, --fail-on-warning), a warning (a skipped row, an unmatched function, an
     unknown INI key) is an error: nothing is written, exit 1. With `explain`, print each named
     function's nearest rows to stdout instead of writing MDL. Quiet: warnings and errors only."""
-    from mdl.resolve import resolve as resolve_device
+    from mdl.resolver import resolve as resolve_device
     from mdl.sources.csvmap.interactive import choose_rows
 
     report = Report(quiet)

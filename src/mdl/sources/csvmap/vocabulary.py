@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from mdl.diagnostics import Diagnostic, MdlError, error, shown
 from mdl.model import Function
 from mdl.model.layout import LayoutError, layout
-from mdl.resolve.checks import bound_problems
-from mdl.resolve.packing import packing_problems
+from mdl.resolver.checks import bound_problems
+from mdl.resolver.packing import packing_problems
 from mdl.sources.csvmap.cells import (
     CellError,
     parse_access,

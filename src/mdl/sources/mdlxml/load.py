@@ -1,5 +1,5 @@
 """XML -> model: the XSD, then the elements read into the document model, each function's texts
-with their positions in the file. The checks an XSD cannot make are mdl.resolve's."""
+with their positions in the file. The checks an XSD cannot make are mdl.resolver's."""
 
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ _DEFAULTED = (
 )
 _CODE = ("expression", "read_function_code", "write_function_code")  # texts whose errors point inside them
 _NAMED = ("bits", "scale_exponent", "scale_by", "role")  # texts kept without the spaces around them
-_SPANNED = _CODE + _FLOATS + _NAMED + ("initial",)  # the texts mdl.resolve may point at
+_SPANNED = _CODE + _FLOATS + _NAMED + ("initial",)  # the texts mdl.resolver may point at
 # sets of the above, for the loop over every child of every function
 _DEFAULTED_SET = frozenset(_DEFAULTED)
 _SPANNED_SET = frozenset(_SPANNED)
@@ -89,7 +89,7 @@ def _float(text: str) -> float:
 class _Reader:
     """Elements -> model objects; MdlError at the element for an integer too long to be one MDL can
     use, and an error in `problems` for each number that is not finite. Where each function's texts start in the
-    file (for the messages of mdl.resolve) is found only when a message asks for it (`record_spans`):
+    file (for the messages of mdl.resolver) is found only when a message asks for it (`record_spans`):
     scanning every start tag of a large file costs more than reading it."""
 
     def __init__(self, source: str | None, root: etree._Element | None = None, data: bytes | None = None):
@@ -255,7 +255,7 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
 
 def read_device(path: StrPath, version: str = "1.0") -> Device:
     """The model of an MDL file: well-formed, valid against the XSD, numbers usable. Nothing more is
-    checked here: `mdl.resolve.resolve` runs the checks of SPEC 2 (see mdl.sources.loading)."""
+    checked here: `mdl.resolver.resolve` runs the checks of SPEC 2 (see mdl.sources.loading)."""
     tree, data = parse_source(path)
     errors = schema_errors(tree, path, version, data)
     if errors:
@@ -266,7 +266,7 @@ def read_device(path: StrPath, version: str = "1.0") -> Device:
 def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, list[Diagnostic]]:
     """(device, diagnostics) as `mdl validate` reports them: the XSD, then the checks resolve runs
     (validating needs no value IR, so it stops there); device is None if the file did not load."""
-    from mdl.resolve.checks import check_device
+    from mdl.resolver.checks import check_device
 
     try:
         device = read_device(path, version)
@@ -278,7 +278,7 @@ def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, l
 def load_device(path: StrPath, version: str = "1.0") -> Device:
     """`read_device`, resolved (MdlError with every error): for tests and scripts that want a checked
     model. Commands use mdl.sources.loading.load_resolved."""
-    from mdl.resolve import resolve
+    from mdl.resolver import resolve
 
     return resolve(read_device(path, version), str(path)).device
 
@@ -288,7 +288,7 @@ def check_written(xml: str, what: str) -> str:
     model, the checks of SPEC 2. A problem is mdl's own (a converter let through what MDL cannot say),
     so it is refused as an internal error before anything is written: nothing invalid is ever written.
     Returns `xml`."""
-    from mdl.resolve.checks import check_device
+    from mdl.resolver.checks import check_device
 
     data = xml.encode("ascii")
     where = f"<{what} output>"

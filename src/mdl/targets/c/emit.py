@@ -25,7 +25,7 @@ from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.ops import OpKind
 from mdl.model import Function
-from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
 from mdl.targets.base import Run, Target, runs_at
 from mdl.targets.c import expressions, functions

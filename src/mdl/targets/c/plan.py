@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from mdl.resolve import ResolvedDevice
+from mdl.resolver import ResolvedDevice
 from mdl.targets.base import plan_rows
 
 

@@ -26,7 +26,7 @@ from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.fields import plain_type
 from mdl.lang.expr.lower import Lowered
 from mdl.model import Function
-from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
 from mdl.targets.base import Run, Target, plan_rows, runs_at
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows

@@ -25,7 +25,7 @@ from mdl.lang.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
 from mdl.lang.expr.pyemit import body as expr_body
 from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
-from mdl.resolve import ResolvedDevice, ResolvedFunction
+from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.targets.base import Target
 from mdl.targets.profile import Interface, check_files
 from mdl.targets.python import per_function
@@ -260,7 +260,7 @@ def function_code(
         params = ", ".join(["r: Sequence[int | None]"] + [f"p{i}: {types[d]}" for i, d in enumerate(deps)])
         factor = fn.factor
     elif deps:  # scaled by another function's value
-        params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolve.packing)
+        params = "r: list[int], p0: int | None"  # a factor is an integer (mdl.resolver.packing)
         factor = deps[0]  # without an expression, deps is the factor alone
     else:
         params = "r: list[int]"

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Protocol
 from mdl.diagnostics import Diagnostic, span_of
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
-from mdl.resolve.packing import mask_write, packing_problems
+from mdl.resolver.packing import mask_write, packing_problems
 from mdl.values.build import int_range
 
 if TYPE_CHECKING:

@@ -1,6 +1,6 @@
 """The resolve step: a document model (from any source) -> an immutable resolved device.
 
-`resolve(device)` runs every check of SPEC 2 in order (mdl.resolve.checks), compiles fragments
+`resolve(device)` runs every check of SPEC 2 in order (mdl.resolver.checks), compiles fragments
 and expressions, computes each function's layout and value IR once, its identifier, the order
 functions are decoded in (expressions after the fields they name) and the read plan. Everything
 after it (the runtime, the simulator, scenarios, every target) reads the resolved device and
@@ -18,7 +18,7 @@ from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
 from mdl.plan import Request, plan_groups
-from mdl.resolve.checks import check_device
+from mdl.resolver.checks import check_device
 from mdl.values.build import build, build_shared
 from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
 
