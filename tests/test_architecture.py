@@ -73,6 +73,8 @@ STAGES = [
     "targets",
     "device",
     "engines",
+    "api",
+    "mdl",  # the package itself: `import mdl` is the library, mdl.api's calls (SPEC 16)
     "cli",
     "__main__",
 ]
@@ -107,7 +109,8 @@ def test_every_unit_has_its_place():
         for p in SRC.iterdir()
         if (p.suffix == ".py" and p.stem != "__init__") or (p / "__init__.py").is_file()
     }
-    assert units == set(STAGES) | HELPERS, units ^ (set(STAGES) | HELPERS)
+    placed = (set(STAGES) - {"mdl"}) | HELPERS
+    assert units == placed, units ^ placed
 
 
 def test_registries_and_their_members_do_not_import_each_other():

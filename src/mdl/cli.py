@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import logging
 import os
 import sys
 from collections.abc import Iterable, Iterator
@@ -173,6 +174,9 @@ class Group(click.Group):
 
     def invoke(self, ctx: click.Context) -> Any:
         gc.set_threshold(*GC_THRESHOLDS)
+        # pymodbus logs every failed exchange itself; the commands say each failure once, their own way
+        # (the library, mdl.api, leaves logging to its user)
+        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         try:
             return super().invoke(ctx)
         except MdlError as exc:

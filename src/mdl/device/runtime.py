@@ -8,7 +8,6 @@ connection, is a DeviceError (exit 3) naming the connection, the unit and what w
 from __future__ import annotations
 
 import errno
-import logging
 import socket
 from collections.abc import Callable, Generator
 from typing import Any
@@ -118,7 +117,6 @@ class Session:
         self.connection, self.unit = connection, unit
         self.asking = f"unit {unit}"  # the unit, or the units, that a connection error names (SPEC 9)
         self.tries = connection.retries + 1
-        logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
         self.wire = Wire(connection.rtu)
         self.client = connection.client(self.wire.trace)
         self._methods: dict[str, Callable[..., ModbusPDU]] = {

@@ -283,24 +283,30 @@ def load_device(path: StrPath, version: str = "1.0") -> Device:
     return resolve(read_device(path, version), str(path)).device
 
 
-def check_written(xml: str, what: str) -> str:
-    """MDL a command made (an import, csv2xml) read back as `mdl validate` reads a file: the XSD, the
-    model, the checks of SPEC 2. A problem is mdl's own (a converter let through what MDL cannot say),
-    so it is refused as an internal error before anything is written: nothing invalid is ever written.
-    Returns `xml`."""
+def text_problems(xml: str, where: str, *, model: bool = True) -> list[Diagnostic]:
+    """The errors `mdl validate` finds in MDL text: the XSD, then (with `model`) the model's numbers and
+    the checks of SPEC 2; `where` names the text in them."""
     from mdl.resolver.checks import check_device
 
     data = xml.encode("ascii")
-    where = f"<{what} output>"
     try:
         tree = etree.fromstring(data, secure_parser()).getroottree()
         problems = schema_errors(tree, where, "1.0", data)  # as `mdl validate` checks by default
-        if not problems:
+        if model and not problems:
             problems = [d for d in check_device(tree_to_device(tree, where, data), where) if d.severity == "error"]
     except etree.XMLSyntaxError as exc:
         problems = [Diagnostic(where, None, None, str(exc))]
     except MdlError as exc:
         problems = list(exc.diagnostics)
+    return problems
+
+
+def check_written(xml: str, what: str) -> str:
+    """MDL a command made (an import, csv2xml) read back as `mdl validate` reads a file: the XSD, the
+    model, the checks of SPEC 2. A problem is mdl's own (a converter let through what MDL cannot say),
+    so it is refused as an internal error before anything is written: nothing invalid is ever written.
+    Returns `xml`."""
+    problems = text_problems(xml, f"<{what} output>")
     if problems:
         raise MdlError(
             [
