@@ -19,6 +19,7 @@ from __future__ import annotations
 import ast
 import os
 import re
+import subprocess
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -65,10 +66,22 @@ def documents() -> list[Path]:
 
 @cache
 def _folders(base: Path) -> frozenset[str]:
-    """The entries a path may start with to be anchored at `base` (hidden ones only for .ci)."""
-    return frozenset(
+    """The entries a path may start with to be anchored at `base` (hidden ones only for .ci), less what
+    git ignores: `build/` that scripts/demo leaves is not the tree's (a doc's `build/tstat_reader` is a
+    command's own file), whether or not the demo ran first."""
+    names = [
         p.name for p in base.iterdir() if p.name != "__pycache__" and (not p.name.startswith(".") or p.name == ".ci")
-    )
+    ]
+    return frozenset(name for name in names if not _ignored(base / name))
+
+
+def _ignored(path: Path) -> bool:
+    """Whether git ignores `path` (False outside a git checkout, or without git)."""
+    try:
+        proc = subprocess.run(["git", "check-ignore", "-q", str(path)], cwd=ROOT, capture_output=True, timeout=30)
+    except (OSError, subprocess.SubprocessError):
+        return False
+    return proc.returncode == 0
 
 
 def _is_reference(token: str, fenced: bool, whole_span: bool) -> bool:
