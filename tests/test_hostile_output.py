@@ -8,6 +8,7 @@ root that would replace /dev/stdout and /dev/null themselves.)"""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import stat
@@ -117,7 +118,8 @@ def _run_into_fifo(fifo: Path, args: list) -> tuple[subprocess.CompletedProcess,
         proc = run_mdl(*args, timeout=60)
     finally:
         if reader.is_alive():
-            os.close(os.open(keep, os.O_WRONLY | os.O_NONBLOCK))  # a reader waits: this open succeeds
+            with contextlib.suppress(OSError):  # ENXIO: the reader closed the FIFO in between (it is done)
+                os.close(os.open(keep, os.O_WRONLY | os.O_NONBLOCK))  # a reader waits: this open succeeds
         reader.join(30)
         keep.unlink()
     return proc, got[0] if got else b""
