@@ -1,0 +1,273 @@
+"""`mdl csv2xml`, `mdl import` and `mdl export`: descriptions from and to other formats."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+
+from mdl import engines, formats
+from mdl.cli.app import main
+from mdl.cli.options import FAIL_ON_WARNING, INPUT, QUIET_HELP, fail_on_warning_option, stdin_once, unit_option
+from mdl.cli.printer import emit_text, report_warnings, resolved_file, say, wrote
+from mdl.device.connection import SERIAL_OPTIONS, Connection, connection_options, line_needs_serial
+from mdl.exchange.connection import LINE_ONLY
+from mdl.fileio import STDIO_ARG
+
+if TYPE_CHECKING:
+    pass
+
+
+@main.command()
+@click.argument("source", type=INPUT)
+@click.option("--ini", "ini", type=INPUT, help="Device INI file (ORNL format).")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output MDL file, - for stdout (default: stdout; with SOURCE an INI file, its output_xml_file).",
+)
+@click.option("--allow-outside", is_flag=True, help="Let the INI's output_xml_file lie outside the INI's folder.")
+@click.option("--force", is_flag=True, help="Replace an existing output file that is not an MDL document.")
+@click.option("-i", "--interactive", is_flag=True, help="Pick each function's row from a numbered list.")
+@click.option("--threshold", type=click.FloatRange(0, 1), help="Lowest match score accepted (default 0.6).")
+@click.option("--all", "emit_all", is_flag=True, help="Also emit every unmatched row that has an address.")
+@click.option(
+    "--strict",
+    is_flag=True,
+    help="Exit 1 and write nothing if any row is skipped, any function "
+    "is left unmatched or matched by similarity only, or anything else gives a warning.",
+)
+@click.option(
+    "--explain",
+    "explain",
+    multiple=True,
+    metavar="FUNCTION",
+    help="Print FUNCTION's nearest rows with their scores and why, instead of writing MDL (repeatable).",
+)
+@click.option(
+    "--table",
+    "table_no",
+    type=click.IntRange(min=1),
+    help="Read the Nth table of a .md or .html file (or sheet of an .xlsx; default: the first with an address column).",
+)
+@click.option("--sheet", help="Read this sheet of an .xlsx workbook (default: the first with an address column).")
+@click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
+@fail_on_warning_option
+def csv2xml(
+    source: Path,
+    ini: Path | None,
+    output: Path | None,
+    allow_outside: bool,
+    force: bool,
+    interactive: bool,
+    threshold: float | None,
+    emit_all: bool,
+    strict: bool,
+    explain: tuple[str, ...],
+    table_no: int | None,
+    sheet: str | None,
+    quiet: bool,
+) -> None:
+    """Convert a vendor register table (CSV, Markdown, HTML or Excel) to MDL XML.
+
+    SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
+    name the output (output_xml_file, relative to the INI's folder and inside it).
+
+    Every guess (a column found by its header, the address base, the count unit, the delimiter, a
+    decimal comma) is a note on stderr naming the INI key that overrides it; every row that cannot
+    be read is a warning with its line; a summary line ends the run.
+
+    \b
+    Examples:
+      mdl csv2xml examples/temco_tstat/temco_tstat.ini
+      mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -o tstat.xml
+      mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
+      mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
+    """
+    from mdl.sources.csvmap.command import run_csv2xml
+    from mdl.sources.csvmap.documents import chosen
+    from mdl.sources.csvmap.target import output_target
+
+    stdin_once([source] + ([ini] if ini else []))
+    target = output_target(source, ini, output, allow_outside, force)
+    fail_on_warning = bool(click.get_current_context().meta.get(FAIL_ON_WARNING))
+    with chosen(table_no, sheet):
+        run_csv2xml(
+            source,
+            ini,
+            target,
+            interactive,
+            threshold,
+            emit_all,
+            fail_on_warning=fail_on_warning,
+            strict=strict,
+            explain=explain,
+            quiet=quiet,
+        )
+
+
+@main.command(name="import")
+@click.argument("sources", nargs=-1, required=True, metavar="FILE|MODEL...")
+@click.option(
+    "--from",
+    "fmt",
+    type=click.Choice(formats.names(), case_sensitive=False),
+    help="Input format (guessed from the file: .mod or a first line #filetype,Modbus_xif is XIF; "
+    ".yaml/.yml a Modbus Schema Toolkit schema; an INI with a [Platform] section WISE-Agent). "
+    "sunspec takes model ids or model JSON files (SPEC 12).",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output MDL file, - for stdout (default: stdout).",
+)
+@click.option("--base", type=click.IntRange(0, 65535), help="--from sunspec: the chain's first address (40000).")
+@click.option("--repeat", type=click.IntRange(0, 65535), help="--from sunspec: instances of each repeating group (1).")
+@fail_on_warning_option
+def import_(
+    sources: tuple[str, ...], fmt: str | None, output: Path | None, base: int | None, repeat: int | None
+) -> None:
+    """Convert another device description to MDL 1.0.
+
+    \b
+    Examples:
+      mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
+      mdl import examples/xif_meter/meter.mod -o meter.xml
+      mdl import examples/wise_4012e/Modbus.ini --from wise -o wise_4012e.xml
+      mdl import --from sunspec 103 120 160 --repeat 2 -o inverter.xml
+    """
+    from mdl.sources.loading import import_format
+    from mdl.sources.mdlxml import device_to_xml
+    from mdl.sources.mdlxml.load import check_written
+
+    if fmt is not None and fmt.lower() == "sunspec":
+        from mdl.formats.sunspec.read import import_chain
+        from mdl.resolver import resolve
+
+        resolved = resolve(import_chain(sources, base, repeat), "sunspec")
+        report_warnings(resolved.warnings, Path("sunspec"))
+        emit_text(check_written(device_to_xml(resolved.device), "import"), output)
+        return
+    if base is not None or repeat is not None:
+        raise click.UsageError("--base and --repeat are options of --from sunspec")
+    if len(sources) != 1:
+        raise click.UsageError("give one FILE (only --from sunspec takes several models)")
+    file = INPUT.convert(sources[0], None, None)
+    fmt = fmt or import_format(file)
+    xml = device_to_xml(formats.by_name(fmt).to_mdl(resolved_file(file, fmt)))
+    emit_text(check_written(xml, "import"), output)
+
+
+@main.command(name="export")
+@click.argument("file", type=INPUT)
+@click.option(
+    "--to",
+    "fmt",
+    required=True,
+    type=click.Choice(list(engines.outputs()), case_sensitive=False),
+    help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in engines.outputs().items()) + ".",
+)
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(path_type=Path, allow_dash=True),
+    help="Output file (default: stdout); a folder for volttron.",
+)
+@connection_options(optional=True, line_alone=True)
+@unit_option
+@click.option(
+    "--interval",
+    type=click.FloatRange(0.1, 7 * 86400),
+    metavar="S",
+    help="Seconds between polls the engine should use (default 60).",
+)
+@click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
+@click.option("--board", default="esp32dev", show_default=True, help="esphome: the ESP32 board.")
+@click.option("--tx-pin", default="GPIO17", show_default=True, help="esphome: the UART's TX pin (to the RS-485 DI).")
+@click.option("--rx-pin", default="GPIO16", show_default=True, help="esphome: the UART's RX pin (from the RS-485 RO).")
+@click.option(
+    "--names",
+    type=click.Choice(["functions", "roles"], case_sensitive=False),
+    default="functions",
+    show_default=True,
+    help="Name points after the functions, or after the profile roles they play (docs/profiles.md).",
+)
+@click.option(
+    "--profile",
+    metavar="NAME|FILE.yaml",
+    help="With --names roles: also give each role's value in the role's unit and sign (kW as W).",
+)
+@fail_on_warning_option
+def export_(
+    file: Path,
+    fmt: str,
+    output: Path | None,
+    connection: Connection | None,
+    unit: int,
+    interval: float | None,
+    force: bool,
+    names: str,
+    profile: str | None,
+    board: str,
+    tx_pin: str,
+    rx_pin: str,
+) -> None:
+    """Convert an MDL description to another format or to a polling engine's configuration.
+
+    What the format cannot express is reported as one warning per kind of loss naming the functions
+    it concerns (exit 1 with --fail-on-warning, before anything is written). Output is deterministic.
+
+    \b
+    Examples:
+      mdl export examples/temco_tstat/temco_tstat.xml --to xif -o temco.mod
+      mdl export examples/temco_tstat/temco_tstat.xml --to wise --host 192.0.2.10 --unit 3 --interval 5
+      mdl export examples/temco_tstat/temco_tstat.xml --to senml
+      mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
+      mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
+      mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
+      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --baud 9600 --parity E -o node.yaml
+      mdl export examples/temco_tstat/temco_tstat.xml --to thingsboard --host 192.0.2.10 -o modbus.json
+    """
+    from mdl.diagnostics import error
+    from mdl.exchange.export import DEFAULT_INTERVAL, Settings
+    from mdl.fileio import all_or_none, write_atomic
+
+    if engines.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
+        raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
+    given = click.get_current_context().get_parameter_source
+    node = [n for n in ("board", "tx_pin", "rx_pin") if given(n) is not click.core.ParameterSource.DEFAULT]
+    if node and fmt.lower() != "esphome":
+        raise click.UsageError(f"--{node[0].replace('_', '-')} sets the ESPHome node: it needs --to esphome")
+    if connection is not None and connection.serial == LINE_ONLY and fmt.lower() != "esphome":
+        line = next(n for n in SERIAL_OPTIONS if given(n) is not click.core.ParameterSource.DEFAULT)
+        raise click.UsageError(line_needs_serial(line))  # only the ESPHome node is on a line it need not name
+    settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin)
+    resolved = resolved_file(file)
+    if profile is not None and names.lower() != "roles":
+        raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")
+    if names.lower() == "roles":
+        from mdl.engines.role_names import named_by_roles
+        from mdl.profiles.load import load_profile
+
+        resolved, said = named_by_roles(resolved, load_profile(profile) if profile else None)
+        for diag in said:
+            say(diag)
+    result = engines.export(resolved, fmt, settings)
+    report_warnings(result.warnings, file)
+    if result.text is not None:
+        emit_text(result.text, output)
+        return
+    assert output is not None
+    if output.exists() and not output.is_dir():
+        raise error("not a directory", output)
+    if output.is_dir() and any(output.iterdir()) and not force:
+        raise error("the folder is not empty; give --force to write into it", output)
+    output.mkdir(parents=True, exist_ok=True)
+    with all_or_none():
+        for name, text in result.files.items():
+            write_atomic(output / name, text)
+    for name in result.files:
+        wrote(output / name)
