@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from mdl.diagnostics import EXIT_INVALID, MdlError
-from mdl.sources.csvmap.command import run_csv2xml
+from mdl.cli.csv2xml import run_csv2xml
 from mdl.sources.mdlxml import validate_file
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep

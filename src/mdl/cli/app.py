@@ -8,7 +8,7 @@ import gc
 import logging
 import sys
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 
@@ -16,10 +16,6 @@ from mdl import __version__
 from mdl.cli.options import quiet_option
 from mdl.cli.printer import fail
 from mdl.diagnostics import MdlError
-
-if TYPE_CHECKING:
-    pass
-
 
 # A model of 10,000 functions is some 10^6 small objects that live until the command ends: with
 # Python's default thresholds (700, 10, 10) the collector walks all of them again and again while

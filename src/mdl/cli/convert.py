@@ -3,20 +3,26 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
 from mdl import engines, formats
 from mdl.cli.app import main
-from mdl.cli.options import FAIL_ON_WARNING, INPUT, QUIET_HELP, fail_on_warning_option, stdin_once, unit_option
+from mdl.cli.options import (
+    FAIL_ON_WARNING,
+    INPUT,
+    QUIET_HELP,
+    SERIAL_OPTIONS,
+    connection_options,
+    fail_on_warning_option,
+    line_needs_serial,
+    stdin_once,
+    unit_option,
+)
 from mdl.cli.printer import emit_text, report_warnings, resolved_file, say, wrote
-from mdl.device.connection import SERIAL_OPTIONS, Connection, connection_options, line_needs_serial
+from mdl.device.connection import Connection
 from mdl.exchange.connection import LINE_ONLY
 from mdl.fileio import STDIO_ARG
-
-if TYPE_CHECKING:
-    pass
 
 
 @main.command()
@@ -86,7 +92,7 @@ def csv2xml(
       mdl csv2xml examples/temco_tstat/temco_tstat.csv --ini examples/temco_tstat/temco_tstat.ini -i
       mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
-    from mdl.sources.csvmap.command import run_csv2xml
+    from mdl.cli.csv2xml import run_csv2xml
     from mdl.sources.csvmap.documents import chosen
     from mdl.sources.csvmap.target import output_target
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
@@ -14,9 +13,6 @@ from mdl.cli.options import INPUT, fail_on_warning_option
 from mdl.cli.printer import resolved_file, say, wrote
 from mdl.diagnostics import EXIT_INVALID
 from mdl.fileio import STDIO_ARG
-
-if TYPE_CHECKING:
-    pass
 
 
 @main.command()

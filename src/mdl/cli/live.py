@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING, TypeVar
 import click
 
 from mdl.cli.app import main
-from mdl.cli.options import INPUT, InputOrTarget, fail_on_warning_option, stdin_once, unit_option
+from mdl.cli.options import INPUT, InputOrTarget, connection_options, fail_on_warning_option, stdin_once, unit_option
 from mdl.cli.printer import resolved_file, say
-from mdl.device.connection import Connection, connection_options
+from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
     from mdl.model import Device, Function
@@ -356,8 +356,6 @@ def read(
     if connection is None:
         raise click.UsageError(NO_CONNECTION)
     if raw or file is None:
-        from mdl.device.rawread import raw_read
-
         sys.exit(raw_read(file, names, raw, connection, unit, fmt, (as_type, word_order, byte_order), interval, count))
     for option, value in (("--as", as_type), ("--word-order", word_order), ("--byte-order", byte_order)):
         if value is not None:
@@ -476,3 +474,44 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     with Session(resolved, connection, unit) as session:
         for fn, value in todo:
             session.write(fn, value)
+
+
+def raw_read(
+    file: Path | None,
+    names: tuple[str, ...],
+    texts: tuple[str, ...],
+    connection: Connection,
+    unit: int,
+    fmt: str,
+    how: tuple[str | None, str | None, str | None],
+    interval: float | None,
+    count: int | None,
+) -> int:
+    """`mdl read` without FILE: read (or poll) the `--raw` ranges and print them; the exit status. Usage
+    errors (click's, exit 2) for no FILE and no --raw, FILE and --raw together, a bad range or --as."""
+    from mdl.device import output
+    from mdl.device.poll import poll
+    from mdl.device.rawread import AS_TYPES, RawSession, parse_raw_range, raw_device, raw_functions
+
+    if not texts:
+        raise click.UsageError("missing FILE: give a description to read, or --raw TABLE:RANGE (e.g. hr:0-9)")
+    if file is not None:
+        given = " ".join([str(file), *names])
+        raise click.UsageError(f"--raw reads without a description: leave out FILE and NAME ({given})")
+    as_type, word_order, byte_order = how
+    as_type = (as_type or "uint16").lower()
+    if as_type not in AS_TYPES:
+        raise click.BadParameter(f"'{as_type}' is not one of {', '.join(AS_TYPES)}", param_hint="'--as'")
+    try:
+        ranges = [parse_raw_range(text) for text in texts]
+        functions = raw_functions(ranges, as_type, word_order or "big", byte_order or "big")
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="'--raw'") from None
+    resolved = raw_device(functions)
+    session = RawSession(resolved, connection, unit, as_type)
+    if interval is not None:
+        return poll(session, functions, fmt, interval, count)
+    with session:
+        values = session.read(functions)
+    click.echo(output.render(functions, values, fmt, resolved.name), nl=False)
+    return 0

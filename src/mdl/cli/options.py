@@ -3,23 +3,21 @@ unit, -q/--quiet (every command), --fail-on-warning, and the CONNECTION options 
 
 from __future__ import annotations
 
+import functools
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, TypeVar, cast
 
 import click
+from click.core import ParameterSource
 
+from mdl.device.connection import Connection, split_host
 from mdl.diagnostics import Diagnostic
+from mdl.exchange.connection import DEVICE_PORT, LINE_ONLY, SIM_HOST, SIM_PORT
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
 
-if TYPE_CHECKING:
-    pass
-
-
 SCHEMAS = click.Choice(["0.9b", "1.0"], case_sensitive=False)
-
-
 STDOUT = Path(STDIO_ARG)
 
 
@@ -104,3 +102,179 @@ def warning_refusal(warnings: Iterable[Diagnostic], file: Path) -> Diagnostic | 
 unit_option = click.option(
     "--unit", type=click.IntRange(0, 255), default=1, show_default=True, help="Unit (device) id to talk to."
 )
+
+
+# -- CONNECTION (SPEC 9): --host/--port, --serial and the line, --framer, --timeout/--retries ----------
+SERIAL_OPTIONS = ("baud", "parity", "stopbits", "bytesize")
+OPTION_NAMES = ("host", "port", "serial", *SERIAL_OPTIONS, "framer", "timeout", "retries")
+PORT_HELP = (
+    f"TCP port (default {DEVICE_PORT}, the Modbus TCP port; mdl sim listens on {SIM_PORT} by default). "
+    "--host HOST:PORT gives both."
+)
+F = TypeVar("F", bound=Callable[..., Any])
+Decorator = Callable[[Callable[..., Any]], Callable[..., Any]]
+
+
+def connection_options(
+    serving: bool = False, optional: bool = False, timeout: float = 3.0, retries: int = 1, line_alone: bool = False
+) -> Callable[[F], F]:
+    """The CONNECTION options of SPEC section 9, handed to the command as one `connection: Connection`.
+
+    `serving` (mdl sim): --host defaults to 127.0.0.1 and --port to 5020 (0 picks a free port), and there
+    is no --timeout/--retries. Otherwise (a client) --host or --serial is required, --port defaults to 502;
+    `optional` (mdl export): neither is required, and without them `connection` is None. `timeout` and
+    `retries` are the defaults of --timeout and --retries (mdl discover asks many units that may not
+    answer: one short wait each). `line_alone` (mdl export, whose ESPHome node is itself on the line):
+    --baud, --parity, --stopbits and --bytesize without --serial describe a line whose device is not
+    named, a Connection with `serial` LINE_ONLY."""
+
+    def decorate(command: F) -> F:
+        @functools.wraps(command)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            given = {name: kwargs.pop(name) for name in OPTION_NAMES if name in kwargs}
+            kwargs["connection"] = _build(given, serving, optional, line_alone)
+            return command(*args, **kwargs)
+
+        decorated: Callable[..., Any] = wrapper
+        for option in reversed(_options(serving, timeout, retries)):
+            decorated = option(decorated)
+        return cast(F, decorated)
+
+    return decorate
+
+
+def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Decorator]:
+    """The click options, in the order --help lists them."""
+    if serving:
+        address = [
+            click.option(
+                "--host",
+                default=SIM_HOST,
+                show_default=True,
+                metavar="HOST[:PORT]",
+                help="Address to listen on (TCP); HOST:PORT ([IPV6]:PORT) gives the port too.",
+            ),
+            click.option(
+                "--port",
+                type=click.IntRange(0, 65535),
+                default=SIM_PORT,
+                show_default=True,
+                help="TCP port; 0 picks a free port.",
+            ),
+        ]
+    else:
+        address = [
+            click.option(
+                "--host",
+                metavar="HOST[:PORT]",
+                help="Device address (Modbus TCP): HOST, HOST:PORT or [IPV6]:PORT; or give --serial.",
+            ),
+            click.option("--port", type=click.IntRange(1, 65535), default=DEVICE_PORT, help=PORT_HELP),
+        ]
+    line = [
+        click.option("--serial", metavar="DEVICE", help="Serial device for Modbus RTU, e.g. /dev/ttyUSB0."),
+        click.option(
+            "--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True, help="Serial line speed."
+        ),
+        click.option(
+            "--parity",
+            type=click.Choice(["N", "E", "O"], case_sensitive=False),
+            default="N",
+            show_default=True,
+            help="Serial parity: none, even, odd.",
+        ),
+        click.option("--stopbits", type=click.IntRange(1, 2), default=1, show_default=True),
+        click.option(
+            "--bytesize", type=click.IntRange(7, 8), default=8, show_default=True, help="Data bits (Modbus RTU uses 8)."
+        ),
+        click.option(
+            "--framer",
+            type=click.Choice(["tcp", "rtu"], case_sensitive=False),
+            help="Framing on TCP: tcp (Modbus TCP, the default) or rtu (RTU frames, as serial-to-Ethernet "
+            "converters carry them). A serial line always carries RTU.",
+        ),
+    ]
+    client: list[Decorator] = (
+        []
+        if serving
+        else [
+            click.option(
+                "--timeout",
+                type=click.FloatRange(0.1, 600),
+                default=timeout,
+                show_default=True,
+                help="Seconds to wait for each reply.",
+            ),
+            click.option(
+                "--retries",
+                type=click.IntRange(0, 10),
+                default=retries,
+                show_default=True,
+                help="Times a request that got no reply is sent again.",
+            ),
+        ]
+    )
+    return address + line + client
+
+
+def _build(given: dict[str, Any], serving: bool, optional: bool = False, line_alone: bool = False) -> Connection | None:
+    """The Connection the options describe (None when `optional` and no --host or --serial is given);
+    options that contradict each other are a usage error."""
+    ctx = click.get_current_context()
+    explicit = {name for name in given if ctx.get_parameter_source(name) is not ParameterSource.DEFAULT}
+    serial, framer = given.get("serial"), given.get("framer")
+    if serial is not None and not serial.strip():
+        raise click.BadParameter(
+            "give the serial device's name (such as /dev/ttyUSB0 or COM3)", param_hint="'--serial'"
+        )
+    if serial is not None:
+        both = sorted(explicit & {"host", "port"})
+        if both:
+            raise click.UsageError(f"--serial and --{both[0]}: give one connection, a serial line or a TCP address")
+        if framer == "tcp":
+            raise click.UsageError("--framer tcp: a serial line carries RTU frames (--framer tcp needs --host)")
+    else:
+        line_only = [name for name in SERIAL_OPTIONS if name in explicit]
+        if line_only and line_alone and given.get("host") is None:
+            values = {
+                name: given[name] for name in (*SERIAL_OPTIONS, "timeout", "retries") if given.get(name) is not None
+            }
+            return Connection(rtu=True, serial=LINE_ONLY, **values)
+        if line_only:
+            raise click.UsageError(line_needs_serial(line_only[0]))
+        if not serving and given.get("host") is None:
+            if optional:
+                given_too = sorted(explicit & {"port", "framer", "timeout", "retries"})
+                if given_too:
+                    raise click.UsageError(f"--{given_too[0]} needs a connection: give --host HOST or --serial DEVICE")
+                return None
+            raise click.UsageError("no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)")
+    if given.get("host") is not None:
+        given["host"], given["port"] = _host_and_port(given["host"], given.get("port"), "port" in explicit, serving)
+    values = {name: value for name, value in given.items() if name != "framer" and value is not None}
+    return Connection(rtu=serial is not None or framer == "rtu", **values)
+
+
+def line_needs_serial(option: str) -> str:
+    return f"--{option} sets a serial line: it needs --serial DEVICE"
+
+
+def _host_and_port(text: str, port: int | None, port_given: bool, serving: bool) -> tuple[str, int | None]:
+    """--host HOST[:PORT] and --port as one address: the port in --host wins over --port's default, and
+    one given both ways must agree (a usage error naming both otherwise)."""
+    try:
+        host, in_host = split_host(text)
+    except ValueError as exc:
+        raise click.BadParameter(f"{text!r}: {exc}", param_hint="'--host'") from None
+    if in_host is None:
+        return host, port
+    low = 0 if serving else 1
+    if not low <= in_host <= 65535:
+        raise click.BadParameter(
+            f"{text!r}: the port {in_host} is not in the range {low} to 65535", param_hint="'--host'"
+        )
+    if port_given and port != in_host:
+        raise click.UsageError(
+            f"--host {text} and --port {port} disagree: give the port once (--host HOST:PORT or --port PORT)"
+        )
+    return host, in_host

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
@@ -12,9 +11,6 @@ from mdl.cli.app import main
 from mdl.cli.options import INPUT, fail_on_warning_option, stdin_once
 from mdl.cli.printer import resolved_file
 from mdl.diagnostics import EXIT_INVALID
-
-if TYPE_CHECKING:
-    pass
 
 
 @main.command(name="test")

@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from mdl.cli.app import main
-from mdl.cli.options import INPUT, fail_on_warning_option, stdin_once
+from mdl.cli.options import INPUT, connection_options, fail_on_warning_option, stdin_once
 from mdl.cli.printer import emit_text, report_warnings, resolved_file, say
-from mdl.device.connection import Connection, connection_options
+from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
-    pass
+    from mdl.device.probe_options import ProbeOptions
 
 
 @main.command()
@@ -150,7 +151,6 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
     """
     from mdl.device.probe import probe as run_probe
     from mdl.device.probe import render
-    from mdl.device.probe_options import probe_options
 
     options = probe_options(connection, **given)  # units, bauds, parities, tables, span, max_requests, rate
     results = run_probe(connection, options)
@@ -223,3 +223,49 @@ def capture(
             where = f"{connection} unit {1 if unit is None else unit}"
             text = cap.with_scenario(resolved.device, cap.scenario(resolved, image, scenario, where), file)
     emit_text(text, output)
+
+
+def probe_options(
+    connection: Connection,
+    units: str,
+    bauds: str | None,
+    parities: str | None,
+    tables: str,
+    span: str,
+    max_requests: int,
+    rate: float,
+) -> ProbeOptions:
+    """The options of `mdl probe` as the probe takes them; click.BadParameter (exit 2) naming the option
+    that is wrong. --bauds and --parities default to the connection's --baud and --parity, and need
+    --serial."""
+    from mdl.device.discover import parse_units
+    from mdl.device.probe_options import PARITIES, ProbeOptions, parse_bauds, parse_list, parse_span
+    from mdl.device.rawread import RAW_TABLES
+
+    if connection.serial is None and (bauds or parities):
+        raise click.UsageError(f"{'--bauds' if bauds else '--parities'} tries serial settings: it needs --serial")
+    baud_list = _checked("--bauds", lambda: parse_bauds(bauds) if bauds else [connection.baud])
+    parity_list = _checked(
+        "--parities", lambda: parse_list(parities, "a parity", PARITIES) if parities else [connection.parity]
+    )
+    low, high = _checked("--range", lambda: parse_span(span))
+    return ProbeOptions(
+        _checked("--units", lambda: parse_units(units)),
+        [(b, p) for b in baud_list for p in parity_list],
+        _checked("--tables", lambda: parse_list(tables, "a table", RAW_TABLES)),
+        low,
+        high,
+        max_requests,
+        rate,
+    )
+
+
+T = TypeVar("T")
+
+
+def _checked(option: str, parse: Callable[[], T]) -> T:
+    """What `parse` gives; click.BadParameter naming `option` where it raises ValueError."""
+    try:
+        return parse()
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint=f"'{option}'") from None

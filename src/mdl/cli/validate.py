@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
@@ -12,9 +11,6 @@ from mdl.cli.app import main
 from mdl.cli.options import INPUT, SCHEMAS, fail_on_warning_option, stdin_once, warning_refusal
 from mdl.cli.printer import say
 from mdl.diagnostics import EXIT_INVALID
-
-if TYPE_CHECKING:
-    pass
 
 
 @main.command()

@@ -32,7 +32,6 @@ from contextlib import closing
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import click
 from pymodbus.constants import DeviceInformation
 from pymodbus.exceptions import ModbusException
 
@@ -349,7 +348,7 @@ def _ask(session: Session, unit: int, candidates: list[_Candidate]) -> UnitResul
 
 
 def _say(message: str, command: str = "mdl discover") -> None:
-    click.echo(f"{command}: {message}", err=True)
+    print(f"{command}: {message}", file=sys.stderr, flush=True)
 
 
 def library_warnings(path: Path, resolved: ResolvedDevice) -> list[Diagnostic]:
@@ -379,14 +378,15 @@ def _summary(unit: int, result: UnitResult | None) -> str:
 def _progress(units: list[int], connection: Connection) -> Generator[tuple[int, bool], None, None]:
     """Each unit, and whether to print a line for it (not on a terminal, where a bar shows progress)."""
     if sys.stderr.isatty():
-        with click.progressbar(
-            units,
-            label=f"asking units on {connection}",
-            file=sys.stderr,
-            item_show_func=lambda u: None if u is None else f"unit {u}",
-        ) as bar:
-            for unit in bar:
+        from mdl.sources.csvmap.report import Progress
+
+        bar = Progress(f"asking units on {connection}", len(units))
+        try:
+            for unit in units:
                 yield unit, False
+                bar()
+        finally:
+            bar.close()
     else:
         for unit in units:
             yield unit, True

@@ -17,11 +17,10 @@ command's options are read by mdl.device.probe_options.
 from __future__ import annotations
 
 import json
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
-
-import click
 
 from mdl.device.connection import Connection
 from mdl.device.discover import GATEWAY_SILENT, _Unit, unit_list
@@ -299,7 +298,7 @@ def _span(first: int, last: int) -> str:
 
 
 def _say(message: str) -> None:
-    click.echo(f"mdl probe: {message}", err=True)
+    print(f"mdl probe: {message}", file=sys.stderr, flush=True)
 
 
 def _lines(connection: Connection, settings: list[tuple[int, str]]) -> Iterator[Connection]:

@@ -1,16 +1,12 @@
-"""The options of `mdl probe` (SPEC 14) as the probe takes them: unit ids (mdl discover's list), baud rates
-and parities to try on a serial line, tables, the address range; each bad one a click.BadParameter naming it."""
+"""The options of `mdl probe` (SPEC 14) as the probe takes them (ProbeOptions): unit ids (mdl discover's
+list), baud rates and parities to try on a serial line, tables, the address range; each parser a
+ValueError saying what is wrong (mdl.cli.survey names the option)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TypeVar
 
-import click
-
-from mdl.device.connection import Connection
-from mdl.device.rawread import RAW_TABLES, parse_raw_range
+from mdl.device.rawread import parse_raw_range
 
 Span = tuple[int, int]  # first, last address (both included)
 
@@ -57,50 +53,6 @@ def parse_span(text: str) -> Span:
     """`A-B` (both included) or `A`: wire addresses 0-65535. ValueError saying what is wrong."""
     found = parse_raw_range(f"hr:{text}")
     return found.first, found.last
-
-
-def probe_options(
-    connection: Connection,
-    units: str,
-    bauds: str | None,
-    parities: str | None,
-    tables: str,
-    span: str,
-    max_requests: int,
-    rate: float,
-) -> ProbeOptions:
-    """The options of `mdl probe` as the probe takes them; click.BadParameter (exit 2) naming the option
-    that is wrong. --bauds and --parities default to the connection's --baud and --parity, and need
-    --serial."""
-    from mdl.device.discover import parse_units
-
-    if connection.serial is None and (bauds or parities):
-        raise click.UsageError(f"{'--bauds' if bauds else '--parities'} tries serial settings: it needs --serial")
-    baud_list = _checked("--bauds", lambda: parse_bauds(bauds) if bauds else [connection.baud])
-    parity_list = _checked(
-        "--parities", lambda: parse_list(parities, "a parity", PARITIES) if parities else [connection.parity]
-    )
-    low, high = _checked("--range", lambda: parse_span(span))
-    return ProbeOptions(
-        _checked("--units", lambda: parse_units(units)),
-        [(b, p) for b in baud_list for p in parity_list],
-        _checked("--tables", lambda: parse_list(tables, "a table", RAW_TABLES)),
-        low,
-        high,
-        max_requests,
-        rate,
-    )
-
-
-T = TypeVar("T")
-
-
-def _checked(option: str, parse: Callable[[], T]) -> T:
-    """What `parse` gives; click.BadParameter naming `option` where it raises ValueError."""
-    try:
-        return parse()
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint=f"'{option}'") from None
 
 
 PARITIES = {"n": "N", "e": "E", "o": "O", "none": "N", "even": "E", "odd": "O"}

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from pathlib import Path
 
 from mdl.device.connection import Connection
 from mdl.device.runtime import Session
@@ -165,45 +164,3 @@ class RawSession(Session):
             name: value if tables.get(name) in BIT_TABLES else shown_as(value, self.as_type)
             for name, value in values.items()
         }
-
-
-def raw_read(
-    file: Path | None,
-    names: tuple[str, ...],
-    texts: tuple[str, ...],
-    connection: Connection,
-    unit: int,
-    fmt: str,
-    how: tuple[str | None, str | None, str | None],
-    interval: float | None,
-    count: int | None,
-) -> int:
-    """`mdl read` without FILE: read (or poll) the `--raw` ranges and print them; the exit status. Usage
-    errors (click's, exit 2) for no FILE and no --raw, FILE and --raw together, a bad range or --as."""
-    import click
-
-    from mdl.device import output
-    from mdl.device.poll import poll
-
-    if not texts:
-        raise click.UsageError("missing FILE: give a description to read, or --raw TABLE:RANGE (e.g. hr:0-9)")
-    if file is not None:
-        given = " ".join([str(file), *names])
-        raise click.UsageError(f"--raw reads without a description: leave out FILE and NAME ({given})")
-    as_type, word_order, byte_order = how
-    as_type = (as_type or "uint16").lower()
-    if as_type not in AS_TYPES:
-        raise click.BadParameter(f"'{as_type}' is not one of {', '.join(AS_TYPES)}", param_hint="'--as'")
-    try:
-        ranges = [parse_raw_range(text) for text in texts]
-        functions = raw_functions(ranges, as_type, word_order or "big", byte_order or "big")
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="'--raw'") from None
-    resolved = raw_device(functions)
-    session = RawSession(resolved, connection, unit, as_type)
-    if interval is not None:
-        return poll(session, functions, fmt, interval, count)
-    with session:
-        values = session.read(functions)
-    click.echo(output.render(functions, values, fmt, resolved.name), nl=False)
-    return 0

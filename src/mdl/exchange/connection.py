@@ -7,6 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 SIM_HOST, DEVICE_PORT = "127.0.0.1", 502
+SIM_PORT = 5020  # where mdl sim listens unless --port says otherwise
 
 
 def host_port(host: str, port: int) -> str:

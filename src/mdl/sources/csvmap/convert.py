@@ -3,8 +3,8 @@
 Every guess is a note naming the INI key that overrides it; every row that cannot be read is a
 warning with its CSV line; a summary note ends the conversion. All of them go to the Report given
 (mdl.sources.csvmap.report, which prints them). Nothing here asks the user (the interactive choice
-is a `Chooser` given in Options: mdl.sources.csvmap.interactive) or writes a file (the command that
-writes is mdl.sources.csvmap.command; where it may write, mdl.sources.csvmap.target)."""
+is a `Chooser` given in Options: mdl.cli.interactive) or writes a file (the command that
+writes is mdl.cli.csv2xml; where it may write, mdl.sources.csvmap.target)."""
 
 from __future__ import annotations
 

@@ -3,8 +3,6 @@ can be fixed without reading the code; and the short form the unmatched-function
 
 from __future__ import annotations
 
-import click
-
 from mdl.sources.csvmap.match import Candidate, Index, best, candidates
 from mdl.sources.csvmap.scoring import TIER_NAMES, FunctionName, normalize, score_pair, why
 
@@ -46,10 +44,10 @@ def explain(
     taken = {c.row_index: name for name, c in chosen.items()}
     for n, name in enumerate(names):
         if n:
-            click.echo()
+            print()
         phrases = functions.get(name)
         if phrases is None:
-            click.echo(f"'{name}' is not a function of the INI or the bundled list: scoring it as a synonym")
+            print(f"'{name}' is not a function of the INI or the bundled list: scoring it as a synonym")
             phrases = [name]
         distinct: dict[str, str] = {}
         for p in phrases:
@@ -57,14 +55,14 @@ def explain(
         shown = ", ".join(
             f"'{p}'" + (" (its name)" if isinstance(p, FunctionName) else "") for key, p in distinct.items() if key
         )
-        click.echo(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
+        print(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
         mine = chosen.get(name)
         if mine is not None:
-            click.echo(f"  chosen: line {lines[mine.row_index]} (score {mine.score})")
+            print(f"  chosen: line {lines[mine.row_index]} (score {mine.score})")
         elif name in lost:
-            click.echo(f"  chosen: no row (its best row, line {lines[lost[name].row_index]}, was skipped)")
+            print(f"  chosen: no row (its best row, line {lines[lost[name].row_index]}, was skipped)")
         elif name in functions:
-            click.echo("  chosen: no row (none reached the threshold, or a stronger function took it)")
+            print("  chosen: no row (none reached the threshold, or a stronger function took it)")
         for rank, c in enumerate(best(name, phrases, index, None, TOP), 1):
             text = index.texts[c.row_index][0].raw if index.texts[c.row_index] else ""
             if c.row_index in skipped:
@@ -77,11 +75,11 @@ def explain(
                 status = "  (below the threshold)"
             else:
                 status = ""
-            click.echo(
+            print(
                 f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} line {lines[c.row_index]}: "
                 f"{_one_line(text)}{status}"
             )
-            click.echo(f"        {_reason(phrases, index, c.row_index)}")
+            print(f"        {_reason(phrases, index, c.row_index)}")
 
 
 def nearest(name: str, phrases: list[str], index: Index, lines: list[int], chosen: dict[str, Candidate]) -> str:

@@ -8,8 +8,6 @@ import sys
 import time
 from typing import TextIO
 
-import click
-
 from mdl.diagnostics import Collector, Diagnostic
 
 
@@ -36,12 +34,12 @@ class Report(Collector):
         elif said:
             if self.progress:
                 self.progress.close()
-            click.echo(str(diag), err=True)
+            print(diag, file=sys.stderr, flush=True)
         return said
 
     def flush_notes(self) -> None:
         for diag in self._notes:
-            click.echo(str(diag), err=True)
+            print(diag, file=sys.stderr, flush=True)
         self._notes.clear()
 
 

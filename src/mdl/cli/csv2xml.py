@@ -9,25 +9,13 @@ from pathlib import Path
 
 import click
 
-from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.diagnostics import error
 from mdl.fileio import write_atomic
-from mdl.model import Device
 from mdl.sources.csvmap.convert import Options, convert, counted
 from mdl.sources.csvmap.ini import is_ini, read_ini
 from mdl.sources.csvmap.report import Report
-from mdl.sources.mdlxml.parse import schema_errors, secure_parser
+from mdl.sources.mdlxml.load import check_written
 from mdl.sources.mdlxml.write import device_to_xml
-
-
-def _self_check(xml: str, device: Device) -> None:
-    from lxml import etree
-
-    tree = etree.fromstring(xml.encode("ascii"), secure_parser()).getroottree()
-    problems = schema_errors(tree, "<csv2xml output>", device.schema_version)
-    if problems:
-        raise MdlError(
-            [Diagnostic(None, None, None, f"internal error, output does not validate: {p}") for p in problems]
-        )
 
 
 def run_csv2xml(
@@ -47,8 +35,8 @@ def run_csv2xml(
     fail_on_warning (--strict, --fail-on-warning), a warning (a skipped row, an unmatched function, an
     unknown INI key) is an error: nothing is written, exit 1. With `explain`, print each named
     function's nearest rows to stdout instead of writing MDL. Quiet: warnings and errors only."""
+    from mdl.cli.interactive import choose_rows
     from mdl.resolver import resolve as resolve_device
-    from mdl.sources.csvmap.interactive import choose_rows
 
     report = Report(quiet)
     ini = None
@@ -81,8 +69,7 @@ def run_csv2xml(
     if (fail_on_warning or strict) and n:
         flag = "--strict" if strict else "--fail-on-warning"
         raise error(f"{n} warning{'s' * (n != 1)} and {flag}: nothing written", ini_path or csv_path)
-    xml = device_to_xml(device)
-    _self_check(xml, device)
+    xml = check_written(device_to_xml(device), "csv2xml")
     if output is None:
         sys.stdout.write(xml)
         sys.stdout.flush()
