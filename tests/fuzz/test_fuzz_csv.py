@@ -15,8 +15,8 @@ from conftest import assert_clean_error, run_mdl
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
-from mdl.diagnostics import EXIT_INVALID, MdlError
 from mdl.cli.csv2xml import run_csv2xml
+from mdl.diagnostics import EXIT_INVALID, MdlError
 from mdl.sources.mdlxml import validate_file
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep

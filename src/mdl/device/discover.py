@@ -378,15 +378,15 @@ def _summary(unit: int, result: UnitResult | None) -> str:
 def _progress(units: list[int], connection: Connection) -> Generator[tuple[int, bool], None, None]:
     """Each unit, and whether to print a line for it (not on a terminal, where a bar shows progress)."""
     if sys.stderr.isatty():
-        from mdl.sources.csvmap.report import Progress
-
-        bar = Progress(f"asking units on {connection}", len(units))
+        label = f"asking units on {connection}"
         try:
-            for unit in units:
+            for done, unit in enumerate(units):
+                sys.stderr.write(f"\r\x1b[K{label} [{done}/{len(units)}] unit {unit}")
+                sys.stderr.flush()
                 yield unit, False
-                bar()
         finally:
-            bar.close()
+            sys.stderr.write(f"\r\x1b[K{label} [{len(units)}/{len(units)}]\n")
+            sys.stderr.flush()
     else:
         for unit in units:
             yield unit, True
