@@ -17,7 +17,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from conftest import skip_or_fail
+from conftest import require_tier, skip_or_fail
 from cpp_harness import modbus_flags
 
 from mdl.model import Device
@@ -31,6 +31,7 @@ COMPILERS = ("gcc", "clang")
 
 
 def tool(name: str) -> str:
+    require_tier("compile", f"the C compiler {name}")
     found = shutil.which(name) or shutil.which(f"{name}-14")
     if found is None:
         skip_or_fail(f"C driver tests: {name} is not installed")

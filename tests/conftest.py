@@ -64,8 +64,14 @@ TIERS = {
         "test_write_multiple.py",
         "test_generated_python_lint.py",
         "test_wheel.py",
+        "test_bits_scale_native.py",
+        "test_read_all_parts.py",
     },
-    "engines": {"test_export_homeassistant.py", "test_export_volttron.py"},  # engines in cached venvs
+    "engines": {  # engines in cached venvs
+        "test_export_homeassistant.py",
+        "test_export_volttron.py",
+        "test_bits_scale_exports.py",
+    },
 }
 TIER_NAMES = ("unit", "device", "compile", "engines", "fuzz")
 
@@ -84,6 +90,28 @@ def tier_of(item) -> str:
     if {"sim_factory", "serial_line"} & set(getattr(item, "fixturenames", ())):
         return "device"
     return "unit"
+
+
+@pytest.fixture(autouse=True)
+def _tier_in_environment(request, monkeypatch):
+    """The running test's tier, where the helpers that compile or install an engine look (require_tier)."""
+    monkeypatch.setenv(TIER_VARIABLE, tier_of(request.node))
+
+
+TIER_VARIABLE = "MDL_TEST_TIER"
+
+
+def require_tier(tier: str, what: str) -> None:
+    """Fail a test of another tier that reaches `what` (a compiler, an engine): tiers stay what they cost,
+    and `scripts/test --fast` never compiles or installs. Outside a test (a script building the engines
+    ahead of time) there is no tier to keep."""
+    current = os.environ.get(TIER_VARIABLE)
+    if current is not None and current != tier:
+        pytest.fail(
+            f"{what} is for the {tier} tier, and this test is in the {current} tier: list its file in "
+            f"TIERS[{tier!r}] (tests/conftest.py)",
+            pytrace=False,
+        )
 
 
 def pytest_configure(config):

@@ -33,7 +33,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from conftest import skip_or_fail
+from conftest import require_tier, skip_or_fail
 
 from mdl.model import Device
 from mdl.resolver import resolve
@@ -54,6 +54,7 @@ def unavailable(problem: str) -> None:
 
 def tool(name: str) -> str:
     """The path of a compiler or clang-tool (or its -14 variant), or skip (fail under CI)."""
+    require_tier("compile", f"the C++ tool {name}")
     found = shutil.which(name) or shutil.which(f"{name}-14")
     if found is None:
         unavailable(f"{name} is not installed")

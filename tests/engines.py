@@ -129,8 +129,9 @@ def installed_version(python: Path, distribution: str) -> str:
 
 def require(engine: Engine) -> Path:
     """The engine's Python for a test; skipped with the reason when it cannot be installed (a failure in CI)."""
-    from conftest import skip_or_fail
+    from conftest import require_tier, skip_or_fail
 
+    require_tier("engines", f"the {engine.name} environment")
     try:
         return engine_python(engine)
     except EngineUnavailable as exc:

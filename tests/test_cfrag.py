@@ -274,6 +274,7 @@ def register_samples(rng: random.Random, count: int) -> list[list[int]]:
     return [[rng.choice([*EDGE_REGISTERS, rng.randrange(65536)]) for _ in range(NREGS)] for _ in range(count)]
 
 
+@pytest.mark.compile
 def test_python_and_the_c_emitter_agree_under_ubsan(tmp_path):
     rng = random.Random(1234)
     reads, writes = READS + UNDEFINED_READS, WRITES + UNDEFINED_WRITES
@@ -401,6 +402,7 @@ def _all_cpp() -> str:
     )
 
 
+@pytest.mark.compile
 @pytest.mark.parametrize("compiler", ["g++", "clang++"])
 def test_cpp_functions_compile_without_a_warning(compiler, tmp_path):
     source = tmp_path / "fragments.cc"
@@ -427,6 +429,7 @@ def test_cpp_functions_pass_the_drivers_clang_tidy_checks(tmp_path):
     assert proc.returncode == 0, proc.stdout[-3000:]
 
 
+@pytest.mark.compile
 @pytest.mark.parametrize("compiler", ["gcc", "clang"])
 def test_c99_functions_compile_without_a_warning(compiler, tmp_path):
     fragments = [compile_fragment(code, NREGS, True).c("c") for code in READS + UNDEFINED_READS]

@@ -120,6 +120,7 @@ HOSTILE_FUNCTIONS = [
 ]
 
 
+@pytest.mark.compile
 @pytest.mark.parametrize(
     "device, cls",
     [
