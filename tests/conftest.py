@@ -67,17 +67,29 @@ TIERS = {
         "test_bits_scale_native.py",
         "test_read_all_parts.py",
     },
+    # hostile inputs whose proof costs seconds each: processes under a memory cap, bombs, floods of
+    # connections, timeouts that must pass (the cheap hostile tests stay in unit and device)
+    "hostile": {
+        "test_limits.py",
+        "test_hostile_discover.py",
+        "test_hostile_tables.py",
+        "test_hostile_wise_toolkit.py",
+        "test_hostile_services.py",
+    },
     "engines": {  # engines in cached venvs
         "test_export_homeassistant.py",
         "test_export_volttron.py",
         "test_bits_scale_exports.py",
+        "test_sunspec_client.py",  # pysunspec2's own client, the SunSpec engine (installed with mdl)
     },
 }
-TIER_NAMES = ("unit", "device", "compile", "engines", "fuzz")
+TIER_NAMES = ("unit", "device", "hostile", "compile", "engines", "fuzz")
 
 
 def tier_of(item) -> str:
-    """The test's tier: its own marker (`@pytest.mark.engines` on one test of a cheaper file), else its file's."""
+    """The test's tier: its own marker (`@pytest.mark.engines` on one test of a cheaper file), else its
+    file's (tests/fuzz/ and TIERS), else `fuzz` for a hypothesis property test, `device` for one that serves
+    or dials a simulated device, `unit` for the rest."""
     for tier in TIER_NAMES:
         if item.get_closest_marker(tier) is not None:
             return tier
@@ -87,6 +99,8 @@ def tier_of(item) -> str:
     for tier, files in TIERS.items():
         if path.name in files:
             return tier
+    if getattr(getattr(item, "obj", None), "is_hypothesis_test", False):
+        return "fuzz"  # a property test (hypothesis's @given), wherever it stands: many examples, not one
     if {"sim_factory", "serial_line"} & set(getattr(item, "fixturenames", ())):
         return "device"
     return "unit"
