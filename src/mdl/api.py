@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import asyncio
 import threading
-from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -204,7 +203,7 @@ class Session:
     def read(self, *names: str) -> dict[str, Value]:
         """Function name -> value (None where the device reports "not implemented"), of the named
         functions, or of every readable one."""
-        functions = self._functions(names, write=False)
+        functions = self.device.device.select(names)
         with self._lock:
             return self._link.read(functions)
 
@@ -214,7 +213,7 @@ class Session:
 
         todo = []
         for name, value in values.items():
-            (fn,) = self._functions((name,), write=True)
+            (fn,) = self.device.device.select([name], write=True)
             try:
                 parsed = codec.parse_value(fn, value) if isinstance(value, str) else value
                 codec.encode(fn, parsed)
@@ -249,20 +248,3 @@ class Session:
 
     async def __aexit__(self, *exc: object) -> None:
         await self.aclose()
-
-    def _functions(self, names: tuple[str, ...], write: bool) -> list[Any]:
-        functions = self.device.device.functions
-        if not names:
-            return [fn for fn in functions if fn.readable]
-        by_name: Mapping[str, Any] = {fn.name: fn for fn in functions}
-        out = []
-        for name in names:
-            fn = by_name.get(name)
-            if fn is None:
-                raise error(f"the device has no function '{name}'")
-            if write and not fn.writable:
-                raise error(f"function '{name}' is read-only")
-            if not write and not fn.readable:
-                raise error(f"function '{name}' is write-only")
-            out.append(fn)
-        return out

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
 
@@ -15,7 +14,6 @@ from mdl.cli.printer import resolved_file, say
 from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
-    from mdl.model import Device, Function
     from mdl.resolver import ResolvedDevice
 
 
@@ -219,23 +217,6 @@ def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
     return served
 
 
-def select_functions(device: Device, names: Iterable[str], want_write: bool = False) -> list[Function]:
-    from mdl.diagnostics import error
-
-    by_name = {fn.name: fn for fn in device.functions}
-    out = []
-    for name in names:
-        fn = by_name.get(name)
-        if fn is None:
-            raise error(f"the device has no function '{name}'")
-        if want_write and not fn.writable:
-            raise error(f"function '{name}' is read-only")
-        if not want_write and not fn.readable:
-            raise error(f"function '{name}' is write-only")
-        out.append(fn)
-    return out
-
-
 @main.command()
 @click.argument("file", type=InputOrTarget(), required=False, metavar="[FILE | FILE@CONNECTION[#UNIT]...]")
 @click.argument("names", nargs=-1)
@@ -362,7 +343,7 @@ def read(
             raise click.UsageError(f"{option} goes with --raw (a description says how its values are read)")
     resolved = resolved_file(file)  # the one resolve: the session reads this
     device = resolved.device
-    functions = select_functions(device, names) if names else [fn for fn in device.functions if fn.readable]
+    functions = device.select(names)
     if interval is not None:
         sys.exit(poll(Session(resolved, connection, unit), functions, fmt, interval, count))
     with Session(resolved, connection, unit) as session:
@@ -423,7 +404,7 @@ def _read_targets(
             files[target.file] if target.file in files else files.setdefault(target.file, resolved_file(target.file))
         )
         device = resolved.device
-        functions = select_functions(device, names) if names else [fn for fn in device.functions if fn.readable]
+        functions = device.select(names)
         polled.append(fleet.Polled(target, resolved, functions, ""))
     ids, notes = fleet.device_ids([p.resolved.stem for p in polled], [t.unit for t in targets])
     for p, ident in zip(polled, ids, strict=True):
@@ -464,7 +445,7 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
         name, sep, text = item.partition("=")
         if not sep:
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="NAME=VALUE")
-        (fn,) = select_functions(device, [name.strip()], want_write=True)
+        (fn,) = device.select([name.strip()], write=True)
         try:
             value = codec.parse_value(fn, text.strip())
             codec.encode(fn, value)

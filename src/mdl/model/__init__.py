@@ -7,6 +7,7 @@ apply the defaults of SPEC section 2, so writing a loaded model back never adds 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
@@ -249,6 +250,28 @@ class Device:
     # what the source said while reading it (a column it could not map, text it kept as a comment):
     # warnings the resolve step reports with its own
     notes: list[Diagnostic] = field(default_factory=list, compare=False, repr=False)
+
+    def select(self, names: Iterable[str], write: bool = False) -> list[Function]:
+        """The functions `names` names, in that order (every readable one when none are named and not
+        `write`); MdlError for a name the device lacks, a read-only function to write, a write-only one
+        to read (`mdl read`, `mdl write` and mdl.Session take their functions so)."""
+        from mdl.diagnostics import error
+
+        names = list(names)
+        if not names and not write:
+            return [fn for fn in self.functions if fn.readable]
+        by_name = {fn.name: fn for fn in self.functions}
+        out = []
+        for name in names:
+            fn = by_name.get(name)
+            if fn is None:
+                raise error(f"the device has no function '{name}'")
+            if write and not fn.writable:
+                raise error(f"function '{name}' is read-only")
+            if not write and not fn.readable:
+                raise error(f"function '{name}' is write-only")
+            out.append(fn)
+        return out
 
     def extensions(self) -> list[str]:
         used: list[str] = [name for name in IDENTITY_FIELDS if getattr(self, name) is not None]
