@@ -14,7 +14,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from mdl.diagnostics import Collector, Diagnostic, MdlError, error
+from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model import Device as Document
 from mdl.model import Scalar, Value
 from mdl.resolver import ResolvedDevice as Device
@@ -55,36 +55,24 @@ def load(path: StrPath, *, format: str | None = None, ini: StrPath | None = None
 def _table(source: Path, ini_path: Path | None) -> Document:
     from mdl.sources.csvmap.convert import Options, convert
     from mdl.sources.csvmap.ini import is_ini, read_ini
+    from mdl.sources.csvmap.report import Report
 
     if ini_path is None and is_ini(source):
         ini_path, table = source, None
     else:
         table = source
     ini = read_ini(ini_path) if ini_path is not None else None
-    kept = _Kept()
+    kept = Report(quiet=True, printing=False)
     if ini is not None:
         for diag in [*ini.warnings, *ini.notes]:
             kept.add(diag)
     table = table or (ini.csv_file if ini else None)
     if table is None:
         raise error("the INI names no address_map_csv_file in [Input/Output]: give the table's path", ini_path)
-    document = convert(table, ini, Options(), kept)  # type: ignore[arg-type]  # a Report's calls, kept
+    document = convert(table, ini, Options(), kept)
     assert document is not None  # None only with Options.explain
     document.notes = [*kept.diagnostics(), *document.notes]
     return document
-
-
-class _Kept(Collector):
-    """csv2xml's report for the library: every diagnostic kept, nothing printed, no progress bar."""
-
-    def __init__(self) -> None:
-        super().__init__(notes_once=True)
-
-    def bar(self, label: str, total: int, percent: bool = False) -> None:
-        return None
-
-    def flush_notes(self) -> None:
-        return None
 
 
 def validate(document: Document | StrPath) -> list[Diagnostic]:

@@ -14,11 +14,12 @@ from mdl.diagnostics import Collector, Diagnostic
 class Report(Collector):
     """csv2xml's diagnostics (a Collector): a warning is printed as it comes (a progress bar on the
     screen cleared first); a note is said once, and printed by `flush_notes` when the run gets that far.
-    Quiet (--quiet): notes are counted but never printed, and no progress bar is drawn."""
+    Quiet (--quiet): notes are counted but never printed, and no progress bar is drawn. Not `printing`
+    (the library, mdl.api): every diagnostic is kept, to be read with `diagnostics()`, and none printed."""
 
-    def __init__(self, quiet: bool = False) -> None:
+    def __init__(self, quiet: bool = False, printing: bool = True) -> None:
         super().__init__(notes_once=True)
-        self.quiet = quiet
+        self.quiet, self.printing = quiet or not printing, printing
         self.progress: Progress | None = None  # a bar on the screen, cleared before a warning prints
         self._notes: list[Diagnostic] = []  # said, not printed yet
 
@@ -28,6 +29,8 @@ class Report(Collector):
 
     def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
         said = super().add(diag, kind=kind, always=always)
+        if not self.printing:
+            return said
         if said and diag.severity == "note":
             if not self.quiet:
                 self._notes.append(diag)
