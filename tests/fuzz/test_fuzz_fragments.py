@@ -15,6 +15,7 @@ from __future__ import annotations
 import random
 import subprocess
 
+import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from test_cfrag import (
@@ -192,6 +193,8 @@ junk = st.one_of(st.text(max_size=60), st.lists(st.sampled_from(JUNK + LEAVES + 
 texts = st.one_of(*[fragments] * 6, commented, junk)
 
 
+@pytest.mark.compile  # it compiles what it accepts (gcc)
+@pytest.mark.exhaustive  # a fuzzer: CI runs it
 def test_fragments_are_refused_cleanly_or_agree_in_python_and_c(tmp_path):
     rng = random.Random(2024)
     registers = register_samples(rng, 24)
