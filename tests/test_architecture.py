@@ -17,7 +17,7 @@ DOC = Path(__file__).resolve().parent.parent / "docs" / "architecture.md"
 
 
 def _unit(module: str) -> str:
-    """The top-level package or module of mdl a module belongs to (`mdl.values.ir` -> `values`)."""
+    """The top-level package or module of mdl a module belongs to (`mdl.ir.steps` -> `values`)."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else "mdl"
 
@@ -64,7 +64,7 @@ STAGES = [
     "model",
     "plan",
     "lang",
-    "values",
+    "ir",
     "resolver",
     "exchange",
     "formats",
@@ -84,7 +84,7 @@ HELPERS = {"diagnostics", "fileio", "resources"}
 def test_the_graph_sees_known_edges():
     """A control: the checks below would see a wrong edge if there were one, because they see these."""
     graph = import_graph()
-    assert {"model", "lang", "values"} <= graph["resolver"]
+    assert {"model", "lang", "ir"} <= graph["resolver"]
     assert "resolver" in graph["targets"] and "model" in graph["lang"]
     assert {"exchange", "resolver"} <= graph["formats"] and "formats" in graph["sources"]
     assert {"device", "formats", "exchange"} <= graph["engines"] and "exchange" in graph["device"]

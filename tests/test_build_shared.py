@@ -1,5 +1,5 @@
 """Functions of one shape share their value IR (issue 29): resolve builds each shape's steps once
-(mdl.values.build.build_shared) and makes each shape's text once. Sharing must never change a
+(mdl.ir.build.build_shared) and makes each shape's text once. Sharing must never change a
 function's codec: every field `build` reads is in the key, or the codecs would differ here."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ from dataclasses import replace
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from mdl.ir.build import build, build_shared, shape_key
 from mdl.model import Device, Function
 from mdl.model.layout import FORMAT_BITS, LayoutError, layout
 from mdl.resolver import ResolvedFunction, _shape, resolve
-from mdl.values.build import build, build_shared, shape_key
 
 NUMBERS = [None, 0.0, -0.0, 1, 1.0, 0.1, 0.5, -3.0, 5, 100.25, 1e-300]
 # each field a function may set -> the values drawn for it

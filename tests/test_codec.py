@@ -11,11 +11,11 @@ from conftest import import_generated
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
+from mdl.ir import codec
+from mdl.ir.build import int_range
 from mdl.model import Device, Function
 from mdl.model.layout import LayoutError, layout
 from mdl.targets import render
-from mdl.values import codec
-from mdl.values.build import int_range
 
 INT_FORMATS = ["INT8", "UINT8", "INT16", "UINT16", "INT32", "UINT32", "INT64", "UINT64"]
 ORDERS = ["big", "little"]

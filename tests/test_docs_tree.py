@@ -5,7 +5,7 @@ or to src/mdl/ (a Markdown link: relative to its document's folder). A stale one
 document and the line. What counts as a file reference (CONTRIBUTING.md's rules, "Documentation"):
 - a path starting with `src/` or `tests/`, or with another folder of the repository (`docs/`, `examples/`,
   `scripts/`, ...), anywhere, code blocks included (their commands run from the repository);
-- outside code blocks, a path whose last part has an extension (`values/ir.py`, `targets/c/templates/steps.j2`);
+- outside code blocks, a path whose last part has an extension (`ir/steps.py`, `targets/c/templates/steps.j2`);
 - an inline code span that is a folder of src/mdl, ending in `/` (`lang/cfrag/`);
 - a Markdown link's target; a dotted name `mdl.module.name` (the module, and the name defined in it).
 `<name>` or `*` in a path is a wildcard that must match something. Command examples' own files
@@ -204,7 +204,7 @@ def test_the_rules_on_known_lines():
     """A control: what is a reference, what is not, and each kind of stale one is reported with its line."""
     text = "\n".join(
         [
-            "The IR is `values/ir.py`; the C steps are in targets/c/templates/steps.j2 and `lang/cfrag/`.",  # 1
+            "The IR is `ir/steps.py`; the C steps are in targets/c/templates/steps.j2 and `lang/cfrag/`.",  # 1
             "Read `formats/toolkit.py` and src/mdl/nothing/",  # 2
             "```sh",  # 3
             "mdl gen x.xml -o drivers/ && cc out/temco_tstat.cc && python3 scripts/regen_golden.py",  # 4
@@ -212,7 +212,7 @@ def test_the_rules_on_known_lines():
             "```",  # 6
             "Writes <stem>.h/.cc; read/write and 0.9b/1.0; see [the guide](docs/user-guide.md), "
             "[gone](docs/gone.md), https://example.com/a/b.py, `formats/<name>/read.py`.",  # 7
-            "mdl.targets.render, mdl.values.ir.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
+            "mdl.targets.render, mdl.ir.steps.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
             "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, "
             "`.ssh/`",  # 9
         ]

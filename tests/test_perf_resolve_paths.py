@@ -12,6 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mdl.ir import steps as ir
+from mdl.ir.build import units
 from mdl.model import BIT_TABLES, LENGTHS, ORDERS, READ_ONLY_TABLES, REGISTER_TYPES, Function
 from mdl.model.layout import (
     FORMAT_BITS,
@@ -27,8 +29,6 @@ from mdl.model.layout import (
 from mdl.model.names import identifier
 from mdl.plan import TABLE_ORDER, Request, plan_reads, split_request
 from mdl.resolver import cached_property
-from mdl.values import ir
-from mdl.values.build import units
 
 # -- references: the code as it was
 

@@ -1,6 +1,6 @@
 """`mdl read`'s runtime decodes a poll with one Python function compiled for the functions read, from
 the second read of the same names on (mdl.device.evaluate.BufferDecoder, printed by the Python
-target's templates): every value must be the one the first read's closures (mdl.values.codec) give,
+target's templates): every value must be the one the first read's closures (mdl.ir.codec) give,
 bit for bit, and the one the generated Python driver gives for the same registers. The device's
 registers come from an in-process stand-in for the wire (`Session.read_request`), so that
 hypothesis can try many of them quickly."""
@@ -17,10 +17,10 @@ from hypothesis import strategies as st
 
 from mdl.device.connection import Connection
 from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.ir import codec
 from mdl.model.layout import layout
 from mdl.sources.loading import load_resolved
 from mdl.targets import render
-from mdl.values import codec
 
 ORDERS = [("big", "big"), ("big", "little"), ("little", "big"), ("little", "little")]
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"

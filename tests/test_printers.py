@@ -18,6 +18,7 @@ from cpp_harness import modbus_flags
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from mdl.ir import steps as ir
 from mdl.lang.expr.ops import OpKind, printer
 from mdl.lang.expr.pyemit import PRINTER as PYTHON
 from mdl.resolver import resolve
@@ -26,7 +27,6 @@ from mdl.targets.c.expressions import PRINTER as C
 from mdl.targets.clike import int_bounds, int_limits
 from mdl.targets.cpp.expressions import PRINTER as CPP
 from mdl.targets.templating import RuntimePart, double_literal, pick
-from mdl.values import ir
 
 PRINTERS = {"python": PYTHON, "c++": CPP, "c": C}
 

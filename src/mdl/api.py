@@ -197,7 +197,7 @@ class Session:
 
     def write(self, **values: Scalar | str) -> None:
         """Write each function's value: a number, a bool, an enumeration's label or a text."""
-        from mdl.values import codec
+        from mdl.ir import codec
 
         todo = []
         for name, value in values.items():

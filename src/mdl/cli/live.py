@@ -436,7 +436,7 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     """
     from mdl.device.runtime import Session
     from mdl.diagnostics import error
-    from mdl.values import codec
+    from mdl.ir import codec
 
     resolved = resolved_file(file)
     device = resolved.device

@@ -50,12 +50,12 @@ from mdl.device.replies import (
 )
 from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.diagnostics import DeviceError, Diagnostic, one_line
+from mdl.ir.build import decode_steps
+from mdl.ir.codec import Decoder, compile_decoder
 from mdl.model import Device, Function, Value
 from mdl.model.layout import Layout
 from mdl.plan import Request
 from mdl.resolver import ResolvedDevice
-from mdl.values.build import decode_steps
-from mdl.values.codec import Decoder, compile_decoder
 
 MAX_UNIT_ID = 255  # a unit id is one byte; 248-255 are reserved on a serial bus, used by some TCP devices
 GATEWAY_SILENT = (10, 11)  # GATEWAY PATH UNAVAILABLE, GATEWAY TARGET DEVICE FAILED TO RESPOND

@@ -7,12 +7,12 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
+from mdl.ir.build import decode_steps
+from mdl.ir.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
+from mdl.ir.steps import DecodeStep
 from mdl.lang.expr.fields import python_function
 from mdl.model import Device, Scalar, Value
 from mdl.resolver import ResolvedDevice, resolve
-from mdl.values.build import decode_steps
-from mdl.values.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
-from mdl.values.ir import DecodeStep
 
 RawLookup = Callable[[str, int], int | None]  # (table, address) -> register or bit value, None: none
 Buffer = Sequence[int | None]  # registers and bits by slot; None where the device gave none
@@ -64,7 +64,7 @@ class Evaluator:
 
     @staticmethod
     def _run(steps: list[_Step], raw: Buffer) -> dict[str, Value]:
-        """Every step's value, in order, running each function's closures (mdl.values.codec)."""
+        """Every step's value, in order, running each function's closures (mdl.ir.codec)."""
         values: dict[str, Value] = {}
         for name, slots, decode, expression, deps in steps:
             regs = [raw[s] for s in slots]
@@ -92,7 +92,7 @@ class BufferDecoder:
     """Decodes a list of functions (and what their expressions need) from a poll's buffer: registers
     and bits by slot, None where the device gave none. Returns {name: value} for the names asked.
 
-    The first decode runs each function's closures (mdl.values.codec): a one-off `mdl read` never
+    The first decode runs each function's closures (mdl.ir.codec): a one-off `mdl read` never
     imports Jinja. From the second on (a poll), a buffer without a gap goes through one Python
     function printed for these functions by the Python target's own templates (the decoders every
     generated driver carries, one per shape of IR: mdl.targets.python.reader) and compiled once;

@@ -19,12 +19,12 @@ from mdl.device.connection import Connection
 from mdl.device.evaluate import BufferDecoder, Evaluator
 from mdl.device.frames import Wire
 from mdl.diagnostics import DeviceError, error
+from mdl.ir import codec
+from mdl.ir.steps import Merge, find_step
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import Layout, address_runs
 from mdl.plan import Request, defined_addresses, plan_reads, split_request
 from mdl.resolver import ResolvedDevice
-from mdl.values import codec
-from mdl.values.ir import Merge, find_step
 
 EXCEPTION_NAMES = {
     1: "ILLEGAL FUNCTION",

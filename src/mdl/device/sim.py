@@ -43,11 +43,12 @@ from pymodbus.server.requesthandler import ServerRequestHandler
 from mdl.device.connection import Connection
 from mdl.diagnostics import error, one_line
 from mdl.fileio import read_text
+from mdl.ir import codec
+from mdl.ir import steps as ir
+from mdl.ir.build import encode_steps
 from mdl.model import Device, Function, Scenario, Value
 from mdl.plan import TABLE_ORDER, defined_addresses
 from mdl.resolver import ResolvedDevice
-from mdl.values import codec, ir
-from mdl.values.build import encode_steps
 
 if TYPE_CHECKING:
     from _typeshed import StrPath

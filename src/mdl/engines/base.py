@@ -30,8 +30,8 @@ from mdl.exchange.notes import Notes as Notes
 from mdl.exchange.notes import bits_detail as bits_detail
 from mdl.exchange.notes import factor_detail as factor_detail
 from mdl.exchange.notes import subject as subject
-from mdl.values.build import split_value, units
-from mdl.values.ir import Expression, Fragment, NotImplemented, Scale, ScaleFactor, find_step
+from mdl.ir.build import split_value, units
+from mdl.ir.steps import Expression, Fragment, NotImplemented, Scale, ScaleFactor, find_step
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings

@@ -50,7 +50,7 @@ from mdl.engines.homeassistant import _Dumper
 from mdl.exchange.connection import LINE_ONLY, Endpoint
 from mdl.exchange.export import Export
 from mdl.exchange.text import comment_text
-from mdl.values.ir import Bits, find_step
+from mdl.ir.steps import Bits, find_step
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings

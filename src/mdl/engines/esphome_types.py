@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from mdl.values.ir import Bits, Mask, Scale, SignExtend, ToFloat, find_step
+from mdl.ir.steps import Bits, Mask, Scale, SignExtend, ToFloat, find_step
 
 if TYPE_CHECKING:
     from mdl.model.layout import Layout

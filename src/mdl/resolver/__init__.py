@@ -14,13 +14,13 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 from mdl.diagnostics import Diagnostic, MdlError
+from mdl.ir.build import build, build_shared
+from mdl.ir.steps import Codec, DecodeStep, EncodeStep, Expression, Fragment
 from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
 from mdl.plan import Request, plan_groups
 from mdl.resolver.checks import check_device
-from mdl.values.build import build, build_shared
-from mdl.values.ir import Codec, DecodeStep, EncodeStep, Expression, Fragment
 
 if TYPE_CHECKING:
     from mdl.lang.expr.fields import Compiled

@@ -11,10 +11,10 @@ import math
 from typing import TYPE_CHECKING, Protocol
 
 from mdl.diagnostics import Diagnostic, span_of
+from mdl.ir.build import int_range
 from mdl.model import READ_ONLY_TABLES, Device, Function
 from mdl.model.layout import Layout, LayoutError, layout
 from mdl.resolver.packing import mask_write, packing_problems
-from mdl.values.build import int_range
 
 if TYPE_CHECKING:
     from mdl.lang.expr.fields import Compiled

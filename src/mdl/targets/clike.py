@@ -11,11 +11,11 @@ from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Generic, Protocol, TypeVar
 
+from mdl.ir import steps as ir
 from mdl.lang.cfrag.tree import int_range
 from mdl.model import Function
 from mdl.model.layout import address_runs
 from mdl.targets.base import Run
-from mdl.values import ir
 
 # functions decoded by each part of read_all (C and C++): one function of 80,000 lines for 10,000
 # functions made g++ -O2 quadratic (26 minutes); parts of this size keep it linear

@@ -18,8 +18,8 @@ import jinja2.bccache
 from mdl import __version__
 from mdl.diagnostics import error
 from mdl.fileio import remove_leftovers, would_change, write_atomic
+from mdl.ir.steps import MAX_EXPONENT
 from mdl.lang.cfrag.cemit import float_literal, literal
-from mdl.values.ir import MAX_EXPONENT
 
 # each target's templates are under <target>/templates/ here
 TARGETS_DIR = Path(__file__).resolve().parent

@@ -12,7 +12,7 @@ import re
 from decimal import Context, Decimal
 from fractions import Fraction
 
-from mdl.values.build import divisor_of
+from mdl.ir.build import divisor_of
 
 # a decimal number as cells hold it: ASCII digits, an optional exponent of at most 3 digits
 _NUMBER = re.compile(r"[+-]?(?:[0-9]{1,40}(?:\.[0-9]{0,40})?|\.[0-9]{1,40})(?:[eE][+-]?[0-9]{1,3})?")

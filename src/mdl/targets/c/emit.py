@@ -1,6 +1,6 @@
 """Resolved device -> C99 driver on libmodbus (<stem>.h / <stem>.c), SPEC section 5, docs/c-api.md.
 
-The templates print each function's value IR (mdl.values.ir) with one Jinja macro per step kind
+The templates print each function's value IR (mdl.ir.steps) with one Jinja macro per step kind
 (steps.j2) and the files' skeletons; mdl.targets.c.functions prints the parts of every function
 (declarations, reads and writes, read_all's parts) and mdl.targets.c.plan the read plan's tables.
 This module gathers what they print: each function's steps, C types and the registers it reads,
@@ -21,6 +21,7 @@ import jinja2
 
 from mdl import __version__
 from mdl.diagnostics import error
+from mdl.ir import steps as ir
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.ops import OpKind
@@ -33,7 +34,6 @@ from mdl.targets.c.plan import plan_tables
 from mdl.targets.clike import MergeRow, Printing, Shared, int_bounds, merge_rows
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ctext, double_literal, environment, generation_macro
-from mdl.values import ir
 
 RUNTIME = Path(__file__).resolve().parent / "runtime"
 TABLE_CONST = {"coil": "MDL_COIL", "discrete": "MDL_DISCRETE", "holding": "MDL_HOLDING", "input": "MDL_INPUT"}

@@ -21,6 +21,8 @@ from typing import Any
 import jinja2
 
 from mdl import __version__
+from mdl.ir import steps as ir
+from mdl.ir.steps import ValueType
 from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
 from mdl.lang.cfrag import CFragment, helpers_source
 from mdl.lang.expr.fields import plain_type
@@ -36,8 +38,6 @@ from mdl.targets.cpp.expressions import cpp_type, helpers
 from mdl.targets.profile import NOT_PROVIDED_ERRNO, Interface, check_files, int_write
 from mdl.targets.templating import SharedRendering, ccomment, ctext, double_literal, generation_macro
 from mdl.targets.templating import environment as render_environment
-from mdl.values import ir
-from mdl.values.ir import ValueType
 
 # functions whose read_<name> and write_<name> one class declares: g++ declares a class's member functions
 # in time that grows with the square of their number (20,000 in one class: 19 s), so a device of more has

@@ -20,6 +20,8 @@ from typing import Any
 import jinja2
 
 from mdl import __version__
+from mdl.ir import steps as ir
+from mdl.ir.steps import ValueType
 from mdl.lang.cfrag import FALLIBLE
 from mdl.lang.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
 from mdl.lang.expr.pyemit import body as expr_body
@@ -31,8 +33,6 @@ from mdl.targets.profile import Interface, check_files
 from mdl.targets.python import per_function
 from mdl.targets.templating import RuntimePart, SharedRendering, double_literal, pick, pycomment, pyrepr
 from mdl.targets.templating import environment as render_environment
-from mdl.values import ir
-from mdl.values.ir import ValueType
 
 # The lowest pymodbus a generated module runs on: the client methods' `device_id=` keyword
 # arrived in 3.10.0 (before it: `slave=`). tests/test_generated_python_lint.py runs a driver on it.

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+from mdl.ir import steps as ir
 from mdl.targets.python.emit import environment, span
-from mdl.values import ir
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""A function of the model -> its value IR (`mdl.values.ir.Codec`), the one place that knows how
+"""A function of the model -> its value IR (`mdl.ir.steps.Codec`), the one place that knows how
 formats, byte and word orders, "not implemented", scaling, fragments and expressions combine
 (SPEC section 2.3). Every consumer gets the IR from here through `mdl.resolver`."""
 
@@ -7,10 +7,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Hashable
 
-from mdl.lang.cfrag import compile_fragment
-from mdl.model import CompiledExpression, Function
-from mdl.model.layout import Layout, int_type_bits
-from mdl.values.ir import (
+from mdl.ir.steps import (
     Bits,
     CheckRange,
     Codec,
@@ -39,6 +36,9 @@ from mdl.values.ir import (
     UnscaleFactor,
     ValueType,
 )
+from mdl.lang.cfrag import compile_fragment
+from mdl.model import CompiledExpression, Function
+from mdl.model.layout import Layout, int_type_bits
 
 # the largest divisor the rounding rule uses: below 2**53 every integer is exact in a double
 _MAX_DIVISOR = 1 << 53

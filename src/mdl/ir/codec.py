@@ -1,7 +1,7 @@
 """The value IR run in Python: registers <-> values for `mdl read`, `mdl write`, `mdl sim --set`
 and `mdl test`.
 
-Each `Codec` (mdl.values.ir) is compiled once into a pair of Python closures (`compile_codec`),
+Each `Codec` (mdl.ir.steps) is compiled once into a pair of Python closures (`compile_codec`),
 one small function per step, so a poll decodes without looking at the model again. The generated
 drivers print the same steps; the tests compare them with this module bit for bit.
 """
@@ -14,11 +14,11 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from mdl.diagnostics import error
+from mdl.ir import steps as ir
+from mdl.ir.build import build, decode_steps, encode_steps
 from mdl.lang.cfrag import compile_read, compile_write
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import layout
-from mdl.values import ir
-from mdl.values.build import build, decode_steps, encode_steps
 
 
 class CodecError(ValueError):

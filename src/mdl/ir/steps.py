@@ -1,7 +1,7 @@
 """The value IR: what each function's value is, as a short list of language-neutral steps.
 
-`mdl.values.build` turns a resolved function into a `Codec` once; the Python evaluator
-(`mdl.values.codec` per function, `mdl.device.evaluate.Evaluator` per device) runs it for
+`mdl.ir.build` turns a resolved function into a `Codec` once; the Python evaluator
+(`mdl.ir.codec` per function, `mdl.device.evaluate.Evaluator` per device) runs it for
 `mdl read`/`write`/`sim --set`/`test`, and each target (`mdl.targets.<lang>`) prints it. Every
 step below says exactly what it computes, so that the evaluator and every target compute the same bits.
 
