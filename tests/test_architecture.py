@@ -63,7 +63,7 @@ def test_no_import_cycles_between_stages():
 STAGES = [
     "model",
     "plan",
-    "lang",
+    "dsl",
     "ir",
     "resolver",
     "exchange",
@@ -84,8 +84,8 @@ HELPERS = {"diagnostics", "fileio", "resources"}
 def test_the_graph_sees_known_edges():
     """A control: the checks below would see a wrong edge if there were one, because they see these."""
     graph = import_graph()
-    assert {"model", "lang", "ir"} <= graph["resolver"]
-    assert "resolver" in graph["targets"] and "model" in graph["lang"]
+    assert {"model", "dsl", "ir"} <= graph["resolver"]
+    assert "resolver" in graph["targets"] and "model" in graph["dsl"]
     assert {"exchange", "resolver"} <= graph["formats"] and "formats" in graph["sources"]
     assert {"device", "formats", "exchange"} <= graph["engines"] and "exchange" in graph["device"]
 

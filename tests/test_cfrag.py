@@ -20,7 +20,7 @@ import pytest
 from conftest import ROOT, assert_clean_error, fn_xml, run_mdl
 from cpp_harness import tool
 
-from mdl.lang.cfrag import (
+from mdl.dsl.cfrag import (
     INCLUDES,
     MAX_DEPTH,
     FragmentError,

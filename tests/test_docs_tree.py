@@ -6,7 +6,7 @@ document and the line. What counts as a file reference (CONTRIBUTING.md's rules,
 - a path starting with `src/` or `tests/`, or with another folder of the repository (`docs/`, `examples/`,
   `scripts/`, ...), anywhere, code blocks included (their commands run from the repository);
 - outside code blocks, a path whose last part has an extension (`ir/steps.py`, `targets/c/templates/steps.j2`);
-- an inline code span that is a folder of src/mdl, ending in `/` (`lang/cfrag/`);
+- an inline code span that is a folder of src/mdl, ending in `/` (`dsl/cfrag/`);
 - a Markdown link's target; a dotted name `mdl.module.name` (the module, and the name defined in it).
 `<name>` or `*` in a path is a wildcard that must match something. Command examples' own files
 (`-o drivers/`, `DIR/<stem>.h`) are not the tree's; another project's files are listed in ELSEWHERE.
@@ -204,7 +204,7 @@ def test_the_rules_on_known_lines():
     """A control: what is a reference, what is not, and each kind of stale one is reported with its line."""
     text = "\n".join(
         [
-            "The IR is `ir/steps.py`; the C steps are in targets/c/templates/steps.j2 and `lang/cfrag/`.",  # 1
+            "The IR is `ir/steps.py`; the C steps are in targets/c/templates/steps.j2 and `dsl/cfrag/`.",  # 1
             "Read `formats/toolkit.py` and src/mdl/nothing/",  # 2
             "```sh",  # 3
             "mdl gen x.xml -o drivers/ && cc out/temco_tstat.cc && python3 scripts/regen_golden.py",  # 4

@@ -18,9 +18,9 @@ from cpp_harness import modbus_flags
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from mdl.dsl.expr.ops import OpKind, printer
+from mdl.dsl.expr.pyemit import PRINTER as PYTHON
 from mdl.ir import steps as ir
-from mdl.lang.expr.ops import OpKind, printer
-from mdl.lang.expr.pyemit import PRINTER as PYTHON
 from mdl.resolver import resolve
 from mdl.sources.mdlxml import load_device
 from mdl.targets.c.expressions import PRINTER as C

@@ -7,8 +7,8 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.lang.expr.nodes import ExprError, Registers
-from mdl.lang.expr.parser import Parser
+from mdl.dsl.expr.nodes import ExprError, Registers
+from mdl.dsl.expr.parser import Parser
 from mdl.model.addressing import AddressError, address_range, address_run, match_address, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_BITS
 

@@ -11,11 +11,11 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from mdl.device.evaluate import evaluate
-from mdl.lang.expr import pyemit
-from mdl.lang.expr.fields import Compiled, compile_device
-from mdl.lang.expr.lower import lower
-from mdl.lang.expr.nodes import ExprError
-from mdl.lang.expr.parser import MAX_DEPTH, parse
+from mdl.dsl.expr import pyemit
+from mdl.dsl.expr.fields import Compiled, compile_device
+from mdl.dsl.expr.lower import lower
+from mdl.dsl.expr.nodes import ExprError
+from mdl.dsl.expr.parser import MAX_DEPTH, parse
 from mdl.model import BIT_TABLES, Device, Function
 
 FIELDS = ("A", "B c")
@@ -189,7 +189,7 @@ NAMED = ["A", "A b", "A b c", "A_b", "Ab", "b", "Tempé", "Temp"]
 def _refs(node) -> list[str]:
     from dataclasses import fields
 
-    from mdl.lang.expr.nodes import Node, Ref
+    from mdl.dsl.expr.nodes import Node, Ref
 
     if isinstance(node, Ref):
         return [node.name]

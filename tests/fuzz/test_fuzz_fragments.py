@@ -31,7 +31,7 @@ from test_cfrag import (
     tool,
 )
 
-from mdl.lang.cfrag import FragmentError, compile_fragment
+from mdl.dsl.cfrag import FragmentError, compile_fragment
 
 LEAVES = [
     "r1",

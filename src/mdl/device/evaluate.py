@@ -7,10 +7,10 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
+from mdl.dsl.expr.fields import python_function
 from mdl.ir.build import decode_steps
 from mdl.ir.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
 from mdl.ir.steps import DecodeStep
-from mdl.lang.expr.fields import python_function
 from mdl.model import Device, Scalar, Value
 from mdl.resolver import ResolvedDevice, resolve
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Final, Literal, TypeAlias
 
 from mdl.device.evaluate import Evaluator, evaluate
-from mdl.lang.expr.pyhelpers import _x_text
+from mdl.dsl.expr.pyhelpers import _x_text
 from mdl.model import Device, Scenario, Value
 
 ReadError: TypeAlias = Literal["error"]

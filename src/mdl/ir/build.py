@@ -7,6 +7,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Hashable
 
+from mdl.dsl.cfrag import compile_fragment
 from mdl.ir.steps import (
     Bits,
     CheckRange,
@@ -36,7 +37,6 @@ from mdl.ir.steps import (
     UnscaleFactor,
     ValueType,
 )
-from mdl.lang.cfrag import compile_fragment
 from mdl.model import CompiledExpression, Function
 from mdl.model.layout import Layout, int_type_bits
 

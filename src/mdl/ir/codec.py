@@ -14,9 +14,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from mdl.diagnostics import error
+from mdl.dsl.cfrag import compile_read, compile_write
 from mdl.ir import steps as ir
 from mdl.ir.build import build, decode_steps, encode_steps
-from mdl.lang.cfrag import compile_read, compile_write
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import layout
 

@@ -59,8 +59,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, TypeAlias, TypeVar
 
 if TYPE_CHECKING:
-    from mdl.lang.cfrag import Fragment as FragmentTree
-    from mdl.lang.expr.lower import Lowered
+    from mdl.dsl.cfrag import Fragment as FragmentTree
+    from mdl.dsl.expr.lower import Lowered
 
 T = TypeVar("T")
 
@@ -88,7 +88,7 @@ class NotImplemented:
 
 @dataclass(frozen=True)
 class Fragment:
-    code: str  # the checked fragment text (mdl.lang.cfrag compiles it for each target)
+    code: str  # the checked fragment text (mdl.dsl.cfrag compiles it for each target)
     nregs: int
     reading: bool
     tree: FragmentTree

@@ -28,12 +28,12 @@ Value: TypeAlias = Scalar | list[str] | None  # a function's value as read (a bi
 
 
 class CompiledExpression(Protocol):
-    """A function's expression as the resolve step compiles it (mdl.lang.expr.fields.Compiled, kept on
+    """A function's expression as the resolve step compiles it (mdl.dsl.expr.fields.Compiled, kept on
     mdl.resolver.ResolvedFunction, never on the model): the model names only what its layout reads,
     so it does not depend on the expression language."""
 
     @property
-    def lowered(self) -> Any: ...  # mdl.lang.expr.lower.Lowered
+    def lowered(self) -> Any: ...  # mdl.dsl.expr.lower.Lowered
 
     @property
     def deps(self) -> list[str]: ...  # the functions it names, in parameter order

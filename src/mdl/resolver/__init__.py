@@ -23,7 +23,7 @@ from mdl.plan import Request, plan_groups
 from mdl.resolver.checks import check_device
 
 if TYPE_CHECKING:
-    from mdl.lang.expr.fields import Compiled
+    from mdl.dsl.expr.fields import Compiled
 
 T = TypeVar("T")
 

@@ -17,7 +17,7 @@ from mdl.model.layout import Layout, LayoutError, layout
 from mdl.resolver.packing import mask_write, packing_problems
 
 if TYPE_CHECKING:
-    from mdl.lang.expr.fields import Compiled
+    from mdl.dsl.expr.fields import Compiled
 
 FLOAT_FIELDS = ("multiplier", "offset", "minimum", "maximum")  # every float element of MDL 1.0
 
@@ -67,7 +67,7 @@ def check_device(
             seen[fn.name] = fn.line
     by_name = {fn.name: fn for fn in device.functions}
     if any(fn.expression is not None for fn in device.functions):  # the expression compiler, when needed
-        from mdl.lang.expr.fields import compile_device
+        from mdl.dsl.expr.fields import compile_device
 
         for problem in compile_device(device, compiled):
             out.append(_expression_problem(problem.function, problem.message, problem.col, path))
@@ -114,7 +114,7 @@ def _check_fragments(fn: Function, lay: Layout, err: Report) -> None:
     ):
         if code is None or (attr == "write_function_code" and mask_write(fn)):
             continue
-        from mdl.lang.cfrag import FragmentError, check  # the fragment checker, when needed
+        from mdl.dsl.cfrag import FragmentError, check  # the fragment checker, when needed
 
         try:
             check(code, len(lay.addresses))

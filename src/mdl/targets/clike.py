@@ -11,8 +11,8 @@ from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Generic, Protocol, TypeVar
 
+from mdl.dsl.cfrag.tree import int_range
 from mdl.ir import steps as ir
-from mdl.lang.cfrag.tree import int_range
 from mdl.model import Function
 from mdl.model.layout import address_runs
 from mdl.targets.base import Run

@@ -17,9 +17,9 @@ import jinja2.bccache
 
 from mdl import __version__
 from mdl.diagnostics import error
+from mdl.dsl.cfrag.cemit import float_literal, literal
 from mdl.fileio import remove_leftovers, would_change, write_atomic
 from mdl.ir.steps import MAX_EXPONENT
-from mdl.lang.cfrag.cemit import float_literal, literal
 
 # each target's templates are under <target>/templates/ here
 TARGETS_DIR = Path(__file__).resolve().parent
@@ -137,7 +137,7 @@ def c_int64(value: int) -> str:
 
 def double_literal(x: float, parenthesized: bool = False) -> str:
     """A C, C++ or Python literal of a finite double: the shortest digits that read back as it
-    (Python's repr, mdl.lang.cfrag.cemit.float_literal), an int with all its digits and `.0`; a
+    (Python's repr, mdl.dsl.cfrag.cemit.float_literal), an int with all its digits and `.0`; a
     negative one as `(-d)` where `parenthesized`. ValueError for an infinity or NaN, which no literal
     spells (resolve refuses non-finite numbers before a target prints one)."""
     if not math.isfinite(x):

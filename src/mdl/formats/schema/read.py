@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import TextSpan, error, record_span
+from mdl.dsl.expr.ops import OpKind
 from mdl.formats.yamlnodes import List, Map, Node, Text, load_yaml, need, opt
-from mdl.lang.expr.ops import OpKind
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.model.addressing import AddressError, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS

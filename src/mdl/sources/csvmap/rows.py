@@ -9,8 +9,8 @@ from functools import partial
 from typing import TypeVar
 
 from mdl.diagnostics import shown
+from mdl.dsl.cfrag import FragmentError, check
 from mdl.exchange.text import unwritable
-from mdl.lang.cfrag import FragmentError, check
 from mdl.model import BIT_TABLES, Function
 from mdl.model.layout import LayoutError, layout
 from mdl.sources.csvmap.cells import (

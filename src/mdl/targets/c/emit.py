@@ -5,7 +5,7 @@ The templates print each function's value IR (mdl.ir.steps) with one Jinja macro
 (declarations, reads and writes, read_all's parts) and mdl.targets.c.plan the read plan's tables.
 This module gathers what they print: each function's steps, C types and the registers it reads,
 the read plan, and the runtime the driver carries (the .c files of runtime/, fragments' helpers
-from mdl.lang.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
+from mdl.dsl.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
 allocates at run time: every buffer is an array of a size known when the driver is generated.
 """
 
@@ -21,10 +21,10 @@ import jinja2
 
 from mdl import __version__
 from mdl.diagnostics import error
+from mdl.dsl.cfrag import INCLUDES as FRAGMENT_INCLUDES
+from mdl.dsl.cfrag import CFragment, helpers_source
+from mdl.dsl.expr.ops import OpKind
 from mdl.ir import steps as ir
-from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
-from mdl.lang.cfrag import CFragment, helpers_source
-from mdl.lang.expr.ops import OpKind
 from mdl.model import Function
 from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike

@@ -1,4 +1,4 @@
-"""Lowered expression operations (mdl.lang.expr.lower) -> straight-line C99, and the runtime they call
+"""Lowered expression operations (mdl.dsl.expr.lower) -> straight-line C99, and the runtime they call
 (runtime/expr.c: `runtime(exprs)` copies the parts the driver uses).
 
 Every value is a pair: the value `tN` (or parameter `pN`) and its presence `tN_has` (`pN_has`); an
@@ -17,8 +17,8 @@ from collections.abc import Callable, Hashable, Mapping
 from functools import cache
 from pathlib import Path
 
-from mdl.lang.expr.lower import Lowered
-from mdl.lang.expr.ops import Op, OpKind, printer
+from mdl.dsl.expr.lower import Lowered
+from mdl.dsl.expr.ops import Op, OpKind, printer
 from mdl.model.layout import MAX_REGISTERS
 from mdl.targets.templating import RuntimePart, c_int64, ctext, double_literal, pick
 
@@ -292,7 +292,7 @@ def _bitset(op: Op, t: str, a: str, n: int) -> list[str]:
     ]
 
 
-# the statements of each operation kind (mdl.lang.expr.ops says what each computes)
+# the statements of each operation kind (mdl.dsl.expr.ops says what each computes)
 PRINTER: Mapping[OpKind, Print] = printer(
     {
         OpKind.LIT: _lit,

@@ -4,7 +4,7 @@ The driver compiles without a warning under `-Wall -Wextra -Wpedantic -Wconversi
 and clang++) and passes the clang-tidy checks docs/cpp-api.md lists: every conversion is spelled
 out, every buffer is a std::array of a size known here, and read_all allocates nothing of its own.
 Values are packed and unpacked with the generated code's own shifts for every byte and word order
-(libmodbus 3.1.6's float helpers do not round-trip). Fragments are printed by mdl.lang.cfrag (as C
+(libmodbus 3.1.6's float helpers do not round-trip). Fragments are printed by mdl.dsl.cfrag (as C
 drivers get them), expressions by mdl.targets.cpp.expressions; text from the input reaches comments through
 `ccomment` and string literals through `cstring` (mdl.targets.templating). The templates print each file's
 skeleton; what repeats for every function is printed in Python (mdl.targets.cpp.declarations for the
@@ -21,12 +21,12 @@ from typing import Any
 import jinja2
 
 from mdl import __version__
+from mdl.dsl.cfrag import INCLUDES as FRAGMENT_INCLUDES
+from mdl.dsl.cfrag import CFragment, helpers_source
+from mdl.dsl.expr.fields import plain_type
+from mdl.dsl.expr.lower import Lowered
 from mdl.ir import steps as ir
 from mdl.ir.steps import ValueType
-from mdl.lang.cfrag import INCLUDES as FRAGMENT_INCLUDES
-from mdl.lang.cfrag import CFragment, helpers_source
-from mdl.lang.expr.fields import plain_type
-from mdl.lang.expr.lower import Lowered
 from mdl.model import Function
 from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.targets import clike
@@ -215,7 +215,7 @@ class _Builder:
 
 def param_type(g: CppFunction) -> str:
     """The type of an expression decoder's parameter naming g: the one the expression language gives
-    g (an expression's own type; for a plain function mdl.lang.expr.fields.plain_type: int64_t for an
+    g (an expression's own type; for a plain function mdl.dsl.expr.fields.plain_type: int64_t for an
     integer, double for a float, a scaled or a fragment's value, bool, std::string). A UINT64 stays
     uint64_t: the expression takes its 64 bits as the long it sees (mdl.targets.cpp.expressions)."""
     if g.expr:
@@ -226,7 +226,7 @@ def param_type(g: CppFunction) -> str:
 
 
 def _functions(resolved: ResolvedDevice) -> tuple[dict[str, CppFunction], list[CFragment]]:
-    """Each function by identifier, and the C++ trees of the fragments (mdl.lang.cfrag.helpers_source)."""
+    """Each function by identifier, and the C++ trees of the fragments (mdl.dsl.cfrag.helpers_source)."""
     builder = _Builder(resolved)
     function = builder.function
     out = {f.ident: function(f) for f in resolved.functions}

@@ -13,8 +13,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from mdl.lang.expr.lower import Lowered
-from mdl.lang.expr.ops import Op, OpKind, printer
+from mdl.dsl.expr.lower import Lowered
+from mdl.dsl.expr.ops import Op, OpKind, printer
 from mdl.targets.templating import RuntimePart, c_int64, ctext, double_literal, pick
 
 CPP_TYPES = {
@@ -179,7 +179,7 @@ def _convert(pattern: str) -> Print:
     return _register(lambda op, decls: pattern.format(a=op.args[0]))
 
 
-# the statements of each operation kind (mdl.lang.expr.ops says what each computes)
+# the statements of each operation kind (mdl.dsl.expr.ops says what each computes)
 PRINTER: Mapping[OpKind, Print] = printer(
     {
         OpKind.LIT: _lit,

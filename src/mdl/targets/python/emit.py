@@ -20,11 +20,11 @@ from typing import Any
 import jinja2
 
 from mdl import __version__
+from mdl.dsl.cfrag import FALLIBLE
+from mdl.dsl.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
+from mdl.dsl.expr.pyemit import body as expr_body
 from mdl.ir import steps as ir
 from mdl.ir.steps import ValueType
-from mdl.lang.cfrag import FALLIBLE
-from mdl.lang.expr.pyemit import HELPERS_SOURCE as RUNTIME_SOURCE
-from mdl.lang.expr.pyemit import body as expr_body
 from mdl.model import Function
 from mdl.model.names import PY_HARD_KEYWORDS, camel, identifier
 from mdl.resolver import ResolvedDevice, ResolvedFunction
@@ -128,7 +128,7 @@ def value_type(vt: ValueType) -> str:
     return base + " | None" if vt.nullable else base
 
 
-# -- fragments: mdl.lang.cfrag translates them to Python (docs/fragments.md says what they compute)
+# -- fragments: mdl.dsl.cfrag translates them to Python (docs/fragments.md says what they compute)
 
 # what a translated fragment's errors (ArithmeticError) become in a driver: the device's registers
 # have no value, or the value written has no registers (docs/fragments.md)

@@ -21,8 +21,8 @@ from functools import cache
 from pathlib import Path
 from typing import Literal, NamedTuple
 
-from mdl.lang.cfrag.pyemit import bare, constant_value, register_ready, stored_constant
-from mdl.lang.cfrag.tree import (
+from mdl.dsl.cfrag.pyemit import bare, constant_value, register_ready, stored_constant
+from mdl.dsl.cfrag.tree import (
     COMPARISONS,
     FLOATS,
     INT_TYPES,

@@ -6,6 +6,6 @@ straight-line Python, which `mdl read` and `mdl test` run and Python drivers car
 target prints them itself (mdl.targets.cpp.expressions, mdl.targets.c.expressions).
 """
 
-from mdl.lang.expr.nodes import ExprError
+from mdl.dsl.expr.nodes import ExprError
 
 __all__ = ["ExprError"]

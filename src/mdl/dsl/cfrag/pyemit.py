@@ -7,7 +7,7 @@ from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any
 
-from mdl.lang.cfrag.tree import COMPARISONS, FLOATS, INT_TYPES, CNode, IntType, children, int_type_of
+from mdl.dsl.cfrag.tree import COMPARISONS, FLOATS, INT_TYPES, CNode, IntType, children, int_type_of
 
 HELPERS_SOURCE = (Path(__file__).parent / "pyhelpers.py").read_text(encoding="utf-8")
 # helpers whose errors a translated fragment can raise

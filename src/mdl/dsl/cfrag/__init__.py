@@ -18,10 +18,10 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from mdl.lang.cfrag.cemit import INCLUDES, CFragment, Dialect, helpers_source
-from mdl.lang.cfrag.lexer import FragmentError
-from mdl.lang.cfrag.parser import MAX_DEPTH, Statement, parse
-from mdl.lang.cfrag.pyemit import FALLIBLE, HELPERS_SOURCE, helpers_namespace, statement
+from mdl.dsl.cfrag.cemit import INCLUDES, CFragment, Dialect, helpers_source
+from mdl.dsl.cfrag.lexer import FragmentError
+from mdl.dsl.cfrag.parser import MAX_DEPTH, Statement, parse
+from mdl.dsl.cfrag.pyemit import FALLIBLE, HELPERS_SOURCE, helpers_namespace, statement
 
 __all__ = [
     "FALLIBLE",

@@ -16,7 +16,7 @@ import math
 import re
 from collections.abc import Iterable
 
-from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+from mdl.dsl.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
 from mdl.model.addressing import AddressError, address_range, address_run, match_address, whole_number
 from mdl.model.layout import MAX_ADDRESS
 

@@ -1,4 +1,4 @@
-/* Runtime of fragments translated to C and C++ (mdl.lang.cfrag.cemit; docs/fragments.md defines the
+/* Runtime of fragments translated to C and C++ (mdl.dsl.cfrag.cemit; docs/fragments.md defines the
  * results). Every operation C leaves undefined or implementation-defined is one of these
  * functions, with a defined result; errors are recorded in *e (the first one wins) and the
  * fragment's function returns -1 with errno set to it. mdl copies the functions a driver calls,

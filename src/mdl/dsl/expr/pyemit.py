@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from pathlib import Path
 
-from mdl.lang.cfrag import HELPERS_SOURCE as _C_HELPERS
-from mdl.lang.expr.lower import Lowered
-from mdl.lang.expr.ops import Op, OpKind, printer
+from mdl.dsl.cfrag import HELPERS_SOURCE as _C_HELPERS
+from mdl.dsl.expr.lower import Lowered
+from mdl.dsl.expr.ops import Op, OpKind, printer
 
 # the expression runtime, with the C-semantics helpers it shares (_fdiv); generated Python drivers
 # copy the functions they call from it (mdl.targets.python.emit)
@@ -51,7 +51,7 @@ def _arith(a: str, b: str, op: Op) -> str:
     return f"_x_long({expr})" if op.type == "long" else expr
 
 
-# one line of Python per operation kind (mdl.lang.expr.ops says what each computes)
+# one line of Python per operation kind (mdl.dsl.expr.ops says what each computes)
 PRINTER = printer(
     {
         OpKind.LIT: lambda op: f"{op.tmp} = {op.data['value']!r}",

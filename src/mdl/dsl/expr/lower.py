@@ -4,7 +4,7 @@ Types: long (64-bit signed), double, string, bool, list (of strings, from bitset
 values, only as function arguments). Every value may be null: a "not implemented" value, a
 missing register, or a null operand make an operation null; concat prints a null as ''.
 
-An operation is Op(tmp, kind, type, args, data) (mdl.lang.expr.ops: what each kind computes); args
+An operation is Op(tmp, kind, type, args, data) (mdl.dsl.expr.ops: what each kind computes); args
 name earlier temps or parameters.
 """
 
@@ -14,8 +14,8 @@ from collections.abc import Hashable, Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from mdl.lang.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
-from mdl.lang.expr.ops import Op, OpData, OpKind
+from mdl.dsl.expr.nodes import Binary, Bool, Call, Constant, ExprError, Node, Num, Ref, Registers, Str, Swap, Unary
+from mdl.dsl.expr.ops import Op, OpData, OpKind
 from mdl.model import BIT_TABLES
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 

@@ -8,10 +8,10 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from mdl.lang.expr.lower import Lowered, lower, scan
-from mdl.lang.expr.nodes import ExprError, Node
-from mdl.lang.expr.parser import MAX_DEPTH, FieldIndex, parse
-from mdl.lang.expr.pyemit import HELPERS_SOURCE, body, signature
+from mdl.dsl.expr.lower import Lowered, lower, scan
+from mdl.dsl.expr.nodes import ExprError, Node
+from mdl.dsl.expr.parser import MAX_DEPTH, FieldIndex, parse
+from mdl.dsl.expr.pyemit import HELPERS_SOURCE, body, signature
 from mdl.model import CompiledExpression, Device, Function, Value
 from mdl.model.layout import MAX_REGISTERS
 

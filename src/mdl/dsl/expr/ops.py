@@ -1,6 +1,6 @@
-"""The straight-line operations an expression lowers to (mdl.lang.expr.lower), each kind with
+"""The straight-line operations an expression lowers to (mdl.dsl.expr.lower), each kind with
 exactly what it computes, as mdl.ir.steps does for the value IR's steps: every printer (Python,
-mdl.lang.expr.pyemit; C++, mdl.targets.cpp.expressions; C, mdl.targets.c.expressions) is a table
+mdl.dsl.expr.pyemit; C++, mdl.targets.cpp.expressions; C, mdl.targets.c.expressions) is a table
 with one entry per kind (`printer` checks it), so a kind added here is printed everywhere or
 fails at import.
 

@@ -1,6 +1,6 @@
 """Parse and type-check a fragment: statements `target op= expression;` over r1..rn and arg.
 
-The result is a list of typed trees (mdl.lang.cfrag.tree), compound assignments written out and
+The result is a list of typed trees (mdl.dsl.cfrag.tree), compound assignments written out and
 checked as `target = target op value`. Besides the subset's grammar and types, the checker
 refuses what a C compiler would reject or warn about: constant expressions that overflow a signed
 type or have no value (`2147483647 + 1`, `(int)1e10`), division by a constant zero, shifts by a
@@ -17,9 +17,9 @@ from decimal import Decimal
 from fractions import Fraction
 from typing import NamedTuple
 
-from mdl.lang.cfrag.lexer import FragmentError, Token, tokenize
-from mdl.lang.cfrag.pyemit import emit, evaluate, store
-from mdl.lang.cfrag.tree import (
+from mdl.dsl.cfrag.lexer import FragmentError, Token, tokenize
+from mdl.dsl.cfrag.pyemit import emit, evaluate, store
+from mdl.dsl.cfrag.tree import (
     CASTS,
     COMPARISONS,
     FLOATS,
