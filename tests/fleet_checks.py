@@ -12,7 +12,7 @@ from typing import Any
 import yaml
 
 from mdl.diagnostics import one_line
-from mdl.engines.esphome_names import display_name, object_id
+from mdl.exports.esphome_names import display_name, object_id
 from mdl.sources.loading import load_resolved
 
 ESPHOME_KEYS = {"esphome", "esp32", "uart", "modbus", "modbus_controller"}

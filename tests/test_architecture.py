@@ -72,7 +72,7 @@ STAGES = [
     "sources",
     "targets",
     "device",
-    "engines",
+    "exports",
     "api",
     "mdl",  # the package itself: `import mdl` is the library, mdl.api's calls (SPEC 16)
     "cli",
@@ -87,7 +87,7 @@ def test_the_graph_sees_known_edges():
     assert {"model", "dsl", "ir"} <= graph["resolver"]
     assert "resolver" in graph["targets"] and "model" in graph["dsl"]
     assert {"exchange", "resolver"} <= graph["formats"] and "formats" in graph["sources"]
-    assert {"device", "formats", "exchange"} <= graph["engines"] and "exchange" in graph["device"]
+    assert {"device", "formats", "exchange"} <= graph["exports"] and "exchange" in graph["device"]
 
 
 def test_the_stages_keep_their_order():
@@ -114,9 +114,9 @@ def test_every_unit_has_its_place():
 
 
 def test_registries_and_their_members_do_not_import_each_other():
-    """A registry (`formats/__init__.py`, `engines/__init__.py`) names its members; a member imports the
+    """A registry (`formats/__init__.py`, `exports/__init__.py`) names its members; a member imports the
     shared types below both (mdl.exchange), never its registry back."""
-    for registry in ("formats", "engines"):
+    for registry in ("formats", "exports"):
         for path in (SRC / registry).rglob("*.py"):
             if path == SRC / registry / "__init__.py":
                 continue

@@ -211,8 +211,8 @@ def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
     import random
 
     from mdl.diagnostics import MdlError
-    from mdl.engines import export as export_to
     from mdl.exchange.export import Settings
+    from mdl.exports import export as export_to
     from mdl.sources.loading import load_resolved
 
     rng = random.Random(13)
@@ -281,7 +281,7 @@ def test_every_unit_spelling_is_one_home_assistant_accepts(tmp_path):
     """A sensor for every spelling the unit table knows (Home Assistant's, the vendors', the words), through
     `modbus: !include modbus.yaml` and Home Assistant's schema: each device_class with a unit and a
     state_class it takes, Volts as V, kWh a counter (total_increasing)."""
-    from mdl.engines import ha_units
+    from mdl.exports import ha_units
     from mdl.model import units
 
     spellings = sorted(

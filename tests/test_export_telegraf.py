@@ -505,8 +505,8 @@ def test_random_descriptions_export_or_refuse_cleanly(functions):
     from conftest import device_xml
 
     from mdl.diagnostics import MdlError
-    from mdl.engines import export
     from mdl.exchange.export import Settings
+    from mdl.exports import export
 
     xml = "".join(fn_xml(f"f{i}", address, **fields) for i, (fields, address) in enumerate(functions))
     with tempfile.TemporaryDirectory() as tmp:

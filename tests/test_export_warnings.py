@@ -21,7 +21,7 @@ from conftest import DATA, EXAMPLE, assert_clean_error, cli, device_xml, fn_xml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from mdl.engines.ha_units import CLASSES, ha_unit
+from mdl.exports.ha_units import CLASSES, ha_unit
 
 ENGINES = {"homeassistant": "Home Assistant", "telegraf": "Telegraf", "volttron": "VOLTTRON"}
 CASES = [EXAMPLE / "temco_tstat.xml", DATA / "all_tables.xml"]

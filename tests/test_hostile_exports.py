@@ -22,7 +22,7 @@ from conftest import MDL_NS, assert_clean_error, cli
 from fleet_checks import check_esphome, check_thingsboard
 
 from mdl.device.output import capability
-from mdl.engines.ha_units import ha_unit
+from mdl.exports.ha_units import ha_unit
 from mdl.formats.wise.read import read_wise
 from mdl.sources.loading import load_resolved
 

@@ -126,9 +126,9 @@ def export(device: Device, to: str, out: StrPath, **options: Any) -> list[Diagno
     VOLTTRON's files go in). Options as the command's: `connection` (a URL such as
     "tcp://192.0.2.10:502" or a Connection), `unit`, `interval` (seconds), `board`, `tx_pin`, `rx_pin`.
     The warnings the format's losses give (one per kind of loss, naming the functions)."""
-    from mdl.engines import export as export_engine
-    from mdl.engines import outputs
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
+    from mdl.exports import export as export_engine
+    from mdl.exports import outputs
     from mdl.fileio import all_or_none, write_atomic
 
     if to not in outputs():

@@ -19,7 +19,7 @@ from conftest import cli
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
-from mdl import engines, formats
+from mdl import exports, formats
 
 EXAMPLES = int(os.environ.get("MDL_FUZZ_FORMATS", "150"))
 SUFFIXES = [
@@ -114,7 +114,7 @@ def test_a_file_name_decides_before_the_file_and_xif_before_wise(tmp_path):
 def test_the_registry_gives_import_and_export_their_choices():
     """`mdl import --from` offers every format, `mdl export --to` the formats that write and then the engines."""
     assert formats.names() == ["xif", "wise", "schema", "sunspec"]
-    assert list(engines.outputs()) == [
+    assert list(exports.outputs()) == [
         "xif",
         "wise",
         "senml",
@@ -124,6 +124,6 @@ def test_the_registry_gives_import_and_export_their_choices():
         "esphome",
         "thingsboard",
     ]
-    for command, names in (("import", formats.names()), ("export", list(engines.outputs()))):
+    for command, names in (("import", formats.names()), ("export", list(exports.outputs()))):
         proc = cli(command, "--help")
         assert f"[{'|'.join(names)}]" in " ".join(proc.stdout.split()), proc.stdout

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from mdl import engines, formats
+from mdl import exports, formats
 from mdl.cli.app import main
 from mdl.cli.options import (
     FAIL_ON_WARNING,
@@ -173,8 +173,8 @@ def import_(
     "--to",
     "fmt",
     required=True,
-    type=click.Choice(list(engines.outputs()), case_sensitive=False),
-    help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in engines.outputs().items()) + ".",
+    type=click.Choice(list(exports.outputs()), case_sensitive=False),
+    help="Output format: " + "; ".join(f"{k}: {v.summary}" for k, v in exports.outputs().items()) + ".",
 )
 @click.option(
     "-o",
@@ -241,7 +241,7 @@ def export_(
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
     from mdl.fileio import all_or_none, write_atomic
 
-    if engines.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
+    if exports.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
     given = click.get_current_context().get_parameter_source
     node = [n for n in ("board", "tx_pin", "rx_pin") if given(n) is not click.core.ParameterSource.DEFAULT]
@@ -255,13 +255,13 @@ def export_(
     if profile is not None and names.lower() != "roles":
         raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")
     if names.lower() == "roles":
-        from mdl.engines.role_names import named_by_roles
+        from mdl.exports.role_names import named_by_roles
         from mdl.profiles.load import load_profile
 
         resolved, said = named_by_roles(resolved, load_profile(profile) if profile else None)
         for diag in said:
             say(diag)
-    result = engines.export(resolved, fmt, settings)
+    result = exports.export(resolved, fmt, settings)
     report_warnings(result.warnings, file)
     if result.text is not None:
         emit_text(result.text, output)

@@ -389,7 +389,7 @@ def _read_targets(
         raise click.UsageError(NO_CONNECTION)
     else:
         targets = [fleet.Target(str(file), file, connection, unit)]
-    from mdl.engines.ha_units import ha_unit
+    from mdl.exports.ha_units import ha_unit
 
     sinks: list[fleet.Sink] = []
     for url in publish:

@@ -427,7 +427,7 @@ def redacted(url: str) -> str:
 def publisher(url: str, err: TextIO, classify: Classify | None = None, mqtt_ca: Path | None = None) -> Sink:
     """The publisher a --publish URL names (mqtt://, mqtts://, prometheus://); ValueError saying what is
     wrong, never quoting a password. `classify`: Home Assistant's classes of a unit
-    (mdl.engines.ha_units.ha_unit), for MQTT discovery; `mqtt_ca`: the CA certificates of mqtts://
+    (mdl.exports.ha_units.ha_unit), for MQTT discovery; `mqtt_ca`: the CA certificates of mqtts://
     (the system's without it), MdlError (exit 1) if the file holds none."""
     scheme = url.partition("://")[0].lower()
     if scheme in ("mqtt", "mqtts"):

@@ -73,7 +73,7 @@ Message = tuple[str, bytes]
 
 
 class UnitClasses(Protocol):
-    """A unit as Home Assistant spells and classes it (mdl.engines.ha_units.HaUnit, which the command hands
+    """A unit as Home Assistant spells and classes it (mdl.exports.ha_units.HaUnit, which the command hands
     in: the engines are a later stage than device/)."""
 
     @property

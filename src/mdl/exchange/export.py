@@ -1,7 +1,7 @@
 """What `mdl export` hands a writer and gets back (SPEC 7, 11): the command line's `Settings` (where the
 device is, its unit, how often to poll it) and an `Export`: one text (stdout or `-o FILE`) or a folder of
 files (`-o DIR`), and a warning for each thing the format cannot express, naming the functions: nothing
-is silently dropped or changed. A `Writer` is a format's (mdl.formats) or an engine's (mdl.engines)."""
+is silently dropped or changed. A `Writer` is a format's (mdl.formats) or an engine's (mdl.exports)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """How an export says what it loses (SPEC 11, issue 20): one warning per kind of loss, naming every function it
 concerns, each with its own detail where the kind needs one (`functions 'a', 'b' (0xFFFF): Telegraf: ...`),
-at the first function's line. The engines (mdl.engines) and the formats that write (XIF, WISE) share it."""
+at the first function's line. The engines (mdl.exports) and the formats that write (XIF, WISE) share it."""
 
 from __future__ import annotations
 

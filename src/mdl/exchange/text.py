@@ -1,6 +1,6 @@
 """Text in outputs: what MDL (XML 1.0) cannot carry (`unwritable`), and the encoders every writer of
 another format uses (docs/fleet.md, "Text in exports": `comment_text`, `toml_string`, `json_text`,
-`spreadsheet_cell`; YAML's in mdl.engines.homeassistant), so that no name, unit or description can end a
+`spreadsheet_cell`; YAML's in mdl.exports.homeassistant), so that no name, unit or description can end a
 comment, a string or a cell early and become configuration of its own.
 
 Printable: what str.isprintable() says (every character but the Unicode "Other" and "Separator" ones,

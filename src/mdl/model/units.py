@@ -1,7 +1,7 @@
 """Units as vendors write them and as mdl spells them: one home for the spellings (`Volts`, `KWH`, `degC`,
 `m3` -> `V`, `kWh`, `°C`, `m³`), the symbols that are a guess (`C` for degrees Celsius), and how each
 spelling converts to the SI unit of its quantity (`kWh` -> 1000 `Wh`, `°F` -> `°C`). Home Assistant's
-export (mdl.engines.ha_units) and profiles (mdl.profiles) read them.
+export (mdl.exports.ha_units) and profiles (mdl.profiles) read them.
 
 Symbols are matched as written (case matters: mW and MW differ), after trimming spaces; words
 (`volts`, `Celsius`, `kilowatt hours`) in any case.

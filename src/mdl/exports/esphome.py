@@ -29,7 +29,10 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from mdl.engines.base import (
+from mdl.exchange.connection import LINE_ONLY, Endpoint
+from mdl.exchange.export import Export
+from mdl.exchange.text import comment_text
+from mdl.exports.base import (
     Notes,
     bits_detail,
     decimals,
@@ -43,13 +46,10 @@ from mdl.engines.base import (
     warn_patterns,
     written_by_fragment,
 )
-from mdl.engines.esphome_names import UNIT_MAX_BYTES, Names, display_name, inert, node_name
-from mdl.engines.esphome_types import FLOAT_EXACT, ValueType, rounds, value_type, with_bits
-from mdl.engines.ha_units import ROLE_CLASSES, ha_unit
-from mdl.engines.homeassistant import _Dumper
-from mdl.exchange.connection import LINE_ONLY, Endpoint
-from mdl.exchange.export import Export
-from mdl.exchange.text import comment_text
+from mdl.exports.esphome_names import UNIT_MAX_BYTES, Names, display_name, inert, node_name
+from mdl.exports.esphome_types import FLOAT_EXACT, ValueType, rounds, value_type, with_bits
+from mdl.exports.ha_units import ROLE_CLASSES, ha_unit
+from mdl.exports.homeassistant import _Dumper
 from mdl.ir.steps import Bits, find_step
 
 if TYPE_CHECKING:

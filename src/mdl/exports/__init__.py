@@ -32,20 +32,20 @@ class Output:
 
 
 ENGINES = (
-    Output("senml", "the WISE guide's SenML capability document", lazy("mdl.engines.senml", "export_capability")),
+    Output("senml", "the WISE guide's SenML capability document", lazy("mdl.exports.senml", "export_capability")),
     Output(
         "volttron",
         "VOLTTRON Modbus-TK driver files (a folder)",
-        lazy("mdl.engines.volttron", "export_volttron"),
+        lazy("mdl.exports.volttron", "export_volttron"),
         folder=True,
     ),
-    Output("homeassistant", "Home Assistant modbus: YAML", lazy("mdl.engines.homeassistant", "export_homeassistant")),
-    Output("telegraf", "Telegraf [[inputs.modbus]] TOML", lazy("mdl.engines.telegraf", "export_telegraf")),
-    Output("esphome", "an ESPHome node with modbus_controller (YAML)", lazy("mdl.engines.esphome", "export_esphome")),
+    Output("homeassistant", "Home Assistant modbus: YAML", lazy("mdl.exports.homeassistant", "export_homeassistant")),
+    Output("telegraf", "Telegraf [[inputs.modbus]] TOML", lazy("mdl.exports.telegraf", "export_telegraf")),
+    Output("esphome", "an ESPHome node with modbus_controller (YAML)", lazy("mdl.exports.esphome", "export_esphome")),
     Output(
         "thingsboard",
         "the ThingsBoard IoT Gateway's Modbus connector (JSON)",
-        lazy("mdl.engines.thingsboard", "export_thingsboard"),
+        lazy("mdl.exports.thingsboard", "export_thingsboard"),
     ),
 )
 

@@ -47,7 +47,9 @@ import re
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import error
-from mdl.engines.base import (
+from mdl.exchange.export import Export
+from mdl.exchange.text import json_text, spreadsheet_cell
+from mdl.exports.base import (
     Notes,
     bit_in_register,
     bits_detail,
@@ -64,8 +66,6 @@ from mdl.engines.base import (
     write_code,
     written_by_fragment,
 )
-from mdl.exchange.export import Export
-from mdl.exchange.text import json_text, spreadsheet_cell
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings

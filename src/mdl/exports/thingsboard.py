@@ -20,7 +20,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from mdl.engines.base import (
+from mdl.exchange.export import Export
+from mdl.exchange.text import json_text
+from mdl.exports.base import (
     Notes,
     bits_detail,
     connection_of,
@@ -34,8 +36,6 @@ from mdl.engines.base import (
     write_code,
     written_by_fragment,
 )
-from mdl.exchange.export import Export
-from mdl.exchange.text import json_text
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings

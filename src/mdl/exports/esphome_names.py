@@ -14,7 +14,7 @@ import re
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from mdl.engines.base import Notes
+    from mdl.exports.base import Notes
     from mdl.resolver import ResolvedFunction
 
 NAME_MAX_BYTES = 120  # esphome.config_validation NAME_MAX_LENGTH, and FRIENDLY_NAME_MAX_LEN

@@ -41,7 +41,9 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from mdl.engines.base import (
+from mdl.exchange.export import Export
+from mdl.exchange.text import comment_text
+from mdl.exports.base import (
     Notes,
     bit_in_register,
     bits_detail,
@@ -58,9 +60,7 @@ from mdl.engines.base import (
     write_code,
     written_by_fragment,
 )
-from mdl.engines.ha_units import ROLE_CLASSES, ha_unit
-from mdl.exchange.export import Export
-from mdl.exchange.text import comment_text
+from mdl.exports.ha_units import ROLE_CLASSES, ha_unit
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings

@@ -33,7 +33,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from mdl.engines.base import (
+from mdl.exchange.export import Export
+from mdl.exchange.text import comment_text, toml_string
+from mdl.exports.base import (
     Notes,
     bit_in_register,
     bits_detail,
@@ -47,8 +49,6 @@ from mdl.engines.base import (
     register_bit,
     scale_of,
 )
-from mdl.exchange.export import Export
-from mdl.exchange.text import comment_text, toml_string
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
