@@ -91,7 +91,7 @@ def cli(*args) -> None:
 
 
 def main() -> int:
-    from mdl.formats.schema.read import import_schema
+    from mdl.formats.toolkit.read import import_schema
     from mdl.targets import render
 
     with tempfile.TemporaryDirectory() as d:

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import mdl.formats.schema.read as toolkit
+import mdl.formats.toolkit.read as toolkit
 import mdl.formats.yamlnodes as yamlnodes
 from mdl.device.evaluate import Evaluator
 from mdl.device.scenarios import run_scenario

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from mdl.device.scenarios import run_scenario
 from mdl.diagnostics import MdlError
-from mdl.formats.schema.read import import_schema
+from mdl.formats.toolkit.read import import_schema
 from mdl.formats.yamlnodes import MAX_YAML_DEPTH
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / "examples" / "toolkit_heat_pump" / "heat_pump.yaml").read_text()

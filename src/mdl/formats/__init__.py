@@ -1,6 +1,6 @@
 """The device description formats other than MDL, one package per format (SPEC 7): `xif/` (SmartServer
-`.mod`), `wise/` (WISE-Agent `Modbus.ini`), `schema/` (Modbus Schema Toolkit YAML) and `sunspec/` (SunSpec
-model definitions, read only), each with its
+`.mod`), `wise/` (WISE-Agent `Modbus.ini`), `toolkit/` (Modbus Schema Toolkit YAML, the format
+`schema`) and `sunspec/` (SunSpec model definitions, read only), each with its
 `read.py` (a file -> the document model) and, where the format is an output too, its `write.py` (a
 resolved device -> an mdl.exchange.export.Export).
 
@@ -81,9 +81,9 @@ FORMATS = (
     Format(
         "schema",
         "Modbus Schema Toolkit YAML",
-        lazy("mdl.formats.schema.read", "read_schema"),
+        lazy("mdl.formats.toolkit.read", "read_schema"),
         suffixes=(".yaml", ".yml"),
-        imported=lazy("mdl.formats.schema.read", "with_registers"),
+        imported=lazy("mdl.formats.toolkit.read", "with_registers"),
     ),
     Format(
         "sunspec",
