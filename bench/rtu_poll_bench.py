@@ -14,9 +14,9 @@ the client on the other end, both at --baud (115200) and --parity/--stopbits (8N
 pseudo terminals refuse parity E or O). Without socat the RTU row is skipped with the reason.
 
 What is measured. The client runs in this process and is exactly `mdl read --interval`: the
-device loaded as the CLI loads it, a `mdl.device.runtime.Session`, and `mdl.device.poll.poll`
+device loaded as the CLI loads it, a `mdl.device.runtime.Session`, and `mdl.device.fleet.poll.poll`
 writing its records (--format, csv by default) to /dev/null. `poll` runs each poll as one call of
-`mdl.device.poll._poll_once` (connect if need be, `Session.read` of every readable function by the
+`mdl.device.fleet.poll._poll_once` (connect if need be, `Session.read` of every readable function by the
 plan, the record formatted, written and flushed); the wait for the next poll's start
 (`Stopper.sleep_until`) lies outside that call. The bench wraps `_poll_once` and times each call
 with time.perf_counter (wall) and time.process_time (this process's CPU), so a poll's figure is its
@@ -175,7 +175,7 @@ class Result:
 
 
 def measure(xml: Path, connection: Any, polls: int, interval: float, fmt: str) -> Result:
-    from mdl.device import poll as polling
+    from mdl.device.fleet import poll as polling
     from mdl.device.runtime import Session
     from mdl.sources.loading import load_resolved
 

@@ -28,7 +28,7 @@ from test_cpp_driver import (
     served_device,
 )
 
-from mdl.device.scenarios import matches
+from mdl.device.server.scenarios import matches
 from mdl.sources.loading import load_any
 from mdl.sources.mdlxml import load_device
 from mdl.targets import render

@@ -148,8 +148,9 @@ def test_a_write_only_functions_registers_are_captured_too(write_device, sim_fac
 def test_a_write_only_register_the_device_will_not_read_is_a_warning(write_device, monkeypatch):
     """However the device refuses reading a write-only function's registers (any exception, a timeout),
     the rest of the image is kept and a warning says what was not captured."""
-    from mdl.device import capture, runtime
+    from mdl.device import runtime
     from mdl.device.connection import Connection
+    from mdl.device.survey import capture
     from mdl.sources.loading import load_resolved
 
     path = write_device(fn_xml("level", 0, format="UINT16") + fn_xml("reset", 10, format="UINT16", access="write"))

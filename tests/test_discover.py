@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
 
-from mdl.device.discover import parse_units
+from mdl.device.survey.discover import parse_units
 
 EXAMPLES = ROOT / "examples" / "discovery"
 RUN = 60

@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mdl.device import output
-from mdl.device.fleet import device_ids, looks_like_target, parse_target
+from mdl.device.fleet.run import device_ids, looks_like_target, parse_target
 from mdl.model import Function
 
 ALL = DATA / "all_tables.xml"

@@ -84,7 +84,7 @@ def test_two_sites_under_two_prefixes_never_share_an_entity(tmp_path, sim_factor
 
 
 def test_node_ids_tell_every_prefix_apart():
-    from mdl.device.publish_mqtt import node_id
+    from mdl.device.fleet.mqtt import node_id
 
     nodes = [node_id(p, d) for p, d in [("a/b", "c"), ("a_b", "c"), ("a", "b_c"), ("a-b", "c"), ("a/b", "c_d")]]
     assert len(set(nodes)) == len(nodes)
@@ -282,7 +282,7 @@ def test_a_bad_ca_file_is_a_clear_error(tmp_path):
 
 
 def test_mqtts_defaults_to_port_8883():
-    from mdl.device.publish_mqtt import parse_url
+    from mdl.device.fleet.mqtt import parse_url
 
     url = parse_url("mqtts://u:hunter2@broker.lan/site")
     assert (url.port, url.tls, str(url), url.password) == (8883, True, "mqtts://broker.lan:8883/site", "hunter2")

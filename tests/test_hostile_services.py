@@ -196,7 +196,7 @@ def test_clients_that_trickle_their_headers_never_hold_the_metrics_shut(sim_fact
 def test_the_gateway_serves_a_slow_lines_values_between_its_polls():
     """A poll that takes longer than the interval (a slow RTU line answering every request) leaves its
     values served until the next poll should have ended: a slow device is no silent one."""
-    from mdl.device.serve import Poller
+    from mdl.device.server.serve import Poller
 
     poller = Poller.__new__(Poller)
     poller.interval, poller.timeout = 1.0, 3.0

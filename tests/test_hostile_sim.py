@@ -16,7 +16,7 @@ from hostile_server import rtu_frame
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mdl.device.sim import LOG_PER_CLIENT, LOG_TOTAL
+from mdl.device.server.sim import LOG_PER_CLIENT, LOG_TOTAL
 
 ALL = DATA / "all_tables.xml"
 BURST = 3.0  # seconds each client of the burst sends bad frames

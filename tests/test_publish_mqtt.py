@@ -21,7 +21,7 @@ from conftest import DATA, _read_lines, assert_clean_error, mdl_cmd, run_mdl, sk
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.device.publish_mqtt import parse_url
+from mdl.device.fleet.mqtt import parse_url
 
 pytestmark = pytest.mark.engines  # a broker of its own
 
@@ -287,7 +287,7 @@ def test_a_full_queue_drops_polls_never_a_devices_status():
     outlive the values that follow it); a status not yet begun is superseded by the newer one (review)."""
     import io
 
-    from mdl.device.publish_mqtt import MqttPublisher, _Batch, parse_url
+    from mdl.device.fleet.mqtt import MqttPublisher, _Batch, parse_url
 
     pub = MqttPublisher(parse_url("mqtt://127.0.0.1:1/p?queue=2"), io.StringIO())  # never started: a queue only
     pub._status("d", b"offline", "t0")
@@ -299,7 +299,7 @@ def test_a_full_queue_drops_polls_never_a_devices_status():
 
 
 def test_a_nan_is_published_as_null():
-    from mdl.device.publish_mqtt import _mqtt_value
+    from mdl.device.fleet.mqtt import _mqtt_value
     from mdl.model import Function
 
     fn = Function("t", "", [0], format="FLOAT32")

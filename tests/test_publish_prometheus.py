@@ -17,7 +17,7 @@ from conftest import DATA, _read_lines, assert_clean_error, fn_xml, mdl_cmd, run
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.device.publish_prometheus import parse_url
+from mdl.device.fleet.prometheus import parse_url
 
 parser = pytest.importorskip("prometheus_client.parser")
 

@@ -24,7 +24,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mdl.device.runtime import ModbusExceptionError
-from mdl.device.sunspec_discover import MAX_MODELS, _Walk, count_points, fit, group_length
+from mdl.device.sunspec.discover import MAX_MODELS, _Walk, count_points, fit, group_length
 from mdl.diagnostics import MdlError
 from mdl.formats.sunspec.build import build_chain
 from mdl.formats.sunspec.models import load_model, shipped_ids

@@ -353,7 +353,7 @@ def test_serve_refuses_a_bad_from(source, fragment):
 @settings(max_examples=150, deadline=None)
 @given(st.text(max_size=40))
 def test_any_from_text_is_a_connection_or_a_clean_error(text):
-    from mdl.device.serve import parse_from
+    from mdl.device.server.serve import parse_from
     from mdl.diagnostics import MdlError
 
     try:
@@ -368,7 +368,7 @@ def test_any_from_text_is_a_connection_or_a_clean_error(text):
 @functools.cache
 def _facade():
     """One facade of meter B whose source is `CURRENT` (a test sets the values it wants served)."""
-    from mdl.device.sunspec_gateway import FacadeRegisters, choose
+    from mdl.device.sunspec.gateway import FacadeRegisters, choose
     from mdl.sources.loading import load_resolved
 
     resolved = load_resolved(METERS / "meter_b.xml")

@@ -12,7 +12,7 @@ from conftest import REFERENCE, ROOT, Sim, assert_clean_error, cli, import_gener
 from cpp_harness import Harness, build
 from pymodbus.client import ModbusTcpClient
 
-from mdl.device.scenarios import matches
+from mdl.device.server.scenarios import matches
 from mdl.model.names import stem
 from mdl.sources.loading import load_any, load_resolved
 from mdl.targets import render

@@ -1,4 +1,4 @@
-"""Fuzzing `mdl read --raw`'s ranges and `--as` grouping (mdl.device.rawread), and `mdl probe`'s --range,
+"""Fuzzing `mdl read --raw`'s ranges and `--as` grouping (mdl.device.survey.rawread), and `mdl probe`'s --range,
 --bauds and --tables: any text is a range inside the address space or a ValueError, never another exception;
 a range printed reads back as itself; the values of a range cover exactly its registers.
 MDL_FUZZ_EXAMPLES=20000 runs the long budget by hand."""
@@ -10,8 +10,8 @@ import os
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.device.probe_options import parse_bauds, parse_list, parse_span
-from mdl.device.rawread import AS_TYPES, RAW_TABLES, RawRange, parse_raw_range, raw_functions
+from mdl.device.survey.probe_options import parse_bauds, parse_list, parse_span
+from mdl.device.survey.rawread import AS_TYPES, RAW_TABLES, RawRange, parse_raw_range, raw_functions
 from mdl.model.layout import MAX_ADDRESS, layout
 
 EXAMPLES = int(os.environ.get("MDL_FUZZ_EXAMPLES", "200"))

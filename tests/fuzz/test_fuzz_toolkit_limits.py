@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 import mdl.formats.toolkit.read as toolkit
 import mdl.formats.yamlnodes as yamlnodes
 from mdl.device.evaluate import Evaluator
-from mdl.device.scenarios import run_scenario
+from mdl.device.server.scenarios import run_scenario
 from mdl.diagnostics import MdlError
 from mdl.resolver import resolve
 

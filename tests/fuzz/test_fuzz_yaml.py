@@ -9,7 +9,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from mdl.device.scenarios import run_scenario
+from mdl.device.server.scenarios import run_scenario
 from mdl.diagnostics import MdlError
 from mdl.formats.toolkit.read import import_schema
 from mdl.formats.yamlnodes import MAX_YAML_DEPTH

@@ -90,8 +90,8 @@ def sim(
     On a serial line (a pseudo terminal pair for a try: socat -d -d pty,raw,echo=0 pty,raw,echo=0):
       mdl sim examples/temco_tstat/temco_tstat.xml --serial /dev/pts/3 --baud 9600
     """
-    from mdl.device import sim as simulator
-    from mdl.device.scenarios import find_scenario
+    from mdl.device.server import sim as simulator
+    from mdl.device.server.scenarios import find_scenario
 
     stdin_once(files + registers)
     if as_ is None and profile is not None:
@@ -114,7 +114,7 @@ def sim(
             raise click.BadParameter(f"expected NAME=VALUE, got {item!r}", param_hint="--set")
         simulator.set_value(devices, name.strip(), value.strip())
     if as_ is not None:
-        from mdl.device.serve import run_sim
+        from mdl.device.server.serve import run_sim
 
         run_sim(files[0], loaded[files[0]], devices[0], profile, served[0], connection)
         return
@@ -177,7 +177,7 @@ def serve(
       $ mdl serve meter.xml --from 'rtu:///dev/ttyUSB0?baud=9600&parity=E#3' --as sunspec --port 502
       mdl serve examples/profiles/meter_a.xml --from 127.0.0.1:5030 --as sunspec --profile evcharger  # exit 1
     """
-    from mdl.device.serve import parse_from, run_serve
+    from mdl.device.server.serve import parse_from, run_serve
 
     polled, named = parse_from(source, poll_timeout, poll_retries)
     if named is not None and click.get_current_context().get_parameter_source("from_unit") is not (
@@ -321,7 +321,7 @@ def read(
       $ mdl read meter.xml@tcp://192.0.2.10#1 meter.xml@tcp://192.0.2.10#2 --interval 15 --publish prometheus://:9105
     """
     from mdl.device import output
-    from mdl.device.poll import poll
+    from mdl.device.fleet.poll import poll
     from mdl.device.runtime import Session
 
     if count is not None and interval is None:
@@ -330,7 +330,7 @@ def read(
         raise click.UsageError("--publish needs --interval (polling)")
     if mqtt_ca is not None and not any(url.lower().startswith("mqtts://") for url in publish):
         raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
-    from mdl.device.fleet import looks_like_target
+    from mdl.device.fleet.run import looks_like_target
 
     if isinstance(file, str) or publish or any(map(looks_like_target, names)):
         sys.exit(_read_targets(file, names, connection, unit, fmt, interval, count, publish, mqtt_ca))
@@ -365,10 +365,10 @@ def _read_targets(
     publish: tuple[str, ...],
     mqtt_ca: Path | None = None,
 ) -> int:
-    """`mdl read` of several FILE@CONNECTION targets, or of one FILE with --publish (mdl.device.fleet)."""
+    """`mdl read` of several FILE@CONNECTION targets, or of one FILE with --publish (mdl.device.fleet.run)."""
     from click.core import ParameterSource
 
-    from mdl.device import fleet
+    from mdl.device.fleet import run as fleet
 
     if isinstance(file, str):
         if connection is not None:
@@ -471,8 +471,8 @@ def raw_read(
     """`mdl read` without FILE: read (or poll) the `--raw` ranges and print them; the exit status. Usage
     errors (click's, exit 2) for no FILE and no --raw, FILE and --raw together, a bad range or --as."""
     from mdl.device import output
-    from mdl.device.poll import poll
-    from mdl.device.rawread import AS_TYPES, RawSession, parse_raw_range, raw_device, raw_functions
+    from mdl.device.fleet.poll import poll
+    from mdl.device.survey.rawread import AS_TYPES, RawSession, parse_raw_range, raw_device, raw_functions
 
     if not texts:
         raise click.UsageError("missing FILE: give a description to read, or --raw TABLE:RANGE (e.g. hr:0-9)")

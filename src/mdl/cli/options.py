@@ -37,13 +37,14 @@ INPUT = InputFile()
 
 
 class InputOrTarget(click.Path):
-    """An input file (INPUT), or a FILE@CONNECTION target of `mdl read` (kept as text: mdl.device.fleet parses it)."""
+    """An input file (INPUT), or a FILE@CONNECTION target of `mdl read` (kept as text: mdl.device.fleet.run
+    parses it)."""
 
     def __init__(self) -> None:
         super().__init__(path_type=Path, allow_dash=True, readable=False)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path | str:
-        from mdl.device.fleet import looks_like_target
+        from mdl.device.fleet.run import looks_like_target
 
         if isinstance(value, str) and looks_like_target(value):
             return value

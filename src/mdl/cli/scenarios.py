@@ -26,7 +26,7 @@ def test_(files: tuple[Path, ...]) -> None:
       mdl test examples/toolkit_heat_pump/heat_pump.yaml examples/toolkit_inverter/inverter.yaml
     """
     from mdl.device.evaluate import Evaluator
-    from mdl.device.scenarios import run_scenario
+    from mdl.device.server.scenarios import run_scenario
 
     stdin_once(files)
     passed = failed = 0

@@ -15,7 +15,7 @@ from mdl.cli.printer import emit_text, report_warnings, resolved_file, say
 from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
-    from mdl.device.probe_options import ProbeOptions
+    from mdl.device.survey.probe_options import ProbeOptions
 
 
 @main.command()
@@ -80,8 +80,8 @@ def discover(
             raise click.UsageError(f"{option} goes with --sunspec (the units to ask are --units)")
     if not files:
         raise click.UsageError("give the description FILE... to look for, or --sunspec")
-    from mdl.device.discover import discover as find
-    from mdl.device.discover import library_warnings, parse_units, render
+    from mdl.device.survey.discover import discover as find
+    from mdl.device.survey.discover import library_warnings, parse_units, render
 
     stdin_once(files)
     try:
@@ -98,7 +98,7 @@ def discover(
 
 def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int | None, output: Path | None) -> None:
     """`mdl discover --sunspec`: the MDL of the device's chain to `output` (stdout), written whole or not at all."""
-    from mdl.device.sunspec_discover import discover_sunspec
+    from mdl.device.sunspec.discover import discover_sunspec
     from mdl.resolver import resolve
     from mdl.sources.mdlxml import device_to_xml
     from mdl.sources.mdlxml.load import check_written
@@ -149,8 +149,8 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
       $ mdl probe --host 192.0.2.10 --units 1-10 --range 0-999
       $ mdl probe --serial /dev/ttyUSB0 --bauds 9600,19200 --parities N,E --units 1-32 --format json
     """
-    from mdl.device.probe import probe as run_probe
-    from mdl.device.probe import render
+    from mdl.device.survey.probe import probe as run_probe
+    from mdl.device.survey.probe import render
 
     options = probe_options(connection, **given)  # units, bauds, parities, tables, span, max_requests, rate
     results = run_probe(connection, options)
@@ -199,7 +199,7 @@ def capture(
       $ mdl probe --host 192.0.2.10 --units 1 --range 0-999 --format json > probe.json
       $ mdl capture --ranges probe.json --host 192.0.2.10 -o raw.json
     """
-    from mdl.device import capture as cap
+    from mdl.device.survey import capture as cap
 
     if (file is None) == (ranges is None):
         raise click.UsageError("give FILE (a description) or --ranges PROBE.json (from mdl probe), one of them")
@@ -238,9 +238,9 @@ def probe_options(
     """The options of `mdl probe` as the probe takes them; click.BadParameter (exit 2) naming the option
     that is wrong. --bauds and --parities default to the connection's --baud and --parity, and need
     --serial."""
-    from mdl.device.discover import parse_units
-    from mdl.device.probe_options import PARITIES, ProbeOptions, parse_bauds, parse_list, parse_span
-    from mdl.device.rawread import RAW_TABLES
+    from mdl.device.survey.discover import parse_units
+    from mdl.device.survey.probe_options import PARITIES, ProbeOptions, parse_bauds, parse_list, parse_span
+    from mdl.device.survey.rawread import RAW_TABLES
 
     if connection.serial is None and (bauds or parities):
         raise click.UsageError(f"{'--bauds' if bauds else '--parities'} tries serial settings: it needs --serial")

@@ -71,7 +71,7 @@ class Connection(Endpoint):
         return client
 
     def async_client(self, trace: Trace | None = None) -> ModbusBaseClient:
-        """An asyncio pymodbus client (mdl.device.fleet), not yet connected, that never reconnects on
+        """An asyncio pymodbus client (mdl.device.fleet.run), not yet connected, that never reconnects on
         its own: the poller connects again at its next poll, as the synchronous one does."""
         from pymodbus.client import AsyncModbusSerialClient, AsyncModbusTcpClient
 

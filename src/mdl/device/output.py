@@ -95,7 +95,7 @@ def _json_value(value: Value) -> Value:
 
 
 def json_value(fn: Function, value: Value) -> Value:
-    """A value as json records carry it (and MQTT payloads, mdl.device.publish_mqtt)."""
+    """A value as json records carry it (and MQTT payloads, mdl.device.fleet.mqtt)."""
     return _json_value(shown(fn, value, exact=True))
 
 

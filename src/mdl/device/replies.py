@@ -13,7 +13,7 @@ from pymodbus.constants import DeviceInformation
 from pymodbus.framer import FramerRTU
 
 from mdl.device.frames import MBAP, Wire, frames, rtu_frames
-from mdl.device.sim import IDENTIFICATION
+from mdl.device.server.sim import IDENTIFICATION
 from mdl.diagnostics import DeviceError
 
 OBJECT_NAMES = tuple(name for name, _ in IDENTIFICATION)  # the basic objects, by object id

@@ -74,7 +74,7 @@ ReadSteps = Generator[Request, list[int], dict[str, Value]]
 
 def drive(steps: ReadSteps, fetch: Callable[[Request], list[int]]) -> dict[str, Value]:
     """Run a read's steps (Session.read_steps) with `fetch` answering each request; a Modbus exception
-    is thrown back into the steps, which decide what it means. mdl.device.fleet drives the same steps
+    is thrown back into the steps, which decide what it means. mdl.device.fleet.run drives the same steps
     with an asyncio client."""
     try:
         req = next(steps)

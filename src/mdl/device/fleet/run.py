@@ -4,11 +4,11 @@ FILE@CONNECTION[#UNIT]...`, and `mdl read ... --interval S --publish URL`.
 A target is a description and where its device is: `meter.xml@tcp://10.0.0.5:502#3`,
 `meter.xml@rtu+tcp://10.0.0.6:4001#2` (RTU frames over TCP), `meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2`.
 Each target is polled by its own asyncio task on one event loop, on its own schedule (start to start,
-as mdl.device.poll), through a pymodbus asyncio client: a device that does not answer waits out its
+as mdl.device.fleet.poll), through a pymodbus asyncio client: a device that does not answer waits out its
 own timeout and delays no other. Devices on one serial line, or behind one RTU-over-TCP converter,
 share the line's client and take turns, as the bus makes them. Every poll goes to the sinks: the
 printer (records on stdout, naming their device when there are several) and the publishers
-(mdl.device.publish_mqtt, mdl.device.publish_prometheus).
+(mdl.device.fleet.mqtt, mdl.device.fleet.prometheus).
 """
 
 from __future__ import annotations
@@ -26,8 +26,8 @@ from pymodbus.exceptions import ModbusException
 
 from mdl.device import output
 from mdl.device.connection import Connection, split_host
+from mdl.device.fleet.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.frames import Wire
-from mdl.device.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.exchange.connection import DEVICE_PORT
@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from pymodbus.client import ModbusBaseClient
     from pymodbus.pdu import ModbusPDU
 
-    from mdl.device.publish_mqtt import Classify
+    from mdl.device.fleet.mqtt import Classify
     from mdl.plan import Request
     from mdl.resolver import ResolvedDevice, ResolvedFunction
 
@@ -431,13 +431,13 @@ def publisher(url: str, err: TextIO, classify: Classify | None = None, mqtt_ca: 
     (the system's without it), MdlError (exit 1) if the file holds none."""
     scheme = url.partition("://")[0].lower()
     if scheme in ("mqtt", "mqtts"):
-        from mdl.device import publish_mqtt
+        from mdl.device.fleet import mqtt as publish_mqtt
 
         parsed = publish_mqtt.parse_url(url)
         tls = publish_mqtt.tls_context(mqtt_ca) if parsed.tls else None
         return publish_mqtt.MqttPublisher(parsed, err, classify, tls)
     if scheme == "prometheus":
-        from mdl.device import publish_prometheus
+        from mdl.device.fleet import prometheus as publish_prometheus
 
         return publish_prometheus.PrometheusPublisher(publish_prometheus.parse_url(url), err)
     raise ValueError("publish to mqtt[s]://HOST[:PORT]/PREFIX or prometheus://[HOST]:PORT")

@@ -180,7 +180,7 @@ class Registers:
         """Registers from a test scenario. A register the scenario gives no value ("----", or none
         at all) or a read error ("xxxx") answers exception 2, as one the device lacks: drivers then
         read it as having no value, as `mdl test` does (the wire cannot carry the difference)."""
-        from mdl.device.scenarios import READ_ERROR, scenario_registers
+        from mdl.device.server.scenarios import READ_ERROR, scenario_registers
 
         given = scenario_registers(sc)
         for table, addresses in self.tables.items():

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from mdl.device.connection import Connection
-from mdl.device.discover import _say, _Unit
 from mdl.device.replies import LineLost
 from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.survey.discover import _say, _Unit
 from mdl.diagnostics import DeviceError, Diagnostic
 from mdl.formats.sunspec.build import BASES, END_ID, SUNS, _count_points, build_chain
 from mdl.formats.sunspec.models import TYPE_REGISTERS, ModelDef, load_model, models_dir

@@ -2,7 +2,7 @@
 poll of each device as Prometheus metrics, served with prometheus-client on http://HOST:PORT/metrics.
 
 One gauge per numeric function, `mdl_<function identifier>` (SPEC 3), labelled `device` (its name as
-mdl.device.fleet gives it) and `unit` (its Modbus unit id): devices of one description share the
+mdl.device.fleet.run gives it) and `unit` (its Modbus unit id): devices of one description share the
 metric. An enumeration is its number, a boolean 1 or 0; text and bitsets are not metrics (a note says
 which). A device whose last poll failed has no values, only `mdl_poll_up 0`; `mdl_poll_up` and
 `mdl_poll_timestamp_seconds` (of its last good poll) are there for every device. Without HOST, every
@@ -35,7 +35,7 @@ from prometheus_client.core import GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
 from mdl.device.connection import split_host
-from mdl.device.fleet import Polled, kind_of
+from mdl.device.fleet.run import Polled, kind_of
 from mdl.diagnostics import MdlError, error
 from mdl.exchange.connection import host_port
 from mdl.model import Function, Value
@@ -83,7 +83,7 @@ def metric_name(ident: str) -> str:
 
 
 class PrometheusPublisher(Collector):
-    """A sink of mdl.device.fleet and a prometheus-client collector of the last polls."""
+    """A sink of mdl.device.fleet.run and a prometheus-client collector of the last polls."""
 
     def __init__(self, url: PromUrl, err: TextIO) -> None:
         self.url, self.err = url, err

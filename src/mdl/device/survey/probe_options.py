@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from mdl.device.rawread import parse_raw_range
+from mdl.device.survey.rawread import parse_raw_range
 
 Span = tuple[int, int]  # first, last address (both included)
 

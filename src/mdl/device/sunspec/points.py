@@ -1,7 +1,7 @@
 """The SunSpec gateway's table (SPEC 13, docs/sunspec.md "Gateway"): which SunSpec models serve each
 profile, which point each role becomes (from mdl.formats.sunspec.roles, the table `mdl import --from
 sunspec` reads the other way), and the scale factors' ranges. Data only: the gateway
-(mdl.device.sunspec_gateway) reads it.
+(mdl.device.sunspec.gateway) reads it.
 
 A profile's candidate models are tried in order: the first whose trigger roles the device binds (any
 of them; none listed: always) is served, after model 1 (common). A point is one role's value, or a

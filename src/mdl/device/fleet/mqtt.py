@@ -2,7 +2,7 @@
 poll's values to an MQTT broker with paho-mqtt (TLS for mqtts://), and Home Assistant MQTT discovery configs.
 
 Topics (all retained, QoS 1, JSON): `PREFIX/<device>/<function>` {"value": V, "time": T} per function
-per poll (the device's name as mdl.device.fleet gives it, the function's identifier, SPEC 3);
+per poll (the device's name as mdl.device.fleet.run gives it, the function's identifier, SPEC 3);
 `PREFIX/<device>/$status` `online`/`offline` as the device's polls succeed or fail (`$` is in no
 identifier: a function named `status` keeps its own topic); `PREFIX/status` `online`, `offline` when mdl
 ends (the broker says it for mdl when the connection is lost: the will);
@@ -45,7 +45,7 @@ from paho.mqtt.enums import CallbackAPIVersion
 
 from mdl.device import output
 from mdl.device.connection import split_host
-from mdl.device.fleet import Polled, kind_of
+from mdl.device.fleet.run import Polled, kind_of
 from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.exchange.connection import host_port
 from mdl.model import Function, Value
@@ -208,7 +208,7 @@ def _templates(kind: str) -> dict[str, str]:
 
 
 class MqttPublisher:
-    """A sink of mdl.device.fleet: polls to the broker, in order, from a thread of its own."""
+    """A sink of mdl.device.fleet.run: polls to the broker, in order, from a thread of its own."""
 
     def __init__(
         self, url: MqttUrl, err: TextIO, classify: Classify | None = None, tls: ssl.SSLContext | None = None
@@ -250,7 +250,7 @@ class MqttPublisher:
             raise self.fatal
 
     def stop_with(self, abort: Callable[[MdlError], None]) -> None:
-        """How a refusal later ends the polling (mdl.device.fleet.Stoppable)."""
+        """How a refusal later ends the polling (mdl.device.fleet.run.Stoppable)."""
         with self._cond:
             self._abort = abort
             fatal = self.fatal

@@ -2,9 +2,9 @@
 `mdl sim DEVICE --as sunspec` and `mdl serve DEVICE --from CONNECTION --as sunspec`.
 
 The profile is chosen (`choose`), the device's functions bound to its roles (mdl.profiles.fit), and a
-model picked from mdl.device.sunspec_points. The chain (model 1, that model, the end marker) is built
+model picked from mdl.device.sunspec.points. The chain (model 1, that model, the end marker) is built
 by mdl.formats.sunspec as `mdl import --from sunspec` builds it and held in the sim's own register
-store (`FacadeRegisters`, a mdl.device.sim.Registers): every read a client makes first computes the
+store (`FacadeRegisters`, a mdl.device.server.sim.Registers): every read a client makes first computes the
 points from the roles' current values (`source`: the simulated registers, or the gateway's last
 poll). A value that is missing, not a number, or too large for its point at the coarsest scale is
 served as SunSpec's "not implemented" (0x8000, 0xFFFF, 0x80000000 ...). The chain takes no writes.
@@ -18,8 +18,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import TextIO
 
-from mdl.device.sim import Registers
-from mdl.device.sunspec_points import MODEL_SCALES, MODELS, POINTS, SCALES, Point
+from mdl.device.server.sim import Registers
+from mdl.device.sunspec.points import MODEL_SCALES, MODELS, POINTS, SCALES, Point
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.formats.sunspec.read import COMMON, chain_device
 from mdl.model import Device, Function, Value

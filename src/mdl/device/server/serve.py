@@ -1,5 +1,5 @@
 """`mdl sim DEVICE --as sunspec` and `mdl serve DEVICE --from CONNECTION --as sunspec` (SPEC 13): the
-device's roles served as SunSpec models (mdl.device.sunspec_gateway) by the sim's server (mdl.device.sim).
+device's roles served as SunSpec models (mdl.device.sunspec.gateway) by the sim's server (mdl.device.server.sim).
 
 `mdl sim --as sunspec` computes the points from the simulated device's registers at every read. `mdl
 serve` polls the real device every `interval` seconds with a mdl.device.runtime.Session (the read plan
@@ -21,12 +21,12 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from mdl.device import sim as simulator
 from mdl.device.connection import Connection
 from mdl.device.evaluate import Evaluator
-from mdl.device.fleet import parse_connection
+from mdl.device.fleet.run import parse_connection
 from mdl.device.runtime import ModbusExceptionError, Session
-from mdl.device.sunspec_gateway import FacadeRegisters, RoleValues, Source, choose, role_values
+from mdl.device.server import sim as simulator
+from mdl.device.sunspec.gateway import FacadeRegisters, RoleValues, Source, choose, role_values
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.model import Value
 from mdl.profiles.fit import Fit
@@ -40,7 +40,7 @@ FROM_HELP = (
 
 
 def parse_from(text: str, timeout: float, retries: int) -> tuple[Connection, int | None]:
-    """`--from` as FROM_HELP says it (mdl.device.fleet's one grammar of connection URLs): the connection
+    """`--from` as FROM_HELP says it (mdl.device.fleet.run's one grammar of connection URLs): the connection
     and the unit it names (None: not named); MdlError naming what is wrong."""
     try:
         return parse_connection(text.strip(), timeout=timeout, retries=retries)

@@ -10,8 +10,8 @@ none). Anything else (another exception, no reply, a reply the checks of mdl.dev
 leaves the addresses asked "unknown": never defined. Bounded and polite: `max_requests` per unit (each
 table an even share of what is left), at most `rate` requests a second, and a unit is left after
 STRUGGLING signs in a row that it is struggling (no reply, a malformed reply, exception 4, 5 or 6).
-Guesses at the address base and the word order (mdl.device.probe_guess) are said as guesses; the
-command's options are read by mdl.device.probe_options.
+Guesses at the address base and the word order (mdl.device.survey.probe_guess) are said as guesses; the
+command's options are read by mdl.device.survey.probe_options.
 """
 
 from __future__ import annotations
@@ -23,11 +23,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 
 from mdl.device.connection import Connection
-from mdl.device.discover import GATEWAY_SILENT, _Unit, unit_list
-from mdl.device.probe_guess import guesses
-from mdl.device.probe_options import ProbeOptions, Span
 from mdl.device.replies import LineLost
 from mdl.device.runtime import EXCEPTION_NAMES, ModbusExceptionError, Session
+from mdl.device.survey.discover import GATEWAY_SILENT, _Unit, unit_list
+from mdl.device.survey.probe_guess import guesses
+from mdl.device.survey.probe_options import ProbeOptions, Span
 from mdl.diagnostics import DeviceError
 from mdl.model import BIT_TABLES, REGISTER_TYPES, Device
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS

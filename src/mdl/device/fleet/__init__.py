@@ -1,0 +1,2 @@
+"""Polling many devices and publishing the polls: the targets and the poller (run.py), one device's
+polling (poll.py), MQTT (mqtt.py) and Prometheus (prometheus.py)."""
