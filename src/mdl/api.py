@@ -161,7 +161,7 @@ def export(device: Device, to: str, out: StrPath, **options: Any) -> list[Diagno
 
 
 def _connection(url: str) -> tuple[Connection, int | None]:
-    from mdl.device.fleet.run import parse_connection
+    from mdl.device.connection import parse_connection
 
     try:
         return parse_connection(url)

@@ -12,7 +12,7 @@ from typing import Any, TypeVar, cast
 import click
 from click.core import ParameterSource
 
-from mdl.device.connection import Connection, split_host
+from mdl.device.connection import LINE_SETTINGS, SETTINGS, Connection, split_host
 from mdl.diagnostics import Diagnostic
 from mdl.exchange.connection import DEVICE_PORT, LINE_ONLY, SIM_HOST, SIM_PORT
 from mdl.fileio import STDIO_ARG, input_path, is_stdin
@@ -144,6 +144,13 @@ def connection_options(
     return decorate
 
 
+def _range(name: str) -> click.IntRange | click.FloatRange:
+    """The click type of a connection setting, its range from mdl.device.connection (a URL's query
+    takes the same)."""
+    kind, low, high = {**SETTINGS, **LINE_SETTINGS}[name]
+    return click.FloatRange(low, high) if kind is float else click.IntRange(int(low), int(high))
+
+
 def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Decorator]:
     """The click options, in the order --help lists them."""
     if serving:
@@ -174,9 +181,7 @@ def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Deco
         ]
     line = [
         click.option("--serial", metavar="DEVICE", help="Serial device for Modbus RTU, e.g. /dev/ttyUSB0."),
-        click.option(
-            "--baud", type=click.IntRange(50, 4_000_000), default=19200, show_default=True, help="Serial line speed."
-        ),
+        click.option("--baud", type=_range("baud"), default=19200, show_default=True, help="Serial line speed."),
         click.option(
             "--parity",
             type=click.Choice(["N", "E", "O"], case_sensitive=False),
@@ -184,9 +189,9 @@ def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Deco
             show_default=True,
             help="Serial parity: none, even, odd.",
         ),
-        click.option("--stopbits", type=click.IntRange(1, 2), default=1, show_default=True),
+        click.option("--stopbits", type=_range("stopbits"), default=1, show_default=True),
         click.option(
-            "--bytesize", type=click.IntRange(7, 8), default=8, show_default=True, help="Data bits (Modbus RTU uses 8)."
+            "--bytesize", type=_range("bytesize"), default=8, show_default=True, help="Data bits (Modbus RTU uses 8)."
         ),
         click.option(
             "--framer",
@@ -201,14 +206,14 @@ def _options(serving: bool, timeout: float = 3.0, retries: int = 1) -> list[Deco
         else [
             click.option(
                 "--timeout",
-                type=click.FloatRange(0.1, 600),
+                type=_range("timeout"),
                 default=timeout,
                 show_default=True,
                 help="Seconds to wait for each reply.",
             ),
             click.option(
                 "--retries",
-                type=click.IntRange(0, 10),
+                type=_range("retries"),
                 default=retries,
                 show_default=True,
                 help="Times a request that got no reply is sent again.",

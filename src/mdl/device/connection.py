@@ -14,6 +14,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
+from urllib.parse import parse_qsl
 
 from mdl.exchange.connection import DEVICE_PORT, SIM_PORT, Endpoint, host_port
 
@@ -26,6 +27,17 @@ if TYPE_CHECKING:
 Trace = Callable[[bool, bytes], bytes]
 
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
+
+
+SCHEMES = ("tcp", "rtu+tcp", "rtu")
+# the ranges of the connection settings, as the CONNECTION options (mdl.cli.options) and a URL's query
+# (parse_connection) take them: (type, lowest, highest)
+SETTINGS: dict[str, tuple[type, float, float]] = {"timeout": (float, 0.1, 600), "retries": (int, 0, 10)}
+LINE_SETTINGS: dict[str, tuple[type, float, float]] = {
+    "baud": (int, 50, 4_000_000),
+    "stopbits": (int, 1, 2),
+    "bytesize": (int, 7, 8),
+}
 
 
 def split_host(text: str) -> tuple[str, int | None]:
@@ -178,3 +190,60 @@ class Connection(Endpoint):
         if self.rtu:
             return "check the unit id, and the converter's baud rate and parity"
         return ""
+
+
+def parse_connection(url: str, **defaults: Any) -> tuple[Connection, int | None]:
+    """A connection as a URL (the one grammar of targets and of `mdl serve --from`): `tcp://HOST[:PORT]`
+    (a bare `HOST[:PORT]` too), `rtu+tcp://HOST[:PORT]`, `rtu://DEVICE[?baud=B&parity=P&stopbits=S&
+    bytesize=8]`, each with `?timeout=S&retries=N` and `#UNIT`; `defaults` are the connection's settings
+    the URL does not give. (connection, unit or None); ValueError saying what is wrong."""
+    scheme, sep, rest = url.partition("://")
+    if not sep:
+        scheme, rest = "tcp", url
+    if scheme.lower() not in SCHEMES:
+        raise ValueError(f"unknown scheme '{scheme}://' (write {', '.join(s + '://' for s in SCHEMES)})")
+    scheme = scheme.lower()
+    rest, hash_sign, fragment = rest.partition("#")
+    rest, _, query = rest.partition("?")
+    settings = {**defaults, **_query(query, scheme)}
+    unit = _unit(fragment) if hash_sign else None
+    if scheme == "rtu":
+        if not rest:
+            raise ValueError("rtu:// needs the serial device: rtu:///dev/ttyUSB0")
+        return Connection(serial=rest, rtu=True, **settings), unit
+    if "/" in rest:
+        raise ValueError(f"'{rest}' is no HOST[:PORT] (a serial device is rtu:///dev/...)")
+    host, port = split_host(rest)
+    if port is not None and not 1 <= port <= 65535:
+        raise ValueError(f"the port {port} is not in the range 1 to 65535")
+    return Connection(host=host, port=port or DEVICE_PORT, rtu=scheme == "rtu+tcp", **settings), unit
+
+
+def _unit(text: str) -> int:
+    if not text.isascii() or not text.isdigit() or not 0 <= int(text) <= 255:
+        raise ValueError(f"the unit id {text!r} after '#' is not a number from 0 to 255")
+    return int(text)
+
+
+def _query(query: str, scheme: str) -> dict[str, Any]:
+    """A target's ?key=value&... settings, checked."""
+    known = {**SETTINGS, **(LINE_SETTINGS if scheme == "rtu" else {})}
+    out: dict[str, Any] = {}
+    for key, value in parse_qsl(query, keep_blank_values=True):
+        if key == "parity" and scheme == "rtu":
+            if value.upper() not in ("N", "E", "O"):
+                raise ValueError(f"parity={value}: write N, E or O")
+            out[key] = value.upper()
+            continue
+        if key not in known:
+            names = ", ".join([*known, *(["parity"] if scheme == "rtu" else [])])
+            raise ValueError(f"unknown setting {key!r} (a {scheme}:// target takes {names})")
+        kind, low, high = known[key]
+        try:
+            number = kind(value)
+        except ValueError:
+            raise ValueError(f"{key}={value}: not a number") from None
+        if not low <= number <= high:
+            raise ValueError(f"{key}={value}: not in the range {low:g} to {high:g}")
+        out[key] = number
+    return out

@@ -20,17 +20,15 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, TextIO, runtime_checkable
-from urllib.parse import parse_qsl
 
 from pymodbus.exceptions import ModbusException
 
 from mdl.device import output
-from mdl.device.connection import Connection, split_host
+from mdl.device.connection import Connection, parse_connection
 from mdl.device.fleet.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.frames import Wire
 from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.diagnostics import EXIT_DEVICE, MdlError, error
-from mdl.exchange.connection import DEVICE_PORT
 from mdl.fileio import input_path
 from mdl.model import Function, Value
 from mdl.model.names import unique_identifiers
@@ -43,18 +41,10 @@ if TYPE_CHECKING:
     from mdl.plan import Request
     from mdl.resolver import ResolvedDevice, ResolvedFunction
 
-SCHEMES = ("tcp", "rtu+tcp", "rtu")
 _AT = re.compile(r"@(?=(?:tcp|rtu\+tcp|rtu)://)")
 TARGET_FORMS = (
     "FILE@tcp://HOST[:PORT][#UNIT], FILE@rtu+tcp://HOST[:PORT][#UNIT] or FILE@rtu://DEVICE[?baud=B&parity=P][#UNIT]"
 )
-# the settings a target's query may give: (type, lowest, highest), the ranges of the CONNECTION options
-_SETTINGS: dict[str, tuple[type, float, float]] = {"timeout": (float, 0.1, 600), "retries": (int, 0, 10)}
-_LINE: dict[str, tuple[type, float, float]] = {
-    "baud": (int, 50, 4_000_000),
-    "stopbits": (int, 1, 2),
-    "bytesize": (int, 7, 8),
-}
 
 
 def looks_like_target(text: str) -> bool:
@@ -82,63 +72,6 @@ def parse_target(text: str) -> Target:
         raise ValueError("no FILE before '@'")
     connection, unit = parse_connection(url)
     return Target(text, input_path(file_text), connection, 1 if unit is None else unit)
-
-
-def parse_connection(url: str, **defaults: Any) -> tuple[Connection, int | None]:
-    """A connection as a URL (the one grammar of targets and of `mdl serve --from`): `tcp://HOST[:PORT]`
-    (a bare `HOST[:PORT]` too), `rtu+tcp://HOST[:PORT]`, `rtu://DEVICE[?baud=B&parity=P&stopbits=S&
-    bytesize=8]`, each with `?timeout=S&retries=N` and `#UNIT`; `defaults` are the connection's settings
-    the URL does not give. (connection, unit or None); ValueError saying what is wrong."""
-    scheme, sep, rest = url.partition("://")
-    if not sep:
-        scheme, rest = "tcp", url
-    if scheme.lower() not in SCHEMES:
-        raise ValueError(f"unknown scheme '{scheme}://' (write {', '.join(s + '://' for s in SCHEMES)})")
-    scheme = scheme.lower()
-    rest, hash_sign, fragment = rest.partition("#")
-    rest, _, query = rest.partition("?")
-    settings = {**defaults, **_settings(query, scheme)}
-    unit = _unit(fragment) if hash_sign else None
-    if scheme == "rtu":
-        if not rest:
-            raise ValueError("rtu:// needs the serial device: rtu:///dev/ttyUSB0")
-        return Connection(serial=rest, rtu=True, **settings), unit
-    if "/" in rest:
-        raise ValueError(f"'{rest}' is no HOST[:PORT] (a serial device is rtu:///dev/...)")
-    host, port = split_host(rest)
-    if port is not None and not 1 <= port <= 65535:
-        raise ValueError(f"the port {port} is not in the range 1 to 65535")
-    return Connection(host=host, port=port or DEVICE_PORT, rtu=scheme == "rtu+tcp", **settings), unit
-
-
-def _unit(text: str) -> int:
-    if not text.isascii() or not text.isdigit() or not 0 <= int(text) <= 255:
-        raise ValueError(f"the unit id {text!r} after '#' is not a number from 0 to 255")
-    return int(text)
-
-
-def _settings(query: str, scheme: str) -> dict[str, Any]:
-    """A target's ?key=value&... settings, checked."""
-    known = {**_SETTINGS, **(_LINE if scheme == "rtu" else {})}
-    out: dict[str, Any] = {}
-    for key, value in parse_qsl(query, keep_blank_values=True):
-        if key == "parity" and scheme == "rtu":
-            if value.upper() not in ("N", "E", "O"):
-                raise ValueError(f"parity={value}: write N, E or O")
-            out[key] = value.upper()
-            continue
-        if key not in known:
-            names = ", ".join([*known, *(["parity"] if scheme == "rtu" else [])])
-            raise ValueError(f"unknown setting {key!r} (a {scheme}:// target takes {names})")
-        kind, low, high = known[key]
-        try:
-            number = kind(value)
-        except ValueError:
-            raise ValueError(f"{key}={value}: not a number") from None
-        if not low <= number <= high:
-            raise ValueError(f"{key}={value}: not in the range {low:g} to {high:g}")
-        out[key] = number
-    return out
 
 
 def device_ids(stems: Sequence[str], units: Sequence[int]) -> tuple[list[str], list[str]]:

@@ -21,9 +21,8 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from mdl.device.connection import Connection
+from mdl.device.connection import Connection, parse_connection
 from mdl.device.evaluate import Evaluator
-from mdl.device.fleet.run import parse_connection
 from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.device.server import sim as simulator
 from mdl.device.sunspec.gateway import FacadeRegisters, RoleValues, Source, choose, role_values
