@@ -61,6 +61,7 @@ from mdl.exports.base import (
     written_by_fragment,
 )
 from mdl.exports.ha_units import ROLE_CLASSES, ha_unit
+from mdl.model.layout import integer_range
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
@@ -182,7 +183,8 @@ def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
         return None
     number = int(value)
     lay = f.layout
-    if lay.kind == "float" or (lay.signed and -(1 << (lay.bits - 1)) <= -number < (1 << (lay.bits - 1))):
+    low, high = integer_range(lay.bits, True)
+    if lay.kind == "float" or (lay.signed and low <= -number <= high):
         notes.warn(
             f,
             "nan_value also makes its negative read as not implemented (Home Assistant compares both signs)",

@@ -38,7 +38,7 @@ from mdl.ir.steps import (
     ValueType,
 )
 from mdl.model import CompiledExpression, Function
-from mdl.model.layout import Layout, int_type_bits
+from mdl.model.layout import Layout, int_type_bits, integer_range
 
 # the largest divisor the rounding rule uses: below 2**53 every integer is exact in a double
 _MAX_DIVISOR = 1 << 53
@@ -71,9 +71,7 @@ def span_bits(lay: Layout) -> int:
 
 
 def int_range(lay: Layout) -> tuple[int, int]:
-    if lay.signed:
-        return -(1 << (lay.bits - 1)), (1 << (lay.bits - 1)) - 1
-    return 0, (1 << lay.bits) - 1
+    return integer_range(lay.bits, lay.signed)
 
 
 def not_implemented_patterns(fn: Function, n: int) -> tuple[tuple[int, ...], ...]:

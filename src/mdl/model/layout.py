@@ -152,3 +152,9 @@ def int_type_bits(bits: int) -> int:
         if bits <= width:
             return width
     raise LayoutError(f"{bits} bits do not fit a 64-bit integer")
+
+
+def integer_range(bits: int, signed: bool) -> tuple[int, int]:
+    """The integers `bits` bits hold, both ends included (two's complement when signed): the one home of
+    a width's range for the checks, the encoders, the exports and the gateway."""
+    return (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.model.layout import integer_range
 from mdl.model.names import CLASS_RESERVED, camel, identifier, unique_identifiers
 from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.resolver.checks import position
@@ -229,11 +230,10 @@ def int_write(c_type: str) -> IntWrite | None:
     if found is None:
         return None
     bits = int(found.group(2))
+    low, high = integer_range(bits, not found.group(1))
     if found.group(1):
-        high = 2**bits - 1
-        return IntWrite(c_type, 0.0, float(2**bits), c_int64(0), c_int64(high) if bits < 64 else None)
-    half = 2 ** (bits - 1)
+        return IntWrite(c_type, 0.0, float(high + 1), c_int64(0), c_int64(high) if bits < 64 else None)
     wide = bits == 64
     return IntWrite(
-        c_type, -float(half), float(half), None if wide else c_int64(-half), None if wide else c_int64(half - 1)
+        c_type, float(low), float(high + 1), None if wide else c_int64(low), None if wide else c_int64(high)
     )

@@ -23,6 +23,7 @@ from mdl.device.sunspec.points import MODEL_SCALES, MODELS, POINTS, SCALES, Poin
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line
 from mdl.formats.sunspec.read import COMMON, chain_device
 from mdl.model import Device, Function, Value
+from mdl.model.layout import integer_range
 from mdl.profiles.fit import Fit, fit
 from mdl.profiles.load import load_profile, shipped
 from mdl.profiles.report import fit_diagnostics
@@ -112,7 +113,7 @@ def _point_value(point: Point, roles: RoleValues) -> float | None:
 def _bounds(fn: Function) -> tuple[int, int]:
     """The raw integers a point may hold: its format's, without the "not implemented" value."""
     bits = _BITS[fn.format or "UINT16"]
-    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if fn.format in _SIGNED else (0, (1 << bits) - 1)
+    low, high = integer_range(bits, fn.format in _SIGNED)
     for text in fn.not_implemented or ():
         missing = int(text, 0)
         if fn.format in _SIGNED and missing >= 1 << (bits - 1):

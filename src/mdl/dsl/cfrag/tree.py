@@ -15,6 +15,8 @@ import math
 from fractions import Fraction
 from typing import Literal, TypeAlias
 
+from mdl.model.layout import integer_range
+
 IntType: TypeAlias = tuple[int, bool]  # (bits, signed)
 CastTarget: TypeAlias = IntType | Literal["float", "double"]
 
@@ -61,7 +63,7 @@ def int_type_of(bits: int, signed: bool) -> str:
 
 def int_range(t: str | IntType) -> tuple[int, int]:
     bits, signed = INT_TYPES[t] if isinstance(t, str) else t
-    return (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)
+    return integer_range(bits, signed)
 
 
 def c_type_name(t: str | IntType) -> str:

@@ -45,6 +45,7 @@ from mdl.formats.wise.sections import (
     data_type_of,
 )
 from mdl.model import IDENTITY_FIELDS, READ_ONLY_TABLES, Function
+from mdl.model.layout import integer_range
 
 if TYPE_CHECKING:
     from mdl.model.layout import Layout
@@ -52,9 +53,9 @@ if TYPE_CHECKING:
 
 FLOAT32_MAX = 3.4028234663852886e38
 _RAW_RANGE = {
-    "UINT16": (0, 0xFFFF),
-    "UINT32": (0, 0xFFFFFFFF),
-    "INT32": (-(1 << 31), (1 << 31) - 1),
+    "UINT16": integer_range(16, False),
+    "UINT32": integer_range(32, False),
+    "INT32": integer_range(32, True),
     "FLOAT32": (-FLOAT32_MAX, FLOAT32_MAX),
 }
 _BREAKS = r"\x00-\x1f\x7f-\x9f\u2028\u2029"  # control characters (C0, DEL, C1 with NEL) and line/paragraph separators
