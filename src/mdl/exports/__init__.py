@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from mdl.formats import FORMATS, lazy
+from mdl.formats import FORMATS
+from mdl.registry import Registry, lazy
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Export, Settings, Writer
@@ -31,7 +32,7 @@ class Output:
     folder: bool = False
 
 
-ENGINES = (
+ENGINES: Registry[Output] = Registry(
     Output("senml", "the WISE guide's SenML capability document", lazy("mdl.exports.senml", "export_capability")),
     Output(
         "volttron",
@@ -50,11 +51,10 @@ ENGINES = (
 )
 
 
-def outputs() -> dict[str, Output]:
-    """Every `mdl export --to` choice by name, in the order `--help` lists them: the formats that write, then
-    the engines."""
-    written = [Output(f.name, f.summary, f.write) for f in FORMATS if f.write is not None]
-    return {out.name: out for out in (*written, *ENGINES)}
+def outputs() -> Registry[Output]:
+    """Every `mdl export --to` choice, in the order `--help` lists them: the formats that write, then the
+    engines."""
+    return Registry(*(Output(f.name, f.summary, f.write) for f in FORMATS.values() if f.write is not None)) + ENGINES
 
 
 def export(resolved: ResolvedDevice, name: str, settings: Settings) -> Export:

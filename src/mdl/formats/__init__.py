@@ -12,14 +12,14 @@ writer are imported when first called, so that commands start fast.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from mdl.fileio import is_stdin
 from mdl.formats import wise, xif
+from mdl.registry import Registry, lazy
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -30,16 +30,6 @@ if TYPE_CHECKING:
 
 Reader = Callable[["StrPath"], "Device"]
 HEAD_BYTES = 64 * 1024  # what guess_format reads of a file
-
-
-def lazy(module: str, name: str) -> Callable[..., Any]:
-    """The function `name` of `module`, imported when it is first called."""
-
-    def call(*args: Any, **kwargs: Any) -> Any:
-        return getattr(importlib.import_module(module), name)(*args, **kwargs)
-
-    call.__qualname__ = call.__name__ = f"{module}.{name}"
-    return call
 
 
 @dataclass(frozen=True)
@@ -62,7 +52,7 @@ class Format:
         return self.imported(resolved) if self.imported is not None else resolved.device
 
 
-FORMATS = (
+FORMATS: Registry[Format] = Registry(
     Format(
         "xif",
         "SmartServer Modbus XIF (.mod)",
@@ -95,15 +85,12 @@ FORMATS = (
 
 def names() -> list[str]:
     """Every format's name, in the registry's order (`mdl import --from`)."""
-    return [f.name for f in FORMATS]
+    return FORMATS.names()
 
 
 def by_name(name: str) -> Format:
     """The format called `name` (one of `names()`; KeyError otherwise)."""
-    for f in FORMATS:
-        if f.name == name:
-            return f
-    raise KeyError(name)
+    return FORMATS[name]
 
 
 def guess_format(path: StrPath) -> str | None:
@@ -115,7 +102,7 @@ def guess_format(path: StrPath) -> str | None:
     if is_stdin(p):  # read once, by the reader of its format: standard input is MDL XML unless --from says
         return None
     suffix = p.suffix.lower()
-    for f in FORMATS:
+    for f in FORMATS.values():
         if suffix in f.suffixes:
             return f.name
     try:
@@ -124,7 +111,7 @@ def guess_format(path: StrPath) -> str | None:
     except OSError:
         return None
     text = head.decode("utf-8-sig", errors="replace")
-    for f in FORMATS:
+    for f in FORMATS.values():
         if f.guess is not None and f.guess(text):
             return f.name
     return None

@@ -2,14 +2,17 @@
 
 A target is a folder here (python/, cpp/, c/) holding its emitter (`emit.py`, whose `TARGET`
 registers it), its Jinja templates (`templates/`) and the runtime files its drivers carry. Adding a
-language is adding a folder and one line to `_TARGET_MODULES` (docs/architecture.md walks through it).
+language is adding a folder and one entry to `TARGETS` (docs/architecture.md walks through it).
 """
 
 from __future__ import annotations
 
 import importlib
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
+
+from mdl.registry import Registry
 
 if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at every start
     from mdl.diagnostics import Diagnostic
@@ -18,28 +21,41 @@ if TYPE_CHECKING:  # imported where used: the CLI reads the registry's names at 
     from mdl.targets.base import Target
     from mdl.targets.profile import Interface
 
-# name -> (the module holding its TARGET, what it writes), in the order `--lang all` writes them; the
-# modules are imported only when a target renders, so `mdl --help` and `mdl sim` start fast
-_TARGET_MODULES = {
-    "python": ("mdl.targets.python.emit", "<stem>.py, a module over pymodbus with sync and asyncio classes"),
-    "cpp": ("mdl.targets.cpp.emit", "<stem>.h/<stem>.cc, C++17 on libmodbus"),
-    "c": ("mdl.targets.c.emit", "<stem>.h/<stem>.c, C99 on libmodbus"),
-}
+
+@dataclass(frozen=True)
+class TargetEntry:
+    """A registered target: its `--lang` name, what it writes, and the module holding its TARGET
+    (imported only when the target renders, so that `mdl --help` and `mdl sim` start fast)."""
+
+    name: str
+    summary: str
+    module: str
+
+    def load(self) -> Target:
+        found: Target = importlib.import_module(self.module).TARGET
+        return found
+
+
+# in the order `--lang all` writes them
+TARGETS: Registry[TargetEntry] = Registry(
+    TargetEntry("python", "<stem>.py, a module over pymodbus with sync and asyncio classes", "mdl.targets.python.emit"),
+    TargetEntry("cpp", "<stem>.h/<stem>.cc, C++17 on libmodbus", "mdl.targets.cpp.emit"),
+    TargetEntry("c", "<stem>.h/<stem>.c, C99 on libmodbus", "mdl.targets.c.emit"),
+)
 
 
 def names() -> list[str]:
     """The registered targets, in `--lang all` order."""
-    return list(_TARGET_MODULES)
+    return TARGETS.names()
 
 
 def summaries() -> list[str]:
     """`name: what it writes` for each registered target."""
-    return [f"{name}: {summary}" for name, (_, summary) in _TARGET_MODULES.items()]
+    return TARGETS.summaries()
 
 
 def target(name: str) -> Target:
-    found: Target = importlib.import_module(_TARGET_MODULES[name][0]).TARGET
-    return found
+    return TARGETS[name].load()
 
 
 def render(
