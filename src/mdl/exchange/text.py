@@ -88,3 +88,21 @@ def spreadsheet_cell(text: str) -> str:
     """A CSV cell that a spreadsheet shows as text: one starting with a formula character (FORMULA_STARTS)
     gets a single quote in front, as OWASP says (the caller warns: the cell has changed)."""
     return "'" + text if text.startswith(FORMULA_STARTS) else text
+
+
+@functools.cache
+def yaml_dumper() -> type:
+    """The YAML dumper of every YAML export (Home Assistant, ESPHome): PyYAML's safe dumper, except that
+    text holding a character that does not print is double-quoted. In its other styles PyYAML writes
+    NEL, U+2028 and U+2029 as they are, and they read back as line breaks (folded into a space), a
+    different text; double-quoted, they are escapes (`\\x85`). Built on first use (PyYAML imported then)."""
+    import yaml
+
+    class Dumper(yaml.SafeDumper):
+        pass
+
+    def text(dumper: yaml.SafeDumper, data: str) -> yaml.ScalarNode:
+        return dumper.represent_scalar("tag:yaml.org,2002:str", data, style=None if data.isprintable() else '"')
+
+    Dumper.add_representer(str, text)
+    return Dumper

@@ -31,7 +31,7 @@ import yaml
 
 from mdl.exchange.connection import LINE_ONLY, Endpoint
 from mdl.exchange.export import Export
-from mdl.exchange.text import comment_text
+from mdl.exchange.text import comment_text, yaml_dumper
 from mdl.exports.base import (
     Notes,
     bits_detail,
@@ -49,7 +49,6 @@ from mdl.exports.base import (
 from mdl.exports.esphome_names import UNIT_MAX_BYTES, Names, display_name, inert, node_name
 from mdl.exports.esphome_types import FLOAT_EXACT, ValueType, rounds, value_type, with_bits
 from mdl.exports.ha_units import ROLE_CLASSES, ha_unit
-from mdl.exports.homeassistant import _Dumper
 from mdl.ir.steps import Bits, find_step
 
 if TYPE_CHECKING:
@@ -69,7 +68,7 @@ class Hex(int):
     """A bitmask, written in hex (an integer to YAML and to ESPHome's hex_uint32_t)."""
 
 
-class _HexDumper(_Dumper):
+class _HexDumper(yaml_dumper()):  # type: ignore[misc]  # a class made at run time
     pass
 
 

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from mdl.exchange.export import Export
-from mdl.exchange.text import comment_text
+from mdl.exchange.text import comment_text, yaml_dumper
 from mdl.exports.base import (
     Notes,
     bit_in_register,
@@ -100,19 +100,6 @@ _DEFAULTS: dict[str, dict[str, Any]] = {  # the schema's defaults that the valid
     "switches": {"write_type": "holding", "command_on": 1, "command_off": 0},
 }
 Entity = tuple["ResolvedFunction", dict[str, Any]]
-
-
-class _Dumper(yaml.SafeDumper):
-    """PyYAML's safe dumper, except that text holding a character that does not print is double-quoted:
-    in its other styles PyYAML writes NEL, U+2028 and U+2029 as they are, and they read back as line
-    breaks (folded into a space), a different text. Double-quoted, they are escapes (`\\x85`)."""
-
-
-def _text(dumper: yaml.SafeDumper, data: str) -> yaml.ScalarNode:
-    return dumper.represent_scalar("tag:yaml.org,2002:str", data, style=None if data.isprintable() else '"')
-
-
-_Dumper.add_representer(str, _text)
 
 
 NO_DATA_TYPE = "no data_type holds its value"
@@ -480,5 +467,7 @@ def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export
         "with\n#   modbus: !include modbus.yaml\n# (where configuration.yaml already lists hubs under modbus:, "
         "add this one to them).\n"
     )
-    body = yaml.dump([hub], Dumper=_Dumper, sort_keys=False, allow_unicode=True, default_flow_style=False, width=100)
+    body = yaml.dump(
+        [hub], Dumper=yaml_dumper(), sort_keys=False, allow_unicode=True, default_flow_style=False, width=100
+    )
     return Export(text=head + body, warnings=notes.found)
