@@ -146,7 +146,7 @@ from poll_bench import device_xml, start_sim
 from mdl.device import output
 from mdl.device.connection import Connection
 from mdl.device.runtime import Session
-from mdl.sources.loading import load_resolved
+from mdl.formats.loading import load_resolved
 
 xml = Path(sys.argv[1])
 xml.write_text(device_xml())

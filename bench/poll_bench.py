@@ -173,7 +173,7 @@ def py_async_client(host: str, port: int, gen_dir: Path) -> object:
 def runtime_client(host: str, port: int, xml: Path) -> object:
     from mdl.device.connection import Connection
     from mdl.device.runtime import Session
-    from mdl.sources.loading import load_any
+    from mdl.formats.loading import load_any
 
     device = load_any(xml)
     session = Session(device, Connection(host=host, port=port), 1)

@@ -143,7 +143,7 @@ class Wire:
 
 
 def wire_time(xml: Path, baud: int, bytesize: int, parity: str, stopbits: int) -> Wire:
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     resolved = load_resolved(xml)
     requests = [group.request for group in resolved.plan]
@@ -177,7 +177,7 @@ class Result:
 def measure(xml: Path, connection: Any, polls: int, interval: float, fmt: str) -> Result:
     from mdl.device.fleet import poll as polling
     from mdl.device.runtime import Session
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     device = load_resolved(xml).device  # as `mdl read` loads it
     functions = [fn for fn in device.functions if fn.readable]

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How long csv2xml's readers take on a 5,000-row register table published as CSV, Markdown, HTML and
 Excel (SPEC 4.1: reading an Excel or HTML table of 5,000 rows takes under 5 s). Prints a table: the
-time to read the file into rows (mdl.sources.csvmap.table.read_table, best of --repeat) and the time
+time to read the file into rows (mdl.formats.table.readers.delimited.read_table, best of --repeat) and the time
 of the whole `mdl csv2xml` as a child process (reading, matching, writing MDL). Asserts nothing.
 
     python3 bench/tables_bench.py                 # 5,000 rows
@@ -50,7 +50,7 @@ def main() -> None:
     parser.add_argument("--rows", type=int, default=5000)
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    from mdl.sources.csvmap.table import read_table
+    from mdl.formats.table.readers.delimited import read_table
 
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
 
 from mdl.diagnostics import MdlError  # noqa: E402  (after the sys.path line: runs from a checkout without an install)
-from mdl.sources.mdlxml import load_device  # noqa: E402
+from mdl.formats.mdl import load_device  # noqa: E402
 from mdl.targets import render  # noqa: E402
 
 # MDL source -> directory its generated files are pinned in

@@ -13,7 +13,7 @@ import yaml
 
 from mdl.diagnostics import one_line
 from mdl.exports.esphome_names import display_name, object_id
-from mdl.sources.loading import load_resolved
+from mdl.formats.loading import load_resolved
 
 ESPHOME_KEYS = {"esphome", "esp32", "uart", "modbus", "modbus_controller"}
 ESPHOME_PLATFORMS = ("sensor", "binary_sensor", "text_sensor", "number", "switch", "select")

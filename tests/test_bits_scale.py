@@ -13,7 +13,7 @@ from conftest import DATA, MDL_NS, assert_clean_error, cli, import_generated, ru
 from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
 from refusing_proxy import refusing_proxy
 
-from mdl.sources.mdlxml import device_to_xml, load_device
+from mdl.formats.mdl import device_to_xml, load_device
 
 DEVICE = DATA / "flags_and_scale.xml"
 SETS = {

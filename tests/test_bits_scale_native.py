@@ -23,11 +23,11 @@ from test_c_driver import assert_exactly, mdl_read
 
 from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import MdlError
+from mdl.formats.mdl import load_device
 from mdl.ir import codec
 from mdl.ir import steps as ir
 from mdl.model import Device, Function
 from mdl.resolver import resolve
-from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
 sys.path.insert(0, str(ROOT / "tests" / "fuzz"))

@@ -22,8 +22,8 @@ from cpp_harness import STRICT as CXX_STRICT
 from cpp_harness import compile_driver as compile_cxx
 from cpp_harness import modbus_flags
 
+from mdl.formats.mdl import load_device
 from mdl.resolver import resolve
-from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
 TSTAT = EXAMPLE / "temco_tstat.xml"

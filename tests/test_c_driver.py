@@ -29,8 +29,8 @@ from test_cpp_driver import (
 )
 
 from mdl.device.server.scenarios import matches
-from mdl.sources.loading import load_any
-from mdl.sources.mdlxml import load_device
+from mdl.formats.loading import load_any
+from mdl.formats.mdl import load_device
 from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"

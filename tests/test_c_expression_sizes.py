@@ -20,7 +20,7 @@ from test_c_driver import assert_exactly
 from test_c_hostile import build_sanitized
 from test_cpp_driver import load_registers, served_device
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 
 LONG = "a label much longer than any default label of an enum or a bitset, " * 2
 

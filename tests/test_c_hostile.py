@@ -31,7 +31,7 @@ from test_cpp_hostile import (
     outcome,
 )
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 from mdl.targets import render
 
 pytestmark = pytest.mark.exhaustive  # slow (a sanitizer build): CI runs it

@@ -12,7 +12,7 @@ from test_c_driver import assert_exactly
 from test_cpp_driver import ALL_SETTINGS
 from test_cpp_serial import RUN, TIMEOUT_MS, mdl_read
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 
 ALL = DATA / "all_tables.xml"
 TSTAT = EXAMPLE / "temco_tstat.xml"

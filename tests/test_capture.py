@@ -151,7 +151,7 @@ def test_a_write_only_register_the_device_will_not_read_is_a_warning(write_devic
     from mdl.device import runtime
     from mdl.device.connection import Connection
     from mdl.device.survey import capture
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     path = write_device(fn_xml("level", 0, format="UINT16") + fn_xml("reset", 10, format="UINT16", access="write"))
     resolved = load_resolved(path)

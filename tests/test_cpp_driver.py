@@ -32,10 +32,10 @@ from raw_images import ALL_SETTINGS
 from test_cfrag import READS as CFRAG_READS
 from test_cfrag import WRITES as CFRAG_WRITES
 
+from mdl.formats.loading import load_resolved
+from mdl.formats.mdl import load_device
 from mdl.model.layout import layout
 from mdl.model.names import stem as file_stem
-from mdl.sources.loading import load_resolved
-from mdl.sources.mdlxml import load_device
 from mdl.targets import render
 
 ALL = DATA / "all_tables.xml"

@@ -15,7 +15,7 @@ from cpp_harness import clang_tidy
 from test_c_driver import assert_exactly
 from test_cpp_driver import assert_same_values, load_registers, served_device
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 from mdl.targets import render
 
 # the plain functions, each on the registers after the last one's

@@ -20,7 +20,7 @@ from conftest import DATA
 from cpp_harness import MODBUS_ENOBASE, Harness, build
 from hostile_server import MODES, hostile_server
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 
 pytestmark = pytest.mark.exhaustive  # slow (sanitizer builds / a venv from the registry): CI runs it
 

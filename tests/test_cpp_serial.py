@@ -21,7 +21,7 @@ from test_cpp_driver import ALL_SETTINGS, assert_same_values
 from test_serial import LIES
 
 from mdl.device.output import shown
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 
 ALL = DATA / "all_tables.xml"
 TSTAT = EXAMPLE / "temco_tstat.xml"

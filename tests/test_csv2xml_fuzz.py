@@ -15,13 +15,13 @@ from hypothesis import strategies as st
 
 from mdl.cli.csv2xml import run_csv2xml
 from mdl.diagnostics import EXIT_INVALID, MdlError
+from mdl.formats.mdl import validate_file
+from mdl.formats.table.address_base import guess_address_base
+from mdl.formats.table.cells import CellError, access_words, parse_access, parse_table, parse_word_order, read_type
+from mdl.formats.table.numbers import parse_int, parse_number, unit_alone
+from mdl.formats.table.readers.delimited import Row
+from mdl.formats.table.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_pair
 from mdl.model import FORMATS
-from mdl.sources.csvmap.address_base import guess_address_base
-from mdl.sources.csvmap.cells import CellError, access_words, parse_access, parse_table, parse_word_order, read_type
-from mdl.sources.csvmap.numbers import parse_int, parse_number, unit_alone
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_pair
-from mdl.sources.csvmap.table import Row
-from mdl.sources.mdlxml import validate_file
 
 SCALES = [
     "0.1",

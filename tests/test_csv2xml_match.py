@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_csv2xml import functions
 
-from mdl.sources.csvmap.match import Index, Work, assign, candidates
-from mdl.sources.csvmap.report import Progress
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_row
+from mdl.formats.table.match import Index, Work, assign, candidates
+from mdl.formats.table.report import Progress
+from mdl.formats.table.scoring import EXACT, FUZZY, NAME_EXACT, NAME_PHRASE, PHRASE, FunctionName, score_row
 
 _spec = importlib.util.spec_from_file_location("csv2xml_bench", ROOT / "bench" / "csv2xml_bench.py")
 assert _spec and _spec.loader
@@ -174,7 +174,7 @@ class Terminal(io.StringIO):
 
 def test_progress_on_a_terminal_only_once_the_work_is_long(monkeypatch):
     clock = [100.0]
-    monkeypatch.setattr("mdl.sources.csvmap.report.time.monotonic", lambda: clock[0])
+    monkeypatch.setattr("mdl.formats.table.report.time.monotonic", lambda: clock[0])
     screen = Terminal()
     bar = Progress("matching", 4, screen)
     bar()

@@ -18,8 +18,8 @@ from test_csv2xml_vendor import read_values
 
 from mdl.cli.csv2xml import run_csv2xml
 from mdl.diagnostics import EXIT_INVALID, MdlError
-from mdl.sources.csvmap.cells import CellError, parse_bit_cell, read_address_cell, read_mapped_format
-from mdl.sources.mdlxml import validate_file
+from mdl.formats.mdl import validate_file
+from mdl.formats.table.cells import CellError, parse_bit_cell, read_address_cell, read_mapped_format
 
 VOCAB = DATA / "csv2xml_vocab"
 

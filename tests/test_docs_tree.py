@@ -96,7 +96,7 @@ def _is_reference(token: str, fenced: bool, whole_span: bool) -> bool:
         return True
     if fenced:  # a command's own files (its -o folder, a library of the user's): not the tree's
         return False
-    folder_span = whole_span and token.endswith("/") and parts[0] in _folders(SRC)  # `sources/xif/`
+    folder_span = whole_span and token.endswith("/") and parts[0] in _folders(SRC)  # `formats/xif/`
     return bool(_EXTENSION.search(parts[-1])) or folder_span
 
 
@@ -213,7 +213,7 @@ def test_the_rules_on_known_lines():
             "Writes <stem>.h/.cc; read/write and 0.9b/1.0; see [the guide](docs/user-guide.md), "
             "[gone](docs/gone.md), https://example.com/a/b.py, `formats/<name>/read.py`.",  # 7
             "mdl.targets.render, mdl.ir.steps.Scale, mdl.targets.no_such_name, mdl.nowhere.",  # 8
-            "utils/client.py is VOLTTRON's; `model/`, `sources/missing/`; not `device/name`, DIR/<stem>.h, "
+            "utils/client.py is VOLTTRON's; `model/`, `formats/missing/`; not `device/name`, DIR/<stem>.h, "
             "`.ssh/`",  # 9
         ]
     )
@@ -224,7 +224,7 @@ def test_the_rules_on_known_lines():
         "README.md:7: link `docs/gone.md` is not in the tree (relative to its folder)",
         "README.md:8: name `mdl.targets.no_such_name` is not in the tree (relative to the repository or src/mdl/)",
         "README.md:8: name `mdl.nowhere` is not in the tree (relative to the repository or src/mdl/)",
-        "README.md:9: path `sources/missing/` is not in the tree (relative to the repository or src/mdl/)",
+        "README.md:9: path `formats/missing/` is not in the tree (relative to the repository or src/mdl/)",
     ]
 
 

@@ -213,7 +213,7 @@ def test_random_descriptions_keep_every_entity_in_home_assistant(tmp_path):
     from mdl.diagnostics import MdlError
     from mdl.exchange.export import Settings
     from mdl.exports import export as export_to
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     rng = random.Random(13)
     kinds = [
@@ -397,7 +397,7 @@ def bits(client: ModbusTcpClient, table: str, address: int, unit: int) -> bool:
 
 
 def labels_of(path) -> dict[str, dict[int, str] | None]:
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     return {f.name: f.fn.values for f in load_resolved(path).functions}
 

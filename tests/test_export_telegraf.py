@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
 from raw_images import ALL_TABLES_RAW, TEMCO_RAW
 
-from mdl.sources.loading import load_resolved
+from mdl.formats.loading import load_resolved
 
 ALL_TABLES = DATA / "all_tables.xml"
 TEMCO = EXAMPLE / "temco_tstat.xml"

@@ -103,7 +103,7 @@ def assert_same_values(got: dict, expected: dict, resolved_values: dict[str, dic
 
 
 def enum_values(path) -> dict[str, dict[int, str] | None]:
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     return {f.name: f.fn.values for f in load_resolved(path).functions}
 

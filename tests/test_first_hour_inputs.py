@@ -23,7 +23,9 @@ from hypothesis import strategies as st
 from test_csv2xml import functions
 
 from mdl.diagnostics import MdlError
-from mdl.sources.csvmap.table import (
+from mdl.formats.mdl.parse import parse_source, schema_errors
+from mdl.formats.sniff import not_xml
+from mdl.formats.table.readers.delimited import (
     HEADER_SYNONYMS,
     QUALIFIERS,
     Row,
@@ -32,8 +34,6 @@ from mdl.sources.csvmap.table import (
     normalize_header,
     synonym_rank,
 )
-from mdl.sources.mdlxml.parse import parse_source, schema_errors
-from mdl.sources.mdlxml.sniff import not_xml
 
 # --- a Latin-1 (cp1252) table -------------------------------------------------------------------------
 
@@ -519,7 +519,7 @@ def test_a_long_match_shows_progress_on_a_terminal_without_long_silences(tmp_pat
     drawn within a second of it starting and never stays unchanged for more than a second and a half
     (before, it moved only as functions were settled, after every function's search)."""
     from mdl.cli import main
-    from mdl.sources.csvmap import match
+    from mdl.formats.table import match
 
     clock = [1000.0]
     real_fuzzy = match.fuzzy
@@ -529,7 +529,7 @@ def test_a_long_match_shows_progress_on_a_terminal_without_long_silences(tmp_pat
         return real_fuzzy(a, b)
 
     monkeypatch.setattr(match, "fuzzy", fuzzy)
-    monkeypatch.setattr("mdl.sources.csvmap.report.time.monotonic", lambda: clock[0])
+    monkeypatch.setattr("mdl.formats.table.report.time.monotonic", lambda: clock[0])
     screen = Screen(clock)
     monkeypatch.setattr(sys, "stderr", screen)
     table = tmp_path / "map.csv"

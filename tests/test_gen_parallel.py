@@ -13,8 +13,8 @@ import pytest
 from conftest import device_xml, fn_xml, run_mdl
 
 from mdl.diagnostics import MdlError
+from mdl.formats.mdl.load import read_device
 from mdl.resolver import resolve
-from mdl.sources.mdlxml.load import read_device
 from mdl.targets import parallel, render
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="rendering in parallel forks: this system has no fork")

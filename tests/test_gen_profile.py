@@ -648,7 +648,7 @@ def _profiles(draw) -> tuple[str, list[str]]:
 @given(_profiles())
 def test_fuzz_any_profile_renders_parsable_code_or_a_clean_error(tmp_path, case):
     from mdl.diagnostics import MdlError
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
     from mdl.targets import render
     from mdl.targets.profile import prepare
 

@@ -11,7 +11,7 @@ import shutil
 import pytest
 from conftest import DATA, ROOT, assert_clean_error, cli
 
-from mdl.sources.csvmap.table import MAX_CELL_CHARS
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS
 
 HEADER = "Modbus Address,Parameter,Data Type,Units\n30001,Phase 1 voltage,Float,V\n"
 SEED = ROOT / "examples" / "wise_4012e" / "Modbus.ini"

@@ -23,8 +23,8 @@ from fleet_checks import check_esphome, check_thingsboard
 
 from mdl.device.output import capability
 from mdl.exports.ha_units import ha_unit
+from mdl.formats.loading import load_resolved
 from mdl.formats.wise.read import read_wise
-from mdl.sources.loading import load_resolved
 
 tomllib = pytest.importorskip("tomllib" if __import__("sys").version_info >= (3, 11) else "tomli")
 

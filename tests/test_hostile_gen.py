@@ -26,8 +26,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
 
+from mdl.formats.mdl import load_device
 from mdl.model.names import STEM_LIMIT
-from mdl.sources.mdlxml import load_device
 
 INT64_MIN, INT64_MAX, UINT64_MAX = -(2**63), 2**63 - 1, 2**64 - 1
 # what gcc's -Wbidi-chars looks for, and the other characters that hide what a reader sees

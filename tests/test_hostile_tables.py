@@ -16,9 +16,9 @@ import pytest
 from conftest import assert_clean_error
 from test_limits import run_capped
 
-from mdl.sources.csvmap.documents import MAX_CELLS, MAX_PAGE_BYTES
-from mdl.sources.csvmap.table import MAX_CELL_CHARS
-from mdl.sources.csvmap.xlsx_table import MAX_ELEMENTS, MAX_UNZIPPED
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS
+from mdl.formats.table.readers.document import MAX_CELLS, MAX_PAGE_BYTES
+from mdl.formats.table.readers.xlsx import MAX_ELEMENTS, MAX_UNZIPPED
 
 INI = "[Function Name Search Synonyms]\nroom_temperature = room temperature\n"
 HEAD = "| Register | Description |\n|---|---|\n| 16 | Room temperature |\n"

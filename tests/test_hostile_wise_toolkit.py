@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 from conftest import assert_clean_error, cli, mdl_cmd
 
+from mdl.exchange.yamlnodes import MAX_FILE_BYTES as YAML_LIMIT
 from mdl.formats.wise.read import MAX_ENTRIES, MAX_FILE_BYTES, SHOWN_PER_KIND
-from mdl.formats.yamlnodes import MAX_FILE_BYTES as YAML_LIMIT
 
 MEMORY_CAP = 1 << 30
 HANG_GUARD = 120  # seconds: only stops a hang from eating the machine; no test asserts a speed

@@ -14,10 +14,10 @@ import pytest
 from conftest import assert_clean_error, cli, device_xml, fn_xml, run_mdl
 from lxml import etree
 
+from mdl.formats.mdl.load import tree_to_device
+from mdl.formats.mdl.parse import secure_parser
 from mdl.formats.xif.read import MAX_BYTES, MAX_DATAPOINTS, MAX_ERRORS
 from mdl.formats.xif.records import MAX_CELLS
-from mdl.sources.mdlxml.load import tree_to_device
-from mdl.sources.mdlxml.parse import secure_parser
 
 HEAD = "#filetype,Modbus_xif\n#program_ID,9F0096052804DB01\n"
 HEADING = "Block Name,Datapoint Name,Modicon,Address,Function Code,Native Type,Write Enable,Description"

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from conftest import MDL_NS, assert_clean_error, cli, fn_xml
 
-from mdl.sources.mdlxml.load import read_device
-from mdl.sources.mdlxml.write import device_to_xml
+from mdl.formats.mdl.load import read_device
+from mdl.formats.mdl.write import device_to_xml
 
 
 def _doc(identity: str, functions: str) -> str:

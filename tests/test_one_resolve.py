@@ -15,8 +15,8 @@ from conftest import DATA, cli
 
 import mdl.resolver
 from mdl.diagnostics import Collector, Diagnostic, message_kind
+from mdl.formats.loading import load_any
 from mdl.model import Function
-from mdl.sources.loading import load_any
 
 HEAT_PUMP = DATA.parent.parent / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"  # expressions
 ALL = DATA / "all_tables.xml"

@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 
 from mdl.device.connection import Connection
 from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.formats.loading import load_resolved
 from mdl.ir import codec
 from mdl.model.layout import layout
-from mdl.sources.loading import load_resolved
 from mdl.targets import render
 
 ORDERS = [("big", "big"), ("big", "little"), ("little", "big"), ("little", "little")]
@@ -222,7 +222,7 @@ def test_a_one_off_read_does_not_import_jinja(tmp_path):
 import sys
 from mdl.device.connection import Connection
 from mdl.device.runtime import Session
-from mdl.sources.loading import load_resolved
+from mdl.formats.loading import load_resolved
 resolved = load_resolved({str(path)!r})
 s = Session(resolved, Connection())
 s.read_request = lambda req: [0x4049 + a for a in range(req.start, req.end)]

@@ -20,9 +20,9 @@ from hypothesis import strategies as st
 
 from mdl.dsl.expr.ops import OpKind, printer
 from mdl.dsl.expr.pyemit import PRINTER as PYTHON
+from mdl.formats.mdl import load_device
 from mdl.ir import steps as ir
 from mdl.resolver import resolve
-from mdl.sources.mdlxml import load_device
 from mdl.targets.c.expressions import PRINTER as C
 from mdl.targets.clike import int_bounds, int_limits
 from mdl.targets.cpp.expressions import PRINTER as CPP

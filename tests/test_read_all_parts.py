@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from test_c_driver import assert_exactly
 from test_cpp_driver import assert_same_values, load_registers, served_device
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 from mdl.targets.clike import READ_ALL_PART
 from mdl.targets.cpp import emit as cpp_emit
 

@@ -163,7 +163,7 @@ def test_a_refused_group_is_read_as_smaller_requests_on_every_poll(write_device)
     and all (a regression returned nulls from the second poll on)."""
     from mdl.device.connection import Connection
     from mdl.device.runtime import ModbusExceptionError, Session
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     path = write_device("".join(fn_xml(name, str(i), format="INT16") for i, name in enumerate("abc")))
     resolved = load_resolved(path)

@@ -9,9 +9,9 @@ import pytest
 from conftest import assert_clean_error, cli, fn_xml, run_mdl
 
 from mdl.diagnostics import MdlError
+from mdl.formats.loading import load_any, load_resolved
 from mdl.model import Device, Function
 from mdl.resolver import resolve
-from mdl.sources.loading import load_any, load_resolved
 
 # ---- numbers that are not finite
 

@@ -18,8 +18,8 @@ import pytest
 from conftest import run_mdl
 
 sunspec_client = pytest.importorskip("sunspec2.modbus.client")
+from mdl.formats.mdl.load import read_device  # noqa: E402
 from mdl.formats.sunspec.models import shipped_ids  # noqa: E402
-from mdl.sources.mdlxml.load import read_device  # noqa: E402
 
 INVERTER = ["103", "120", "121", "122", "123", "160"]
 EXPONENTS = (-2, -1, 0, 1, 2, -3)

@@ -26,9 +26,9 @@ from hypothesis import strategies as st
 from mdl.device.runtime import ModbusExceptionError
 from mdl.device.sunspec.discover import MAX_MODELS, _Walk, count_points, fit, group_length
 from mdl.diagnostics import MdlError
+from mdl.formats.mdl.load import read_device
 from mdl.formats.sunspec.build import build_chain
 from mdl.formats.sunspec.models import load_model, shipped_ids
-from mdl.sources.mdlxml.load import read_device
 
 INVERTER = ["103", "120", "121", "122", "123", "160"]
 SUNS = [0x5375, 0x6E53]

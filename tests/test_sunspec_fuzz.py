@@ -16,10 +16,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mdl.diagnostics import MdlError
+from mdl.formats.mdl.load import read_device
 from mdl.formats.sunspec.build import build_chain
 from mdl.formats.sunspec.models import TYPE_REGISTERS, parse_model
 from mdl.resolver import resolve
-from mdl.sources.mdlxml.load import read_device
 
 pytest.importorskip("sunspec2")
 

@@ -369,7 +369,7 @@ def test_any_from_text_is_a_connection_or_a_clean_error(text):
 def _facade():
     """One facade of meter B whose source is `CURRENT` (a test sets the values it wants served)."""
     from mdl.device.sunspec.gateway import FacadeRegisters, choose
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     resolved = load_resolved(METERS / "meter_b.xml")
     fitted, _ = choose(resolved, None, METERS / "meter_b.xml")

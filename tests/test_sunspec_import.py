@@ -8,7 +8,7 @@ import json
 import pytest
 from conftest import assert_clean_error, run_mdl
 
-from mdl.sources.mdlxml.load import read_device
+from mdl.formats.mdl.load import read_device
 
 pytest.importorskip("sunspec2")
 

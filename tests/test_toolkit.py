@@ -13,8 +13,8 @@ from cpp_harness import Harness, build
 from pymodbus.client import ModbusTcpClient
 
 from mdl.device.server.scenarios import matches
+from mdl.formats.loading import load_any, load_resolved
 from mdl.model.names import stem
-from mdl.sources.loading import load_any, load_resolved
 from mdl.targets import render
 
 FILES = sorted(REFERENCE.glob("*.yaml"))

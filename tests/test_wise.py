@@ -443,7 +443,7 @@ def _descriptions(tmp_path) -> list[Path]:
 
 
 def _random_registers(path: Path, rng: random.Random) -> dict:
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     tables: dict[str, dict[int, int]] = {}
     for rf in load_resolved(path).functions:

@@ -27,7 +27,7 @@ from hostile_server import hostile_server
 from pymodbus.client import AsyncModbusTcpClient, ModbusTcpClient
 from refusing_proxy import refusing_proxy
 
-from mdl.sources.mdlxml import load_device
+from mdl.formats.mdl import load_device
 
 FUNCTIONS = (
     fn_xml("level", "10", format="UINT16", write_multiple="true")

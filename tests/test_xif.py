@@ -19,13 +19,13 @@ from test_export_warnings import said
 from mdl.diagnostics import MdlError
 from mdl.exchange.export import Settings
 from mdl.formats import guess_format
+from mdl.formats.loading import load_any
+from mdl.formats.mdl.load import tree_to_device
+from mdl.formats.mdl.parse import secure_parser
 from mdl.formats.xif.read import read_xif
 from mdl.formats.xif.write import export_xif
 from mdl.model import Device
 from mdl.resolver import resolve
-from mdl.sources.loading import load_any
-from mdl.sources.mdlxml.load import tree_to_device
-from mdl.sources.mdlxml.parse import secure_parser
 
 XIF = DATA / "xif"
 METER = ROOT / "examples" / "xif_meter" / "meter.mod"

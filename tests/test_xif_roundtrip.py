@@ -19,11 +19,11 @@ from conftest import DATA, ROOT, cli, run_mdl
 from test_export_warnings import said
 
 from mdl.exchange.export import Settings
+from mdl.formats.loading import load_any
 from mdl.formats.xif.read import read_xif
 from mdl.formats.xif.write import export_xif
 from mdl.model import Device
 from mdl.resolver import ResolvedDevice, resolve
-from mdl.sources.loading import load_any
 
 HEAT_PUMP = ROOT / "examples" / "toolkit_heat_pump" / "heat_pump.yaml"
 DESCRIPTIONS = sorted((ROOT / "examples").glob("**/*.xml")) + sorted(DATA.glob("*.xml")) + [HEAT_PUMP]

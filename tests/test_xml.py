@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from conftest import DATA, EXAMPLE, assert_clean_error, fn_xml, run_mdl
 
-from mdl.sources.mdlxml import device_to_xml, load_device
-from mdl.sources.mdlxml.load import validate_file
+from mdl.formats.mdl import device_to_xml, load_device
+from mdl.formats.mdl.load import validate_file
 
 BOMB = """<?xml version="1.0"?>
 <!DOCTYPE lolz [

@@ -37,9 +37,9 @@ def load(path: StrPath, *, format: str | None = None, ini: StrPath | None = None
     device INI naming its table as `path`), with its warnings and notes on the document's `notes`.
     MdlError for what cannot be read."""
     from mdl.formats import guess_format
-    from mdl.sources.csvmap.documents import EXCEL, HTML, MARKDOWN
-    from mdl.sources.csvmap.ini import is_ini
-    from mdl.sources.loading import load_any
+    from mdl.formats.loading import load_any
+    from mdl.formats.table.ini import is_ini
+    from mdl.formats.table.readers.document import EXCEL, HTML, MARKDOWN
 
     given = Path(path)
     if format is None and ini is None:
@@ -53,9 +53,9 @@ def load(path: StrPath, *, format: str | None = None, ini: StrPath | None = None
 
 
 def _table(source: Path, ini_path: Path | None) -> Document:
-    from mdl.sources.csvmap.convert import Options, convert
-    from mdl.sources.csvmap.ini import is_ini, read_ini
-    from mdl.sources.csvmap.report import Report
+    from mdl.formats.table.convert import Options, convert
+    from mdl.formats.table.ini import is_ini, read_ini
+    from mdl.formats.table.report import Report
 
     if ini_path is None and is_ini(source):
         ini_path, table = source, None
@@ -79,9 +79,9 @@ def validate(document: Document | StrPath) -> list[Diagnostic]:
     """Every problem `mdl validate` finds (the XSD, then the checks of SPEC 2), errors and warnings; an
     empty list for a valid description. A path is validated as the file it names (positions in it); a
     Document as the MDL it would be written as, its checks with the positions its source gave."""
+    from mdl.formats.mdl import device_to_xml, validate_file
+    from mdl.formats.mdl.load import text_problems
     from mdl.resolver.checks import check_device
-    from mdl.sources.mdlxml import device_to_xml, validate_file
-    from mdl.sources.mdlxml.load import text_problems
 
     if not isinstance(document, Document):
         return validate_file(Path(document))[1]

@@ -17,13 +17,13 @@ from hypothesis import strategies as st
 
 from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import MdlError
+from mdl.formats.mdl.load import tree_to_device
+from mdl.formats.mdl.parse import parse_source
+from mdl.formats.mdl.write import device_to_xml
 from mdl.ir import codec
 from mdl.ir import steps as ir
 from mdl.model import Device, Function
 from mdl.resolver import resolve
-from mdl.sources.mdlxml.load import tree_to_device
-from mdl.sources.mdlxml.parse import parse_source
-from mdl.sources.mdlxml.write import device_to_xml
 from mdl.targets.python.emit import render_files
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))

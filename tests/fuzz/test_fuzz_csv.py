@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from mdl.cli.csv2xml import run_csv2xml
 from mdl.diagnostics import EXIT_INVALID, MdlError
-from mdl.sources.mdlxml import validate_file
+from mdl.formats.mdl import validate_file
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep
 ADDRESSES = (

@@ -1,5 +1,5 @@
 """Fuzzing the formats' registry (issue 19): SPEC 1's guess of a file's format, which `mdl import` (and every
-command, through mdl.sources.loading) asks mdl.formats for. Random file names and random starts of files, built
+command, through mdl.formats.loading) asks mdl.formats for. Random file names and random starts of files, built
 from the lines each format is told by (biased to both of them in one file, in any case, after blanks and a
 BOM), are guessed as the rule below says: a file name ending `.mod` is XIF and `.yaml`/`.yml` a Toolkit schema
 whatever the file holds, else a first line `#filetype,Modbus_xif` is XIF and then a `[Platform]` line

@@ -12,8 +12,8 @@ from collections.abc import Callable
 
 import pytest
 
-from mdl.sources.csvmap.html_table import grid, html_tables
-from mdl.sources.csvmap.md_table import shown
+from mdl.formats.table.readers.html import grid, html_tables
+from mdl.formats.table.readers.markdown import shown
 
 GROWTH = 8  # the larger input is this many times the smaller
 ALLOWED = 20  # linear work grows by about GROWTH; quadratic by GROWTH**2

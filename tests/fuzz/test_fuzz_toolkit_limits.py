@@ -12,8 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import mdl.exchange.yamlnodes as yamlnodes
 import mdl.formats.toolkit.read as toolkit
-import mdl.formats.yamlnodes as yamlnodes
 from mdl.device.evaluate import Evaluator
 from mdl.device.server.scenarios import run_scenario
 from mdl.diagnostics import MdlError

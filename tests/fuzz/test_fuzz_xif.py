@@ -21,11 +21,11 @@ from hypothesis import strategies as st
 from lxml import etree
 
 from mdl.diagnostics import SHOWN_EACH
+from mdl.formats.mdl.load import tree_to_device
+from mdl.formats.mdl.parse import secure_parser
 from mdl.formats.xif import columns as C
 from mdl.formats.xif.read import MAX_ERRORS
 from mdl.model import Device
-from mdl.sources.mdlxml.load import tree_to_device
-from mdl.sources.mdlxml.parse import secure_parser
 
 SEEDS = [
     (ROOT / "examples" / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),

@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 from lxml import etree
 
 from mdl.diagnostics import Diagnostic
+from mdl.formats.mdl import device_to_xml, load_device, validate_file
 from mdl.plan import plan_reads, split_request
 from mdl.resolver import resolve
-from mdl.sources.mdlxml import device_to_xml, load_device, validate_file
 
 BASE = (DATA / "all_tables.xml").read_bytes()
 # a function's elements in schema order

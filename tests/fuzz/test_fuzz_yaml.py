@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from mdl.device.server.scenarios import run_scenario
 from mdl.diagnostics import MdlError
+from mdl.exchange.yamlnodes import MAX_YAML_DEPTH
 from mdl.formats.toolkit.read import import_schema
-from mdl.formats.yamlnodes import MAX_YAML_DEPTH
 
 EXAMPLE = (Path(__file__).resolve().parents[2] / "examples" / "toolkit_heat_pump" / "heat_pump.yaml").read_text()
 MINIMAL = """description: 'x'

@@ -93,8 +93,8 @@ def csv2xml(
       mdl csv2xml examples/temco_tstat/temco_tstat.ini --explain occupied_setpoint --strict
     """
     from mdl.cli.csv2xml import run_csv2xml
-    from mdl.sources.csvmap.documents import chosen
-    from mdl.sources.csvmap.target import output_target
+    from mdl.formats.table.readers.document import chosen
+    from mdl.formats.table.target import output_target
 
     stdin_once([source] + ([ini] if ini else []))
     target = output_target(source, ini, output, allow_outside, force)
@@ -145,9 +145,9 @@ def import_(
       mdl import examples/wise_4012e/Modbus.ini --from wise -o wise_4012e.xml
       mdl import --from sunspec 103 120 160 --repeat 2 -o inverter.xml
     """
-    from mdl.sources.loading import import_format
-    from mdl.sources.mdlxml import device_to_xml
-    from mdl.sources.mdlxml.load import check_written
+    from mdl.formats.loading import import_format
+    from mdl.formats.mdl import device_to_xml
+    from mdl.formats.mdl.load import check_written
 
     if fmt is not None and fmt.lower() == "sunspec":
         from mdl.formats.sunspec.read import import_chain

@@ -1,6 +1,6 @@
-"""`mdl csv2xml` as a command: the INI read, the conversion (mdl.sources.csvmap.convert) run with its
+"""`mdl csv2xml` as a command: the INI read, the conversion (mdl.formats.table.convert) run with its
 report printed, the device checked as every description is, and the MDL written where
-mdl.sources.csvmap.target said (stdout, or a file written whole or not at all)."""
+mdl.formats.table.target said (stdout, or a file written whole or not at all)."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ import click
 
 from mdl.diagnostics import error
 from mdl.fileio import write_atomic
-from mdl.sources.csvmap.convert import Options, convert, counted
-from mdl.sources.csvmap.ini import is_ini, read_ini
-from mdl.sources.csvmap.report import Report
-from mdl.sources.mdlxml.load import check_written
-from mdl.sources.mdlxml.write import device_to_xml
+from mdl.formats.mdl.load import check_written
+from mdl.formats.mdl.write import device_to_xml
+from mdl.formats.table.convert import Options, convert, counted
+from mdl.formats.table.ini import is_ini, read_ini
+from mdl.formats.table.report import Report
 
 
 def run_csv2xml(

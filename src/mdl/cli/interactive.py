@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import click
 
-from mdl.sources.csvmap.match import Candidate, Index, best
-from mdl.sources.csvmap.rows import ParsedRow
+from mdl.formats.table.match import Candidate, Index, best
+from mdl.formats.table.rows import ParsedRow
 
 OPTIONS = 9  # rows offered per function
 

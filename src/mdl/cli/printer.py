@@ -49,7 +49,7 @@ def report_warnings(warnings: Iterable[Diagnostic], file: Path) -> None:
 def resolved_file(path: Path, fmt: str | None = None) -> ResolvedDevice:
     """The description in `path` through the resolve step, its warnings printed (every command that
     reads one calls this once per file): MdlError with every error otherwise."""
-    from mdl.sources.loading import load_resolved
+    from mdl.formats.loading import load_resolved
 
     resolved = load_resolved(path, fmt)
     report_warnings(resolved.warnings, path)

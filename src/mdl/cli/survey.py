@@ -99,9 +99,9 @@ def discover(
 def _discover_sunspec(files: tuple[Path, ...], connection: Connection, unit: int | None, output: Path | None) -> None:
     """`mdl discover --sunspec`: the MDL of the device's chain to `output` (stdout), written whole or not at all."""
     from mdl.device.sunspec.discover import discover_sunspec
+    from mdl.formats.mdl import device_to_xml
+    from mdl.formats.mdl.load import check_written
     from mdl.resolver import resolve
-    from mdl.sources.mdlxml import device_to_xml
-    from mdl.sources.mdlxml.load import check_written
 
     given = click.get_current_context().get_parameter_source
     if files:

@@ -38,7 +38,7 @@ def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None
       mdl validate examples/temco_tstat/temco_tstat.xml --schema 1.0
       mdl validate examples/profiles/meter_a.xml --profile meter
     """
-    from mdl.sources.mdlxml import validate_file
+    from mdl.formats.mdl import validate_file
 
     stdin_once(files)
     chosen = None

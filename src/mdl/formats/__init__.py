@@ -6,7 +6,7 @@ resolved device -> an mdl.exchange.export.Export).
 
 FORMATS is the one registry of them: it gives `mdl import --from` its choices, `mdl export --to` those of
 the formats that write (before the engines'), and SPEC 1's guess of a file's format (`guess_format`,
-which every command reading a description uses through mdl.sources.loading). A format's reader and
+which every command reading a description uses through mdl.formats.loading). A format's reader and
 writer are imported when first called, so that commands start fast.
 """
 

@@ -1,5 +1,5 @@
 """A profile from its YAML: one of those shipped in data/ (`meter`), or a user's file. Every mistake
-is an error naming the file, line and column (mdl.formats.yamlnodes keeps the positions)."""
+is an error naming the file, line and column (mdl.exchange.yamlnodes keeps the positions)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mdl.diagnostics import error
-from mdl.formats.yamlnodes import Map, Node, Text, load_yaml, need, opt
+from mdl.exchange.yamlnodes import Map, Node, Text, load_yaml, need, opt
 from mdl.model.units import SI
 
 DATA = Path(__file__).resolve().parent / "data"

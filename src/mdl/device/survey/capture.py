@@ -210,7 +210,7 @@ def scenario(resolved: ResolvedDevice, image: Image, name: str, where: str) -> S
 def with_scenario(device: Device, sc: Scenario, path: Path) -> str:
     """The description with the scenario added after its own (as MDL 1.0 XML). MdlError where it already
     has a scenario of that name."""
-    from mdl.sources.mdlxml.write import device_to_xml
+    from mdl.formats.mdl.write import device_to_xml
 
     if any(t.id == sc.id for t in device.tests):
         raise error(f"it already has a test scenario '{sc.id}': give another --scenario name", path)

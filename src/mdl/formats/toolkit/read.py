@@ -3,7 +3,7 @@
 Fields become functions named by their id; where an id repeats in several blocks, those
 functions are named "<block>.<id>". Expressions name fields of their own block by id.
 
-The YAML is read as nodes with their positions (mdl.formats.yamlnodes: no aliases, bounded depth
+The YAML is read as nodes with their positions (mdl.exchange.yamlnodes: no aliases, bounded depth
 and size; docs/user-guide.md, "Limits of the Toolkit import").
 """
 
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 from mdl.diagnostics import TextSpan, error, record_span
 from mdl.dsl.expr.ops import OpKind
-from mdl.formats.yamlnodes import List, Map, Node, Text, load_yaml, need, opt
+from mdl.exchange.yamlnodes import List, Map, Node, Text, load_yaml, need, opt
 from mdl.model import Device, Function, Scenario, ScenarioInput
 from mdl.model.addressing import AddressError, parse_address
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS

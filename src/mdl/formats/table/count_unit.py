@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+from mdl.formats.table.cells import CellError, read_type
+from mdl.formats.table.columns import Columns
+from mdl.formats.table.numbers import parse_int
+from mdl.formats.table.readers.delimited import Row
 from mdl.model.layout import FORMAT_BITS
-from mdl.sources.csvmap.cells import CellError, read_type
-from mdl.sources.csvmap.columns import Columns
-from mdl.sources.csvmap.numbers import parse_int
-from mdl.sources.csvmap.table import Row
 
 
 def count_unit(cols: Columns, data: list[Row], given: str | None) -> tuple[str, str | None]:

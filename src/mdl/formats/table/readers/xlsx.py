@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import IO, Any
 
 from mdl.diagnostics import MdlError, error
-from mdl.sources.csvmap.documents import MAX_CELLS
-from mdl.sources.csvmap.table import MAX_CELL_CHARS, cell_too_long
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, cell_too_long
+from mdl.formats.table.readers.document import MAX_CELLS
 
 MAX_UNZIPPED = 256_000_000  # bytes of all the archive's parts unzipped: a register workbook has a few MB
 MAX_ELEMENTS = 500_000  # XML elements of a part openpyxl reads whole (styles, workbook, relationships)

@@ -8,8 +8,8 @@ from lxml import etree
 
 from mdl.diagnostics import error
 from mdl.exchange.text import unwritable
+from mdl.formats.mdl.parse import NS
 from mdl.model import EXTENSION_FIELDS, IDENTITY_FIELDS, Device
-from mdl.sources.mdlxml.parse import NS
 
 _ORDER = (  # a function's elements in schema order: 0.9b's, then the 1.0 extensions (one list, in the model)
     *("name", "description", "addresses", "length", "count", "format", "block_labels", "multiplier", "units"),

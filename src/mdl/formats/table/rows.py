@@ -11,9 +11,7 @@ from typing import TypeVar
 from mdl.diagnostics import shown
 from mdl.dsl.cfrag import FragmentError, check
 from mdl.exchange.text import unwritable
-from mdl.model import BIT_TABLES, Function
-from mdl.model.layout import LayoutError, layout
-from mdl.sources.csvmap.cells import (
+from mdl.formats.table.cells import (
     AddressCell,
     CellError,
     MappedFormat,
@@ -29,10 +27,12 @@ from mdl.sources.csvmap.cells import (
     read_mapped_format,
     read_type,
 )
-from mdl.sources.csvmap.columns import Columns
-from mdl.sources.csvmap.numbers import NO_VALUE, Number, parse_int, parse_number, unit_alone
-from mdl.sources.csvmap.table import Row
-from mdl.sources.csvmap.vocabulary import function_problems, mapped
+from mdl.formats.table.columns import Columns
+from mdl.formats.table.numbers import NO_VALUE, Number, parse_int, parse_number, unit_alone
+from mdl.formats.table.readers.delimited import Row
+from mdl.formats.table.vocabulary import function_problems, mapped
+from mdl.model import BIT_TABLES, Function
+from mdl.model.layout import LayoutError, layout
 
 T = TypeVar("T")
 

@@ -12,11 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from mdl.diagnostics import Diagnostic, MdlError, error, shown
-from mdl.model import Function
-from mdl.model.layout import LayoutError, layout
-from mdl.resolver.checks import bound_problems
-from mdl.resolver.packing import packing_problems
-from mdl.sources.csvmap.cells import (
+from mdl.formats.table.cells import (
     CellError,
     parse_access,
     parse_bit_cell,
@@ -26,8 +22,12 @@ from mdl.sources.csvmap.cells import (
     read_address_cell,
     read_mapped_format,
 )
-from mdl.sources.csvmap.numbers import parse_int, parse_number
-from mdl.sources.csvmap.report import Report
+from mdl.formats.table.numbers import parse_int, parse_number
+from mdl.formats.table.report import Report
+from mdl.model import Function
+from mdl.model.layout import LayoutError, layout
+from mdl.resolver.checks import bound_problems
+from mdl.resolver.packing import packing_problems
 
 CELL_SECTION = re.compile(r"(?i)^(\w+)\s+cells$")
 FUNCTION_SECTION = re.compile(r"(?i)^function\s+(\S.*)$")

@@ -422,8 +422,8 @@ def decode_table(data: bytes, path: Path, encoding: str | None = None) -> tuple[
 
 def read_table(path: Path, delimiter: str | None = None, encoding: str | None = None) -> Table:
     """The table of a CSV/TSV file, or (with no delimiter given) the chosen table of a Markdown, HTML or
-    Excel file (mdl.sources.csvmap.documents)."""
-    from mdl.sources.csvmap import documents
+    Excel file (mdl.formats.table.readers.document)."""
+    from mdl.formats.table.readers import document as documents
 
     if documents.is_document(path, delimiter):
         table = documents.read_document(path, encoding)

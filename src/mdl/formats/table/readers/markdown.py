@@ -11,7 +11,7 @@ from bisect import bisect_left
 from collections.abc import Callable
 from pathlib import Path
 
-from mdl.sources.csvmap.table import MAX_CELL_CHARS, Row, cell_too_long
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, cell_too_long
 
 _RULE_CELL = re.compile(r"^\s*:?-+:?\s*$")
 _BREAK = re.compile(r"(?i)<br\s*/?>")

@@ -20,7 +20,7 @@ from lxml import etree
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import STDIO_ARG
-from mdl.sources.csvmap.ini import is_ini, read_ini
+from mdl.formats.table.ini import is_ini, read_ini
 
 MDL_ROOT = "{http://www.ornl.gov/ModbusXMLSchema}device"
 _SNIFF_BYTES = 1 << 16  # enough of a file to see its root element

@@ -62,7 +62,7 @@ def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
         )
     if first[:1] in "{[" and _is_json(text):
         return "a JSON document", "give an MDL document (raw registers in JSON go to `mdl sim --registers`)"
-    from mdl.sources.csvmap.table import DELIMITER_NAMES, table_delimiter  # what is not MDL: a rare path
+    from mdl.formats.table.readers.delimited import DELIMITER_NAMES, table_delimiter  # what is not MDL: a rare path
 
     delimiter = table_delimiter(text)
     if delimiter is not None or Path(str(path)).suffix.lower() in _TABLE_SUFFIXES:

@@ -2,9 +2,9 @@
 
 Every guess is a note naming the INI key that overrides it; every row that cannot be read is a
 warning with its CSV line; a summary note ends the conversion. All of them go to the Report given
-(mdl.sources.csvmap.report, which prints them). Nothing here asks the user (the interactive choice
+(mdl.formats.table.report, which prints them). Nothing here asks the user (the interactive choice
 is a `Chooser` given in Options: mdl.cli.interactive) or writes a file (the command that
-writes is mdl.cli.csv2xml; where it may write, mdl.sources.csvmap.target)."""
+writes is mdl.cli.csv2xml; where it may write, mdl.formats.table.target)."""
 
 from __future__ import annotations
 
@@ -13,19 +13,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from mdl.diagnostics import Diagnostic, MdlError, error
-from mdl.model import Device, Function
-from mdl.model.names import unique_identifiers
-from mdl.sources.csvmap.address_base import guess_address_base
-from mdl.sources.csvmap.cells import CellError, access_words
-from mdl.sources.csvmap.columns import Columns, resolve
-from mdl.sources.csvmap.count_unit import count_unit
-from mdl.sources.csvmap.documents import ini_choice
-from mdl.sources.csvmap.explain import BUDGET, explain, nearest
-from mdl.sources.csvmap.ini import DeviceIni
-from mdl.sources.csvmap.match import Candidate, Index, assign, candidates
-from mdl.sources.csvmap.overrides import read_with_sections
-from mdl.sources.csvmap.report import Progress, Report
-from mdl.sources.csvmap.rows import (
+from mdl.formats.table.address_base import guess_address_base
+from mdl.formats.table.cells import CellError, access_words
+from mdl.formats.table.columns import Columns, resolve
+from mdl.formats.table.count_unit import count_unit
+from mdl.formats.table.explain import BUDGET, explain, nearest
+from mdl.formats.table.ini import DeviceIni
+from mdl.formats.table.match import Candidate, Index, assign, candidates
+from mdl.formats.table.overrides import read_with_sections
+from mdl.formats.table.readers.delimited import DELIMITER_NAMES, Row, Table, find_header, read_table
+from mdl.formats.table.readers.document import ini_choice
+from mdl.formats.table.report import Progress, Report
+from mdl.formats.table.rows import (
     COMMA,
     NATIVE,
     NO_RANGE,
@@ -39,10 +38,11 @@ from mdl.sources.csvmap.rows import (
     row_texts,
     scale_raw_limits,
 )
-from mdl.sources.csvmap.scoring import EXACT, FUZZY, TIER_NAMES, FunctionName, Score
-from mdl.sources.csvmap.synonyms import DEFAULT_SYNONYMS
-from mdl.sources.csvmap.table import DELIMITER_NAMES, Row, Table, find_header, read_table
-from mdl.sources.csvmap.vocabulary import FunctionSection, apply_sections, multiplier_of, number_of
+from mdl.formats.table.scoring import EXACT, FUZZY, TIER_NAMES, FunctionName, Score
+from mdl.formats.table.synonyms import DEFAULT_SYNONYMS
+from mdl.formats.table.vocabulary import FunctionSection, apply_sections, multiplier_of, number_of
+from mdl.model import Device, Function
+from mdl.model.names import unique_identifiers
 
 DEFAULT_THRESHOLD = 0.6
 # functions (name -> phrases), the index of the rows, the rows -> the row chosen for each function

@@ -17,9 +17,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from mdl.formats.table.cells import WORDED_TABLES, CellError, bit_of, is_modicon_number, parse_table
+from mdl.formats.table.readers.delimited import Row
 from mdl.model.addressing import MODICON_TABLE
-from mdl.sources.csvmap.cells import WORDED_TABLES, CellError, bit_of, is_modicon_number, parse_table
-from mdl.sources.csvmap.table import Row
 
 SHARE = 0.75
 _PLAIN = re.compile(r"^[\d\s,;/&\-–—]+$|^\d+\s*(?:to|\.\.)\s*\d+$", re.IGNORECASE)

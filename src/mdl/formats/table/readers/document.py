@@ -14,7 +14,7 @@ from pathlib import Path
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
-from mdl.sources.csvmap.table import MAX_CELL_CHARS, Row, Table, cell_too_long, decode_table, find_header
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, Table, cell_too_long, decode_table, find_header
 
 MARKDOWN = (".md", ".markdown")
 HTML = (".html", ".htm", ".xhtml")
@@ -185,14 +185,14 @@ def read_document(path: Path, encoding: str | None) -> Table:
 
 
 def _markdown_candidates(path: Path, text: str) -> list[Candidate]:
-    from mdl.sources.csvmap.md_table import markdown_tables
+    from mdl.formats.table.readers.markdown import markdown_tables
 
     tables = enumerate(markdown_tables(text, path), 1)
     return [Candidate(f"table {n} (line {line})", str(n), rows) for n, (line, rows) in tables]
 
 
 def _html_candidates(path: Path, text: str) -> list[Candidate]:
-    from mdl.sources.csvmap.html_table import grid, html_tables, size
+    from mdl.formats.table.readers.html import grid, html_tables, size
 
     out = []
     for n, table in enumerate(html_tables(text), 1):
@@ -223,7 +223,7 @@ def _html_candidates(path: Path, text: str) -> list[Candidate]:
 
 
 def _excel_candidates(path: Path) -> list[Candidate]:
-    from mdl.sources.csvmap.xlsx_table import cell_ref, open_book, read_sheet, sheet_names
+    from mdl.formats.table.readers.xlsx import cell_ref, open_book, read_sheet, sheet_names
 
     with open_book(path) as book:
         sheets = [read_sheet(path, book, name) for name in sheet_names(book)]

@@ -10,8 +10,7 @@ from typing import TYPE_CHECKING, Any
 from lxml import etree
 
 from mdl.diagnostics import Collector, Diagnostic, MdlError, TextSpan, defer_spans, record_span
-from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
-from mdl.sources.mdlxml.parse import (
+from mdl.formats.mdl.parse import (
     NS,
     StartTag,
     decoded,
@@ -20,6 +19,7 @@ from mdl.sources.mdlxml.parse import (
     schema_errors,
     secure_parser,
 )
+from mdl.model import IDENTITY_FIELDS, Device, Function, Scenario, ScenarioInput
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -255,7 +255,7 @@ def tree_to_device(tree: etree._ElementTree, source: str | None = None, data: by
 
 def read_device(path: StrPath, version: str = "1.0") -> Device:
     """The model of an MDL file: well-formed, valid against the XSD, numbers usable. Nothing more is
-    checked here: `mdl.resolver.resolve` runs the checks of SPEC 2 (see mdl.sources.loading)."""
+    checked here: `mdl.resolver.resolve` runs the checks of SPEC 2 (see mdl.formats.loading)."""
     tree, data = parse_source(path)
     errors = schema_errors(tree, path, version, data)
     if errors:
@@ -277,7 +277,7 @@ def validate_file(path: StrPath, version: str = "1.0") -> tuple[Device | None, l
 
 def load_device(path: StrPath, version: str = "1.0") -> Device:
     """`read_device`, resolved (MdlError with every error): for tests and scripts that want a checked
-    model. Commands use mdl.sources.loading.load_resolved."""
+    model. Commands use mdl.formats.loading.load_resolved."""
     from mdl.resolver import resolve
 
     return resolve(read_device(path, version), str(path)).device

@@ -20,7 +20,7 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from mdl.sources.csvmap.scoring import FUZZY, Score, Text, find_phrase, fuzzy, normalize, tiers, words
+from mdl.formats.table.scoring import FUZZY, Score, Text, find_phrase, fuzzy, normalize, tiers, words
 
 
 @dataclass

@@ -11,8 +11,8 @@ from pathlib import Path
 from mdl.diagnostics import Diagnostic, MdlError, shown
 from mdl.exchange.text import unwritable
 from mdl.fileio import read_bytes
-from mdl.sources.csvmap.table import MAX_CELL_CHARS, decode_table
-from mdl.sources.csvmap.vocabulary import (
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, decode_table
+from mdl.formats.table.vocabulary import (
     CELL_SECTION,
     FUNCTION_SECTION,
     FunctionSection,

@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 
 from mdl.diagnostics import shown
-from mdl.sources.csvmap.cells import CellError
+from mdl.formats.table.cells import CellError
 
 _DIGITS = r"(?:\d+(?:[.,]\d+)*\.?|[.,]\d+)"
 _NUMBER = rf"[-+]?{_DIGITS}(?:[eE][-+]?\d+)?"

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from mdl.diagnostics import error
 from mdl.fileio import is_stdin
 from mdl.formats import by_name, guess_format, names
-from mdl.sources.mdlxml.load import read_device
+from mdl.formats.mdl.load import read_device
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
@@ -29,7 +29,7 @@ def import_format(path: StrPath) -> str:
     if is_stdin(path):
         raise error(f"cannot tell the format of standard input; {give}", path)
     from mdl.fileio import read_bytes
-    from mdl.sources.mdlxml.sniff import looks_like, starts_with_markup
+    from mdl.formats.sniff import looks_like, starts_with_markup
 
     data = read_bytes(path, limit=64 * 1024)[: 64 * 1024]  # a missing or unreadable file: its own error
     if starts_with_markup(data):

@@ -4,7 +4,7 @@ section's fields win over the table's cells).
 A row is skipped when one of its essential cells (addresses, register type, format, count) cannot be read.
 Where the function whose best row it is has a section that sets that very field, the row is read again
 with the section's value in that cell, and a note says so; the section is then applied as for any row
-(mdl.sources.csvmap.vocabulary.apply_sections), its notes included.
+(mdl.formats.table.vocabulary.apply_sections), its notes included.
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 from mdl.diagnostics import shown
-from mdl.sources.csvmap.cells import CellError
-from mdl.sources.csvmap.columns import Columns
-from mdl.sources.csvmap.ini import DeviceIni
-from mdl.sources.csvmap.report import Report
-from mdl.sources.csvmap.rows import ParsedRow, RowSettings, parse_row
-from mdl.sources.csvmap.table import Row
+from mdl.formats.table.cells import CellError
+from mdl.formats.table.columns import Columns
+from mdl.formats.table.ini import DeviceIni
+from mdl.formats.table.readers.delimited import Row
+from mdl.formats.table.report import Report
+from mdl.formats.table.rows import ParsedRow, RowSettings, parse_row
 
 ESSENTIAL = ("addresses", "register_type", "format", "count")
 

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mdl.diagnostics import Diagnostic, MdlError
-from mdl.sources.csvmap.cells import (
+from mdl.formats.table.cells import (
     CellError,
     parse_access,
     parse_format,
@@ -16,10 +16,10 @@ from mdl.sources.csvmap.cells import (
     parse_table,
     parse_word_order,
 )
-from mdl.sources.csvmap.ini import DeviceIni
-from mdl.sources.csvmap.numbers import parse_int, parse_number
-from mdl.sources.csvmap.table import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
-from mdl.sources.csvmap.vocabulary import mapped
+from mdl.formats.table.ini import DeviceIni
+from mdl.formats.table.numbers import parse_int, parse_number
+from mdl.formats.table.readers.delimited import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
+from mdl.formats.table.vocabulary import mapped
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
 GUESS_ORDER = (

@@ -3,8 +3,8 @@ can be fixed without reading the code; and the short form the unmatched-function
 
 from __future__ import annotations
 
-from mdl.sources.csvmap.match import Candidate, Index, best, candidates
-from mdl.sources.csvmap.scoring import TIER_NAMES, FunctionName, normalize, score_pair, why
+from mdl.formats.table.match import Candidate, Index, best, candidates
+from mdl.formats.table.scoring import TIER_NAMES, FunctionName, normalize, score_pair, why
 
 TOP = 10
 BUDGET = 2000  # ratios computed at most to find an unmatched function's best row

@@ -12,8 +12,8 @@ from lxml import etree
 
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.fileio import read_bytes
+from mdl.formats.sniff import not_xml, starts_with_markup
 from mdl.resources import schema_path
-from mdl.sources.mdlxml.sniff import not_xml, starts_with_markup
 
 if TYPE_CHECKING:
     from _typeshed import StrPath
