@@ -148,7 +148,7 @@ def test_a_write_only_functions_registers_are_captured_too(write_device, sim_fac
 def test_a_write_only_register_the_device_will_not_read_is_a_warning(write_device, monkeypatch):
     """However the device refuses reading a write-only function's registers (any exception, a timeout),
     the rest of the image is kept and a warning says what was not captured."""
-    from mdl.device import runtime
+    from mdl.device import link
     from mdl.device.connection import Connection
     from mdl.device.survey import capture
     from mdl.formats.loading import load_resolved
@@ -158,11 +158,11 @@ def test_a_write_only_register_the_device_will_not_read_is_a_warning(write_devic
 
     def read_request(self, req):
         if req.start == 10:
-            raise runtime.ModbusExceptionError("read of registers 10", 1)
+            raise link.ModbusExceptionError("read of registers 10", 1)
         return [7] * req.count
 
-    monkeypatch.setattr(runtime.Session, "read_request", read_request)
-    monkeypatch.setattr(runtime.Session, "connect", lambda self: None)
+    monkeypatch.setattr(link.Link, "read_request", read_request)
+    monkeypatch.setattr(link.Link, "connect", lambda self: None)
     image, warnings = capture.capture_described(resolved, Connection(host="127.0.0.1"), 1)
     assert image["holding"] == {0: 7}
     assert warnings == [

@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mdl.device.replies import MAX_PDU, came_from, parse_identification
-from mdl.device.runtime import Wire
+from mdl.device.frames import Wire
 from mdl.device.survey.discover import parse_units, unit_list
 
 RUN = 90  # seconds one discover may take at most (a serial line drains a dribbling reply: about 12 s)

@@ -16,7 +16,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mdl.device.connection import Connection
-from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.link import ModbusExceptionError
+from mdl.device.runtime import Session
 from mdl.formats.loading import load_resolved
 from mdl.ir import codec
 from mdl.model.layout import layout

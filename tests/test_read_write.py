@@ -162,7 +162,8 @@ def test_a_refused_group_is_read_as_smaller_requests_on_every_poll(write_device)
     a list of names finds the smaller requests, and every later read goes straight to them, values
     and all (a regression returned nulls from the second poll on)."""
     from mdl.device.connection import Connection
-    from mdl.device.runtime import ModbusExceptionError, Session
+    from mdl.device.link import ModbusExceptionError
+    from mdl.device.runtime import Session
     from mdl.formats.loading import load_resolved
 
     path = write_device("".join(fn_xml(name, str(i), format="INT16") for i, name in enumerate("abc")))

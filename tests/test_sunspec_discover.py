@@ -23,7 +23,7 @@ from hostile_server import hostile_server
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.device.runtime import ModbusExceptionError
+from mdl.device.link import ModbusExceptionError
 from mdl.device.sunspec.discover import MAX_MODELS, _Walk, count_points, fit, group_length
 from mdl.diagnostics import MdlError
 from mdl.formats.mdl.load import read_device

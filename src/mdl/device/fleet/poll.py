@@ -23,7 +23,8 @@ from types import FrameType
 from typing import TextIO
 
 from mdl.device import output
-from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.link import ModbusExceptionError
+from mdl.device.runtime import Session
 from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.model import Function
 

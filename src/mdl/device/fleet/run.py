@@ -27,7 +27,8 @@ from mdl.device import output
 from mdl.device.connection import Connection, parse_connection
 from mdl.device.fleet.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.frames import Wire
-from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.link import ModbusExceptionError
+from mdl.device.runtime import Session
 from mdl.diagnostics import EXIT_DEVICE, MdlError, error
 from mdl.fileio import input_path
 from mdl.model import Function, Value

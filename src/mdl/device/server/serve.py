@@ -23,7 +23,8 @@ from typing import TextIO
 
 from mdl.device.connection import Connection, parse_connection
 from mdl.device.evaluate import Evaluator
-from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.link import ModbusExceptionError
+from mdl.device.runtime import Session
 from mdl.device.server import sim as simulator
 from mdl.device.sunspec.gateway import FacadeRegisters, RoleValues, Source, choose, role_values
 from mdl.diagnostics import Diagnostic, MdlError, error, one_line

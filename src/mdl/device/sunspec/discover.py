@@ -23,8 +23,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from mdl.device.connection import Connection
+from mdl.device.link import Link, ModbusExceptionError
 from mdl.device.replies import LineLost
-from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.device.survey.discover import _say, _Unit
 from mdl.diagnostics import DeviceError, Diagnostic
 from mdl.formats.sunspec.build import BASES, END_ID, SUNS, _count_points, build_chain
@@ -33,7 +33,6 @@ from mdl.formats.sunspec.read import DEFAULT_REPEAT
 from mdl.model import Device
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 from mdl.plan import Request
-from mdl.resolver import ResolvedDevice
 
 MAX_MODELS = 200  # a real device holds a few dozen models; more is a device answering garbage
 HEADER = 2  # a model's ID and L
@@ -114,7 +113,7 @@ class _Walk:
     """The requests of one walk (holding registers of one unit), counted; late bytes of another reply are
     dropped and the request asked again, as `mdl discover` does."""
 
-    def __init__(self, session: Session, unit: int) -> None:
+    def __init__(self, session: Link, unit: int) -> None:
         self.session, self.asker = session, _Unit(session, unit)
         self.requests = 0
         self.warnings: list[str] = []
@@ -266,7 +265,7 @@ def discover_sunspec(connection: Connection, unit: int) -> Device:
     def say(message: str) -> None:
         _say(message, COMMAND)
 
-    session = Session(ResolvedDevice(Device("discover", ""), (), ()), connection, unit)
+    session = Link(connection, unit)
     walk = _Walk(session, unit)
     with session:
         say(f"looking for a SunSpec chain on {connection} unit {unit}")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from mdl.device.connection import Connection
 from mdl.device.evaluate import Evaluator
-from mdl.device.runtime import ModbusExceptionError, Session
+from mdl.device.link import Link, ModbusExceptionError
 from mdl.diagnostics import MdlError, error, one_line
 from mdl.fileio import read_text
 from mdl.model import BIT_TABLES, REGISTER_TYPES, Device, Scenario, ScenarioInput, Value
@@ -41,7 +41,7 @@ def capture_described(resolved: ResolvedDevice, connection: Connection, unit: in
     replayed by `mdl sim` they should read as they did."""
     image: Image = _empty()
     warnings: list[str] = []
-    with Session(resolved, connection, unit) as session:
+    with Link(connection, unit) as session:
         for group in resolved.plan:
             _read_into(session, group.request, image, warnings, group.smaller)
         for f in resolved.functions:
@@ -61,7 +61,7 @@ def capture_described(resolved: ResolvedDevice, connection: Connection, unit: in
 
 
 def _read_into(
-    session: Session, req: Request, image: Image, warnings: list[str], smaller: tuple[Request, ...] = ()
+    session: Link, req: Request, image: Image, warnings: list[str], smaller: tuple[Request, ...] = ()
 ) -> None:
     try:
         values = session.read_request(req)
@@ -86,7 +86,7 @@ def _halves(req: Request) -> tuple[Request, ...]:
     return (Request(req.table, req.start, half, ()), Request(req.table, req.start + half, req.count - half, ()))
 
 
-def _read_split(session: Session, req: Request, image: Image, warnings: list[str]) -> None:
+def _read_split(session: Link, req: Request, image: Image, warnings: list[str]) -> None:
     try:
         values = session.read_request(req)
     except ModbusExceptionError as exc:
@@ -109,8 +109,7 @@ def capture_ranges(
     alone is said, not captured."""
     image = _empty()
     warnings: list[str] = []
-    nobody = ResolvedDevice(Device("capture", ""), (), ())
-    with Session(nobody, connection, unit) as session:
+    with Link(connection, unit) as session:
         for table, spans in ranges.items():
             step = MAX_BITS if table in BIT_TABLES else MAX_REGISTERS
             for first, last in spans:

@@ -36,6 +36,7 @@ from pymodbus.constants import DeviceInformation
 from pymodbus.exceptions import ModbusException
 
 from mdl.device.connection import Connection
+from mdl.device.link import Link, ModbusExceptionError
 from mdl.device.replies import (
     DRAIN_MIN,
     DRAIN_TIMEOUTS,
@@ -48,11 +49,10 @@ from mdl.device.replies import (
     refused_problem,
     reply_pdu,
 )
-from mdl.device.runtime import ModbusExceptionError, Session
 from mdl.diagnostics import DeviceError, Diagnostic, one_line
 from mdl.ir.build import decode_steps
 from mdl.ir.codec import Decoder, compile_decoder
-from mdl.model import Device, Function, Value
+from mdl.model import Function, Value
 from mdl.model.layout import Layout
 from mdl.plan import Request
 from mdl.resolver import ResolvedDevice
@@ -159,7 +159,7 @@ class _Unit:
 
     command = "mdl discover"
 
-    def __init__(self, session: Session, unit: int) -> None:
+    def __init__(self, session: Link, unit: int) -> None:
         self.session, self.unit = session, unit
         self.answered = self.absent = False
         self.reads: dict[tuple[str, tuple[tuple[int, int], ...]], list[int] | None] = {}
@@ -336,7 +336,7 @@ class _Unit:
         )
 
 
-def _ask(session: Session, unit: int, candidates: list[_Candidate]) -> UnitResult | None:
+def _ask(session: Link, unit: int, candidates: list[_Candidate]) -> UnitResult | None:
     """The unit's result, or None if it did not answer."""
     session.unit = unit
     asked = _Unit(session, unit)
@@ -400,7 +400,7 @@ def discover(library: list[tuple[Path, ResolvedDevice]], connection: Connection,
     if connection.serial is not None and 0 in units:
         _say("unit 0 is the broadcast address on a serial line, which no device answers: not asked")
         units = [u for u in units if u != 0]
-    session = Session(library[0][1] if library else ResolvedDevice(Device("discover", ""), (), ()), connection)
+    session = Link(connection)
     session.client.set_max_no_responses(len(units) + 3)  # silent units are the rule here, not a broken line
     session.asking_units(units)
     results: list[UnitResult] = []

@@ -23,16 +23,15 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 
 from mdl.device.connection import Connection
+from mdl.device.link import EXCEPTION_NAMES, Link, ModbusExceptionError
 from mdl.device.replies import LineLost
-from mdl.device.runtime import EXCEPTION_NAMES, ModbusExceptionError, Session
 from mdl.device.survey.discover import GATEWAY_SILENT, _Unit, unit_list
 from mdl.device.survey.probe_guess import guesses
 from mdl.device.survey.probe_options import ProbeOptions, Span
 from mdl.diagnostics import DeviceError
-from mdl.model import BIT_TABLES, REGISTER_TYPES, Device
+from mdl.model import BIT_TABLES, REGISTER_TYPES
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS
 from mdl.plan import Request
-from mdl.resolver import ResolvedDevice
 
 STRUGGLING = 3  # signs in a row that a unit is struggling before it is left alone
 STRUGGLE_CODES = (4, 5, 6)  # SERVER DEVICE FAILURE, ACKNOWLEDGE, SERVER DEVICE BUSY
@@ -109,7 +108,7 @@ class _Line(_Unit):
 class _Prober:
     """The requests to one unit, counted against its budget; what each got, judged."""
 
-    def __init__(self, session: Session, unit: int, budget: int, pace: _Pace, found: UnitProbe) -> None:
+    def __init__(self, session: Link, unit: int, budget: int, pace: _Pace, found: UnitProbe) -> None:
         self.session, self.unit, self.budget, self.pace, self.found = session, unit, budget, pace, found
         self.line = _Line(session, unit)
         self.in_a_row = 0
@@ -325,7 +324,7 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
         if not waiting:
             break
         _say(f"asking {len(waiting)} unit{'s' * (len(waiting) != 1)} on {line}")
-        session = Session(ResolvedDevice(Device("probe", ""), (), ()), line)
+        session = Link(line)
         session.client.set_max_no_responses(len(waiting) + 3)  # silent units are the rule here
         session.asking_units(waiting)
         serial = None if line.serial is None else {"baud": line.baud, "parity": line.parity}
@@ -358,7 +357,7 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
 
 
 def _probe_one(
-    session: Session, unit: int, serial: dict[str, object] | None, options: ProbeOptions, pace: _Pace
+    session: Link, unit: int, serial: dict[str, object] | None, options: ProbeOptions, pace: _Pace
 ) -> UnitProbe | None:
     found = UnitProbe(unit, serial, tables=tuple(options.tables))
     prober = _Prober(session, unit, options.max_requests, pace, found)
