@@ -23,6 +23,7 @@ from datetime import datetime, timezone
 from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
 from typing import Any, TypedDict, cast
 
+from mdl.exchange.text import aligned
 from mdl.model import Function, Value
 
 
@@ -257,8 +258,7 @@ def render(functions: list[Function], values: dict[str, Value], fmt: str, device
 
 def _table(rows: list[tuple[str, str, str]]) -> str:
     """Lines `name  value units`, names padded to the longest."""
-    width = max((len(name) for name, _, _ in rows), default=4)
-    lines = [f"{name:<{width}}  {text}{' ' + units if units else ''}" for name, text, units in rows]
+    lines = aligned([(name, f"{text}{' ' + units if units else ''}") for name, text, units in rows])
     return "\n".join(lines) + ("\n" if lines else "")
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import json
 import re
+from collections.abc import Sequence
 
 from mdl.diagnostics import one_line
 
@@ -106,3 +107,11 @@ def yaml_dumper() -> type:
 
     Dumper.add_representer(str, text)
     return Dumper
+
+
+def aligned(rows: Sequence[Sequence[str]]) -> list[str]:
+    """The one table printer of the commands' text output (`mdl read`, `mdl discover`, `mdl profiles`):
+    each row a line, its cells two spaces apart, every column but the last padded to its widest cell, the
+    last as it is."""
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]) - 1)] if rows else []
+    return ["  ".join([*(c.ljust(w) for c, w in zip(row[:-1], widths, strict=True)), row[-1]]) for row in rows]

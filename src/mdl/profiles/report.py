@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 from mdl.diagnostics import Diagnostic, span_of
+from mdl.exchange.text import aligned
 from mdl.profiles.fit import Binding, Fit
 from mdl.profiles.load import Profile, Role, load_profile, shipped
 
@@ -31,9 +32,7 @@ def roles_table(profile: Profile) -> list[str]:
             r.description + (f"; {r.sign}" if r.sign else "") + (f" (or {r.opposite}, negated)" if r.opposite else "")
         )
         rows.append((r.name, _unit(r), "yes" if r.required else "", r.access, meaning))
-    widths = [max(len(row[i]) for row in rows) for i in range(4)]
-    head = [f"{profile.name}: {profile.title} ({profile.source})"]
-    return head + ["  ".join(c.ljust(w) for c, w in zip(row[:4], widths, strict=True)) + "  " + row[4] for row in rows]
+    return [f"{profile.name}: {profile.title} ({profile.source})", *aligned(rows)]
 
 
 def roles_json(profile: Profile) -> str:

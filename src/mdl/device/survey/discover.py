@@ -50,6 +50,7 @@ from mdl.device.replies import (
     reply_pdu,
 )
 from mdl.diagnostics import DeviceError, Diagnostic, one_line
+from mdl.exchange.text import aligned
 from mdl.ir.build import decode_steps
 from mdl.ir.codec import Decoder, compile_decoder
 from mdl.model import Function, Value
@@ -459,7 +460,4 @@ def render(results: list[UnitResult], fmt: str) -> str:
         raise ValueError(f"unknown format {fmt!r}")
     rows = [["UNIT", "FILE", "DEVICE", *OBJECT_NAMES]]
     rows += [[one_line(cell) for cell in cells] for r in results for cells in _cells(r)]
-    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    return "".join(
-        "  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() + "\n" for row in rows
-    )
+    return "".join(line.rstrip() + "\n" for line in aligned(rows))
