@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Regenerate every golden file: the drivers (tests/golden/all_tables, examples/temco_tstat) and the
-engine exports (tests/golden/exports, rendered by tests/test_export_golden.py).
+engine exports (tests/golden/exports, rendered by tests/unit/exports/test_export_golden.py).
 
     python3 scripts/regen_golden.py
 
@@ -31,7 +31,7 @@ LANGS = ("all",)  # every target; the C and C++ drivers share <stem>.h (mdl.targ
 
 
 def expected_files() -> dict[Path, str]:
-    """Every driver golden file (its path) -> the content `mdl gen` gives it now (tests/test_gen.py)."""
+    """Every driver golden file (its path) -> the content `mdl gen` gives it now (tests/unit/targets/test_gen.py)."""
     out = {}
     for source, directory in GOLDEN.items():
         device = load_device(source)
@@ -58,11 +58,11 @@ def write_golden(expected: dict[Path, str], stale: list[Path]) -> None:
 
 def main() -> int:
     sys.path.insert(0, str(ROOT / "tests"))
-    import test_export_golden  # the export golden files are rendered as their test renders them
+    from support import export_golden  # the export golden files, rendered as their test renders them
 
     try:
-        exports = test_export_golden.expected_files()
-        write_golden({**expected_files(), **exports}, test_export_golden.stale_files(exports))
+        exports = export_golden.expected_files()
+        write_golden({**expected_files(), **exports}, export_golden.stale_files(exports))
     except MdlError as exc:
         print(exc, file=sys.stderr)
         return exc.exit_code

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import math
 import struct
-import sys
-from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -25,62 +23,7 @@ from mdl.ir import steps as ir
 from mdl.model import Device, Function
 from mdl.resolver import resolve
 from mdl.targets.python.emit import render_files
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-FORMATS = {"UINT16": 16, "INT16": 16, "UINT32": 32, "INT32": 32, "UINT8": 8, "INT64": 64}
-MULTIPLIERS = [1.0, 0.1, 12.5, 0.25, 3.0]
-
-
-@st.composite
-def devices(draw) -> tuple[Device, dict[tuple[str, int], int]]:
-    fmt = draw(st.sampled_from(list(FORMATS)))
-    width = FORMATS[fmt]
-    word_order, byte_order = draw(st.sampled_from(["big", "little"])), draw(st.sampled_from(["big", "little"]))
-    functions = []
-    for i in range(draw(st.integers(1, 4))):
-        low = draw(st.integers(0, width - 1))
-        high = draw(st.integers(low, min(width - 1, low + 20)))
-        one = low == high
-        multiplier = None if one else draw(st.sampled_from(MULTIPLIERS))
-        offset = None if one else draw(st.sampled_from([None, 0.0, 5.0, -2.5]))
-        text = f"{low}" if one else (f"{low}-{high}" if draw(st.booleans()) else f"{high}-{low}")
-        functions.append(
-            Function(
-                f"f{i}",
-                "flag",
-                [10],
-                format=fmt,
-                bits=text,
-                multiplier=multiplier,
-                offset=offset,
-                word_order=word_order,
-                byte_order=byte_order,
-                write_function_code="22" if draw(st.booleans()) and width == 16 else None,
-            )
-        )
-    exponent = draw(st.booleans())
-    factor_fmt = "INT16" if exponent else draw(st.sampled_from(["UINT16", "INT16", "UINT32"]))
-    functions.append(
-        Function("sf", "factor", [20], format=factor_fmt, not_implemented=["0x8000"] if draw(st.booleans()) else None)
-    )
-    value_fmt = draw(st.sampled_from(["INT16", "UINT16", "INT32", "UINT32"]))
-    functions.append(
-        Function(
-            "scaled",
-            "scaled",
-            [30],
-            format=value_fmt,
-            multiplier=draw(st.sampled_from(MULTIPLIERS)),
-            offset=draw(st.sampled_from([None, 1.5])),
-            **{"scale_exponent" if exponent else "scale_by": "sf"},
-        )
-    )
-    device = Device("Fuzz", "fuzz", functions, version="1.0")
-    raw = {("holding", a): draw(st.integers(0, 0xFFFF)) for a in (*range(10, 14), 20, 21, *range(30, 32))}
-    if exponent and draw(st.booleans()):
-        raw[("holding", 20)] = draw(st.integers(-25, 25)) & 0xFFFF  # mostly a real SunSpec exponent
-    return device, raw
+from support.bits_scale import devices
 
 
 def _same(a: object, b: object) -> bool:

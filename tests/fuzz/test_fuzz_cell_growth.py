@@ -12,7 +12,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from conftest import DATA, ROOT, cli
+
+from support.common import DATA, ROOT
+from support.run import cli
 
 GROWTH = 2.5  # linear: 2 at most (nearer 1: the command's fixed cost); quadratic: 3 to 4
 RUNS = 5

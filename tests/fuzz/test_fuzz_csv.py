@@ -11,13 +11,13 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import assert_clean_error, run_mdl
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from mdl.cli.csv2xml import run_csv2xml
 from mdl.diagnostics import EXIT_INVALID, MdlError
 from mdl.formats.mdl import validate_file
+from support.run import assert_clean_error, run_mdl
 
 # the cells of each kind of column, (common, rare): mostly plausible cells, so that rows get deep
 ADDRESSES = (

@@ -6,9 +6,10 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from conftest import cli
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
+from support.run import cli
 
 INI = "[Function Name Search Synonyms]\nroom_temperature = room temperature\nfan_speed = fan speed\n"
 

@@ -1,7 +1,7 @@
 """Fuzzing every export with hostile text (issue 27): random device names, function names, descriptions, units
 and enumeration labels, biased to what ends a comment, a string, a line or a cell early (line breaks of every
 kind, quotes, backslashes, `]]`, `#`, `=`, `;`, `,`, formula characters...). Each export is parsed by its
-format's own parser and must have the structure meant with every text back (tests/test_hostile_exports.py's
+format's own parser and must have the structure meant with every text back (tests/unit/exports/test_hostile_exports.py's
 checks), or the description is refused cleanly (exit 1, no traceback) by validate and every export alike.
 
 A longer run by hand: MDL_FUZZ_EXPORTS=3000 python -m pytest tests/fuzz/test_fuzz_exports.py --exhaustive
@@ -13,10 +13,11 @@ import os
 import tempfile
 from pathlib import Path
 
-from conftest import assert_clean_error, cli
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
-from test_hostile_exports import FORMULA, HOSTILE, Fn, export, run_all, write_device
+
+from support.hostile_exports import FORMULA, HOSTILE, Fn, export, run_all, write_device
+from support.run import assert_clean_error, cli
 
 PIECES = [
     "\n",

@@ -15,11 +15,11 @@ import os
 import tempfile
 from pathlib import Path
 
-from conftest import cli
 from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from mdl import exports, formats
+from support.run import cli
 
 EXAMPLES = int(os.environ.get("MDL_FUZZ_FORMATS", "150"))
 SUFFIXES = [

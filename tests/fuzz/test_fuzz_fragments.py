@@ -4,7 +4,7 @@ and junk text, through the checker, the Python translation and the C emitter.
 Every text is accepted or refused with a FragmentError naming a column, never another exception;
 an accepted fragment's Python translation, run on random registers (or values written), returns a
 value or raises only the documented errors; and the C functions of all accepted fragments, in ONE
-gcc program built with UBSan and -Werror (tests/test_cfrag.py's CBatch), compile without a warning,
+gcc program built with UBSan and -Werror (tests/unit/dsl/cfrag/test_cfrag.py's CBatch), compile without a warning,
 run without a UBSan report and give the Python translation's results bit for bit, errno included;
 clang finds nothing in them either, and their C++ functions compile under g++ and clang++ without
 a warning.
@@ -18,7 +18,10 @@ import subprocess
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
-from test_cfrag import (
+
+from mdl.dsl.cfrag import FragmentError, compile_fragment
+from support.cpp_harness import tool
+from support.fragments import (
     C99_STRICT,
     CPP_STRICT,
     NREGS,
@@ -28,10 +31,7 @@ from test_cfrag import (
     disagreements,
     python_result,
     register_samples,
-    tool,
 )
-
-from mdl.dsl.cfrag import FragmentError, compile_fragment
 
 LEAVES = [
     "r1",

@@ -15,7 +15,6 @@ import re
 import tempfile
 from pathlib import Path
 
-from conftest import DATA, ROOT, cli, device_xml, fn_xml
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from lxml import etree
@@ -26,6 +25,8 @@ from mdl.formats.mdl.parse import secure_parser
 from mdl.formats.xif import columns as C
 from mdl.formats.xif.read import MAX_ERRORS
 from mdl.model import Device
+from support.common import DATA, ROOT, device_xml, fn_xml
+from support.run import cli
 
 SEEDS = [
     (ROOT / "examples" / "xif_meter" / "meter.mod").read_text(encoding="utf-8"),

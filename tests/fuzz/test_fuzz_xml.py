@@ -11,7 +11,6 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import DATA, MDL_NS, assert_clean_error, run_mdl
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 from lxml import etree
@@ -20,6 +19,8 @@ from mdl.diagnostics import Diagnostic
 from mdl.formats.mdl import device_to_xml, load_device, validate_file
 from mdl.plan import plan_reads, split_request
 from mdl.resolver import resolve
+from support.common import DATA, MDL_NS
+from support.run import assert_clean_error, run_mdl
 
 BASE = (DATA / "all_tables.xml").read_bytes()
 # a function's elements in schema order

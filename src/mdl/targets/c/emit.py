@@ -1,8 +1,9 @@
 """Resolved device -> C99 driver on libmodbus (<stem>.h / <stem>.c), SPEC section 5, docs/c-api.md.
 
-The templates print each function's value IR (mdl.ir.steps) with one Jinja macro per step kind
-(steps.j2) and the files' skeletons; mdl.targets.c.functions prints the parts of every function
-(declarations, reads and writes, read_all's parts) and mdl.targets.c.plan the read plan's tables.
+The templates print the files' skeletons and the decoders and encoders whole (steps.j2: one Jinja
+macro per step kind of the value IR, mdl.ir.steps, and `codecs`, each one's comment, head and body);
+mdl.targets.c.functions prints the other parts of every function (declarations, reads and writes,
+read_all's parts) and mdl.targets.c.plan the read plan's tables.
 This module gathers what they print: each function's steps, C types and the registers it reads,
 the read plan, and the runtime the driver carries (the .c files of runtime/, fragments' helpers
 from mdl.dsl.cfrag, the expression runtime from mdl.targets.c.expressions). Nothing here
@@ -355,9 +356,10 @@ def _encode_key(f: CFunction) -> Hashable | None:
 
 
 def share(functions: list[CFunction], env: jinja2.Environment) -> Shared[CFunction]:
-    """Each function's decoder and encoder, printed by steps.j2 from its IR and shared by the functions
-    of the same IR (clike.share); a function whose IR no other has (a fragment) has its own, named
-    after it, and an expression's decoder is printed by the template from mdl.targets.c.expressions."""
+    """Each function's decoder and encoder body, printed by steps.j2 from its IR and shared by the
+    functions of the same IR (clike.share); a function whose IR no other has (a fragment) has its
+    own, named after it. steps.j2's codecs prints them whole in device.c.j2, an expression's decoder
+    with its statements from mdl.targets.c.expressions."""
     steps = env.get_template("c/templates/steps.j2").module
     decoder = SharedRendering(steps.decoder)  # type: ignore[attr-defined]
     encoder = SharedRendering(steps.encoder)  # type: ignore[attr-defined]
@@ -388,7 +390,8 @@ def render_resolved(rd: ResolvedDevice, source_name: str, interface: Interface |
         sizes=sizes,
         members=members,
         declarations=declarations,
-        codecs=functions.codecs(all_functions, shared, ccomment),
+        shared=shared,  # the decoders and encoders, printed whole by steps.j2's codecs with each function's own
+        own_codecs=[f for f in all_functions if f.own_expression or f.decode_text or f.encode_text],
         accessors=functions.Accessors(stem, ccomment).print(all_functions, shared),
         read_all_parts=functions.read_all_parts(ctx["chunks"], stem),
     )

@@ -58,61 +58,6 @@ def _s(count: int) -> str:
     return "s" if count > 1 else ""
 
 
-def _expression_decoder(f: CFunction, name: str) -> str:
-    """`decode_<name>`: the decoder of expression function f (and of every function of the same
-    expression), its statements from mdl.targets.c.expressions."""
-    params = "".join(f", {d.param_type}p{i}, bool p{i}_has" for i, d in enumerate(f.deps))
-    head = f"static int decode_{name}(const uint16_t *r, const bool *present{params}, {f.t} *out, bool *has) {{\n"
-    unused = "" if f.n else "    (void)r;\n    (void)present;\n"
-    return head + unused + "".join(f"    {line}\n" for line in f.expr.body()) + "}\n"
-
-
-def codecs(functions: list[CFunction], shared: Shared[CFunction], ccomment: Comment) -> str:
-    """device.c.j2's decoders and encoders: the shared ones (`decode_<k>`, `encode_<k>`), then each
-    function's own (an expression of its own, a fragment), with the bodies clike.share printed."""
-    out = []
-    for d in shared.decoders:
-        first = d.first
-        of = "value IR" if d.proto is None else "expression"
-        out.append(f"\n/* {ccomment(d.name)} and {d.uses - 1} more function{_s(d.uses - 1)} of the same {of} */\n")
-        if d.proto is None:
-            out.append(
-                f"static int decode_{d.k}(const uint16_t *r, {_factor_param(first)}{first.t} *out, bool *has) {{\n"
-                f"{d.text}}}\n"
-            )
-        else:
-            out.append(_expression_decoder(d.proto, str(d.k)) + "\n")
-    for e in shared.encoders:
-        first = e.first
-        out.append(
-            f"\n/* {ccomment(e.name)} and {e.uses - 1} more function{_s(e.uses - 1)} of the same value IR */\n"
-            f"static int encode_{e.k}({first.wt_param}value, {_factor_param(first)}uint16_t *r) {{\n{e.text}}}\n"
-        )
-    for f in functions:
-        if f.own_expression:
-            out.append(f"\n/* {ccomment(f.fn.name)} */\n{_expression_decoder(f, f.ident)}")
-        elif f.decode_text:
-            scaled = f.factor is not None  # its one parameter, the factor, as a double
-            params = "".join(
-                f", {'double ' if scaled else d.param_type}p{i}, bool p{i}_has" for i, d in enumerate(f.deps)
-            )
-            out.append(
-                f"\n/* {ccomment(f.fn.name)} */\n"
-                f"static int decode_{f.ident}(const uint16_t *r{params}, {f.t} *out, bool *has) {{\n{f.decode_text}}}\n"
-            )
-        if f.encode_text:
-            out.append(
-                f"\nstatic int encode_{f.ident}({f.wt_param}value, {_factor_param(f)}uint16_t *r) {{\n"
-                f"{f.encode_text}}}\n"
-            )
-    return "".join(out)
-
-
-def _factor_param(f: CFunction) -> str:
-    """The parameter of the scale factor that a shared decoder or an encoder of f takes, if any."""
-    return "double p0, bool p0_has, " if f.factor is not None else ""
-
-
 def _decode_args(g: CFunction, single: bool, target: str, has: str, regs: str) -> str:
     """The arguments of decode_<g.decoder>: its registers `regs` (and which were answered), the values
     its expression names (v_<name> in a single read, values-><name> in read_all; a scalar one

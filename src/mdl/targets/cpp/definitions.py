@@ -1,15 +1,15 @@
 """The per-function parts of a C++ driver's source (<stem>.cc), printed with Python strings: the
-rows of the read plan's tables, the decoders and encoders (shared ones and a function's own), read_all's
-decode parts, and the read_<name> and write_<name> defined out of line. A loop of Jinja over 10,000
-functions, with a macro call per function, cost some 2.5 times these (templates/device.cc.j2 keeps the
-file's skeleton; templates/ops.j2 prints the bodies of decoders and encoders from the value IR)."""
+rows of the read plan's tables, read_all's decode parts, and the read_<name> and write_<name> defined
+out of line. A loop of Jinja over 10,000 functions, with a macro call per function, cost some 2.5 times
+these (templates/device.cc.j2 keeps the file's skeleton; templates/ops.j2 prints the decoders and
+encoders, which are some ten for a device of 10,000 functions)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 from mdl.targets.base import GroupRow, SplitRow
-from mdl.targets.clike import Chunk, Shared
+from mdl.targets.clike import Chunk
 from mdl.targets.cpp.declarations import value_param
 from mdl.targets.templating import ccomment
 
@@ -30,58 +30,6 @@ def split_rows(splits: list[SplitRow]) -> str:
 def range_rows(ranges: list[tuple[int, int]]) -> str:
     """The rows of kNeeded, the ranges of read_all's buffer that functions without an expression read."""
     return "".join([f"    {{{first}, {end}}},\n" for first, end in ranges])
-
-
-def decode_params(f: CppFunction) -> str:
-    """The parameters of a function's own decoder (a fragment's or an expression's): its registers (and
-    which of them the device answered), the values its expression names, where a fragment puts its value."""
-    n = f.n
-    parts = []
-    if n:
-        parts.append(f"const std::array<uint16_t, {n}> &r")
-        if f.expr:
-            parts.append(f"const std::array<bool, {n}> &present")
-    parts += [f"const std::optional<{t}> &p{i}" for i, t in enumerate(f.dep_types)]
-    if f.status:
-        parts.append(f"{f.rt} *out")
-    return ", ".join(parts)
-
-
-def _encoder_params(f: CppFunction) -> str:
-    """The parameters of an encoder: the value, the scale factor's (if any) and the registers it sets."""
-    factor = "const std::optional<double> &p0, " if f.factor is not None else ""
-    return f"{value_param(f.t)}value, {factor}std::array<uint16_t, {f.n}> &r"
-
-
-def codecs(shared: Shared[CppFunction], functions: list[CppFunction]) -> str:
-    """The decoders and encoders: the shared ones (decode_<k>, encode_<k>), each after a comment naming
-    the first function it serves, then the functions' own (decode_<ident>, encode_<ident>); each after a
-    blank line."""
-    out: list[str] = []
-    for d in shared.decoders:
-        first, uses = d.first, d.uses
-        proto = d.proto
-        what = "expression" if proto is not None and proto.expr else "value IR"
-        params = decode_params(proto) if proto is not None else f"const std::array<uint16_t, {first.n}> &r"
-        out.append(
-            f"\n// {ccomment(d.name)} and {uses - 1} more function{'s' if uses > 2 else ''} of the same {what}\n"
-            f"{first.rt} decode_{d.k}({params}) {{\n{d.text}\n}}\n"
-        )
-    for e in shared.encoders:
-        uses = e.uses
-        out.append(
-            f"\n// {ccomment(e.name)} and {uses - 1} more function{'s' if uses > 2 else ''} of the same value IR\n"
-            f"int encode_{e.k}({_encoder_params(e.first)}) {{\n{e.text}\n}}\n"
-        )
-    for f in functions:
-        if f.decode_text:
-            out.append(
-                f"\n// {ccomment(f.fn.name)}\n{'int' if f.status else f.rt} decode_{f.ident}({decode_params(f)}) {{\n"
-                f"{f.decode_text}\n}}\n"
-            )
-        if f.encode_text:
-            out.append(f"\nint encode_{f.ident}({_encoder_params(f)}) {{\n{f.encode_text}\n}}\n")
-    return "".join(out)
 
 
 def decode_into(f: CppFunction, target: str, deps_from: str, indent: str) -> str:

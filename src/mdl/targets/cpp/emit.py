@@ -7,9 +7,10 @@ Values are packed and unpacked with the generated code's own shifts for every by
 (libmodbus 3.1.6's float helpers do not round-trip). Fragments are printed by mdl.dsl.cfrag (as C
 drivers get them), expressions by mdl.targets.cpp.expressions; text from the input reaches comments through
 `ccomment` and string literals through `cstring` (mdl.targets.templating). The templates print each file's
-skeleton; what repeats for every function is printed in Python (mdl.targets.cpp.declarations for the
-header, mdl.targets.cpp.definitions for the source), which a device of 10,000 functions renders in a
-fraction of the time loops of Jinja took.
+skeleton and the decoders and encoders whole (templates/ops.j2, some ten for a device of 10,000
+functions); the other parts that repeat for every function are printed in Python
+(mdl.targets.cpp.declarations for the header, mdl.targets.cpp.definitions for the source), which a
+device of 10,000 functions renders in a fraction of the time loops of Jinja took.
 """
 
 from __future__ import annotations
@@ -343,7 +344,6 @@ def environment() -> jinja2.Environment:
     env.globals["group_rows"] = definitions.group_rows
     env.globals["split_rows"] = definitions.split_rows
     env.globals["range_rows"] = definitions.range_rows
-    env.globals["codecs"] = definitions.codecs
     env.globals["decode_parts"] = definitions.decode_parts
     env.globals["methods"] = definitions.methods
     return env
@@ -368,9 +368,9 @@ def _encode_key(f: CppFunction) -> Hashable | None:
 
 
 def share(functions: list[CppFunction], env: jinja2.Environment) -> Shared[CppFunction]:
-    """Each function's decoder and encoder, printed by ops.j2 from its IR and shared by the functions
-    of the same IR (clike.share); a function whose IR no other has (a fragment, an expression) has
-    its own, named after it."""
+    """Each function's decoder and encoder body, printed by ops.j2 from its IR and shared by the
+    functions of the same IR (clike.share); a function whose IR no other has (a fragment, an
+    expression) has its own, named after it. ops.j2's codecs prints them whole in device.cc.j2."""
     ops = env.get_template("cpp/templates/ops.j2").module
     decode_body = SharedRendering(ops.decode_body)  # type: ignore[attr-defined]
     encode_body = SharedRendering(ops.encode_body)  # type: ignore[attr-defined]
@@ -393,6 +393,7 @@ def render_files(resolved: ResolvedDevice, source_name: str, interface: Interfac
     ctx = context(resolved, source_name)
     env = environment()
     ctx["shared"] = share(ctx["functions"], env)
+    ctx["own_codecs"] = [f for f in ctx["functions"] if f.decode_text or f.encode_text]  # ops.j2's codecs
     ctx["profile"] = interface
     ctx["by_name"] = {f.fn.name: f for f in ctx["functions"]} if interface is not None else {}  # roles.j2
     driver = {

@@ -1,11 +1,11 @@
 """MDL model -> a standalone Python module over pymodbus (SPEC section 5).
 
 The module is typed for `mypy --strict` and clean under ruff's default rules: it carries only the
-helpers it calls and imports only what it uses. The bodies of decoders and encoders are printed
-from the IR by templates/ops.j2 (once per distinct IR); the names they use decide which runtime
-helpers (fragments' and expressions', copied from their pyhelpers.py) and which standard-library
-imports the module gets. What is printed once per function (methods, definitions, the rows of
-the tables) is printed by per_function.py from each function's FunctionCode, worked out once.
+helpers it calls and imports only what it uses. The decoders and encoders are printed whole by
+templates/ops.j2, their bodies from the IR once per distinct IR; the names they use decide which
+runtime helpers (fragments' and expressions', copied from their pyhelpers.py) and which
+standard-library imports the module gets. The other parts printed once per function (methods, the
+rows of the tables) are printed by per_function.py from each function's FunctionCode, worked out once.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from mdl.targets.templating import RuntimePart, SharedRendering, double_literal,
 from mdl.targets.templating import environment as render_environment
 
 # The lowest pymodbus a generated module runs on: the client methods' `device_id=` keyword
-# arrived in 3.10.0 (before it: `slave=`). tests/test_generated_python_lint.py runs a driver on it.
+# arrived in 3.10.0 (before it: `slave=`). tests/compile/test_generated_python_lint.py runs a driver on it.
 PYMODBUS_REQUIREMENT = "pymodbus >= 3.10.0, < 4"
 
 # standard-library names generated code may use -> the module that binds each (`import m` where the
@@ -403,7 +403,7 @@ def context(resolved: ResolvedDevice, source_name: str, env: jinja2.Environment)
         "uses": used,
         "plain": plain,
         "function_methods": per_function.methods(functions, infos),
-        "definitions": per_function.definitions(functions),
+        "functions": functions,  # ops.j2's definitions
         "slot_rows": per_function.slot_rows(plain),
         "name_rows": per_function.name_rows(readable),
         "value_fields": per_function.value_fields(readable, values_form),

@@ -1,8 +1,8 @@
 """The parts of a Python driver printed once per function (templates/device.py.j2 puts them in
-place): its read_ and write_ methods, its decoder and encoder definitions, its rows in _SLOTS and
-_NAMES, its key in the values TypedDict and its lines in _values. Printed here with f-strings and
-one join each rather than by template loops, which cost twice as much at 10,000 functions; the
-text is the same those loops printed."""
+place): its read_ and write_ methods, its rows in _SLOTS and _NAMES, its key in the values TypedDict
+and its lines in _values. Printed here with f-strings and one join each rather than by template
+loops, which cost twice as much at 10,000 functions; the text is the same those loops printed. Its
+decoder and encoder, _decode_<ident> and _encode_<ident>, are templates/ops.j2's, def line and body."""
 
 from __future__ import annotations
 
@@ -88,19 +88,6 @@ def _write_lines(f: FunctionCode, infos: dict[str, FunctionCode], out: list[str]
         )
     else:
         out += ("        ", AWAIT, f"self._write_runs({runs}, regs{multiple})\n")
-
-
-def definitions(functions: list[FunctionCode]) -> str:
-    """Every function's _decode_<ident> (where it reads) and _encode_<ident> (where it writes),
-    each after two blank lines (device.py.j2's loop over the functions after the helpers)."""
-    out: list[str] = []
-    for f in functions:
-        if f.decode_body:
-            out.append(f"\n\ndef _decode_{f.ident}({f.params}) -> {f.type}:\n{f.decode_body}\n")
-        if f.encode_body:
-            factor = ", p0: int | None" if f.factor else ""
-            out.append(f"\n\ndef _encode_{f.ident}(value: {f.write_type}{factor}) -> list[int]:\n{f.encode_body}\n")
-    return "".join(out)
 
 
 def slot_rows(plain: list[FunctionCode]) -> str:
