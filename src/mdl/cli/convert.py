@@ -56,8 +56,10 @@ from mdl.fileio import STDIO_ARG
     "--table",
     "table_no",
     type=click.IntRange(min=1),
-    help="Read the Nth table of a .md or .html file (or sheet of an .xlsx; default: the first with an address column).",
+    help="Read the Nth table of a .md, .html or .pdf file (or sheet of an .xlsx; default: the first holding the "
+    "INI's column names, else the first with an address column).",
 )
+@click.option("--pages", metavar="PAGES", help="Read these pages of a PDF manual (12-19, or 3,5-7; default: all).")
 @click.option("--sheet", help="Read this sheet of an .xlsx workbook (default: the first with an address column).")
 @click.option("-q", "--quiet", is_flag=True, help=QUIET_HELP)
 @fail_on_warning_option
@@ -74,9 +76,10 @@ def csv2xml(
     explain: tuple[str, ...],
     table_no: int | None,
     sheet: str | None,
+    pages: str | None,
     quiet: bool,
 ) -> None:
-    """Convert a vendor register table (CSV, Markdown, HTML or Excel) to MDL XML.
+    """Convert a vendor register table (CSV, Markdown, HTML, Excel or a PDF manual) to MDL XML.
 
     SOURCE is the CSV (- for stdin) with --ini, or the INI file itself, which names the CSV and may
     name the output (output_xml_file, relative to the INI's folder and inside it).
@@ -99,7 +102,7 @@ def csv2xml(
     stdin_once([source] + ([ini] if ini else []))
     target = output_target(source, ini, output, allow_outside, force)
     fail_on_warning = bool(click.get_current_context().meta.get(FAIL_ON_WARNING))
-    with chosen(table_no, sheet):
+    with chosen(table_no, sheet, pages):
         run_csv2xml(
             source,
             ini,

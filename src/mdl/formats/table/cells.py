@@ -25,7 +25,7 @@ class CellError(ValueError):
 
 
 _HEX = re.compile(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
-_RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—)\s*(.+)$")
+_RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—|~|～)\s*(.+)$")  # ～: the full-width tilde
 
 
 _SPACE_RUN = re.compile(r"\s+")
@@ -117,7 +117,7 @@ def hexify(text: str) -> str:
     return re.sub(r"(?i)(?<![\w:])(?:0x)?([0-9a-f]+)(?!\w)", lambda m: "0x" + m.group(1), text)
 
 
-_BIT_OF = re.compile(r"^\s*([0-9]+|0x[0-9a-fA-F]+)\s*([./])\s*([0-9]{1,2})\s*$")
+_BIT_OF = re.compile(r"^\s*([0-9]+|0x[0-9a-fA-F]+)\s*([./]|\.[bB])\s*([0-9]{1,2})\s*$")  # 40001.3, 40001/3, 0x0103.b8
 _BRACKETED = re.compile(r"^\s*([0-9]+)\s*\(\s*([0-9]+|0x[0-9a-fA-F]+)\s*\)\s*$")
 
 
@@ -132,10 +132,10 @@ class AddressCell:
 
 
 def bit_of(text: str) -> re.Match[str] | None:
-    """A register-then-bit cell (`40001.3`, `40001/3`; `17/18`, whose second number is no bit below the
-    first, is a list): the register is group 1, the bit group 3."""
+    """A register-then-bit cell (`40001.3`, `40001/3`, `0x0103.b8`; `17/18`, whose second number is no bit
+    below the first, is a list): the register is group 1, the bit group 3."""
     m = _BIT_OF.match(text)
-    if m and int(m.group(3)) <= 15 and (m.group(2) == "." or int(m.group(3)) < int(m.group(1), 0)):
+    if m and int(m.group(3)) <= 15 and (m.group(2) != "/" or int(m.group(3)) < int(m.group(1), 0)):
         return m
     return None
 

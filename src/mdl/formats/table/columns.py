@@ -17,7 +17,7 @@ from mdl.formats.table.cells import (
     parse_word_order,
 )
 from mdl.formats.table.ini import DeviceIni
-from mdl.formats.table.numbers import parse_int, parse_number
+from mdl.formats.table.numbers import parse_int, parse_number, unit_alone
 from mdl.formats.table.readers.delimited import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
 from mdl.formats.table.vocabulary import mapped
 
@@ -288,26 +288,36 @@ def _guess(
 
 def _scale_in_units(cols: Columns, data: list[Row], skip: set[str]) -> None:
     """A units column of `0.01V` cells (a scale written before its unit) with no scale column: it is the
-    multiplier too."""
+    multiplier too. Its cells are read one by one: a cell that is not a scale (`1:PV`, `0.1?`) does not
+    turn the reading off for the column (its row gets multiplier 1 and a warning naming the cell)."""
     i = cols.index.get("units")
     if i is None or {"multiplier", "divisor"} & (set(cols.index) | skip):
         return
     numbers = []
+    unread: list[Row] = []
     for r in data:
         c = r.cell(i)
         if c:
             try:
                 numbers.append(parse_number(c, "auto", scale=True))
             except CellError:
-                if any(ch.isdigit() for ch in c):
-                    return  # a number csv2xml cannot read as a scale: the column is units only
+                if any(ch.isdigit() for ch in c) and unit_alone(c) is None:
+                    unread.append(r)
                 # a unit alone (V, kWh, ja/nein): scale 1 in that unit, if the column holds scales
     if any(n is not None and n.value != 1 for n in numbers) and any(n is not None and n.unit for n in numbers):
         cols.index["multiplier"] = i
         cols.guessed["multiplier"] = i
+        but = ""
+        if unread:
+            first = unread[0]
+            but = (
+                f"; {len(unread)} of its cells {'is' if len(unread) == 1 else 'are'} not a scale (e.g. "
+                f"'{_short(first.cell(i))}' on line {first.line}): each such row is read with multiplier 1 and "
+                "a warning"
+            )
         cols.notes.append(
             f"{cols.describe(i)} holds scales written before their units (e.g. 0.1V): read as "
-            "multiplier and units; set multiplier = (blank) in [Column/Field Indices] to read "
+            f"multiplier and units{but}; set multiplier = (blank) in [Column/Field Indices] to read "
             "it as units only, or divisor = to divide by it"
         )
 

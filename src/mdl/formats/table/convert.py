@@ -309,17 +309,23 @@ def _name_sections(ini: DeviceIni, report: Report) -> None:
     ini.functions = named
 
 
-def _forced(ini: DeviceIni | None, parsed: Parsed) -> dict[str, int]:
-    """[function NAME] row = N: NAME -> the index of the row on line N (an error if it has none)."""
+def _forced(ini: DeviceIni | None, parsed: Parsed, places: dict[int, str]) -> dict[str, int]:
+    """[function NAME] row = N (or a PDF's `p14:r7`): NAME -> the index of the row on line N (an error if
+    it has none)."""
     out: dict[str, int] = {}
     if ini is None:
         return out
     at = {r.row.line: i for i, r in enumerate(parsed.rows)}
     skipped = {s.row.line: s.reason for s in parsed.skipped}
+    lines = {place: line for line, place in places.items()}
     for name, fs in ini.functions.items():
         if "row" not in fs.values:
             continue
-        line = int(fs.values["row"])
+        given = fs.values["row"]
+        if given.startswith("p") and given not in lines:
+            why = "no row of the table read stands there" if places else "only a PDF table's rows are named so"
+            raise error(f"[function {name}] row = {given}: {why}", ini.path, fs.lines.get("row"))
+        line = lines[given] if given.startswith("p") else int(given)
         if line in skipped:
             why = f"line {line} of the table was skipped ({skipped[line]})"
         elif line not in at:
@@ -540,21 +546,25 @@ def _roles_by_name(functions: list[Function], ini: DeviceIni, report: Report) ->
 
 
 def _read_chosen(csv_path: Path, ini: DeviceIni | None, report: Report) -> Table:
-    """The table, with the INI's `table`/`sheet` choosing among a document's tables unless the
-    command line chose."""
+    """The table, with the INI's `table`/`sheet` and `pages` choosing among a document's tables and
+    pages unless the command line chose, and the header texts its columns are named by choosing the
+    table where no number or sheet does."""
     if ini is None:
         return read_table(csv_path)
     key = "table" if ini.table is not None else "sheet"
     where = (ini.path or csv_path, ini.line("io", key))
-    with ini_choice(ini.table, ini.sheet, where) as overridden:
-        if overridden:
-            report.note(overridden, where[1], file=str(where[0]))
+    pages = (ini.pages, (ini.path or csv_path, ini.line("io", "pages"))) if ini.pages is not None else None
+    texts = tuple(c for c in ini.columns.values() if isinstance(c, str))
+    with ini_choice(ini.table, ini.sheet, where, pages, texts) as overridden:
+        for note in overridden:
+            report.note(note, where[1], file=str(where[0]))
         return read_table(csv_path, ini.delimiter, ini.encoding)
 
 
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
     """The device the table describes (None with --explain, which prints instead)."""
     table = _read_chosen(csv_path, ini, report)
+    report.located(str(csv_path), table.places)
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
     _say_idle_cells(ini, cols, report)
@@ -577,14 +587,14 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     if ini is not None:
         _name_sections(ini, report)
     functions = _functions(ini)
-    forced = _forced(ini, parsed)
+    forced = _forced(ini, parsed, table.places)
     taken = set(forced.values())  # rows the INI gave a function: no other function is matched to them
     index = Index(
         [[] if i in taken else r.texts for i, r in enumerate(parsed.rows)] + [s.texts for s in parsed.skipped]
     )
     for name, row_index in forced.items():
         report.note(
-            f"{name}: line {parsed.rows[row_index].row.line} of the table, as [function {name}] row says",
+            f"{name}: {table.name_of(parsed.rows[row_index].row.line)} of the table, as [function {name}] row says",
             ini.functions[name].lines.get("row") if ini else None,
             file=str(ini.path if ini else csv_path),
         )
@@ -628,6 +638,8 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
             for name, row in rescued.items():
                 matched.chosen[name] = matched.lost.pop(name)
                 found[matched.chosen[name].row_index] = row
+        if opts.emit_all and not own:
+            _keep_own_names(matched, str(csv_path), report)
         _say_matches(str(csv_path), matching, index, parsed, matched, limit, lines, opts, own, report)
     chosen = matched.chosen
     for name, row_index in forced.items():
@@ -673,6 +685,22 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     if device.extensions():
         device.version = "1.0"
     return device
+
+
+def _keep_own_names(matched: Matched, where: str, report: Report) -> None:
+    """With --all and the bundled list, a row matched to one of its functions by similarity alone keeps
+    its own name: similarity says a row may be that function, not that it is (`energy_voltage_68` is no
+    `total_energy`)."""
+    fuzzy = sorted(name for name, c in matched.chosen.items() if c.score.tier == FUZZY)
+    for name in fuzzy:
+        del matched.chosen[name]
+    if fuzzy:
+        report.note(
+            f"{counted(len(fuzzy), 'row')} only similar to the bundled list's {', '.join(fuzzy[:5])}"
+            f"{' ...' if len(fuzzy) > 5 else ''} {'keeps its own name' if len(fuzzy) == 1 else 'keep their own names'} "
+            "(--all); [Functions] in an INI names rows",
+            file=where,
+        )
 
 
 def _functions_out(

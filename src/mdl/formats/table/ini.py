@@ -84,6 +84,7 @@ IO_KEYS = (
     "encoding",
     "table",
     "sheet",
+    "pages",
 )
 DELIMITER_WORDS = {"comma": ",", ",": ",", "semicolon": ";", "tab": "\t", "\\t": "\t", "pipe": "|", "|": "|"}
 DECIMAL_WORDS = {"point": "point", ".": "point", "dot": "point", "comma": "comma", ",": "comma"}
@@ -116,6 +117,7 @@ class DeviceIni:
     decimal: str | None = None  # point | comma
     encoding: str | None = None  # the table's (a Python codec name); None: UTF-8, else said as a guess
     table: int | None = None  # which table of a .md/.html file (or sheet of a workbook), 1-based
+    pages: str | None = None  # which pages of a PDF manual are read (`12-19`, `3,5-7`)
     sheet: str | None = None  # which sheet of an .xlsx workbook, by name
     columns: dict[str, int | str] = field(default_factory=dict)  # key -> index or header text
     blank_columns: set[str] = field(default_factory=set)  # keys the INI lists as absent
@@ -358,6 +360,8 @@ def read_ini(path: Path) -> DeviceIni:
                         err(section, key, f"table must be a table's number, 1 or more, not {shown(value)}")
                 elif lkey == "sheet" and value:
                     ini.sheet = value
+                elif lkey == "pages" and value:
+                    ini.pages = value
                 elif lkey == "address_map_csv_file" and value:
                     ini.csv_file = base / value
                 elif lkey == "output_xml_file" and value:

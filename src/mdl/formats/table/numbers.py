@@ -25,7 +25,7 @@ from mdl.formats.table.cells import CellError
 _DIGITS = r"(?:\d+(?:[.,]\d+)*\.?|[.,]\d+)"
 _NUMBER = rf"[-+]?{_DIGITS}(?:[eE][-+]?\d+)?"
 # a unit starts with a letter or a sign of one (°C, %, µs, Ω); digits may follow (m3/h, m²)
-_UNIT = r"(?:[^\W\d_]|[°%‰µΩ'\"])[^()]*?"
+_UNIT = r"(?:[^\W\d_]|[°%‰µΩ℃℉'\"])[^()]*?"
 _PLAIN = re.compile(rf"^({_NUMBER})\s*({_UNIT})?\s*(\([^()]*\))?$")
 _SCALE_CALL = re.compile(rf"(?i)^scale\s*\(\s*({_NUMBER})\s*\)$")
 _TIMES = re.compile(rf"^[xX×*]\s*({_NUMBER})$")

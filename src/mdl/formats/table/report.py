@@ -4,11 +4,20 @@ the end, and a progress bar on a terminal while a long table is matched."""
 
 from __future__ import annotations
 
+import re
 import sys
 import time
 from typing import TextIO
 
 from mdl.diagnostics import Collector, Diagnostic
+
+_LINE = re.compile(r"\bline (\d+)\b")
+_LINES = re.compile(r"\blines (\d+) and (\d+)\b")
+_ROW = re.compile(r"`row = (\d+)`")
+
+
+def _at(places: dict[int, str], line: str) -> str:
+    return places.get(int(line), f"line {line}")
 
 
 class Report(Collector):
@@ -22,12 +31,33 @@ class Report(Collector):
         self.quiet, self.printing = quiet or not printing, printing
         self.progress: Progress | None = None  # a bar on the screen, cleared before a warning prints
         self._notes: list[Diagnostic] = []  # said, not printed yet
+        self._places: tuple[str, dict[int, str]] | None = None  # a PDF table's file and its rows' places
+
+    def located(self, file: str, places: dict[int, str]) -> None:
+        """From now on, the rows of `file` are named by their places (`p14:r7`), not by line numbers:
+        a diagnostic at line N of it is at `FILE:p14:r7`, and `line N` in its message becomes `p14:r7`."""
+        self._places = (file, places) if places else None
+
+    def _placed(self, diag: Diagnostic) -> Diagnostic:
+        if self._places is None or diag.file != self._places[0]:
+            return diag
+        places = self._places[1]
+
+        def place(m: re.Match[str]) -> str:
+            return places.get(int(m.group(1)), m.group(0))
+
+        message = _ROW.sub(lambda m: f"`row = {place(m)}`", _LINE.sub(place, diag.message))
+        message = _LINES.sub(lambda m: f"{_at(places, m.group(1))} and {_at(places, m.group(2))}", message)
+        if diag.line in places:
+            return Diagnostic(f"{diag.file}:{places[diag.line]}", None, None, message, diag.severity)
+        return Diagnostic(diag.file, diag.line, diag.col, message, diag.severity)
 
     def bar(self, label: str, total: int, percent: bool = False) -> Progress | None:
         """A progress bar for a long step, or None when quiet."""
         return None if self.quiet else Progress(label, total, percent=percent)
 
     def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
+        diag = self._placed(diag)
         said = super().add(diag, kind=kind, always=always)
         if not self.printing:
             return said

@@ -119,8 +119,10 @@ def check_function_value(key: str, value: str) -> str:
             raise ValueError("must be big or little")
         return value.lower()
     if key == "row":
+        if re.fullmatch(r"(?i)p[0-9]{1,5}:r[0-9]{1,6}", value):
+            return value.lower()  # a PDF table's row, as messages name it
         if not (value.isascii() and value.isdigit()) or int(value) < 1:
-            raise ValueError("must be a line number of the table (1 or more)")
+            raise ValueError("must be a line number of the table (1 or more), or a PDF's row as p14:r7")
         return value
     if key == "scale_exponent" and not _IDENTIFIER.match(value):
         raise ValueError("must name a function (letters, digits, _)")

@@ -114,7 +114,7 @@ def test_each_format_gives_the_mdl_its_csv_gives(tmp_path, from_csv, suffix):
     assert "Traceback" not in proc.stderr
     which = "sheet 'Registers'" if suffix == ".xlsx" else "table 2"
     assert f"note: read {which}" in proc.stderr, proc.stderr
-    assert "the first whose header holds an address column" in proc.stderr
+    assert "the first whose header holds the INI's column names" in proc.stderr  # the INI names its columns
 
 
 @pytest.mark.commands  # serves or dials a device

@@ -34,7 +34,8 @@ def read_values(sim_factory, xml, registers: dict, folder) -> dict:
 
 
 def test_a_function_whose_row_was_skipped_is_left_unmatched_and_said(tmp_path):
-    """/tmp/review2/phr/f.csv: `22.b0` cannot be read; output_voltage took "PV2 voltage" (fuzzy 0.72)
+    """/tmp/review2/phr/f.csv: `22.x0` cannot be read (the reviewer's `22.b0`, bit 0 of register 22, is
+    read since issue 36); output_voltage took "PV2 voltage" (fuzzy 0.72)
     with exit 0 and "0 unmatched". Now it is left unmatched, with a warning naming the skipped line."""
     out = tmp_path / "out.xml"
     proc = cli("csv2xml", TABLES / "skipped_row.ini", "-o", out)
@@ -42,7 +43,7 @@ def test_a_function_whose_row_was_skipped_is_left_unmatched_and_said(tmp_path):
     path = TABLES / "skipped_row.csv"
     assert (
         f"{path}:6: warning: output_voltage: line 6 names it (exact 1.00: 'AC output voltage') but was skipped "
-        "('22.b0' is not an address); left unmatched rather than given line 4 'PV2 voltage' (fuzzy 0.72)" in proc.stderr
+        "('22.x0' is not an address); left unmatched rather than given line 4 'PV2 voltage' (fuzzy 0.72)" in proc.stderr
     )
     fns = functions(out.read_text())
     assert "output_voltage" not in fns and fns["pv1_voltage"]["addresses"] == "1"
@@ -105,7 +106,7 @@ def test_explain_lists_a_skipped_row_and_why(tmp_path):
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
     assert lines[1] == "  chosen: no row (its best row, line 6, was skipped)"
-    assert lines[2] == "   1. 1.00 exact  line 6: AC output voltage  (skipped: '22.b0' is not an address)"
+    assert lines[2] == "   1. 1.00 exact  line 6: AC output voltage  (skipped: '22.x0' is not an address)"
 
 
 @pytest.mark.commands  # serves or dials a device

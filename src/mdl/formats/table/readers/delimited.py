@@ -249,6 +249,11 @@ class Table:
     markdown: bool = False  # a Markdown table: | at both ends of each row, a |---| rule under the header
     encoding_guess: EncodingGuess | None = None  # how the bytes were read, when no one said and not UTF-8
     notes: list[str] = field(default_factory=list)  # what reading it decided (which table of a document)
+    places: dict[int, str] = field(default_factory=dict)  # a PDF's rows: line -> `p14:r7`, how messages name them
+
+    def name_of(self, line: int) -> str:
+        """How messages name the row on `line`: `line 12`, or a PDF's `p14:r7`."""
+        return self.places.get(line, f"line {line}")
 
 
 _RULE = re.compile(r"^\s*:?-{2,}:?\s*$")

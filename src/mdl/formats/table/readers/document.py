@@ -1,24 +1,34 @@
-"""Tables as vendors publish them beside CSV: Markdown pipe tables (.md), HTML tables (.html, .htm) and
-Excel workbooks (.xlsx). A document may hold several tables (or sheets): the one read is the one
-`--table N` / `--sheet NAME` names, else the first whose header holds an address column, and a note
-says which. Each becomes a `Table` of rows with the lines messages name: the file's lines (Markdown,
-HTML) or the sheet's row numbers (Excel)."""
+"""Tables as vendors publish them beside CSV: Markdown pipe tables (.md), HTML tables (.html, .htm),
+Excel workbooks (.xlsx) and PDF manuals (.pdf). A document may hold several tables (or sheets): the one
+read is the one `--table N` / `--sheet NAME` names, else the first whose header holds every column the
+INI names by its header text, else the first whose header holds an address column, and a note says
+which. Each becomes a `Table` of rows with the lines messages name: the file's lines (Markdown, HTML),
+the sheet's row numbers (Excel), or a PDF's pages and rows (`p14:r7`)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
-from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, Table, cell_too_long, decode_table, find_header
+from mdl.formats.table.readers.delimited import (
+    MAX_CELL_CHARS,
+    Row,
+    Table,
+    cell_too_long,
+    decode_table,
+    find_header,
+    normalize_header,
+)
 
 MARKDOWN = (".md", ".markdown")
 HTML = (".html", ".htm", ".xhtml")
 EXCEL = (".xlsx", ".xlsm", ".xls")
+PDF = (".pdf",)
 LISTED = 8  # tables an error lists with their first cells
 MAX_CELLS = 1_000_000  # of one table, or of a workbook's sheets together: a register table has thousands
 MAX_PAGE_BYTES = 32_000_000  # of a Markdown or HTML file: a vendor's page of register tables has a few MB
@@ -32,6 +42,9 @@ class Choice:
     table: int | None = None
     sheet: str | None = None
     where: tuple[Path, int | None] | None = None
+    pages: str | None = None  # --pages 12-19, or the INI's pages = (a PDF's pages to read)
+    pages_where: tuple[Path, int | None] | None = None  # the INI and the line of its pages = key
+    columns: tuple[str, ...] = ()  # the header texts the INI names columns by: they choose the table
 
     def said(self, option: str) -> str:
         """How messages name the choice: `--table 2`, or `table = 2 in the INI`."""
@@ -47,9 +60,9 @@ _CHOICE: ContextVar[Choice | None] = ContextVar("table_choice", default=None)
 
 
 @contextmanager
-def chosen(table: int | None, sheet: str | None) -> Iterator[None]:
-    """While converting, read the table or sheet the command line chose."""
-    token = _CHOICE.set(Choice(table, sheet))
+def chosen(table: int | None, sheet: str | None, pages: str | None = None) -> Iterator[None]:
+    """While converting, read the table or sheet (and a PDF's pages) the command line chose."""
+    token = _CHOICE.set(Choice(table, sheet, pages=pages))
     try:
         yield
     finally:
@@ -57,21 +70,34 @@ def chosen(table: int | None, sheet: str | None) -> Iterator[None]:
 
 
 @contextmanager
-def ini_choice(table: int | None, sheet: str | None, where: tuple[Path, int | None]) -> Iterator[str | None]:
-    """While reading the table, the INI's `table`/`sheet` choose unless the command line chose; yields
-    a note when the command line overrides the INI, else None."""
+def ini_choice(
+    table: int | None,
+    sheet: str | None,
+    where: tuple[Path, int | None],
+    pages: tuple[str, tuple[Path, int | None]] | None = None,
+    columns: tuple[str, ...] = (),
+) -> Iterator[list[str]]:
+    """While reading the table, the INI's `table`/`sheet` and `pages` (its value and where it stands)
+    choose unless the command line chose, and the header texts its [Column/Field Indices] names choose
+    among tables; yields a note for each choice of the INI that the command line overrides."""
     given = _CHOICE.get() or Choice()
-    if table is None and sheet is None:
-        yield None
-        return
-    if given.table is not None or given.sheet is not None:
-        option, value = ("--table", given.table) if given.table is not None else ("--sheet", repr(given.sheet))
-        key, kept = ("table", table) if table is not None else ("sheet", repr(sheet))
-        yield f"{option} {value} is read instead of the INI's {key} = {kept}"
-        return
-    token = _CHOICE.set(Choice(table, sheet, where))
+    notes = []
+    choice = Choice(given.table, given.sheet, given.where, given.pages, None, columns)
+    if table is not None or sheet is not None:
+        if given.table is not None or given.sheet is not None:
+            option, value = ("--table", given.table) if given.table is not None else ("--sheet", repr(given.sheet))
+            key, kept = ("table", table) if table is not None else ("sheet", repr(sheet))
+            notes.append(f"{option} {value} is read instead of the INI's {key} = {kept}")
+        else:
+            choice = replace(choice, table=table, sheet=sheet, where=where)
+    if pages is not None:
+        if given.pages is not None:
+            notes.append(f"--pages {given.pages} is read instead of the INI's pages = {pages[0]}")
+        else:
+            choice = replace(choice, pages=pages[0], pages_where=pages[1])
+    token = _CHOICE.set(choice)
     try:
-        yield None
+        yield notes
     finally:
         _CHOICE.reset(token)
 
@@ -79,7 +105,7 @@ def ini_choice(table: int | None, sheet: str | None, where: tuple[Path, int | No
 def is_document(path: Path, delimiter: str | None = None) -> bool:
     """Whether read_document reads the file: a .md with a delimiter given in the INI is read as a CSV."""
     suffix = path.suffix.lower()
-    return suffix in HTML + EXCEL or (suffix in MARKDOWN and delimiter is None)
+    return suffix in HTML + EXCEL + PDF or (suffix in MARKDOWN and delimiter is None)
 
 
 def refuse_choice(path: Path) -> None:
@@ -88,10 +114,20 @@ def refuse_choice(path: Path) -> None:
     if choice.table is not None or choice.sheet is not None:
         option = "--table" if choice.table is not None else "--sheet"
         raise choice.fail(
-            f"{choice.said(option)} chooses among the tables of a .md, .html or .xlsx file; "
+            f"{choice.said(option)} chooses among the tables of a .md, .html, .xlsx or .pdf file; "
             f"{path.name} is read as one CSV table",
             path,
         )
+    refuse_pages(path)
+
+
+def refuse_pages(path: Path) -> None:
+    """Pages are a PDF's: --pages (or pages =) for another kind of file is a mistake, not something to ignore."""
+    choice = _CHOICE.get() or Choice()
+    if choice.pages is not None:
+        said = f"--pages {choice.pages}" if choice.pages_where is None else f"pages = {choice.pages} in the INI"
+        message = f"{said} chooses pages of a PDF manual; {path.name} has no pages"
+        raise error(message, *choice.pages_where) if choice.pages_where is not None else error(message, path)
 
 
 @dataclass
@@ -100,10 +136,18 @@ class Candidate:
     name: str  # how --table/--sheet name it
     rows: list[Row]
     notes: list[str] = field(default_factory=list)  # said if it is the one read
+    places: dict[int, str] = field(default_factory=dict)  # a PDF's rows: line -> `p14:r7`
 
 
 def _header_of(path: Path, c: Candidate) -> Row | None:
     return find_header(Table(path, "", c.rows))
+
+
+def _holds(path: Path, c: Candidate, texts: tuple[str, ...]) -> bool:
+    """Whether a row among the candidate's first holds every one of the INI's header texts."""
+    header = find_header(Table(path, "", c.rows), None, list(texts))
+    wanted = {normalize_header(t) for t in texts}
+    return header is not None and wanted <= {normalize_header(x) for x in header.cells}
 
 
 def _first_texts(c: Candidate) -> str:
@@ -139,6 +183,14 @@ def pick(path: Path, candidates: list[Candidate], what: str, option: str) -> Can
                 f"{choice.said('--table')}: the file has {len(candidates)} {what}s with cells ({listing})", path
             )
         return _said(candidates[choice.table - 1], f"the one {choice.said('--table')} names")
+    if choice.columns and len(candidates) > 1:
+        holding = [c for c in candidates if _holds(path, c, choice.columns)]
+        if holding:
+            others = len(holding) - 1
+            more = f" ({others} more hold them)" if others else ""
+            return _said(
+                holding[0], f"the first whose header holds the INI's column names{more}; {option} chooses another"
+            )
     with_address = [c for c in candidates if _header_of(path, c) is not None]
     if with_address:
         first = with_address[0]
@@ -163,10 +215,17 @@ def _said(c: Candidate, why: str) -> Candidate:
 def read_document(path: Path, encoding: str | None) -> Table:
     """The chosen table of a Markdown, HTML or Excel file."""
     suffix = path.suffix.lower()
-    if suffix in EXCEL:
+    places: dict[int, str] = {}
+    if suffix in PDF:
+        chosen_one = pick(path, _pdf_candidates(path), "PDF table", "--table")
+        places = chosen_one.places
+        guess = None
+    elif suffix in EXCEL:
+        refuse_pages(path)
         chosen_one = pick(path, _excel_candidates(path), "sheet", "--sheet")
         guess = None
     else:
+        refuse_pages(path)
         text, guess = decode_table(read_bytes(path, MAX_PAGE_BYTES), path, encoding)
         if suffix in MARKDOWN:
             chosen_one = pick(path, _markdown_candidates(path, text), "Markdown table", "--table")
@@ -181,6 +240,7 @@ def read_document(path: Path, encoding: str | None) -> Table:
         encoding_guess=guess,
     )
     table.notes = chosen_one.notes
+    table.places = places
     return table
 
 
@@ -239,3 +299,27 @@ def _excel_candidates(path: Path) -> list[Candidate]:
         rows = [Row(line, cells) for line, cells in sheet.rows]
         out.append(Candidate(f"sheet {name!r}", name, rows, notes))
     return [c for c in out if c.rows]
+
+
+def _pdf_candidates(path: Path) -> list[Candidate]:
+    from mdl.formats.table.readers.pdf import page_count, page_range, read_tables
+
+    choice = _CHOICE.get() or Choice()
+    pages = None
+    if choice.pages is not None:
+        said = f"--pages {choice.pages}" if choice.pages_where is None else f"pages = {choice.pages}"
+        try:
+            pages = page_range(choice.pages, page_count(path), said)
+        except ValueError as exc:
+            raise (error(str(exc), *choice.pages_where) if choice.pages_where else error(str(exc), path)) from None
+    out = []
+    for n, table in enumerate(read_tables(path, pages), 1):
+        notes = []
+        if n == 1:
+            notes.append("rows in messages are named by page and row: p14:r7 is the 7th table row on page 14")
+        if table.spread:
+            notes.append(
+                f"cells merged over several rows in table {n} are read on each row they cover ({table.spread} cells)"
+            )
+        out.append(Candidate(f"table {n} ({table.label})", str(n), table.rows, notes, table.places))
+    return out

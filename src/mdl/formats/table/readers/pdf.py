@@ -1,0 +1,312 @@
+"""Register tables inside PDF manuals (SPEC 4.2), read with pdfplumber from the PDF's text layer.
+
+Each table pdfplumber finds drawn on a page (ruled cells) becomes rows of cells:
+- columns are the header's: every cell goes to the column of the header cell above its middle, so a
+  table the drawing splits into slivers (a cell every third rule) reads as the columns it shows;
+- a header over several rows (`Register` / `Address`, `Resolu-` / `tion`) is one header row;
+- a cell's text over several lines is one text, lines joined with a space (a word hyphenated at a
+  line's end is joined whole);
+- a cell merged over several rows (a block label, a shared register type) is read on each row;
+- a table that goes on over the next page is one table, whether or not the page repeats its header;
+- what repeats on three or more pages at the same place (a running header or footer, a page number
+  in a box) is not a table.
+
+Rows are named `pPAGE:rROW` in messages (`manual.pdf:p14:r7`: the 7th table row of page 14); a page
+without text (a scan) and an encrypted PDF are errors naming the pages or the file.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mdl.diagnostics import error
+from mdl.fileio import read_bytes
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, cell_too_long, normalize_header
+
+MAX_PDF_BYTES = 256_000_000  # a manual of a thousand pages has a few tens of MB
+MAX_PAGES = 5_000
+MAX_TABLE_ROWS = 200_000
+HEADER_ROWS = 4  # rows a header may run over
+_ADDRESS = re.compile(r"^(0x)?[0-9a-f]{1,6}h?(\s*[-~～]\s*(0x)?[0-9a-f]{1,6}h?)?$", re.IGNORECASE)
+_HYPHEN = re.compile(r"(?<=[a-z])-\n(?=[a-z])")
+
+
+@dataclass
+class PdfTable:
+    """A table as read: its first and last pages, its rows (lines numbered from 1 over the whole
+    document's table rows) and each row's place `pPAGE:rROW`."""
+
+    first: int
+    last: int
+    columns: int
+    rows: list[Row] = field(default_factory=list)
+    places: dict[int, str] = field(default_factory=dict)
+    header: list[str] = field(default_factory=list)
+    spread: int = 0  # cells read on more rows than their own (merged over rows)
+
+    @property
+    def label(self) -> str:
+        pages = f"p{self.first}" if self.first == self.last else f"pp{self.first}-{self.last}"
+        return pages
+
+
+@dataclass
+class _Found:
+    """One table on one page, before tables going on over pages are joined."""
+
+    page: int
+    top: float
+    bottom: float
+    height: float
+    rows: list[list[str]]
+    spread: int
+    banded: bool  # its first row is a header (found in its first rows)
+    key: tuple[object, ...]  # text and place: what a running header or footer repeats
+
+
+def page_range(spec: str, count: int, said: str) -> list[int]:
+    """Pages `12-19`, `3`, `3,5-7` (1-based) of a document of `count` pages; MdlError naming `said`
+    (`--pages 12-19`, `pages = 12-19 in the INI`) for what does not parse or lies past the end."""
+    pages: list[int] = []
+    for part in spec.split(","):
+        m = re.fullmatch(r"\s*(\d{1,6})\s*(?:[-–]\s*(\d{1,6})\s*)?", part)
+        if m is None:
+            raise ValueError(f"{said}: {part.strip()!r} is not a page or a range of pages (12, 12-19)")
+        first, last = int(m.group(1)), int(m.group(2) or m.group(1))
+        if not 1 <= first <= last:
+            raise ValueError(f"{said}: {part.strip()!r}: pages count from 1, the first before the last")
+        if first > count:
+            raise ValueError(f"{said}: the document has {count} pages")
+        pages.extend(range(first, min(last, count) + 1))
+    return sorted(set(pages))
+
+
+@contextmanager
+def _opening(path: Path) -> Iterator[Any]:
+    import pdfplumber
+    from pdfminer.pdfdocument import PDFEncryptionError, PDFPasswordIncorrect
+
+    data = read_bytes(path, limit=MAX_PDF_BYTES)
+    if not data.startswith(b"%PDF-") and b"%PDF-" not in data[:1024]:
+        raise error("not a PDF: the file does not start with %PDF-", path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            pdf = pdfplumber.open(path)
+    except Exception as exc:  # pdfplumber wraps pdfminer's own errors, whatever the damage
+        cause = exc.args[0] if exc.args and isinstance(exc.args[0], Exception) else exc
+        if isinstance(cause, (PDFPasswordIncorrect, PDFEncryptionError)) or "password" in str(cause).lower():
+            raise error("the PDF is encrypted and does not open without a password", path) from None
+        raise error(f"not a readable PDF: {str(cause) or type(cause).__name__}", path) from None
+    try:
+        yield pdf
+    finally:
+        pdf.close()
+
+
+def _text(cell: str | None, path: Path, page: int) -> str:
+    if not cell:
+        return ""
+    if len(cell) > MAX_CELL_CHARS:
+        raise cell_too_long(path, None, None, len(cell))
+    return " ".join(_HYPHEN.sub("", cell).split())
+
+
+def _grid(table: Any, path: Path, page: int) -> list[list[tuple[Any, str, bool]]]:
+    """The table's cells by pdfplumber's grid: (box, text, spread) per position; a position no cell
+    starts at, under a cell reaching down over it, gets that cell's text (spread)."""
+    texts = table.extract()
+    out: list[list[tuple[Any, str, bool]]] = []
+    for r, row in enumerate(table.rows):
+        line: list[tuple[Any, str, bool]] = []
+        for c, box in enumerate(row.cells):
+            if box is not None:
+                line.append((box, _text(texts[r][c], path, page), False))
+                continue
+            above = next(
+                (out[k][c] for k in range(r - 1, -1, -1) if out[k][c][0] is not None and not out[k][c][2]), None
+            )
+            if above is not None and above[1] and above[0][3] > row.bbox[1] + 1:
+                line.append((above[0], above[1], True))
+            else:
+                line.append((None, "", False))
+        out.append(line)
+    return out
+
+
+def _columns(grid: list[list[tuple[Any, str, bool]]]) -> list[list[tuple[str, bool]]]:
+    """Rows of (text, spread) cells in the table's columns: the narrowest cells with text of their own
+    (a cell spanning two columns is not one), those that overlap joined; each cell goes to the column
+    over its middle (cells in one column joined)."""
+    own = sorted(
+        {(round(box[0], 1), round(box[2], 1)) for row in grid for box, text, spread in row if text and not spread}
+    )
+    narrow = [iv for iv in own if not any(o != iv and o[0] >= iv[0] - 1 and o[1] <= iv[1] + 1 for o in own)]
+    spans: list[tuple[float, float]] = []
+    for left, right in narrow:
+        if spans and left < spans[-1][1] - 1:
+            spans[-1] = (min(spans[-1][0], left), max(spans[-1][1], right))
+        else:
+            spans.append((left, right))
+    bounds = [(a[1] + b[0]) / 2 for a, b in zip(spans, spans[1:], strict=False)]
+    rows = []
+    for row in grid:
+        cells: list[tuple[str, bool]] = [("", False)] * len(spans)
+        seen: set[int] = set()
+        for box, text, spread in row:
+            if not text or id(box) in seen:
+                continue
+            seen.add(id(box))
+            k = sum(1 for x in bounds if (box[0] + box[2]) / 2 > x)
+            before, _ = cells[k]
+            cells[k] = (f"{before} {text}" if before else text, spread)
+        rows.append(cells)
+    return rows
+
+
+def _continued(rows: list[list[tuple[str, bool]]]) -> tuple[list[list[str]], int]:
+    """Rows of texts: a row whose address-like cells all come from a cell merged over it from above (a
+    description wrapped over several rows of the drawing) is not a row of its own: its own texts are
+    joined to the row above. Also how many cells were read on rows below their own."""
+    out: list[list[str]] = []
+    spread = 0
+    for cells in rows:
+        texts = [text for text, _ in cells]
+        addresses = [text for text in texts if _is_data([text])]
+        if out and addresses and all(s for (text, s) in cells if text in addresses):
+            for k, (text, s) in enumerate(cells):
+                if text and not s:
+                    out[-1][k] = f"{out[-1][k]} {text}" if out[-1][k] else text
+            continue
+        spread += sum(1 for text, s in cells if text and s)
+        out.append(texts)
+    return out, spread
+
+
+def _is_data(cells: list[str]) -> bool:
+    return any(_ADDRESS.match(c) and any(ch.isdigit() for ch in c) for c in cells if c)
+
+
+def _banded(rows: list[list[str]]) -> tuple[list[list[str]], bool]:
+    """The first rows before the first holding an address-like cell, as one header row."""
+    n = 0
+    while n < min(HEADER_ROWS, len(rows)) and not _is_data(rows[n]):
+        n += 1
+    if n == 0:
+        return rows, False
+    header = []
+    for c in range(len(rows[0])):
+        parts: list[str] = []
+        for row in rows[:n]:
+            if row[c] and (not parts or parts[-1] != row[c]):
+                parts.append(row[c])
+        header.append(re.sub(r"(?<=[a-z])- (?=[a-z])", "", " ".join(parts)))
+    return [header, *rows[n:]], True
+
+
+def _found(page: Any, number: int, path: Path) -> list[_Found]:
+    out = []
+    for table in page.find_tables():
+        grid = _grid(table, path, number)
+        rows, spread = _continued([r for r in _columns(grid) if any(text for text, _ in r)])
+        if not rows:
+            continue
+        rows, banded = _banded(rows)
+        top, bottom = float(table.bbox[1]), float(table.bbox[3])
+        key = (round(top), round(bottom), tuple(tuple(r) for r in rows))
+        out.append(_Found(number, top, bottom, float(page.height), rows, spread, banded, key))
+    return out
+
+
+def _goes_on(before: PdfTable, last: _Found, found: _Found) -> bool:
+    """Whether `found`, the first table of its page, continues `before` (whose last part, on the page
+    before, was that page's last table): as many columns, and either no header of its own or the same."""
+    if found.page != last.page + 1 or len(found.rows[0]) != before.columns:
+        return False
+    if last.bottom < last.height * 0.6 or found.top > found.height * 0.4:
+        return False  # the first ends high on its page, or the second starts low: two tables
+    if not found.banded:
+        return True
+    same = [normalize_header(c) for c in found.rows[0]] == [normalize_header(c) for c in before.header]
+    return same or not before.header
+
+
+def page_count(path: Path) -> int:
+    """How many pages the PDF has (opening it as read_tables does: its errors the same)."""
+    with _opening(path) as pdf:
+        return len(pdf.pages)
+
+
+def read_tables(path: Path, pages: list[int] | None = None, spec: str | None = None) -> list[PdfTable]:
+    """The tables of the PDF's pages (`pages`: 1-based, None: all; `spec` how the user said them)."""
+    with _opening(path) as pdf:
+        count = len(pdf.pages)
+        if count > MAX_PAGES:
+            raise error(f"the PDF has {count:,} pages; mdl reads at most {MAX_PAGES:,}: give --pages", path)
+        wanted = pages or list(range(1, count + 1))
+        found: dict[int, list[_Found]] = {}
+        blank: list[int] = []
+        for number in wanted:
+            page = pdf.pages[number - 1]
+            if not page.chars:
+                blank.append(number)
+                continue
+            found[number] = _found(page, number, path)
+            page.close()  # frees the page's parsed objects: a long manual stays small
+    if blank and not found:
+        raise error(
+            f"{_pages(blank)} hold no text (a scanned manual?): mdl reads PDFs with a text layer, "
+            "and recognising text in images (OCR) is not something it does",
+            path,
+        )
+    repeated: dict[tuple[object, ...], int] = {}
+    for on_page in found.values():
+        for f in on_page:
+            repeated[f.key] = repeated.get(f.key, 0) + 1
+    tables: list[PdfTable] = []
+    last: _Found | None = None
+    line = 0
+    for number in sorted(found):
+        row_on_page = 0
+        for i, f in enumerate(t for t in found[number] if repeated[t.key] < 3):
+            first_of_page = i == 0
+            rows = f.rows
+            if first_of_page and last is not None and tables and _goes_on(tables[-1], last, f):
+                current = tables[-1]
+                if f.banded:
+                    rows = rows[1:]  # the header repeated
+                    row_on_page += 1
+            else:
+                current = PdfTable(number, number, len(rows[0]), header=rows[0] if f.banded else [])
+                tables.append(current)
+            for cells in rows:
+                row_on_page += 1
+                line += 1
+                if len(current.rows) >= MAX_TABLE_ROWS:
+                    raise error(f"a table of more than {MAX_TABLE_ROWS:,} rows", path)
+                current.rows.append(Row(line, cells))
+                current.places[line] = f"p{number}:r{row_on_page}"
+            current.last, current.spread = number, current.spread + f.spread
+            last = f
+        if not found[number]:
+            last = None
+    return tables
+
+
+def _pages(numbers: list[int]) -> str:
+    runs: list[str] = []
+    start = prev = numbers[0]
+    for n in [*numbers[1:], None]:
+        if n is not None and n == prev + 1:
+            prev = n
+            continue
+        runs.append(str(start) if start == prev else f"{start}-{prev}")
+        if n is not None:
+            start = prev = n
+    return ("page " if len(numbers) == 1 else "pages ") + ", ".join(runs)
