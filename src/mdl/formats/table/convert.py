@@ -562,9 +562,19 @@ def _read_chosen(csv_path: Path, ini: DeviceIni | None, report: Report) -> Table
 
 
 def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
-    """The device the table describes (None with --explain, which prints instead)."""
+    """The device the table describes (None with --explain, which prints instead); an error at a row of
+    a PDF's table names the row's place (`manual.pdf:p14:r7`), as warnings do."""
     table = _read_chosen(csv_path, ini, report)
     report.located(str(csv_path), table.places)
+    try:
+        return _convert(csv_path, table, ini, opts, report)
+    except MdlError as exc:
+        if not table.places:
+            raise
+        raise MdlError([report.placed(d) for d in exc.diagnostics], exc.exit_code) from None
+
+
+def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:
     header, data = _split_rows(table, ini)
     cols = resolve(table, header, data, ini)
     _say_idle_cells(ini, cols, report)
@@ -656,7 +666,7 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     out, extra = _functions_out(rows, chosen, opts.emit_all)
     if ini is not None:
         _raw_limits(ini, out)
-        apply_sections(ini.functions, str(ini.path), out, report)
+        apply_sections(ini.functions, str(ini.path), out, report, matched.lost)
         _roles_by_name(out, ini, report)
     listed = ("function" if len(chosen) == 1 else "functions") + ("" if own else " of the bundled list")
     summary = (

@@ -1,9 +1,10 @@
 """A row that could not be read, read after all with its function's `[function NAME]` section (SPEC 4.1: the
 section's fields win over the table's cells).
 
-A row is skipped when one of its essential cells (addresses, register type, format, count) cannot be read.
-Where the function whose best row it is has a section that sets that very field, the row is read again
-with the section's value in that cell, and a note says so; the section is then applied as for any row
+A row is skipped when one of its essential cells (addresses, register type, format, count) cannot be read,
+or when they disagree (an address range of 10 registers and a format of one). Where the function whose
+best row it is has a section that sets an essential field, the row is read again with the section's
+values in those cells, and a note says so; the section is then applied as for any row
 (mdl.formats.table.vocabulary.apply_sections), its notes included.
 """
 
@@ -38,21 +39,29 @@ def read_with_sections(
     for name, i in lost.items():
         row, key = skipped[i]
         fs = ini.functions.get(name)
-        if fs is None or key is None or key not in fs.values or cols.index.get(key) is None:
+        given = [f for f in ESSENTIAL if f in fs.values] if fs is not None else []
+        if fs is None or key is None or not given or cols.index.get(key) is None:
             continue
         cells = list(row.cells)
         was = row.cell(cols.index[key])
+        maps = dict(st.cells)
         for field in ESSENTIAL:
             column = cols.index.get(field)
             if field in fs.values and column is not None:
                 cells += [""] * max(0, column + 1 - len(cells))
+                if field == "format":  # read as [format cells] reads its values: STRING 10, UINT16 bit 3 too
+                    maps["format"] = {
+                        **maps.get("format", {}),
+                        " ".join(fs.values[field].split()).lower(): fs.values[field],
+                    }
                 cells[column] = fs.values[field]
         wire = replace(st, address_base="0") if "addresses" in fs.values else st
+        wire = replace(wire, cells=maps)
         try:
             parsed = parse_row(Row(row.line, cells), cols, wire)
         except CellError as exc:
             report.warn(
-                f"{name}: line {row.line} cannot be read with [function {name}]'s fields either: {exc}",
+                f"{name}: {report.row_name(row.line)} cannot be read with [function {name}]'s fields either: {exc}",
                 fs.line,
                 file=str(ini.path),
             )
@@ -60,10 +69,11 @@ def read_with_sections(
         if parsed is None:
             continue
         out[name] = parsed
+        fields = ", ".join(f"{f} {fs.values[f]}" for f in given)
         report.note(
-            f"{name}: line {row.line} read with {key} {fs.values[key]} from [function {name}], which wins over "
-            f"the cell {shown(was)} that could not be read",
-            fs.lines.get(key),
+            f"{name}: {report.row_name(row.line)} read with {fields} from [function {name}], which wins over the cells "
+            f"of the row (its {key} cell {shown(was)} could not be read as it stood)",
+            fs.lines.get(given[0]),
             file=str(ini.path),
         )
     return out

@@ -38,7 +38,12 @@ class Report(Collector):
         a diagnostic at line N of it is at `FILE:p14:r7`, and `line N` in its message becomes `p14:r7`."""
         self._places = (file, places) if places else None
 
-    def _placed(self, diag: Diagnostic) -> Diagnostic:
+    def row_name(self, line: int) -> str:
+        """How a message names the table's row on `line`: `line 12`, or a PDF's `p14:r7`."""
+        return self._places[1].get(line, f"line {line}") if self._places else f"line {line}"
+
+    def placed(self, diag: Diagnostic) -> Diagnostic:
+        """The diagnostic with a PDF row's line named by its place (see `located`)."""
         if self._places is None or diag.file != self._places[0]:
             return diag
         places = self._places[1]
@@ -57,7 +62,7 @@ class Report(Collector):
         return None if self.quiet else Progress(label, total, percent=percent)
 
     def add(self, diag: Diagnostic, *, kind: str | None = None, always: bool = False) -> bool:
-        diag = self._placed(diag)
+        diag = self.placed(diag)
         said = super().add(diag, kind=kind, always=always)
         if not self.printing:
             return said

@@ -234,6 +234,8 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         mapped_format, typed = None, cells.read("format", read_type)
     fmt, strlen = (typed.format, typed.strlen) if typed else (None, None)
     bits = _bits(cells, typed, mapped_format, at)
+    if at.bits is not None and fmt == "BIT" and table not in BIT_TABLES:
+        fmt = "UINT16"  # `0x0103.b8` typed `bit`: one bit of a register, not a coil
     if table in BIT_TABLES:
         fmt = "BIT" if fmt is not None else None
         bits = None
@@ -270,6 +272,16 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         count = -(-strlen * 8 // unit_bits)
     if fmt is None and table not in BIT_TABLES and unit_bits == 16:
         fmt = {1: "UINT16", 2: "UINT32", 4: "UINT64"}.get(count or 1)
+    elif typed and typed.widthless and unit_bits == 16 and count in (2, 4) and fmt in ("INT16", "UINT16"):
+        wide = fmt.replace("16", str(16 * count))  # `Unsigned` over 2 registers is a UINT32, not two UINT16
+        cells.notes.append(
+            (
+                "widthless over count",
+                f"format {shown(cells.raw('format'))} on line {row.line} (and any like it) says no width and the "
+                f"row is {count} registers: read as {wide}",
+            )
+        )
+        fmt = wide
     texts = row_texts(row, cols)
     if "description" in ix:  # the INI may map a description cell too
         texts[0] = cells.text("description")

@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 
 from mdl.diagnostics import Diagnostic, MdlError, error, shown
@@ -233,14 +233,19 @@ def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, 
     return said
 
 
-def apply_sections(sections: dict[str, FunctionSection], where: str, out: list[Function], report: Report) -> None:
+def apply_sections(
+    sections: dict[str, FunctionSection], where: str, out: list[Function], report: Report, said: Collection[str] = ()
+) -> None:
     """Each [function NAME] section's fields onto its function, each change a note at the INI's line
-    (`where`: the INI); a warning for a section whose function matched no row; an error at the section
-    for a function they leave impossible."""
+    (`where`: the INI); a warning for a section whose function matched no row (but not for those in
+    `said`, whose best row was skipped: a warning said why already); an error at the section for a
+    function they leave impossible."""
     by_name = {fn.name: fn for fn in out}
     applied = []
     for name, fs in sections.items():
         fn = by_name.get(name)
+        if fn is None and name in said:
+            continue
         if fn is None:
             report.warn(
                 f"[function {name}]: no row matched {name}, so its fields are not used; give it synonyms "

@@ -210,9 +210,21 @@ def _banded(rows: list[list[str]]) -> tuple[list[list[str]], bool]:
     return [header, *rows[n:]], True
 
 
+def _within(inner: tuple[float, ...], outer: tuple[float, ...]) -> bool:
+    return inner != outer and all(
+        (a >= b - 1) if i < 2 else (a <= b + 1) for i, (a, b) in enumerate(zip(inner, outer, strict=True))
+    )
+
+
 def _found(page: Any, number: int, path: Path) -> list[_Found]:
+    """The page's tables from top to bottom; a table drawn inside another (a header cell's own box, which
+    pdfplumber also finds as a table) is part of it, not a table."""
     out = []
-    for table in page.find_tables():
+    tables = page.find_tables()
+    boxes = [tuple(float(x) for x in t.bbox) for t in tables]
+    for table in sorted(tables, key=lambda t: (t.bbox[1], t.bbox[0])):
+        if any(_within(tuple(float(x) for x in table.bbox), box) for box in boxes):
+            continue
         grid = _grid(table, path, number)
         rows, spread = _continued([r for r in _columns(grid) if any(text for text, _ in r)])
         if not rows:
@@ -226,15 +238,16 @@ def _found(page: Any, number: int, path: Path) -> list[_Found]:
 
 def _goes_on(before: PdfTable, last: _Found, found: _Found) -> bool:
     """Whether `found`, the first table of its page, continues `before` (whose last part, on the page
-    before, was that page's last table): as many columns, and either no header of its own or the same."""
+    before, was that page's last table): as many columns, the first ending low on its page and the
+    second starting high on its own. Whether it repeats the header or not (the first rows of a page
+    may be the end of a row wrapped over the page's end)."""
     if found.page != last.page + 1 or len(found.rows[0]) != before.columns:
         return False
-    if last.bottom < last.height * 0.6 or found.top > found.height * 0.4:
-        return False  # the first ends high on its page, or the second starts low: two tables
-    if not found.banded:
-        return True
-    same = [normalize_header(c) for c in found.rows[0]] == [normalize_header(c) for c in before.header]
-    return same or not before.header
+    return last.bottom >= last.height * 0.6 and found.top <= found.height * 0.4
+
+
+def _repeats_header(before: PdfTable, found: _Found) -> bool:
+    return found.banded and [normalize_header(c) for c in found.rows[0]] == [normalize_header(c) for c in before.header]
 
 
 def page_count(path: Path) -> int:
@@ -279,7 +292,7 @@ def read_tables(path: Path, pages: list[int] | None = None, spec: str | None = N
             rows = f.rows
             if first_of_page and last is not None and tables and _goes_on(tables[-1], last, f):
                 current = tables[-1]
-                if f.banded:
+                if _repeats_header(current, f):
                     rows = rows[1:]  # the header repeated
                     row_on_page += 1
             else:
