@@ -12,7 +12,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
-from test_c_driver import assert_exactly, mdl_read
 
 from mdl.device.evaluate import Evaluator
 from mdl.diagnostics import MdlError
@@ -27,6 +26,7 @@ from support.bits_scale import DEVICE, SETS, WRITES, _raw, _read, devices
 from support.common import device_xml, fn_xml, import_generated
 from support.cpp_harness import Harness
 from support.devices import Sim
+from support.drivers import assert_exactly, mdl_read
 from support.refusing_proxy import refusing_proxy
 from support.run import cli, run_mdl
 

@@ -13,14 +13,12 @@ import re
 from pathlib import Path
 
 import pytest
-from test_c_driver import assert_exactly
-from test_c_hostile import build_sanitized
-from test_cpp_driver import load_registers, served_device
 
 from mdl.formats.mdl import load_device
-from support.c_harness import build, harness_source
+from support.c_harness import build, build_sanitized, harness_source
 from support.common import device_xml, fn_xml
 from support.cpp_harness import Harness
+from support.drivers import assert_exactly, load_registers, served_device
 
 LONG = "a label much longer than any default label of an enum or a bitset, " * 2
 
@@ -147,7 +145,7 @@ def test_no_read_writes_past_a_buffer_under_address_sanitizer(sizes_setup, tmp_p
     """The same driver and harness built with ASan and UBSan (which see a write past a stack array,
     where valgrind does not): every read of the longest values ends without a report."""
     path, module, client, _, sim = sizes_setup
-    exe = build_sanitized(tmp_path, path)
+    exe = build_sanitized(load_device(path), tmp_path, path.name)
     dev = module.SizesDevice(client)
     with Harness(exe, sim.port) as h:
         for regs in _register_sets()[:3]:

@@ -9,14 +9,13 @@ import random
 import re
 
 import pytest
-from test_c_driver import assert_exactly
-from test_cpp_driver import assert_same_values, load_registers, served_device
 
 from mdl.formats.mdl import load_device
 from mdl.targets import render
 from support.c_harness import build as build_c
 from support.common import device_xml, fn_xml
 from support.cpp_harness import clang_tidy
+from support.drivers import assert_exactly, assert_same_values, load_registers, served_device
 
 # the plain functions, each on the registers after the last one's
 PLAIN = [
@@ -131,7 +130,7 @@ def test_expressions_over_every_format_compile_and_read_as_the_python_driver(set
             same(h.values(f"read {name}"), {name: getattr(dev, f"read_{name}")()})
 
 
-@pytest.mark.exhaustive  # clang-tidy takes seconds a driver, as in test_cpp_driver.py
+@pytest.mark.exhaustive  # clang-tidy takes seconds a driver, as in test_driver.py
 def test_clang_tidy_finds_nothing_in_expressions_over_every_format(tmp_path):
     (tmp_path / "device.xml").write_text(device_xml(FUNCTIONS, name="Param Device"))
     for name, text in render(load_device(tmp_path / "device.xml"), "device.xml", "cpp").items():

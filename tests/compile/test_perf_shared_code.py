@@ -8,14 +8,13 @@ from __future__ import annotations
 import random
 
 import pytest
-from test_c_driver import assert_exactly
-from test_cpp_driver import assert_same_values, load_registers, served_device
 
 from mdl.model import Device, Function
 from mdl.model.layout import layout
 from mdl.targets import render
 from support.c_harness import build as build_c
 from support.common import fn_xml
+from support.drivers import assert_exactly, assert_same_values, load_registers, served_device
 
 ORDERS = [("big", "big"), ("little", "little")]
 

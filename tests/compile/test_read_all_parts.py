@@ -11,8 +11,6 @@ import re
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_c_driver import assert_exactly
-from test_cpp_driver import assert_same_values, load_registers, served_device
 
 from mdl.formats.mdl import load_device
 from mdl.targets.clike import READ_ALL_PART
@@ -21,6 +19,7 @@ from support.c_harness import build as build_c
 from support.common import device_xml, fn_xml
 from support.cpp_harness import MODBUS_ENOBASE, Harness
 from support.cpp_harness import build as build_cpp
+from support.drivers import assert_exactly, assert_same_values, load_registers, served_device
 
 ENUM = {"values": {0: "Off", 1: "On"}}
 KINDS = [  # (extra elements, registers), cycled

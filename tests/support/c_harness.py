@@ -2,9 +2,11 @@
 (`all`, `read NAME`, `write NAME VALUE`, `connect`; see cpp_harness), so `cpp_harness.Harness` runs it.
 
 Every driver is compiled with STRICT (the flags docs/c-api.md promises) by gcc and by clang, once per
-compiler and content in a session. A read's value holds a poison value before the call (a text: as
-much of "poison" as its array holds), and a read that fails but leaves anything else there aborts the
-program. A single read that finds the value null
+compiler and content in a session; `build_sanitized` builds it and the program with ASan and UBSan.
+tests/support/drivers.py's `Native` puts this and support/cpp_harness.py behind one interface.
+
+A read's value holds a poison value before the call (a text: as much of "poison" as its array holds), and a
+read that fails but leaves anything else there aborts the program. A single read that finds the value null
 (-1 with ENODATA, docs/c-api.md) prints `NAME null`.
 """
 
@@ -267,6 +269,36 @@ def build(device: Device, workdir: Path, source_name: str = "harness.xml") -> Pa
     exe = workdir / "c_harness"
     proc = subprocess.run(
         [gcc, "-std=c99", "-O0", *cflags, "-o", str(exe), str(workdir / "c_harness.c"), str(obj), *libs, "-lm"],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0, proc.stderr
+    return exe
+
+
+SANITIZE = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-g", "-O1"]
+
+
+def build_sanitized(device: Device, workdir: Path, source_name: str = "harness.xml") -> Path:
+    """The C driver of `device` and the C harness, compiled by gcc with ASan and UBSan: the driver with
+    STRICT (the flags docs/c-api.md promises), the harness (test code) with -std=c99."""
+    gcc = tool("gcc")
+    cflags, libs = modbus_flags()
+    files = render(device, source_name, "c")
+    stem = next(name for name in files if name.endswith(".c"))[:-2]
+    for name, text in files.items():
+        (workdir / name).write_text(text, encoding="utf-8")
+    (workdir / "c_harness.c").write_text(harness_source(device, stem), encoding="utf-8")
+    driver = workdir / f"{stem}.o"
+    proc = subprocess.run(
+        [gcc, *STRICT, *SANITIZE, *cflags, "-c", str(workdir / f"{stem}.c"), "-o", str(driver)],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 0, proc.stderr
+    exe = workdir / "c_harness_san"
+    proc = subprocess.run(
+        [gcc, "-std=c99", *SANITIZE, *cflags, "-o", str(exe), str(workdir / "c_harness.c"), str(driver), *libs, "-lm"],
         capture_output=True,
         text=True,
     )

@@ -1,6 +1,7 @@
-"""The generated C++ driver over a `modbus_new_rtu` context, on real RTU framing: the test harness on one end
-of a socat pseudo terminal pair, `mdl sim --serial` on the other, and `mdl read` on the same line to agree
-with (SPEC section 9). Without socat or libmodbus the tests are skipped, under CI=true they fail."""
+"""The generated C and C++ drivers over a `modbus_new_rtu` context, on real RTU framing, one suite parametrized
+by target (`Native`, tests/support/drivers.py): the test program on one end of a socat pseudo terminal pair,
+`mdl sim --serial` on the other, and `mdl read` on the same line to agree with (SPEC section 9). Without socat
+or libmodbus the tests are skipped, under CI=true they fail."""
 
 from __future__ import annotations
 
@@ -13,15 +14,18 @@ import threading
 import time
 import tty
 from contextlib import contextmanager
+from pathlib import Path
+from typing import NamedTuple
 
 import pytest
-from test_cpp_driver import ALL_SETTINGS, assert_same_values
 
 from mdl.device.output import shown
 from mdl.formats.mdl import load_device
 from support.common import DATA, EXAMPLE
-from support.cpp_harness import MODBUS_ENOBASE, Harness, build, rtu
+from support.cpp_harness import MODBUS_ENOBASE, Harness, rtu
+from support.drivers import NATIVES, TARGETS, Native
 from support.hostile_server import LIES
+from support.raw_images import ALL_SETTINGS
 from support.run import run_mdl
 
 ALL = DATA / "all_tables.xml"
@@ -31,14 +35,20 @@ TIMEOUT_MS = 500  # the harness' response and byte timeouts
 SILENT_BOUND = 5  # seconds a call to a unit that does not answer may take (one try of 0.5 s)
 
 
-@pytest.fixture(scope="module")
-def all_tables_cpp(tmp_path_factory):
-    return build(load_device(ALL), tmp_path_factory.mktemp("serial_all"), source_name=ALL.name)
+class Built(NamedTuple):
+    native: Native
+    all_tables: Path  # the test program of all_tables.xml's driver
+    tstat: Path  # of the TEMCO thermostat's
 
 
-@pytest.fixture(scope="module")
-def tstat_cpp(tmp_path_factory):
-    return build(load_device(TSTAT), tmp_path_factory.mktemp("serial_tstat"), source_name=TSTAT.name)
+@pytest.fixture(scope="module", params=TARGETS)
+def built(request, tmp_path_factory) -> Built:
+    native = NATIVES[request.param]
+    return Built(
+        native,
+        native.build(load_device(ALL), tmp_path_factory.mktemp(f"serial_all_{native}"), ALL.name),
+        native.build(load_device(TSTAT), tmp_path_factory.mktemp(f"serial_tstat_{native}"), TSTAT.name),
+    )
 
 
 def mdl_read(path, client_end: str, *args) -> dict:
@@ -61,14 +71,15 @@ def read_all(exe, path, client_end: str, unit: int = 1) -> dict:
     return as_shown(path, values)
 
 
-def test_read_all_and_writes_agree_with_mdl_read_on_the_line(all_tables_cpp, serial_line, sim_factory):
+def test_read_all_and_writes_agree_with_mdl_read_on_the_line(built, serial_line, sim_factory):
+    native = built.native
     device, client_end = serial_line.ends
     sim_factory(ALL, *ALL_SETTINGS, serial=device)
-    cpp = read_all(all_tables_cpp, ALL, client_end)
-    assert cpp["setpoint"] == 21.5 and cpp["mode"] == "Cool" and cpp["label"] == "Hall" and cpp["pump"] is True
-    assert cpp["big"] == -5000000000 and cpp["energy"] == 1234.567 and cpp["door_open"] is True
-    assert_same_values(cpp, mdl_read(ALL, client_end))
-    with Harness(all_tables_cpp, rtu(client_end), TIMEOUT_MS, ask_timeout=RUN) as h:
+    got = read_all(built.all_tables, ALL, client_end)
+    assert got["setpoint"] == 21.5 and got["mode"] == "Cool" and got["label"] == "Hall" and got["pump"] is True
+    assert got["big"] == -5000000000 and got["energy"] == 1234.567 and got["door_open"] is True
+    native.assert_agree(got, mdl_read(ALL, client_end))
+    with Harness(built.all_tables, rtu(client_end), TIMEOUT_MS, ask_timeout=RUN) as h:
         for write in ("setpoint 19.5", f"label {b'Den'.hex()}", "fan 1", "big 7", "low_byte -7", "serial 4000000000"):
             assert h.ask(f"write {write}") == ["ok"], write
         assert h.values("read label") == {"label": "Den"}
@@ -82,12 +93,13 @@ def test_read_all_and_writes_agree_with_mdl_read_on_the_line(all_tables_cpp, ser
     }
     proc = run_mdl("write", ALL, "--serial", client_end, "setpoint=23", "mode=Heat", timeout=RUN)
     assert proc.returncode == 0, proc.stderr
-    after = read_all(all_tables_cpp, ALL, client_end)
+    after = read_all(built.all_tables, ALL, client_end)
     assert after["setpoint"] == 23.0 and after["mode"] == "Heat" and after["label"] == "Den"
-    assert_same_values(after, mdl_read(ALL, client_end))
+    native.assert_agree(after, mdl_read(ALL, client_end))
 
 
-def test_two_devices_on_one_line_at_their_unit_ids(all_tables_cpp, tstat_cpp, serial_line, sim_factory):
+def test_two_devices_on_one_line_at_their_unit_ids(built, serial_line, sim_factory):
+    native = built.native
     device, client_end = serial_line.ends
     sim = sim_factory(
         [ALL, TSTAT],
@@ -100,31 +112,31 @@ def test_two_devices_on_one_line_at_their_unit_ids(all_tables_cpp, tstat_cpp, se
         serial=device,
     )
     assert sim.units == [1, 2]
-    table = read_all(all_tables_cpp, ALL, client_end, unit=1)
-    tstat = read_all(tstat_cpp, TSTAT, client_end, unit=2)
+    table = read_all(built.all_tables, ALL, client_end, unit=1)
+    tstat = read_all(built.tstat, TSTAT, client_end, unit=2)
     assert table["setpoint"] == 19.5
     assert tstat["occupied_setpoint"] == 22 and tstat["room_temperature"] == 21.5
-    assert_same_values(table, mdl_read(ALL, client_end, "--unit", "1"))
-    assert_same_values(tstat, mdl_read(TSTAT, client_end, "--unit", "2"))
+    native.assert_agree(table, mdl_read(ALL, client_end, "--unit", "1"))
+    native.assert_agree(tstat, mdl_read(TSTAT, client_end, "--unit", "2"))
 
 
-def test_a_unit_that_does_not_answer_times_out(tstat_cpp, serial_line, sim_factory):
+def test_a_unit_that_does_not_answer_times_out(built, serial_line, sim_factory):
     device, client_end = serial_line.ends
     sim_factory(TSTAT, "--set", "occupied_setpoint=22", serial=device)
-    with Harness(tstat_cpp, rtu(client_end), TIMEOUT_MS, unit=5, ask_timeout=RUN) as h:
+    with Harness(built.tstat, rtu(client_end), TIMEOUT_MS, unit=5, ask_timeout=RUN) as h:
         for ask in ("read occupied_setpoint", "all", "write fan_speed 2"):
             started = time.monotonic()
             assert h.values(ask) == {"error": errno.ETIMEDOUT}, ask
             assert time.monotonic() - started < SILENT_BOUND, ask
     # the silent unit did not upset the line: the device on it still answers, and was not written
-    assert read_all(tstat_cpp, TSTAT, client_end)["occupied_setpoint"] == 22
+    assert read_all(built.tstat, TSTAT, client_end)["occupied_setpoint"] == 22
     assert mdl_read(TSTAT, client_end, "fan_speed") == {"fan_speed": 0}
 
 
-def test_a_serial_device_that_cannot_be_opened(all_tables_cpp, tmp_path):
+def test_a_serial_device_that_cannot_be_opened(built, tmp_path):
     missing = tmp_path / "ttyUSB9"
     proc = subprocess.run(
-        [str(all_tables_cpp), rtu(str(missing))], input="", capture_output=True, text=True, timeout=RUN
+        [str(built.all_tables), rtu(str(missing))], input="", capture_output=True, text=True, timeout=RUN
     )
     assert (proc.returncode, proc.stdout) == (1, "connect failed: No such file or directory\n")
 
@@ -163,10 +175,13 @@ RTU_ERRNO = {
 
 
 @pytest.mark.parametrize("lie", sorted(RTU_ERRNO))
-def test_rtu_replies_are_checked_before_they_are_trusted(all_tables_cpp, serial_line, lie):
+def test_rtu_replies_are_checked_before_they_are_trusted(built, serial_line, lie):
     """The harness aborts when a failed read stores a value: -1 with errno, and nothing read."""
     device, client_end = serial_line.ends
-    with lying_device(device, LIES[lie][0]), Harness(all_tables_cpp, rtu(client_end), TIMEOUT_MS, ask_timeout=RUN) as h:
+    with (
+        lying_device(device, LIES[lie][0]),
+        Harness(built.all_tables, rtu(client_end), TIMEOUT_MS, ask_timeout=RUN) as h,
+    ):
         started = time.monotonic()
         assert h.values("read setpoint") == {"error": RTU_ERRNO[lie]}
         assert time.monotonic() - started < SILENT_BOUND
