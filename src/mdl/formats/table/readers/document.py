@@ -314,9 +314,7 @@ def _pdf_candidates(path: Path) -> list[Candidate]:
             raise (error(str(exc), *choice.pages_where) if choice.pages_where else error(str(exc), path)) from None
     out = []
     for n, table in enumerate(read_tables(path, pages), 1):
-        notes = []
-        if n == 1:
-            notes.append("rows in messages are named by page and row: p14:r7 is the 7th table row on page 14")
+        notes = ["rows in messages are named by page and row: p14:r7 is the 7th table row on page 14"]
         if table.spread:
             notes.append(
                 f"cells merged over several rows in table {n} are read on each row they cover ({table.spread} cells)"
