@@ -8,11 +8,13 @@ from __future__ import annotations
 import csv
 import html
 import json
+import shutil
+import zipfile
 from pathlib import Path
 
 import pytest
 
-from support.common import ROOT  # noqa: E402
+from support.common import DATA, ROOT  # noqa: E402
 from support.run import assert_clean_error, run_mdl
 
 TEMCO = ROOT / "examples" / "temco_tstat"
@@ -78,6 +80,38 @@ def to_xlsx(rows: list[list[str]], path: Path) -> None:
     book.save(path)
 
 
+ODS_HEAD = (
+    '<?xml version="1.0" encoding="UTF-8"?>\n<office:document-content '
+    'xmlns:office="urn:oasis:names:tc:opendocument:xmlns:office:1.0" '
+    'xmlns:table="urn:oasis:names:tc:opendocument:xmlns:table:1.0" '
+    'xmlns:text="urn:oasis:names:tc:opendocument:xmlns:text:1.0"><office:body><office:spreadsheet>'
+)
+
+
+def to_ods(rows: list[list[str]], path: Path) -> None:
+    """The spreadsheet LibreOffice saves: a title sheet first, numbers as floats with their text, empty
+    cells and the million empty rows at the end as repeats."""
+
+    def cell(text: str) -> str:
+        if not text:
+            return "<table:table-cell/>"
+        value = _number(text)
+        kind = f'office:value-type="float" office:value="{value}"' if isinstance(value, (int, float)) else ""
+        return f"<table:table-cell {kind}><text:p>{html.escape(text)}</text:p></table:table-cell>"
+
+    def sheet(name: str, table: list[list[str]]) -> str:
+        end = '<table:table-cell table:number-columns-repeated="16000"/>'  # to the sheet's last column
+        body = "".join("<table:table-row>" + "".join(map(cell, r)) + end + "</table:table-row>" for r in table)
+        tail = '<table:table-row table:number-rows-repeated="1048000"><table:table-cell/></table:table-row>'
+        return f'<table:table table:name="{name}">{body}{tail}</table:table>'
+
+    content = ODS_HEAD + sheet("Read me", [["Revision", "Date"], ["1", "2024"]]) + sheet("Registers", rows)
+    content += "</office:spreadsheet></office:body></office:document-content>"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("mimetype", "application/vnd.oasis.opendocument.spreadsheet")
+        archive.writestr("content.xml", content)
+
+
 def _number(text: str) -> object:
     for kind in (int, float):
         try:
@@ -98,21 +132,27 @@ def from_csv():
     return proc.stdout
 
 
-@pytest.mark.parametrize("suffix", [".md", ".html", ".htm", ".xlsx"])
+@pytest.mark.parametrize("suffix", [".md", ".html", ".htm", ".xlsx", ".ods", ".xls"])
 def test_each_format_gives_the_mdl_its_csv_gives(tmp_path, from_csv, suffix):
+    """The same table as Markdown, HTML, an .xlsx, an .ods (LibreOffice) and an .xls (Excel 97-2003, saved
+    once with xlwt from the same rows: tests/data/csv2xml/temco_tstat.xls) gives the MDL of the CSV."""
     source = tmp_path / f"temco_tstat{suffix}"
     rows = temco_rows()
     if suffix == ".md":
         source.write_text(to_markdown(rows), encoding="utf-8")
     elif suffix == ".xlsx":
         to_xlsx(rows, source)
+    elif suffix == ".ods":
+        to_ods(rows, source)
+    elif suffix == ".xls":
+        shutil.copy(DATA / "csv2xml" / "temco_tstat.xls", source)
     else:
         source.write_text(to_html(rows), encoding="utf-8")
     proc = convert(source)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout == from_csv
     assert "Traceback" not in proc.stderr
-    which = "sheet 'Registers'" if suffix == ".xlsx" else "table 2"
+    which = "sheet 'Registers'" if suffix in (".xlsx", ".ods", ".xls") else "table 2"
     assert f"note: read {which}" in proc.stderr, proc.stderr
     assert "the first whose header holds the INI's column names" in proc.stderr  # the INI names its columns
 

@@ -131,3 +131,37 @@ def test_all_keeps_a_rows_own_name_over_a_similarity_only_match(tmp_path):
 def test_pages_of_an_ini_for_a_csv_is_an_error_at_its_line(tmp_path):
     proc, _ = convert(tmp_path, "t.csv", "Address,Name\n0,Voltage\n", "pages = 3\n", "--all")
     assert_clean_error(proc, 1, "device.ini:6: error: pages = 3 in the INI chooses pages of a PDF manual")
+
+
+ODS = (
+    '<?xml version="1.0"?><office:document-content xmlns:office="urn:oasis:names:tc:opendocument:xmlns:office:1.0" '
+    'xmlns:table="urn:oasis:names:tc:opendocument:xmlns:table:1.0" '
+    'xmlns:text="urn:oasis:names:tc:opendocument:xmlns:text:1.0"><office:body><office:spreadsheet>'
+    '<table:table table:name="Regs">{rows}</table:table></office:spreadsheet></office:body></office:document-content>'
+)
+
+
+def test_an_ods_whose_repeats_claim_millions_of_cells_is_refused_before_they_are_made(tmp_path):
+    """A few hundred bytes of content.xml can repeat a cell with text over millions of rows or columns:
+    the repeats are counted, never expanded past the limits."""
+    import zipfile
+
+    header = "<table:table-row><table:table-cell><text:p>Address</text:p></table:table-cell></table:table-row>"
+    cell = "<table:table-cell {}><text:p>7</text:p></table:table-cell>"
+    cases = {
+        "wide.ods": (
+            f"<table:table-row>{cell.format(chr(32) + 'table:number-columns-repeated=' + chr(34) + '20000' + chr(34))}"
+            "</table:table-row>",
+            "has more than 16,384 columns",
+        ),
+        "tall.ods": (
+            f'<table:table-row table:number-rows-repeated="2000000">{cell.format("")}</table:table-row>',
+            "hold more than 1,000,000 cells with text",
+        ),
+    }
+    for name, (rows, message) in cases.items():
+        path = tmp_path / name
+        with zipfile.ZipFile(path, "w") as archive:
+            archive.writestr("content.xml", ODS.format(rows=header + rows))
+        proc = cli("csv2xml", path, "--all", "-o", tmp_path / "out.xml")
+        assert_clean_error(proc, 1, message)

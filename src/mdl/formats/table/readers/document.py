@@ -27,7 +27,7 @@ from mdl.formats.table.readers.delimited import (
 
 MARKDOWN = (".md", ".markdown")
 HTML = (".html", ".htm", ".xhtml")
-EXCEL = (".xlsx", ".xlsm", ".xls")
+EXCEL = (".xlsx", ".xlsm", ".xls", ".ods")
 PDF = (".pdf",)
 LISTED = 8  # tables an error lists with their first cells
 MAX_CELLS = 1_000_000  # of one table, or of a workbook's sheets together: a register table has thousands
@@ -283,10 +283,21 @@ def _html_candidates(path: Path, text: str) -> list[Candidate]:
 
 
 def _excel_candidates(path: Path) -> list[Candidate]:
+    """The sheets of a workbook: .xlsx/.xlsm with openpyxl, .xls with xlrd, .ods (OpenDocument) alike."""
     from mdl.formats.table.readers.xlsx import cell_ref, open_book, read_sheet, sheet_names
 
-    with open_book(path) as book:
-        sheets = [read_sheet(path, book, name) for name in sheet_names(book)]
+    suffix = path.suffix.lower()
+    if suffix == ".xls":
+        from mdl.formats.table.readers.xls import read_xls
+
+        sheets = read_xls(path)
+    elif suffix == ".ods":
+        from mdl.formats.table.readers.ods import read_ods
+
+        sheets = read_ods(path)
+    else:
+        with open_book(path) as book:
+            sheets = [read_sheet(path, book, name) for name in sheet_names(book)]
     out = []
     for sheet in sheets:
         name = sheet.name

@@ -248,8 +248,6 @@ def _load(path: Path, data_only: bool) -> Any:
 
 def open_book(path: Path) -> Book:
     """The workbook, its limits checked first (then close() it, or use it in a `with`)."""
-    if path.suffix.lower() == ".xls":
-        raise error("an Excel 97-2003 workbook (.xls): save it as .xlsx (or CSV) to read it", path)
     with _reading(path):
         archive = zipfile.ZipFile(path)
     try:
