@@ -62,6 +62,7 @@ FUNCTION_KEYS = (
     "role",
     "addresses",
     "row",
+    "expression",
 )
 DEVICE_KEYS = (
     "device_name",

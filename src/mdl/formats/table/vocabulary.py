@@ -148,7 +148,10 @@ def multiplier_of(fs: FunctionSection) -> float | None:
 
 
 def function_problems(fn: Function, functions: Mapping[str, Function]) -> list[str]:
-    """What makes `fn` impossible (its layout, bounds, bits, scale factor, role), the first first."""
+    """What makes `fn` impossible (its layout, bounds, bits, scale factor, role), the first first. A
+    function with an expression is checked where every expression is, by the resolve step."""
+    if fn.expression is not None:
+        return []
     try:
         lay = layout(fn)
     except LayoutError as exc:
@@ -230,6 +233,10 @@ def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, 
     for key in ("units", "scale_exponent", "role"):
         if key in v:
             change(key, key, v[key])
+    if "expression" in v:  # the value is the expression's (SPEC 2.2): what the table's cells said of it goes
+        change("expression", "expression", v["expression"])
+        fn.format = fn.count = fn.multiplier = fn.offset = fn.bits = fn.length = None
+        fn.byte_order = fn.word_order = None
     return said
 
 

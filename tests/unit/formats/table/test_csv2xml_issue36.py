@@ -6,7 +6,11 @@ type over a count of registers, and --all keeping a row's own name over a simila
 
 from __future__ import annotations
 
-from support.run import assert_clean_error, cli
+import json
+
+import pytest
+
+from support.run import assert_clean_error, cli, run_mdl
 from support.tables import functions
 
 INI_HEAD = "[Modbus Device]\ndevice_name = Test\n\n[Input/Output]\naddress_map_csv_file = {table}\n"
@@ -165,3 +169,25 @@ def test_an_ods_whose_repeats_claim_millions_of_cells_is_refused_before_they_are
             archive.writestr("content.xml", ODS.format(rows=header + rows))
         proc = cli("csv2xml", path, "--all", "-o", tmp_path / "out.xml")
         assert_clean_error(proc, 1, message)
+
+
+@pytest.mark.commands  # serves a device
+def test_a_function_section_gives_an_expression_for_an_encoding_the_fields_cannot_say(tmp_path, sim_factory):
+    """A temperature stored with its bytes swapped, in tenths: `expression =` in [function NAME] (SPEC 2.2's
+    language) replaces the table's format, is checked like every expression, and reads through mdl sim."""
+    table = "Address,Name,Type\n5,Water temperature,U16\n6,Flow,U16\n"
+    ini = (
+        "\n[Function Name Search Synonyms]\nwater_temperature = Water temperature\nflow = Flow\n"
+        "\n[function water_temperature]\nexpression = int16(swapbytes(hr:5)) / 10\n"
+    )
+    proc, fns = convert(tmp_path, "t.csv", table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert fns["water_temperature"]["expression"] == "int16(swapbytes(hr:5)) / 10"
+    assert "format" not in fns["water_temperature"]
+    raw = tmp_path / "raw.json"
+    raw.write_text('{"holding": {"5": 65280, "6": 3}}')  # 0xFF00: 0x00FF swapped, 255 tenths
+    sim = sim_factory(tmp_path / "out.xml", "--registers", raw)
+    read = run_mdl("read", tmp_path / "out.xml", "--host", sim.host, "--port", sim.port, "--format", "json")
+    assert json.loads(read.stdout) == {"water_temperature": 25.5, "flow": 3}, read.stderr
+    broken, _ = convert(tmp_path, "t.csv", table, ini.replace("hr:5))", "hr:5)"))
+    assert_clean_error(broken, 1, "function 'water_temperature': expression: expected ')'")
