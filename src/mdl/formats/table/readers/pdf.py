@@ -256,23 +256,59 @@ def page_count(path: Path) -> int:
         return len(pdf.pages)
 
 
-def read_tables(path: Path, pages: list[int] | None = None, spec: str | None = None) -> list[PdfTable]:
-    """The tables of the PDF's pages (`pages`: 1-based, None: all; `spec` how the user said them)."""
+def _survey(path: Path, wanted: list[int]) -> tuple[set[int], set[int]]:
+    """(pages without text, pages with no line drawn), from pdfium's text and page objects: cheap,
+    where pdfplumber's layout of a page costs a tenth of a second. A page with no line drawn holds no
+    ruled table, so its layout is never made."""
+    import pypdfium2 as pdfium  # type: ignore[import-untyped]
+    import pypdfium2.raw as pdfium_c  # type: ignore[import-untyped]
+
+    blank, undrawn = set(), set()
+    doc = pdfium.PdfDocument(str(path))
+    try:
+        for number in wanted:
+            page = doc[number - 1]
+            try:
+                text = page.get_textpage()
+                try:
+                    if not text.get_text_range().strip():
+                        blank.add(number)
+                finally:
+                    text.close()
+                drawn = page.get_objects(filter=[pdfium_c.FPDF_PAGEOBJ_PATH], max_depth=3)
+                if next(drawn, None) is None:
+                    undrawn.add(number)
+            finally:
+                page.close()
+    finally:
+        doc.close()
+    return blank, undrawn
+
+
+def read_tables(path: Path, pages: list[int] | None = None) -> list[PdfTable]:
+    """The tables of the PDF's pages (`pages`: 1-based, None: all)."""
     with _opening(path) as pdf:
         count = len(pdf.pages)
         if count > MAX_PAGES:
             raise error(f"the PDF has {count:,} pages; mdl reads at most {MAX_PAGES:,}: give --pages", path)
         wanted = pages or list(range(1, count + 1))
+        try:
+            blank_pages, undrawn = _survey(path, wanted)
+        except Exception:  # pdfium refused what pdfminer opened: every page is laid out instead
+            blank_pages, undrawn = set(), set()
         found: dict[int, list[_Found]] = {}
         blank: list[int] = []
         for number in wanted:
+            if number in undrawn and number not in blank_pages:
+                found[number] = []
+                continue
             page = pdf.pages[number - 1]
             if not page.chars:
                 blank.append(number)
                 continue
             found[number] = _found(page, number, path)
             page.close()  # frees the page's parsed objects: a long manual stays small
-    if blank and not found:
+    if blank and not any(found.values()) and len(blank) == len(wanted):
         raise error(
             f"{_pages(blank)} hold no text (a scanned manual?): mdl reads PDFs with a text layer, "
             "and recognising text in images (OCR) is not something it does",
