@@ -69,11 +69,16 @@ def read_with_sections(
         if parsed is None:
             continue
         out[name] = parsed
-        fields = ", ".join(f"{f} {fs.values[f]}" for f in given)
-        report.note(
-            f"{name}: {report.row_name(row.line)} read with {fields} from [function {name}], which wins over the cells "
-            f"of the row (its {key} cell {shown(was)} could not be read as it stood)",
-            fs.lines.get(given[0]),
-            file=str(ini.path),
-        )
+        if key in given:
+            message = (
+                f"{name}: {report.row_name(row.line)} read with {key} {fs.values[key]} from [function {name}], "
+                f"which wins over the cell {shown(was)} that could not be read"
+            )
+        else:  # the cells disagreed (a range of 10 registers, a type of one): the section's fields settle it
+            fields = ", ".join(f"{f} {fs.values[f]}" for f in given)
+            message = (
+                f"{name}: {report.row_name(row.line)} read with {fields} from [function {name}], which wins "
+                f"over the cells of the row (its {key} cell {shown(was)} could not be read as it stood)"
+            )
+        report.note(message, fs.lines.get(key if key in given else given[0]), file=str(ini.path))
     return out

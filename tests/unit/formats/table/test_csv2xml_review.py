@@ -481,7 +481,11 @@ def test_a_widthless_int_is_one_register_and_said(tmp_path):
     proc = cli("csv2xml", table, "--all", "--threshold", "1")
     assert proc.returncode == 0, proc.stderr
     fns = functions(proc.stdout)
-    assert (fns["power"]["format"], fns["energy"]["format"], fns["energy"]["count"]) == ("INT16", "INT16", "2")
+    # a count of 2 gives the widthless INT its width (issue 36: two INT16 registers read a wrong value)
+    assert (fns["power"]["format"], fns["energy"]["format"], fns["energy"]["count"]) == ("INT16", "INT32", "2")
+    assert "format 'INT' on line 3 (and any like it) says no width and the row is 2 registers: read as INT32" in (
+        proc.stderr
+    )
     assert (
         "note: format 'INT' on line 2 (and any like it) gives no width: read as one register (16 bits); "
         "if the table means 32 bits, write INT32/UINT32 there or give the row a count of 2"
