@@ -97,6 +97,7 @@ def test_rtu_frames_over_tcp_where_absent_units_are_silent(write_device, sim_fac
     assert [(f["unit"], f["serial"], f["ranges"]) for f in found] == [(4, None, GAPS_RANGES)]
 
 
+@pytest.mark.hostile  # every silent unit of the line waited out, twice per setting: seconds, not a quick check
 def test_several_units_on_one_rtu_line(serial_line, write_device, sim_factory):
     gaps, other = write_device(GAPS, "Gaps"), write_device(OTHER, "Other", filename="other.xml")
     sim_factory([gaps, other], "--unit", "2", "--unit", "5", serial=serial_line.ends[0])

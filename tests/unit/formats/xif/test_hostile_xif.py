@@ -96,6 +96,7 @@ def test_errors_stop_being_listed_after_the_first_hundred(tmp_path):
 
 
 # -- stated limits, never a traceback ------------------------------------------------------------
+@pytest.mark.hostile  # seconds of work to prove a limit: the hostile tier (docs/testing.md)
 def test_more_datapoints_than_the_limit_are_refused_at_the_first_row_past_it(tmp_path):
     text = (
         HEAD
@@ -135,6 +136,7 @@ def test_a_row_of_more_cells_than_excel_has_columns_is_refused_at_the_cell(tmp_p
     assert len(stderr_lines(proc)) == 1
 
 
+@pytest.mark.hostile  # seconds of work to prove a limit: the hostile tier (docs/testing.md)
 def test_a_large_file_imports_from_a_path_and_from_standard_input(tmp_path):
     text = HEAD + HEADING + "\n" + rows(5000)
     path = write(tmp_path, text, "big.mod")

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mdl.diagnostics import error
+from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
 from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, cell_too_long, normalize_header
 
@@ -302,12 +302,17 @@ def read_tables(path: Path, pages: list[int] | None = None) -> list[PdfTable]:
             if number in undrawn and number not in blank_pages:
                 found[number] = []
                 continue
-            page = pdf.pages[number - 1]
-            if not page.chars:
-                blank.append(number)
-                continue
-            found[number] = _found(page, number, path)
-            page.close()  # frees the page's parsed objects: a long manual stays small
+            try:
+                page = pdf.pages[number - 1]
+                if not page.chars:
+                    blank.append(number)
+                    continue
+                found[number] = _found(page, number, path)
+                page.close()  # frees the page's parsed objects: a long manual stays small
+            except MdlError:
+                raise
+            except Exception as exc:  # pdfminer's own errors on a damaged page, whatever they are
+                raise error(f"page {number} cannot be read: {str(exc)[:200] or type(exc).__name__}", path) from None
     if blank and not any(found.values()) and len(blank) == len(wanted):
         raise error(
             f"{_pages(blank)} hold no text (a scanned manual?): mdl reads PDFs with a text layer, "
