@@ -69,3 +69,18 @@ def test_columns_come_from_the_narrowest_cells_with_text():
         [("", False), ("Register Address", False), ("Unit", False)],
         [("0001", False), ("Voltage", False), ("V", False)],
     ]
+
+
+def test_messages_name_a_pdf_row_by_its_place():
+    """csv2xml's Report names a PDF table's rows by page and row: the diagnostic's place and the lines its
+    message names; a line that is no row of the table, and other files, keep their numbers."""
+    from mdl.diagnostics import Diagnostic
+    from mdl.formats.table.report import Report
+
+    report = Report(printing=False)
+    report.located("m.pdf", {12: "p3:r4", 13: "p3:r5"})
+    placed = report.placed(Diagnostic("m.pdf", 12, None, "lines 12 and 13 match it alike; `row = 13` takes line 13"))
+    assert str(placed) == "m.pdf:p3:r4: error: p3:r4 and p3:r5 match it alike; `row = p3:r5` takes p3:r5"
+    assert str(report.placed(Diagnostic("m.pdf", 99, 2, "line 99"))) == "m.pdf:99:2: error: line 99"
+    assert report.placed(Diagnostic("d.ini", 12, None, "line 12")).file == "d.ini"
+    assert report.row_name(13) == "p3:r5" and report.row_name(7) == "line 7"
