@@ -326,16 +326,17 @@ def _forced(ini: DeviceIni | None, parsed: Parsed, places: dict[int, str]) -> di
             why = "no row of the table read stands there" if places else "only a PDF table's rows are named so"
             raise error(f"[function {name}] row = {given}: {why}", ini.path, fs.lines.get("row"))
         line = lines[given] if given.startswith("p") else int(given)
+        row = places.get(line, f"line {line}")
         if line in skipped:
-            why = f"line {line} of the table was skipped ({skipped[line]})"
+            why = f"{row} of the table was skipped ({skipped[line]})"
         elif line not in at:
-            why = f"line {line} of the table holds no row with an address"
+            why = f"{row} of the table holds no row with an address"
         elif at[line] in out.values():
-            why = f"line {line} is already the row of another [function] section"
+            why = f"{row} is already the row of another [function] section"
         else:
             out[name] = at[line]
             continue
-        raise error(f"[function {name}] row = {line}: {why}", ini.path, fs.lines.get("row"))
+        raise error(f"[function {name}] row = {given}: {why}", ini.path, fs.lines.get("row"))
     return out
 
 
@@ -652,6 +653,8 @@ def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options,
             _keep_own_names(matched, str(csv_path), report)
         _say_matches(str(csv_path), matching, index, parsed, matched, limit, lines, opts, own, report)
     chosen = matched.chosen
+    if ini is None:
+        chosen = _own_names(chosen, parsed, str(csv_path), report)
     for name, row_index in forced.items():
         chosen[name] = Candidate(name, row_index, Score(EXACT, 1.0))
     missing = [n for n in functions if n not in chosen]
@@ -695,6 +698,32 @@ def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options,
     if device.extensions():
         device.version = "1.0"
     return device
+
+
+def _own_names(chosen: dict[str, Candidate], parsed: Parsed, where: str, report: Report) -> dict[str, Candidate]:
+    """Without an INI, a row with a name of its own (a name column's cell) keeps it: the bundled list
+    names only rows that have none (SPEC 4.1)."""
+    out: dict[str, Candidate] = {}
+    kept = []
+    for name, c in chosen.items():
+        pr = parsed.rows[c.row_index] if c.row_index < len(parsed.rows) else None
+        if pr is not None and len(pr.texts) > 1 and pr.label:
+            kept.append((name, pr.label))
+            continue
+        out[name] = c
+    if not kept:
+        return chosen
+    taken = list(out)
+    own = unique_identifiers(taken + [label for _, label in kept])[len(taken) :]
+    renamed = {name: new for (name, _), new in zip(kept, own, strict=True)}
+    result = {renamed.get(name, name): c for name, c in chosen.items()}
+    shown_pairs = ", ".join(f"{new} (not {name})" for name, new in list(renamed.items())[:4])
+    report.note(
+        f"{counted(len(renamed), 'row')} keep the names of their own name column over the bundled list's: "
+        f"{shown_pairs}{' ...' if len(renamed) > 4 else ''}; an INI's [Function Name Search Synonyms] names rows",
+        file=where,
+    )
+    return result
 
 
 def _keep_own_names(matched: Matched, where: str, report: Report) -> None:

@@ -177,6 +177,9 @@ def _shown(attr: str, value: object) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
+_BESIDE_EXPRESSION = ("format", "count", "bits", "multiplier", "divisor", "offset", "byte_order", "word_order")
+
+
 def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, str]]:
     """Set the section's fields on `fn`; one note (INI line, text) per field that changed (whether the
     function is still possible is function_problems')."""
@@ -195,6 +198,13 @@ def apply_function(fs: FunctionSection, fn: Function) -> list[tuple[int | None, 
             )
         said.append((fs.lines.get(key), text))  # every override is said, the table's value kept or not
 
+    replaced = [
+        k for k in ("format", "count", "bits", "multiplier", "divisor", "offset", "byte_order", "word_order") if k in v
+    ]
+    if "expression" in v and replaced:
+        raise ValueError(
+            f"expression gives the whole value: {', '.join(replaced)} cannot stand beside it (write it in)"
+        )
     if "register_type" in v:
         table = parse_table(v["register_type"])
         change("register_type", "register_type", None if table == "holding" else table)

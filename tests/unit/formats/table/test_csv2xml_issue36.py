@@ -191,3 +191,27 @@ def test_a_function_section_gives_an_expression_for_an_encoding_the_fields_canno
     assert json.loads(read.stdout) == {"water_temperature": 25.5, "flow": 3}, read.stderr
     broken, _ = convert(tmp_path, "t.csv", table, ini.replace("hr:5))", "hr:5)"))
     assert_clean_error(broken, 1, "function 'water_temperature': expression: expected ')'")
+
+
+def test_without_an_ini_a_row_keeps_the_name_of_its_own_name_column(tmp_path):
+    """SPEC 4.1: the bundled list names only rows that have no name of their own (the review's n.csv:
+    `grid_v` became voltage_l1, `my_freq` frequency)."""
+    (tmp_path / "n.csv").write_text(
+        "Address,Name,Description,Type\n1,grid_v,Phase A voltage,UINT16\n2,my_freq,Grid frequency,UINT16\n"
+        "3,,Total active power,INT32\n"
+    )
+    out = tmp_path / "out.xml"
+    proc = cli("csv2xml", tmp_path / "n.csv", "-o", out)
+    assert proc.returncode == 0, proc.stderr
+    assert set(functions(out.read_text())) == {"grid_v", "my_freq", "total_power"}
+    assert "2 rows keep the names of their own name column over the bundled list's" in proc.stderr
+
+
+def test_an_expression_beside_fields_it_replaces_is_an_error_at_the_section(tmp_path):
+    """Before: `multiplier = 0.1` beside `expression =` was announced, then dropped: 10 times off."""
+    ini = (
+        "\n[Function Name Search Synonyms]\nwater = Water temperature\n"
+        "\n[function water]\nmultiplier = 0.1\nexpression = int16(hr:5)\n"
+    )
+    proc, _ = convert(tmp_path, "t.csv", "Address,Name,Type\n5,Water temperature,U16\n", ini)
+    assert_clean_error(proc, 1, "expression gives the whole value: multiplier cannot stand beside it")

@@ -51,3 +51,18 @@ def test_a_cell_over_several_rows_is_read_on_each(tmp_path):
     (sheet,) = ods(tmp_path, body)
     assert sheet.rows == [(1, ["Block A", "0010"]), (2, ["Block A", "0011"])]
     assert sheet.merged == ["A1:A2"]
+
+
+def test_empty_padding_and_spans_count_against_the_limit(tmp_path):
+    """The review's bombs: a text cell after 16,000 empty columns in a row repeated a million times, and
+    one spanning a billion rows: refused by the count, never made."""
+    import pytest
+
+    from mdl.diagnostics import MdlError
+
+    wide = '<table:table-cell table:number-columns-repeated="16000"/>'
+    rows = f'<table:table-row table:number-rows-repeated="999990">{wide}{cell("7")}</table:table-row>'
+    span = f"<table:table-row>{wide}{cell('7', 'table:number-rows-spanned=' + chr(34) + '999999999' + chr(34))}"
+    for body in (rows, span + "</table:table-row>"):
+        with pytest.raises(MdlError, match="more than 1,000,000 cells"):
+            ods(tmp_path, f'<table:table table:name="B">{body}</table:table>')

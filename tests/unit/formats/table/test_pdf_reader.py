@@ -84,3 +84,23 @@ def test_messages_name_a_pdf_row_by_its_place():
     assert str(report.placed(Diagnostic("m.pdf", 99, 2, "line 99"))) == "m.pdf:99:2: error: line 99"
     assert report.placed(Diagnostic("d.ini", 12, None, "line 12")).file == "d.ini"
     assert report.row_name(13) == "p3:r5" and report.row_name(7) == "line 7"
+
+
+def test_bits_under_an_address_merged_over_their_rows_stay_rows_of_their_own():
+    """A register's bits, one a row, under one address cell: the address is read on each (the review's
+    t3.pdf read four bits as one function)."""
+    rows = [
+        [("0x0010", False), ("Bit 0", False), ("Fan fault", False), ("BOOL", False)],
+        [("0x0010", True), ("Bit 1", False), ("Pump fault", False), ("BOOL", False)],
+    ]
+    assert _continued(rows) == (
+        [["0x0010", "Bit 0", "Fan fault", "BOOL"], ["0x0010", "Bit 1", "Pump fault", "BOOL"]],
+        1,
+    )
+
+
+@pytest.mark.parametrize("cell", ["0x0103.b8", "40001.3", "hr:101", "4000h", "5017～5018", "30101 (100)"])
+def test_rows_of_any_address_csv2xml_reads_are_data_not_header(cell):
+    """A table whose first rows are bit addresses: they are rows, not a header over four rows."""
+    banded, has_header = _banded([["Address", "Name"], [cell, "Fan"], ["0x0104", "Pump"]])
+    assert has_header and banded == [["Address", "Name"], [cell, "Fan"], ["0x0104", "Pump"]]

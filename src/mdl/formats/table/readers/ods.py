@@ -104,14 +104,17 @@ def _sheet(table: object, path: Path, budget: int) -> tuple[Sheet, int]:
                 raise cell_too_long(path, number + 1, len(texts) + empty + 1, len(text))
             if len(texts) + empty + repeat > MAX_COLUMNS:
                 raise error(f"row {number + 1} of sheet {name!r} has more than {MAX_COLUMNS:,} columns", path)
-            counted += repeat * times
+            counted += (empty + repeat) * times  # the empty cells before it are made too
             if counted > budget:
                 raise error(f"the workbook's sheets hold more than {MAX_CELLS:,} cells with text", path)
             texts.extend([""] * empty)
             empty = 0
             rows_spanned = _repeat(cell, "number-rows-spanned", path)
             if rows_spanned > 1:
-                spans.append((number + 1, len(texts), min(rows_spanned, MAX_CELLS)))
+                counted += (rows_spanned - 1) * (len(texts) + 1)  # the rows below it hold its text
+                if counted > budget:
+                    raise error(f"the workbook's sheets hold more than {MAX_CELLS:,} cells with text", path)
+                spans.append((number + 1, len(texts), rows_spanned))
             texts.extend([text] * repeat)
         for _ in range(times if texts else 0):
             number += 1

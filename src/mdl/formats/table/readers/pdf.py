@@ -27,6 +27,7 @@ from typing import Any
 
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
+from mdl.formats.table.cells import CellError, read_address_cell
 from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, cell_too_long, normalize_header
 
 MAX_PDF_BYTES = 256_000_000  # a manual of a thousand pages has a few tens of MB
@@ -107,7 +108,10 @@ def _opening(path: Path) -> Iterator[Any]:
     try:
         yield pdf
     finally:
-        pdf.close()
+        try:
+            pdf.close()
+        except Exception:  # closing walks the page tree again: a broken one was said already
+            pass
 
 
 def _text(cell: str | None, path: Path, page: int) -> str:
@@ -179,7 +183,11 @@ def _continued(rows: list[list[tuple[str, bool]]]) -> tuple[list[list[str]], int
     for cells in rows:
         texts = [text for text, _ in cells]
         addresses = [text for text in texts if _is_data([text])]
-        if out and addresses and all(s for (text, s) in cells if text in addresses):
+        own = sum(1 for text, s in cells if text and not s)
+        merged = sum(1 for text, s in cells if text and s)
+        # a wrapped description: every cell but one or two comes from above; bits of one register
+        # under a merged address cell: the address alone comes from above
+        if out and addresses and own < merged and all(s for (text, s) in cells if text in addresses):
             for k, (text, s) in enumerate(cells):
                 if text and not s:
                     out[-1][k] = f"{out[-1][k]} {text}" if out[-1][k] else text
@@ -190,7 +198,19 @@ def _continued(rows: list[list[tuple[str, bool]]]) -> tuple[list[list[str]], int
 
 
 def _is_data(cells: list[str]) -> bool:
-    return any(_ADDRESS.match(c) and any(ch.isdigit() for ch in c) for c in cells if c)
+    """Whether a cell of the row is an address as csv2xml reads one (`0x0103`, `4000h`, `40001.3`,
+    `0x0103.b8`, `hr:101`, `5017～5018`, `30101 (100)`)."""
+    return any(c and any(ch.isdigit() for ch in c) and _an_address(c) for c in cells)
+
+
+def _an_address(text: str) -> bool:
+    if _ADDRESS.match(text):
+        return True
+    try:
+        read_address_cell(text if len(text) < 40 else text[:40])
+    except (CellError, ValueError):
+        return False
+    return True
 
 
 def _banded(rows: list[list[str]]) -> tuple[list[list[str]], bool]:
@@ -253,10 +273,19 @@ def _repeats_header(before: PdfTable, found: _Found) -> bool:
 def page_count(path: Path) -> int:
     """How many pages the PDF has (opening it as read_tables does: its errors the same)."""
     with _opening(path) as pdf:
+        return _count(pdf, path)
+
+
+def _count(pdf: Any, path: Path) -> int:
+    """How many pages pdfminer finds; a page tree it cannot walk (nested past Python's recursion limit,
+    or broken) is an error naming the file."""
+    try:
         return len(pdf.pages)
+    except Exception as exc:  # pdfminer's own errors, whatever the damage
+        raise error(f"the PDF's page tree cannot be read: {str(exc)[:200] or type(exc).__name__}", path) from None
 
 
-def _survey(path: Path, wanted: list[int]) -> tuple[set[int], set[int]]:
+def _survey(path: Path, wanted: list[int], count: int) -> tuple[set[int], set[int]]:
     """(pages without text, pages with no line drawn), from pdfium's text and page objects: cheap,
     where pdfplumber's layout of a page costs a tenth of a second. A page with no line drawn holds no
     ruled table, so its layout is never made."""
@@ -266,6 +295,8 @@ def _survey(path: Path, wanted: list[int]) -> tuple[set[int], set[int]]:
     blank, undrawn = set(), set()
     doc = pdfium.PdfDocument(str(path))
     try:
+        if len(doc) != count:  # the two libraries read the page tree differently: pages would not match
+            raise ValueError("page counts differ")
         for number in wanted:
             page = doc[number - 1]
             try:
@@ -288,13 +319,13 @@ def _survey(path: Path, wanted: list[int]) -> tuple[set[int], set[int]]:
 def read_tables(path: Path, pages: list[int] | None = None) -> list[PdfTable]:
     """The tables of the PDF's pages (`pages`: 1-based, None: all)."""
     with _opening(path) as pdf:
-        count = len(pdf.pages)
-        if count > MAX_PAGES:
-            raise error(f"the PDF has {count:,} pages; mdl reads at most {MAX_PAGES:,}: give --pages", path)
+        count = _count(pdf, path)
+        if count > MAX_PAGES and pages is None:
+            raise error(f"the PDF has {count:,} pages; mdl reads at most {MAX_PAGES:,} at once: give --pages", path)
         wanted = pages or list(range(1, count + 1))
         try:
-            blank_pages, undrawn = _survey(path, wanted)
-        except Exception:  # pdfium refused what pdfminer opened: every page is laid out instead
+            blank_pages, undrawn = _survey(path, wanted, count)
+        except Exception:  # pdfium refused what pdfminer opened, or counts pages otherwise: every page is laid out
             blank_pages, undrawn = set(), set()
         found: dict[int, list[_Found]] = {}
         blank: list[int] = []

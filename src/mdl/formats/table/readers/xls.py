@@ -1,11 +1,13 @@
 """Excel 97-2003 workbooks (.xls) with xlrd, read as .xlsx ones are (readers/xlsx.py): each sheet's
-cells as Excel's General format shows them, a merged cell read on each row it covers, rows named by
-their row numbers. xlrd reads the whole file: the file's size is bounded first, and each sheet's
+cells as Excel's General format shows them, rows named by their row numbers; a merged cell is read in
+its first row only (xlrd reads merges only with the formatting, which a few KB can inflate to GB).
+xlrd reads the whole file: the file's size is bounded first, and each sheet's
 extent before its cells are read."""
 
 from __future__ import annotations
 
 import datetime
+import io
 from pathlib import Path
 
 from mdl.diagnostics import error
@@ -20,11 +22,12 @@ MAX_XLS_BYTES = 64_000_000  # a register workbook has a few MB
 def read_xls(path: Path) -> list[Sheet]:
     """Every sheet of the workbook, in order."""
     import xlrd  # type: ignore[import-untyped]
-    from openpyxl.utils import get_column_letter  # type: ignore[import-untyped]
 
     data = read_bytes(path, limit=MAX_XLS_BYTES)
     try:
-        book = xlrd.open_workbook(file_contents=data, formatting_info=True, on_demand=True)
+        # formatting_info off: with it xlrd pads every row to the widest merge a file claims (a 6 KB
+        # bomb); merged cells of an .xls are then read in their first row only. Its warnings go nowhere.
+        book = xlrd.open_workbook(file_contents=data, formatting_info=False, on_demand=True, logfile=io.StringIO())
     except Exception as exc:  # xlrd's own errors, whatever the damage: the file is not a readable .xls
         raise error(f"not a readable Excel 97-2003 workbook (.xls): {exc}", path) from None
     sheets = []
@@ -45,16 +48,7 @@ def read_xls(path: Path) -> list[Sheet]:
                     texts.append(text)
                 if any(texts):
                     grid[r + 1] = texts
-            merged = []
-            for top, bottom, left, right in sorted(ws.merged_cells):  # rows [top, bottom), columns [left, right)
-                if bottom - top < 2 or top + 1 not in grid:
-                    continue
-                text = grid[top + 1][left]
-                merged.append(f"{get_column_letter(left + 1)}{top + 1}:{get_column_letter(right)}{bottom}")
-                for r in range(top + 2, bottom + 1):
-                    row = grid.setdefault(r, [""] * ws.ncols)
-                    row[left] = row[left] or text
-            sheets.append(Sheet(ws.name, sorted(grid.items()), merged))
+            sheets.append(Sheet(ws.name, sorted(grid.items()), []))
             book.unload_sheet(index)
     finally:
         book.release_resources()
