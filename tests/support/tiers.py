@@ -46,9 +46,10 @@ def mark_folder(items, tier: str, conftest: str) -> None:
     unless it carries a tier marker of its own, or is a hypothesis property test in a fast folder (then
     `fuzz`: many examples are no part of the developer loop; in compile/, hostile/ and engines/ it keeps
     the folder's tier, which CI runs anyway)."""
-    folder = Path(conftest).resolve().parent
-    for item in items:
-        if folder not in Path(str(item.fspath)).resolve().parents or own_tier(item) is not None:
+    here = Path(conftest).parent
+    folders = tuple({str(here) + os.sep, str(here.resolve()) + os.sep})  # as pytest found it, and resolved
+    for item in items:  # a prefix says where an item stands: no path is resolved per item
+        if not str(item.path).startswith(folders) or own_tier(item) is not None:
             continue
         if tier in FAST and getattr(getattr(item, "obj", None), "is_hypothesis_test", False):
             tier_here = "fuzz"  # a property test (hypothesis's @given): many examples, not one
