@@ -1,15 +1,20 @@
 """Register tables inside PDF manuals (SPEC 4.2), read with pdfplumber from the PDF's text layer.
 
 Each table pdfplumber finds drawn on a page (ruled cells) becomes rows of cells:
-- columns are the header's: every cell goes to the column of the header cell above its middle, so a
-  table the drawing splits into slivers (a cell every third rule) reads as the columns it shows;
-- a header over several rows (`Register` / `Address`, `Resolu-` / `tion`) is one header row;
+- columns are the narrowest cells with text of their own (a header cell over two columns does not
+  merge them), and every cell goes to the column over its middle, so a table the drawing splits into
+  slivers (a rule every third of a column) reads as the columns it shows;
+- a header over several rows (`Register` / `Address`, `Resolu-` / `tion`) is one header row: the rows
+  before the first holding an address csv2xml reads;
 - a cell's text over several lines is one text, lines joined with a space (a word hyphenated at a
   line's end is joined whole);
-- a cell merged over several rows (a block label, a shared register type) is read on each row;
+- a cell merged over several rows (a block label, a shared register type) is read on each row; a row
+  whose address comes from such a cell, with fewer cells of its own, is a description wrapped over a
+  row of the drawing and is joined to the row above;
 - a table that goes on over the next page is one table, whether or not the page repeats its header;
 - what repeats on three or more pages at the same place (a running header or footer, a page number
-  in a box) is not a table.
+  in a box) is not a table, nor is a table drawn inside another;
+- pdfium first tells which pages hold text and drawn lines: the others are never laid out.
 
 Rows are named `pPAGE:rROW` in messages (`manual.pdf:p14:r7`: the 7th table row of page 14); a page
 without text (a scan) and an encrypted PDF are errors naming the pages or the file.
