@@ -248,6 +248,9 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
                 "format",
             )
         length = typed.length
+    if at.bits in ("0", "8") and bits == at.bits and fmt in ("INT8", "UINT8") and length in (None, "Full word"):
+        length = "Lower byte" if at.bits == "0" else "Upper byte"  # `0x0103.b8` typed UINT8: the upper byte
+        bits = None
     unit_bits = 16 if (length or "Full word") == "Full word" else 8
     counted = cells.read("count", parse_int)
     if counted is not None and counted < 1:

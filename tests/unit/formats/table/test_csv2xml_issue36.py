@@ -215,3 +215,13 @@ def test_an_expression_beside_fields_it_replaces_is_an_error_at_the_section(tmp_
     )
     proc, _ = convert(tmp_path, "t.csv", "Address,Name,Type\n5,Water temperature,U16\n", ini)
     assert_clean_error(proc, 1, "expression gives the whole value: multiplier cannot stand beside it")
+
+
+def test_a_bit_address_of_a_byte_format_is_that_byte(tmp_path):
+    """SPEC 4.1: `.b8` with a byte format is the upper byte (and `.b0` the lower), not bit 8 of a byte."""
+    table = "Address,Name,Type\n0x0103.b8,High byte,UINT8\n0x0103.b0,Low byte,INT8\n"
+    ini = "\n[Function Name Search Synonyms]\nhigh = High byte\nlow = Low byte\n"
+    proc, fns = convert(tmp_path, "t.csv", table, ini)
+    assert proc.returncode == 0, proc.stderr
+    assert (fns["high"]["length"], fns["high"]["format"], "bits" in fns["high"]) == ("Upper byte", "UINT8", False)
+    assert (fns["low"]["length"], fns["low"]["format"], "bits" in fns["low"]) == ("Lower byte", "INT8", False)
