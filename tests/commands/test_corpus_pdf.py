@@ -169,3 +169,11 @@ def test_row_places_name_the_rows_of_a_pdf_only(tmp_path):
     ini.write_text("[Input/Output]\naddress_map_csv_file = t.csv\n\n[function voltage]\nrow = p1:r2\n")
     proc = cli("csv2xml", ini, "-o", tmp_path / "out.xml")
     assert_clean_error(proc, 1, "row = p1:r2: only a PDF table's rows are named so")
+
+
+def test_explain_names_a_pdf_row_by_its_place(tmp_path):
+    """--explain on a PDF names rows as every message does (`p7:r11`), never by a hidden line number."""
+    proc = cli("csv2xml", PDF / "pace_bms.ini", "--explain", "soc", "-q")
+    assert proc.returncode == 0, proc.stderr
+    assert "  chosen: p7:r11 (score 1.00)" in proc.stdout
+    assert " line " not in proc.stdout.split("\n", 1)[1].split("on the description cell")[0]

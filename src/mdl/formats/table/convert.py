@@ -623,7 +623,7 @@ def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options,
         matched = _match(matching, index, readable, limit)
         matched.chosen.update({name: Candidate(name, i, Score(EXACT, 1.0)) for name, i in forced.items()})
         skipped = {readable + i: s.reason for i, s in enumerate(parsed.skipped)}
-        explain(opts.explain, functions, index, lines, matched.chosen, limit, skipped, matched.lost)
+        explain(opts.explain, functions, index, lines, matched.chosen, limit, skipped, matched.lost, table.name_of)
         return None
     if opts.choose is not None:
         report.flush_notes()
@@ -660,7 +660,7 @@ def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options,
     missing = [n for n in functions if n not in chosen]
     unreached = [n for n in missing if n not in matched.lost]
     if unreached and own and opts.choose is None:
-        details = ", ".join(nearest(n, functions[n], index, lines, chosen) for n in unreached)
+        details = ", ".join(nearest(n, functions[n], index, lines, chosen, table.name_of) for n in unreached)
         report.warn(
             f"no row reached the threshold {limit:g} for: {details}; --explain NAME lists a function's nearest rows",
             file=str(ini.path if ini else csv_path),

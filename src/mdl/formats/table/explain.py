@@ -3,6 +3,8 @@ can be fixed without reading the code; and the short form the unmatched-function
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from mdl.formats.table.match import Candidate, Index, best, candidates
 from mdl.formats.table.scoring import TIER_NAMES, FunctionName, normalize, score_pair, why
 
@@ -28,6 +30,10 @@ def _reason(phrases: list[str], index: Index, row: int) -> str:
     return f"on {cell} '{_one_line(text)}': {why(phrase, text)}"
 
 
+def _line(line: int) -> str:
+    return f"line {line}"
+
+
 def explain(
     names: tuple[str, ...],
     functions: dict[str, list[str]],
@@ -37,9 +43,12 @@ def explain(
     threshold: float,
     skipped: dict[int, str] | None = None,
     lost: dict[str, Candidate] | None = None,
+    named: Callable[[int], str] | None = None,
 ) -> None:
     """Print, for each name, its synonyms and its best rows with score, tier, line, text, whether it was
-    chosen (or which function took it, or why the row was skipped) and why it scores so."""
+    chosen (or which function took it, or why the row was skipped) and why it scores so. `named` says
+    a row as messages do (`line 12`, a PDF's `p14:r7`)."""
+    named = named or _line
     skipped, lost = skipped or {}, lost or {}
     taken = {c.row_index: name for name, c in chosen.items()}
     for n, name in enumerate(names):
@@ -58,9 +67,9 @@ def explain(
         print(f"function '{name}': synonyms {shown}; threshold {threshold:g}")
         mine = chosen.get(name)
         if mine is not None:
-            print(f"  chosen: line {lines[mine.row_index]} (score {mine.score})")
+            print(f"  chosen: {named(lines[mine.row_index])} (score {mine.score})")
         elif name in lost:
-            print(f"  chosen: no row (its best row, line {lines[lost[name].row_index]}, was skipped)")
+            print(f"  chosen: no row (its best row, {named(lines[lost[name].row_index])}, was skipped)")
         elif name in functions:
             print("  chosen: no row (none reached the threshold, or a stronger function took it)")
         for rank, c in enumerate(best(name, phrases, index, None, TOP), 1):
@@ -76,13 +85,20 @@ def explain(
             else:
                 status = ""
             print(
-                f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} line {lines[c.row_index]}: "
+                f"  {rank:2}. {c.score} {TIER_NAMES[c.score.tier]:6} {named(lines[c.row_index])}: "
                 f"{_one_line(text)}{status}"
             )
             print(f"        {_reason(phrases, index, c.row_index)}")
 
 
-def nearest(name: str, phrases: list[str], index: Index, lines: list[int], chosen: dict[str, Candidate]) -> str:
+def nearest(
+    name: str,
+    phrases: list[str],
+    index: Index,
+    lines: list[int],
+    chosen: dict[str, Candidate],
+    named: Callable[[int], str] = _line,
+) -> str:
     """`name (best 0.45, line 12)`, `name (best 0.97, line 3, taken by other)`, or the name alone when
     finding its best row would take long."""
     first = next(candidates(name, phrases, index, 0.0, BUDGET), None)
@@ -90,4 +106,4 @@ def nearest(name: str, phrases: list[str], index: Index, lines: list[int], chose
         return name
     taken = next((other for other, c in chosen.items() if c.row_index == first.row_index), None)
     by = f", taken by {taken}" if taken else ""
-    return f"{name} (best {first.score}, line {lines[first.row_index]}{by})"
+    return f"{name} (best {first.score}, {named(lines[first.row_index])}{by})"
