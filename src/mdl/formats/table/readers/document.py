@@ -55,6 +55,14 @@ class Choice:
         """An error at the INI line that chose, else about the table's file."""
         return error(message, *self.where) if self.where is not None else error(message, path)
 
+    def pages_said(self, in_ini: str = "") -> str:
+        """How messages name the pages chosen: `--pages 12-19`, or `pages = 12-19` (and `in_ini`)."""
+        return f"--pages {self.pages}" if self.pages_where is None else f"pages = {self.pages}{in_ini}"
+
+    def pages_fail(self, message: str, path: Path) -> MdlError:
+        """An error at the INI's pages = line, else about the file."""
+        return error(message, *self.pages_where) if self.pages_where is not None else error(message, path)
+
 
 _CHOICE: ContextVar[Choice | None] = ContextVar("table_choice", default=None)
 
@@ -125,9 +133,9 @@ def refuse_pages(path: Path) -> None:
     """Pages are a PDF's: --pages (or pages =) for another kind of file is a mistake, not something to ignore."""
     choice = _CHOICE.get() or Choice()
     if choice.pages is not None:
-        said = f"--pages {choice.pages}" if choice.pages_where is None else f"pages = {choice.pages} in the INI"
-        message = f"{said} chooses pages of a PDF manual; {path.name} has no pages"
-        raise error(message, *choice.pages_where) if choice.pages_where is not None else error(message, path)
+        raise choice.pages_fail(
+            f"{choice.pages_said(' in the INI')} chooses pages of a PDF manual; {path.name} has no pages", path
+        )
 
 
 @dataclass
@@ -318,11 +326,10 @@ def _pdf_candidates(path: Path) -> list[Candidate]:
     choice = _CHOICE.get() or Choice()
     pages = None
     if choice.pages is not None:
-        said = f"--pages {choice.pages}" if choice.pages_where is None else f"pages = {choice.pages}"
         try:
-            pages = page_range(choice.pages, page_count(path), said)
+            pages = page_range(choice.pages, page_count(path), choice.pages_said())
         except ValueError as exc:
-            raise (error(str(exc), *choice.pages_where) if choice.pages_where else error(str(exc), path)) from None
+            raise choice.pages_fail(str(exc), path) from None
     out = []
     for n, table in enumerate(read_tables(path, pages), 1):
         notes = ["rows in messages are named by page and row: p14:r7 is the 7th table row on page 14"]

@@ -33,7 +33,7 @@ from typing import Any
 from mdl.diagnostics import MdlError, error
 from mdl.fileio import read_bytes
 from mdl.formats.table.cells import CellError, read_address_cell
-from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, cell_too_long, normalize_header
+from mdl.formats.table.readers.delimited import MAX_CELL_CHARS, Row, normalize_header
 
 MAX_PDF_BYTES = 256_000_000  # a manual of a thousand pages has a few tens of MB
 MAX_PAGES = 5_000
@@ -58,8 +58,7 @@ class PdfTable:
 
     @property
     def label(self) -> str:
-        pages = f"p{self.first}" if self.first == self.last else f"pp{self.first}-{self.last}"
-        return pages
+        return f"p{self.first}" if self.first == self.last else f"pp{self.first}-{self.last}"
 
 
 @dataclass
@@ -122,8 +121,8 @@ def _opening(path: Path) -> Iterator[Any]:
 def _text(cell: str | None, path: Path, page: int) -> str:
     if not cell:
         return ""
-    if len(cell) > MAX_CELL_CHARS:
-        raise cell_too_long(path, None, None, len(cell))
+    if len(cell) > MAX_CELL_CHARS:  # a PDF cell has no line and column: its page is its place
+        raise error(f"page {page}: a cell of {len(cell):,} characters (at most {MAX_CELL_CHARS:,} are read)", path)
     return " ".join(_HYPHEN.sub("", cell).split())
 
 

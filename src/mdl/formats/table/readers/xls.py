@@ -6,7 +6,6 @@ extent before its cells are read."""
 
 from __future__ import annotations
 
-import datetime
 import io
 from pathlib import Path
 
@@ -68,6 +67,4 @@ def _shown(cell: object, datemode: int) -> str:
             return shown(value)
     if kind in (xlrd.XL_CELL_EMPTY, xlrd.XL_CELL_BLANK, xlrd.XL_CELL_ERROR):
         return ""
-    if isinstance(value, datetime.datetime):
-        return shown(value)
     return shown(value)
