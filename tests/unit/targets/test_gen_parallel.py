@@ -11,6 +11,7 @@ import signal
 
 import pytest
 
+from mdl import forks as forking
 from mdl.diagnostics import MdlError
 from mdl.formats.mdl.load import read_device
 from mdl.resolver import resolve
@@ -136,9 +137,9 @@ def test_a_process_with_threads_renders_one_target_after_another(large, monkeypa
     """A library user's program may hold locks in other threads: it is never forked."""
     resolved = resolve(read_device(large), str(large))
     monkeypatch.setattr(parallel, "cpus", lambda: 2)
-    monkeypatch.setattr(parallel.threading, "active_count", lambda: 2)
+    monkeypatch.setattr(forking.threading, "active_count", lambda: 2)
     assert not parallel.worth_it(resolved, ["python", "cpp", "c"])
-    monkeypatch.setattr(parallel.threading, "active_count", lambda: 1)
+    monkeypatch.setattr(forking.threading, "active_count", lambda: 1)
     assert parallel.worth_it(resolved, ["python", "cpp", "c"])
 
 

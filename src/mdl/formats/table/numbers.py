@@ -6,7 +6,8 @@ Accepted, after optional spaces:
 - a number with an optional unit and an optional remark in parentheses: `0.1`, `0.1V`, `0,01 Hz`,
   `-1W`, `0.1(?)` (ORNL's example), `1e-3`, `1.234,5`;
 - `scale(N)` (VOLTTRON's transform), `xN` / `×N` / `*N`, `A/B` (`1/10`), `10^N`;
-- `-`, `n/a`, `none`: no value (the same as an empty cell).
+- `-`, `n/a`, `none`: no value (the same as an empty cell);
+- any of these in square brackets, as a unit column prints them: `[0.1°C]`, `[Wh]`.
 
 Decimal commas: `decimal` is "comma" (`,` is the decimal mark; dots group thousands), "point" (`,`
 groups thousands) or "auto" (the default): a comma followed by digits is a decimal comma, and the
@@ -45,11 +46,20 @@ class Number:
 
 
 _UNIT_ALONE = re.compile(rf"^{_UNIT}$")
+_BRACKETED = re.compile(r"^\[([^\[\]]*)\]$")
+
+
+def _unbracketed(cell: str) -> str:
+    """`[0.1°C]` -> `0.1°C`: a unit column that prints its cells in square brackets (Lambda's heat pump
+    table: `[0.01°C]`, `[Wh]`, `[Nr]`) says the same as without them. Left whole, the cell is no scale
+    and becomes the unit `[0.01°C]` with scale 1: every value a hundred times too large, silently."""
+    m = _BRACKETED.match(cell)
+    return " ".join(m.group(1).split()) if m else cell
 
 
 def unit_alone(text: str) -> str | None:
-    """The unit of a cell that is a unit and nothing else (`W`, `V DC`, `°C`), else None."""
-    cell = " ".join(text.split())
+    """The unit of a cell that is a unit and nothing else (`W`, `V DC`, `°C`, `[Wh]`), else None."""
+    cell = _unbracketed(" ".join(text.split()))
     if not cell or cell.lower() in NO_VALUE or not _UNIT_ALONE.match(cell):
         return None
     try:
@@ -115,7 +125,7 @@ def parse_number(text: str, decimal: str = "auto", what: str = "", scale: bool =
     """A number cell -> Number, None for a cell that says "no value", CellError for anything else.
 
     With `scale`, the multiplier forms (`scale(0.1)`, `x10`, `1/10`, `10^-1`) are accepted too."""
-    cell = " ".join(text.replace("\u2212", "-").split())
+    cell = _unbracketed(" ".join(text.replace("\u2212", "-").split()))
     if not cell or cell.lower() in NO_VALUE:
         return None
     kinds = "a scale (0.1, 0.1V, scale(0.1), x10, 1/10)" if scale else "a number"
