@@ -97,10 +97,38 @@ def test_bad_ranges_and_options_are_usage_errors(args, message):
     assert_clean_error(proc, 2, message)
 
 
-def test_an_undefined_register_is_a_device_error_naming_it(device):
+def test_registers_the_device_refuses_are_null_and_said_the_others_read(device):
+    """As mbpoll: a line per register, the refused ones marked (null, and a warning naming each run of
+    them), exit 0; the range is read again in smaller requests, not given up (issue 37)."""
+    _, sim = device
+    proc = run_mdl("read", *sim.connection, "--raw", "hr:4-6", "--raw", "hr:10-13", "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    values = json.loads(proc.stdout)
+    assert values["hr:4"] == 65529 and values["hr:5"] is None and values["hr:6"] is None
+    assert [values[f"hr:{a}"] for a in (10, 11)] == [ord("P") * 256 + ord("u"), ord("m") * 256 + ord("p")]
+    assert proc.stderr == "warning: hr:5-6: the device answers Modbus exception 2 (ILLEGAL DATA ADDRESS): no value\n"
+    table = run_mdl("read", *sim.connection, "--raw", "hr:4-5")
+    assert table.returncode == 0 and table.stdout.splitlines() == ["hr:4  65529", "hr:5  null"]
+
+
+def test_a_range_the_device_refuses_whole_is_a_device_error_naming_it(device):
     _, sim = device
     assert_clean_error(
-        run_mdl("read", *sim.connection, "--raw", "hr:4-5"),
+        run_mdl("read", *sim.connection, "--raw", "hr:5-6"),
         3,
         "reading 1 holding from 5: Modbus exception 2 (ILLEGAL DATA ADDRESS)",
     )
+
+
+def test_a_manuals_register_number_gets_the_address_it_means(device):
+    """40001 is how manuals number holding register 0 (Modicon): said where the device refuses hr:40001,
+    and where --raw has no table at all."""
+    _, sim = device
+    assert_clean_error(
+        run_mdl("read", *sim.connection, "--raw", "hr:40001"),
+        3,
+        "40001 looks like a manual's number (Modicon) for hr:0: did you mean hr:0?",
+    )
+    for number, meant in (("40001", "write hr:0"), ("300101", "write ir:100"), ("10004", "write di:3")):
+        assert_clean_error(run_mdl("read", *sim.connection, "--raw", number), 2, meant)
+    assert raw_json(sim, "--raw", "hr:0-1", "--as", "float32") == {"hr:0": 21.5}  # what hr:40001 meant

@@ -118,10 +118,18 @@ def test_bad_registers_file(tmp_path):
     assert_clean_error(run_mdl("sim", ALL, "--port", "0", "--registers", raw), 1, f"{raw}:1:")
 
 
-def test_port_in_use_is_a_clean_error(sim_factory):
+def test_port_in_use_is_a_clean_error_that_says_so(sim_factory):
+    """The port another program holds is said as such, with what to do, and no line of pymodbus's
+    (which labelled its "Failed to start server" as a client's message; issue 37)."""
     sim = sim_factory(ALL)
     proc = run_mdl("sim", ALL, "--port", sim.port, timeout=30)
-    assert_clean_error(proc, 1, "cannot serve")
+    assert_clean_error(
+        proc,
+        1,
+        f"cannot serve on 127.0.0.1:{sim.port}: address already in use",
+        "choose another --port, or --port 0 for a free one",
+    )
+    assert proc.stderr.count("\n") == 1 and "client" not in proc.stderr
 
 
 @pytest.mark.parametrize(

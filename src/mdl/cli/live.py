@@ -14,6 +14,8 @@ from mdl.cli.printer import resolved_file, say
 from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
+    from mdl.device.survey.rawread import RawRange, RawSession
+    from mdl.model import Function
     from mdl.resolver import ResolvedDevice
 
 
@@ -472,7 +474,8 @@ def raw_read(
     errors (click's, exit 2) for no FILE and no --raw, FILE and --raw together, a bad range or --as."""
     from mdl.device import output
     from mdl.device.fleet.poll import poll
-    from mdl.device.survey.rawread import AS_TYPES, RawSession, parse_raw_range, raw_device, raw_functions
+    from mdl.device.survey.rawread import AS_TYPES, RawSession, modicon_hint, parse_raw_range, raw_device, raw_functions
+    from mdl.diagnostics import DeviceError
 
     if not texts:
         raise click.UsageError("missing FILE: give a description to read, or --raw TABLE:RANGE (e.g. hr:0-9)")
@@ -491,8 +494,27 @@ def raw_read(
     resolved = raw_device(functions)
     session = RawSession(resolved, connection, unit, as_type)
     if interval is not None:
-        return poll(session, functions, fmt, interval, count)
+        status = poll(session, functions, fmt, interval, count)
+        _say_refused(functions, session, ranges)
+        return status
     with session:
         values = session.read(functions)
+    if len(session.unanswered) == len(functions):  # nothing to show: the error of a read that fails
+        first = next(iter(session.unanswered.values()))
+        hint = next((modicon_hint(r) for r in ranges if modicon_hint(r)), "")
+        raise DeviceError(
+            session.where(f"reading {first.count} {first.table} from {first.start}")
+            + f": Modbus exception 2 (ILLEGAL DATA ADDRESS){hint}",
+            2,
+        )
     click.echo(output.render(functions, values, fmt, resolved.name), nl=False)
+    _say_refused(functions, session, ranges)
     return 0
+
+
+def _say_refused(functions: list[Function], session: RawSession, ranges: list[RawRange]) -> None:
+    from mdl.device.survey.rawread import refused
+    from mdl.diagnostics import Diagnostic
+
+    for text in refused(functions, session.unanswered, ranges):
+        say(Diagnostic(None, None, None, text, "warning"))

@@ -146,16 +146,25 @@ class Session(Link):
                         raise
                     missing.append(req)
         if missing:  # only expressions may read a register the device does not answer
-            for _, lay, slots in plan.plain:
+            unanswered = []
+            for name, lay, slots in plan.plain:
                 if any(raw[s] is None for s in slots):
                     req = next(
                         r for r in missing if r.table == lay.table and any(r.start <= a < r.end for a in lay.addresses)
                     )
-                    raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
+                    unanswered.append((name, req))
+            self.without_value(unanswered)
         try:
             return plan.decode(raw)
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
+
+    def without_value(self, unanswered: list[tuple[str, Request]]) -> None:
+        """Functions whose registers the device refuses even alone (exception 2), each with the request
+        refused: an error (exit 3) naming the first. RawSession reads on without them."""
+        if unanswered:
+            _, req = unanswered[0]
+            raise ModbusExceptionError(self.where(f"reading {req.count} {req.table} from {req.start}"), 2)
 
     def write(self, fn: Function, value: Scalar) -> None:
         """Encode `value` and write it: one request per run of consecutive addresses. One register is

@@ -19,6 +19,7 @@ one line at most every NOTICE_EVERY seconds (`Crowd`), never as a traceback per 
 from __future__ import annotations
 
 import asyncio
+import errno
 import functools
 import json
 import logging
@@ -535,6 +536,21 @@ async def _roll_every_window(limiter: LogLimiter, crowd: Crowd | None = None) ->
             crowd.tell()
 
 
+async def _listen(listen: Callable[..., Awaitable[Any]], connection: Connection) -> Any:
+    """pymodbus's create_server, with a port another program holds said as such (pymodbus would log
+    "Failed to start server" as a client's message and give up with "Could not start listen")."""
+    try:
+        return await listen()
+    except OSError as exc:
+        if exc.errno != errno.EADDRINUSE:
+            raise
+        where = connection.serving_at(connection.port)
+        raise error(
+            f"cannot serve on {where}: address already in use (another mdl sim, or another server): "
+            "choose another --port, or --port 0 for a free one"
+        ) from None
+
+
 async def serve(units: dict[int, Registers], connection: Connection, out: TextIO = sys.stdout) -> None:
     """Serve every device at its unit on one connection; once listening, one ready line per device."""
     if connection.serial is not None:
@@ -550,7 +566,7 @@ async def serve(units: dict[int, Registers], connection: Connection, out: TextIO
     crowd = None if connection.serial is not None else Crowd(most_clients())
     if crowd is not None:  # pymodbus's listener is asyncio's create_server, made when it starts serving
         listen: Callable[..., Any] = server.call_create  # a partial of create_server: it takes the backlog too
-        server.call_create = functools.partial(listen, backlog=ACCEPT_BURST)
+        server.call_create = functools.partial(_listen, functools.partial(listen, backlog=ACCEPT_BURST), connection)
     server.callback_new_connection = functools.partial(ClientHandler.serving, server, crowd)  # type: ignore[method-assign]
     refused: tuple[type[Exception], ...] = (OSError,)
     if os.name == "posix":
