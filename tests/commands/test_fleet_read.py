@@ -57,6 +57,27 @@ def test_records_name_their_device_and_equal_single_reads(sim_factory):
     assert {r["values"]["setpoint"] for r in records} == {21.5, 19.5}
 
 
+@pytest.mark.parametrize("fmt", ["json", "csv", "table"])
+def test_one_device_prints_the_same_however_its_connection_is_written(sim_factory, fmt):
+    """One-shot and poll output have one shape each (docs/fleet.md): FILE@CONNECTION#UNIT prints what FILE
+    --host H --port P --unit U prints (issue 37: the target form printed a polled, timed record)."""
+    sim = sim_factory(ALL, "--unit", "3", "--set", "setpoint=21.5")
+    written = ([target(sim, 3)], [str(ALL), *sim.connection, "--unit", "3"])
+    once = [run_mdl("read", *spelled, "setpoint", "mode", "--format", fmt) for spelled in written]
+    assert once[0].returncode == once[1].returncode == 0, once[0].stderr + once[1].stderr
+    assert once[0].stdout == once[1].stdout and "time" not in once[0].stdout
+    polled = [
+        run_mdl("read", *spelled, "setpoint", "--format", fmt, "--interval", "0.1", "--count", "2", timeout=RUN)
+        for spelled in written
+    ]
+    shapes = [[line.split(",", 1)[-1] if fmt == "csv" else line for line in p.stdout.splitlines()] for p in polled]
+    if fmt == "json":
+        shapes = [[sorted(json.loads(line)) for line in lines] for lines in shapes]
+    if fmt == "table":
+        shapes = [[line for line in lines if not line.startswith("time ")] for lines in shapes]
+    assert shapes[0] == shapes[1] and len(shapes[0]) >= 2
+
+
 def test_csv_table_and_senml_name_the_device(sim_factory):
     sim = sim_factory([ALL, ALL], "--unit", "1", "--unit", "2", "--set", "setpoint=21.5")
     proc = run_mdl("read", target(sim, 1), target(sim, 2), "setpoint", "--format", "csv")

@@ -14,6 +14,7 @@ from mdl.cli.printer import resolved_file, say
 from mdl.device.connection import Connection
 
 if TYPE_CHECKING:
+    from mdl.device.fleet.run import Target
     from mdl.device.survey.rawread import RawRange, RawSession
     from mdl.model import Function
     from mdl.resolver import ResolvedDevice
@@ -334,6 +335,10 @@ def read(
         raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
     from mdl.device.fleet.run import looks_like_target
 
+    if isinstance(file, str) and not publish and not any(map(looks_like_target, names)):
+        # one device however it is written: FILE@CONNECTION reads and polls as FILE --host does
+        (target,) = _targets(file, names, connection)
+        file, connection, unit = target.file, target.connection, target.unit
     if isinstance(file, str) or publish or any(map(looks_like_target, names)):
         sys.exit(_read_targets(file, names, connection, unit, fmt, interval, count, publish, mqtt_ca))
     if connection is None:
@@ -356,6 +361,26 @@ def read(
 NO_CONNECTION = "no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"
 
 
+def _targets(file: str, names: tuple[str, ...], connection: Connection | None) -> list[Target]:
+    """The FILE@CONNECTION[#UNIT] targets of FILE and NAMES; usage errors for --host, --serial or --unit
+    beside them and for a target that does not parse."""
+    from click.core import ParameterSource
+
+    from mdl.device.fleet import run as fleet
+
+    if connection is not None:
+        raise click.UsageError("a FILE@CONNECTION target gives its own connection: leave out --host and --serial")
+    if click.get_current_context().get_parameter_source("unit") is not ParameterSource.DEFAULT:
+        raise click.UsageError("--unit: a target gives its unit id as FILE@CONNECTION#UNIT")
+    targets = []
+    for text in [file, *(n for n in names if fleet.looks_like_target(n))]:
+        try:
+            targets.append(fleet.parse_target(text))
+        except ValueError as exc:
+            raise click.BadParameter(f"{text!r}: {exc}", param_hint="FILE@CONNECTION") from None
+    return targets
+
+
 def _read_targets(
     file: Path | str | None,
     names: tuple[str, ...],
@@ -368,23 +393,11 @@ def _read_targets(
     mqtt_ca: Path | None = None,
 ) -> int:
     """`mdl read` of several FILE@CONNECTION targets, or of one FILE with --publish (mdl.device.fleet.run)."""
-    from click.core import ParameterSource
-
     from mdl.device.fleet import run as fleet
 
     if isinstance(file, str):
-        if connection is not None:
-            raise click.UsageError("a FILE@CONNECTION target gives its own connection: leave out --host and --serial")
-        if click.get_current_context().get_parameter_source("unit") is not ParameterSource.DEFAULT:
-            raise click.UsageError("--unit: a target gives its unit id as FILE@CONNECTION#UNIT")
-        texts = [file, *(n for n in names if fleet.looks_like_target(n))]
+        targets = _targets(file, names, connection)
         names = tuple(n for n in names if not fleet.looks_like_target(n))
-        targets = []
-        for text in texts:
-            try:
-                targets.append(fleet.parse_target(text))
-            except ValueError as exc:
-                raise click.BadParameter(f"{text!r}: {exc}", param_hint="FILE@CONNECTION") from None
     elif any(fleet.looks_like_target(n) for n in names) or file is None:
         raise click.UsageError(f"several devices are each {fleet.TARGET_FORMS}")
     elif connection is None:
