@@ -567,7 +567,13 @@ class TemcoTstat:
     def _connect(self) -> None:
         """Connect the client where it is not connected (again, after a failure closed it)."""
         if not self.client.connect():
-            raise CommunicationError("cannot connect to the device")
+            raise CommunicationError(f"cannot connect to {self._where()} for unit {self.unit}")
+
+    def _where(self) -> str:
+        """Where the client talks: host:port, or its serial device."""
+        params = getattr(self.client, "comm_params", None)
+        host, port = getattr(params, "host", None) or "?", getattr(params, "port", None)
+        return f"{host}:{port}" if port else str(host)
 
     def _disconnect(self) -> None:
         """Close a connection that failed: the next call connects again."""
@@ -581,7 +587,7 @@ class TemcoTstat:
             rr = self._request(table, start, count)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         return _check_read(rr, what, table, count)
 
     def _read_runs(self, runs: list[_Request]) -> list[int]:
@@ -602,7 +608,7 @@ class TemcoTstat:
                 code, rr = 16, self.client.write_registers(start, values, device_id=self.unit)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         _check_write(rr, what, code, start, values)
 
     def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
@@ -775,7 +781,13 @@ class AsyncTemcoTstat:
     async def _connect(self) -> None:
         """Connect the client where it is not connected (again, after a failure closed it)."""
         if not self.client.connected and not await self.client.connect():
-            raise CommunicationError("cannot connect to the device")
+            raise CommunicationError(f"cannot connect to {self._where()} for unit {self.unit}")
+
+    def _where(self) -> str:
+        """Where the client talks: host:port, or its serial device."""
+        params = getattr(self.client, "comm_params", None)
+        host, port = getattr(params, "host", None) or "?", getattr(params, "port", None)
+        return f"{host}:{port}" if port else str(host)
 
     def _disconnect(self) -> None:
         """Close a connection that failed: the next call connects again."""
@@ -789,7 +801,7 @@ class AsyncTemcoTstat:
             rr = await self._request(table, start, count)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         return _check_read(rr, what, table, count)
 
     async def _read_runs(self, runs: list[_Request]) -> list[int]:
@@ -810,7 +822,7 @@ class AsyncTemcoTstat:
                 code, rr = 16, await self.client.write_registers(start, values, device_id=self.unit)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         _check_write(rr, what, code, start, values)
 
     async def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:

@@ -95,6 +95,26 @@ def test_write_round_trip_and_refusals(sim_factory):
     assert json.loads(proc.stdout) == {"fan_speed": 3}
 
 
+def test_a_write_says_what_it_wrote_and_a_misspelled_name_what_was_meant(sim_factory):
+    """`mdl write` says each value written on stderr, as csv2xml and gen say `wrote FILE` (not with -q);
+    a name the device lacks names the nearest it has (issue 37)."""
+    sim = sim_factory(TSTAT)
+    conn = ["--host", sim.host, "--port", sim.port]
+    proc = run_mdl("write", TSTAT, *conn, "occupied_setpoint=22.5", "fan_speed=2")
+    assert proc.returncode == 0 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        f"wrote occupied_setpoint = 22.5 °C to {sim.host}:{sim.port} unit 1",
+        f"wrote fan_speed = 2 to {sim.host}:{sim.port} unit 1",
+    ]
+    quiet = run_mdl("write", TSTAT, *conn, "fan_speed=1", "-q")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    proc = cli("write", TSTAT, *NOWHERE, "ocupied_setpoint=22")
+    assert_clean_error(proc, 1, "no function 'ocupied_setpoint': did you mean 'occupied_setpoint'")
+    assert_clean_error(cli("read", TSTAT, *NOWHERE, "fanspeed"), 1, "did you mean 'fan_speed'")
+    for where in ("127.0.0.1:5020", "192.0.2.10", "meter.local:502"):  # a connection where NAMES go
+        assert_clean_error(cli("read", TSTAT, where), 2, f"'{where}' looks like where the device is", f"--host {where}")
+
+
 def test_refusals_before_anything_is_sent():
     """Each is refused before a connection is tried: NOWHERE would give exit 3."""
     for assignment, message in [

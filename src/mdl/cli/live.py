@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, TypeVar
@@ -335,6 +336,9 @@ def read(
         raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
     from mdl.device.fleet.run import looks_like_target
 
+    address = next((n for n in names if _ADDRESS.fullmatch(n)), None)
+    if address is not None:  # no function is named so: a connection written where NAMES go
+        raise click.UsageError(f"'{address}' looks like where the device is, not a function: write --host {address}")
     if isinstance(file, str) and not publish and not any(map(looks_like_target, names)):
         # one device however it is written: FILE@CONNECTION reads and polls as FILE --host does
         (target,) = _targets(file, names, connection)
@@ -358,6 +362,9 @@ def read(
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
 
+_ADDRESS = re.compile(
+    r"(localhost|\d{1,3}(\.\d{1,3}){3}|\[[0-9a-fA-F:]+\]|[\w.-]+\.[a-z]{2,})(:\d{1,5})?|[\w.-]+:\d{1,5}"
+)
 NO_CONNECTION = "no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"
 
 
@@ -449,6 +456,7 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     On a serial line:
       $ mdl write examples/temco_tstat/temco_tstat.xml --serial /dev/ttyUSB0 --unit 3 fan_speed=2
     """
+    from mdl.device import output
     from mdl.device.runtime import Session
     from mdl.diagnostics import error
     from mdl.ir import codec
@@ -470,6 +478,8 @@ def write(file: Path, assignments: tuple[str, ...], connection: Connection, unit
     with Session(resolved, connection, unit) as session:
         for fn, value in todo:
             session.write(fn, value)
+            units = f" {fn.units.strip()}" if fn.units and fn.units.strip() else ""
+            say(f"wrote {fn.name} = {output.shown_text(fn, value)}{units} to {connection} unit {unit}")
 
 
 def raw_read(

@@ -127,7 +127,7 @@ def _cell(value: Value) -> str:
     return "" if value is None else _text(value)
 
 
-def _shown_text(fn: Function, value: Value) -> str:
+def shown_text(fn: Function, value: Value) -> str:
     """The table's text of a value: shown (enumeration text), numbers with the function's precision."""
     value = shown(fn, value, exact=fn.precision is not None)  # precision rounds the exact value, once
     if fn.precision is not None and isinstance(value, (int, float)) and not isinstance(value, bool):
@@ -253,7 +253,7 @@ def render(functions: list[Function], values: dict[str, Value], fmt: str, device
     if fmt == "csv":
         rows = [[fn.name, _cell(shown(fn, values[fn.name])), (fn.units or "").strip()] for fn in functions]
         return "".join(_csv_line(row) for row in [["name", "value", "units"], *rows])
-    return _table([(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions])
+    return _table([(fn.name, shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions])
 
 
 def _table(rows: list[tuple[str, str, str]]) -> str:
@@ -456,7 +456,7 @@ def _csv_text(plan: _Plan, i: int, value: Value) -> str:
 
 def _table_text(plan: _Plan, i: int, value: Value) -> str:
     if plan.kinds[i] == _PRECISION:
-        return _shown_text(plan.functions[i], value)
+        return shown_text(plan.functions[i], value)
     return _text(plan.shown(i, value))
 
 
@@ -488,5 +488,5 @@ def device_record(
         for block in doc.values():
             block["bn"] = f"{device}/{block['bn']}"
         return json.dumps(doc, ensure_ascii=False) + "\n"
-    rows = [(fn.name, _shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
+    rows = [(fn.name, shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
     return _table([(TIME_KEY, iso_time(when), ""), (DEVICE_KEY, device, ""), *rows]) + "\n"

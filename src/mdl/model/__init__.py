@@ -265,7 +265,11 @@ class Device:
         for name in names:
             fn = by_name.get(name)
             if fn is None:
-                raise error(f"the device has no function '{name}'")
+                import difflib
+
+                close = difflib.get_close_matches(name, list(by_name), n=3, cutoff=0.6)
+                hint = f": did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+                raise error(f"the device has no function '{name}'{hint}")
             if write and not fn.writable:
                 raise error(f"function '{name}' is read-only")
             if not write and not fn.readable:

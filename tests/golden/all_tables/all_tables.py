@@ -575,7 +575,13 @@ class AllTables:
     def _connect(self) -> None:
         """Connect the client where it is not connected (again, after a failure closed it)."""
         if not self.client.connect():
-            raise CommunicationError("cannot connect to the device")
+            raise CommunicationError(f"cannot connect to {self._where()} for unit {self.unit}")
+
+    def _where(self) -> str:
+        """Where the client talks: host:port, or its serial device."""
+        params = getattr(self.client, "comm_params", None)
+        host, port = getattr(params, "host", None) or "?", getattr(params, "port", None)
+        return f"{host}:{port}" if port else str(host)
 
     def _disconnect(self) -> None:
         """Close a connection that failed: the next call connects again."""
@@ -589,7 +595,7 @@ class AllTables:
             rr = self._request(table, start, count)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         return _check_read(rr, what, table, count)
 
     def _read_runs(self, runs: list[_Request]) -> list[int]:
@@ -610,7 +616,7 @@ class AllTables:
                 code, rr = 16, self.client.write_registers(start, values, device_id=self.unit)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         _check_write(rr, what, code, start, values)
 
     def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:
@@ -803,7 +809,13 @@ class AsyncAllTables:
     async def _connect(self) -> None:
         """Connect the client where it is not connected (again, after a failure closed it)."""
         if not self.client.connected and not await self.client.connect():
-            raise CommunicationError("cannot connect to the device")
+            raise CommunicationError(f"cannot connect to {self._where()} for unit {self.unit}")
+
+    def _where(self) -> str:
+        """Where the client talks: host:port, or its serial device."""
+        params = getattr(self.client, "comm_params", None)
+        host, port = getattr(params, "host", None) or "?", getattr(params, "port", None)
+        return f"{host}:{port}" if port else str(host)
 
     def _disconnect(self) -> None:
         """Close a connection that failed: the next call connects again."""
@@ -817,7 +829,7 @@ class AsyncAllTables:
             rr = await self._request(table, start, count)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         return _check_read(rr, what, table, count)
 
     async def _read_runs(self, runs: list[_Request]) -> list[int]:
@@ -838,7 +850,7 @@ class AsyncAllTables:
                 code, rr = 16, await self.client.write_registers(start, values, device_id=self.unit)
         except (ModbusException, OSError) as exc:
             self._disconnect()
-            raise CommunicationError(f"{what}: {exc}") from exc
+            raise CommunicationError(f"{self._where()} unit {self.unit}: {what}: {exc}") from exc
         _check_write(rr, what, code, start, values)
 
     async def _write_runs(self, runs: list[_Request], regs: list[int]) -> None:

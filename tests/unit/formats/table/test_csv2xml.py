@@ -263,3 +263,11 @@ def test_readme_mentions_every_command():
     readme = (ROOT / "README.md").read_text()
     for command in ("csv2xml", "validate", "gen", "sim", "read", "write"):
         assert f"mdl {command}" in readme
+
+
+def test_an_mdl_description_is_said_to_be_one(tmp_path):
+    """csv2xml of an MDL file says what it is and what reads it, not "no recognizable header row" (issue 37)."""
+    out = tmp_path / "out.xml"
+    proc = run_mdl("csv2xml", EXAMPLE / "temco_tstat.xml", "-o", out)
+    assert_clean_error(proc, 1, "this is already an MDL description", "`mdl validate`")
+    assert "header" not in proc.stderr and not out.exists()

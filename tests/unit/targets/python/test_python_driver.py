@@ -141,8 +141,8 @@ def test_unreachable_device_raises_communication_error(all_tables):
     client = ModbusTcpClient("127.0.0.1", port=1, timeout=1, retries=0)
     client.connect()
     dev = all_tables.AllTables(client)
-    with pytest.raises(all_tables.CommunicationError):
-        dev.read_setpoint()
+    with pytest.raises(all_tables.CommunicationError, match=r"^cannot connect to 127\.0\.0\.1:1 for unit 1$"):
+        dev.read_setpoint()  # where, as `mdl read` says it (issue 37)
 
 
 class CountingClient:
@@ -338,7 +338,7 @@ def test_the_sync_driver_recovers_after_the_device_restarts(all_tables, sim_fact
         dev = all_tables.AllTables(client)
         assert dev.read_setpoint() == 21.5
         sim.stop()
-        with pytest.raises(all_tables.CommunicationError):
+        with pytest.raises(all_tables.CommunicationError, match=f"127.0.0.1:{port}"):
             dev.read_setpoint()  # no device
         sim_factory(ALL, "--set", "setpoint=19.5", port=port)
         outcomes = []

@@ -436,7 +436,14 @@ def read_table(path: Path, delimiter: str | None = None, encoding: str | None = 
             raise error("the table has no rows", path)
         return table
     documents.refuse_choice(path)
-    text, guess = decode_table(read_bytes(path), path, encoding)
+    data = read_bytes(path)
+    if _is_mdl(data):
+        raise error(
+            "this is already an MDL description: there is no register table to convert (`mdl validate` "
+            "checks it; gen, sim, read and export read it as it is)",
+            path,
+        )
+    text, guess = decode_table(data, path, encoding)
     if "\x00" in text:
         line = text[: text.index("\x00")].count("\n") + 1
         raise error(
@@ -455,6 +462,16 @@ def read_table(path: Path, delimiter: str | None = None, encoding: str | None = 
     if not rows:
         raise error("the table has no rows", path)
     return Table(path, delimiter, rows, delimiter_guessed=guessed, markdown=markdown, encoding_guess=guess)
+
+
+def _is_mdl(data: bytes) -> bool:
+    """Whether the bytes are an MDL document: markup whose first element is ORNL's `device`."""
+    from mdl.formats.sniff import starts_with_markup
+
+    if not starts_with_markup(data):
+        return False
+    head = data[:4096].decode("utf-8", errors="replace")
+    return re.search(r"<(\w+:)?device[\s>]", head) is not None and ("ModbusXMLSchema" in head or "<function" in head)
 
 
 def header_score(row: Row) -> tuple[int, bool]:
