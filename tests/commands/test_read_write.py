@@ -232,3 +232,17 @@ def test_precision_rounds_a_float32_exactly_once(tmp_path, sim_factory):
     sim = sim_factory(path, "--set", "level=0.045")
     proc = cli("read", path, "--host", sim.host, "--port", sim.port)
     assert proc.stdout.split() == ["level", "0.05"], proc.stdout
+
+
+def test_mdl_examples_copies_what_every_help_names(tmp_path):
+    """`mdl examples` gives an installed mdl the files its --help examples name (issue 37), whole or not
+    at all, and never over a folder that exists."""
+    proc = run_mdl("examples", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "examples" / "temco_tstat" / "temco_tstat.xml").read_bytes() == TSTAT.read_bytes()
+    assert not list((tmp_path / "examples").rglob("__pycache__")) and "wrote examples (" in proc.stderr
+    proc = run_mdl("validate", "examples/temco_tstat/temco_tstat.xml", cwd=tmp_path)  # the overview's line, as written
+    assert proc.returncode == 0, proc.stderr
+    (tmp_path / "mine").mkdir()
+    assert_clean_error(run_mdl("examples", tmp_path / "mine"), 1, "exists already: nothing is copied over it")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["examples", "mine"]  # no staging folder left behind

@@ -22,7 +22,7 @@ from support.doc_examples import Command, Runner, command, scratch
 
 ORDER = [
     *("csv2xml", "validate", "profiles", "gen", "import", "export", "test"),
-    *("sim", "read", "write", "discover", "probe", "capture", "serve"),
+    *("sim", "read", "write", "discover", "probe", "capture", "serve", "examples"),
 ]
 SERVED = ["sim", "read", "write", "discover", "probe", "capture"]  # they use the sims mdl sim --help starts
 

@@ -84,6 +84,8 @@ def main() -> None:
       mdl sim examples/temco_tstat/temco_tstat.xml --port 5020 &
       mdl read examples/temco_tstat/temco_tstat.xml --host 127.0.0.1 --port 5020
 
+    The files under examples/ that every --help names come with mdl: `mdl examples` copies them here.
+
     \b
     Shell completion of commands, options and file names: add your shell's line to its startup file.
       bash (~/.bashrc):                    eval "$(_MDL_COMPLETE=bash_source mdl)"
