@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from mdl.formats.table.cells import WORDED_TABLES, CellError, bit_of, is_modicon_number, parse_table
+from mdl.formats.table.cells import WORDED_TABLES, CellError, bit_of, is_modicon_number, parse_table, unlisted
 from mdl.formats.table.readers.delimited import Row
 from mdl.model.addressing import MODICON_TABLE
 
@@ -42,7 +42,7 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
         )
     plain: list[tuple[Row, list[str]]] = []
     for r in rows:
-        text = r.cell(index)
+        text = unlisted(r.cell(index))
         worded = _WORDED.match(text.strip()) if text else None
         bit = bit_of(text) if text else None
         if worded and worded.group(1).lower() in WORDED_TABLES:

@@ -38,6 +38,16 @@ def squeeze(text: str) -> str:
     return _SPACE_RUN.sub(lambda m: "\n" if "\n" in m.group() else " ", text)
 
 
+_LISTED = re.compile(r"^\s*([0-9]+)\.\s*$")
+
+
+def unlisted(text: str) -> str:
+    """A number written as a numbered list writes it (`35.`: Growatt's input registers) as the number;
+    any other text as it is."""
+    m = _LISTED.match(text)
+    return m.group(1) if m else text
+
+
 def is_digits(text: str) -> bool:
     """ASCII decimal digits only (str.isdigit() also takes '²' and other scripts' digits, which int() refuses)."""
     return text.isascii() and text.isdigit()
@@ -143,8 +153,8 @@ def bit_of(text: str) -> re.Match[str] | None:
 def read_address_cell(text: str, base: str = "0") -> AddressCell:
     """An address cell (parse_addresses), also `40001.3` / `40001/3` (register, then bit: `17/18`, whose
     second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
-    wire address in brackets: the bracket wins, and the two must agree)."""
-    text = squeeze(text)
+    wire address in brackets: the bracket wins, and the two must agree); `35.` is 35."""
+    text = squeeze(unlisted(text))
     m = bit_of(text)
     if m:
         addresses, table = parse_addresses(m.group(1), base)

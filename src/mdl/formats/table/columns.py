@@ -18,7 +18,14 @@ from mdl.formats.table.cells import (
 )
 from mdl.formats.table.ini import DeviceIni
 from mdl.formats.table.numbers import parse_int, parse_number, unit_alone
-from mdl.formats.table.readers.delimited import HEADER_SYNONYMS, Row, Table, normalize_header, synonym_rank
+from mdl.formats.table.readers.delimited import (
+    HEADER_SYNONYMS,
+    Row,
+    Table,
+    header_key,
+    normalize_header,
+    synonym_rank,
+)
 from mdl.formats.table.vocabulary import mapped
 
 # keys guessed from headers, in this order (addresses first, so it has first pick)
@@ -173,6 +180,7 @@ def _short(text: str) -> str:
 def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | None) -> Columns:
     cols = Columns()
     headers = [normalize_header(c) for c in header.cells] if header else []
+    keys = [header_key(c) for c in header.cells] if header else []  # the INI's header texts are compared so
     if header:
         cols.headers = {i: c.strip() for i, c in enumerate(header.cells)}
     where = str(ini.path) if ini and ini.path else None
@@ -194,9 +202,8 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
                 )
             cols.index[key] = spec
         else:
-            norm = normalize_header(spec)
-            if norm in headers:
-                cols.index[key] = headers.index(norm)
+            if header_key(spec) in keys:
+                cols.index[key] = keys.index(header_key(spec))
             else:
                 line = f" (line {header.line})" if header else ""
                 errors.append(
@@ -227,8 +234,8 @@ def resolve(table: Table, header: Row | None, data: list[Row], ini: DeviceIni | 
         for c in ini.claimed:
             if isinstance(c, int):
                 taken.add(c)
-            elif normalize_header(c) in headers:
-                taken.add(headers.index(normalize_header(c)))
+            elif header_key(c) in keys:
+                taken.add(keys.index(header_key(c)))
     skip = set(given) | (ini.blank_columns if ini else set())
     _guess(cols, headers, data, taken, skip, ini.cells if ini else {})
     _scale_in_units(cols, data, skip)

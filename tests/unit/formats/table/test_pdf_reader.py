@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import pytest
 
-from mdl.formats.table.readers.pdf import _banded, _columns, _continued, page_range
+from mdl.formats.table.readers.pdf import page_range
+from mdl.formats.table.readers.pdf_tables import _banded, _columns, _continued
 
 
 @pytest.mark.parametrize(

@@ -199,6 +199,13 @@ def normalize_header(text: str) -> str:
 _NOT_WORD = re.compile(r"[^a-z0-9]+")
 
 
+def header_key(text: str) -> str:
+    """A header as the INI's text for it is compared with it: normalize_header without its spaces, so
+    that a word a PDF's cell wraps mid-word (`Magnif` / `ication`, `Registe` / `rNO.`, read with a space
+    between the lines) is still the word the page shows (`Magnification`, `Register NO.`)."""
+    return normalize_header(text).replace(" ", "")
+
+
 def synonym_rank(key: str, norm: str) -> int | None:
     """How well a normalized header names the column `key` (0 best), None if it does not: one of the
     key's synonyms, else one once the QUALIFIERS are dropped (ranked after every plain synonym)."""
@@ -490,10 +497,10 @@ def find_header(table: Table, within: int | None = None, texts: list[str] | None
     or the one that looks most like a header (an address column and another known column)."""
     candidates = [r for r in table.rows if within is None or r.line <= within] if within else table.rows[:40]
     if texts:  # the row holding most of the INI's header texts; resolve() names any it lacks
-        wanted = [normalize_header(t) for t in texts]
+        wanted = [header_key(t) for t in texts]
         best, best_n = None, 0
         for row in candidates:
-            cells = [normalize_header(c) for c in row.cells]
+            cells = [header_key(c) for c in row.cells]
             n = sum(w in cells for w in wanted)
             if n > best_n:
                 best, best_n = row, n

@@ -22,7 +22,7 @@ from mdl.formats.table.readers.delimited import (
     cell_too_long,
     decode_table,
     find_header,
-    normalize_header,
+    header_key,
 )
 
 MARKDOWN = (".md", ".markdown")
@@ -154,8 +154,8 @@ def _header_of(path: Path, c: Candidate) -> Row | None:
 def _holds(path: Path, c: Candidate, texts: tuple[str, ...]) -> bool:
     """Whether a row among the candidate's first holds every one of the INI's header texts."""
     header = find_header(Table(path, "", c.rows), None, list(texts))
-    wanted = {normalize_header(t) for t in texts}
-    return header is not None and wanted <= {normalize_header(x) for x in header.cells}
+    wanted = {header_key(t) for t in texts}
+    return header is not None and wanted <= {header_key(x) for x in header.cells}
 
 
 def _first_texts(c: Candidate) -> str:
