@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import click
 
 from mdl.cli.app import main
-from mdl.cli.options import INPUT, connection_options, fail_on_warning_option, stdin_once
+from mdl.cli.options import INPUT, connection_options, fail_on_warning_option, is_quiet, stdin_once
 from mdl.cli.printer import emit_text, report_warnings, resolved_file, say
 from mdl.device.connection import Connection
 
@@ -140,8 +140,10 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
     Each unit that answers gets its tables read in blocks (125 registers, 2000 bits); exception 2 splits a
     block until the edges of every defined run are exact. Replies that fail the checks, timeouts and other
     exceptions leave addresses unknown, never defined. A unit is left after 3 such signs in a row or when
-    --max-requests are spent. Guesses at the address base and word order are said as guesses. Exit 3
-    when no unit answered. See docs/probe.md.
+    --max-requests are spent. Guesses at the address base and word order are said as guesses. Progress
+    goes to stderr (on a terminal, a line redrawn as the requests go; not with -q). With --format json
+    each unit also lists the spans it could not judge ("unknown") and those not probed ("not_probed"),
+    with why. Exit 3 when no unit answered. See docs/probe.md.
 
     \b
     Examples (the EM100 of mdl sim --help at unit 3; the other units get exception 11):
@@ -153,7 +155,7 @@ def probe(connection: Connection, fmt: str, **given: Any) -> None:
     from mdl.device.survey.probe import render
 
     options = probe_options(connection, **given)  # units, bauds, parities, tables, span, max_requests, rate
-    results = run_probe(connection, options)
+    results = run_probe(connection, options, quiet=is_quiet())
     if fmt == "json":
         for r in results:
             for note in r.notes:

@@ -11,15 +11,18 @@ leaves the addresses asked "unknown": never defined. Bounded and polite: `max_re
 table an even share of what is left), at most `rate` requests a second, and a unit is left after
 STRUGGLING signs in a row that it is struggling (no reply, a malformed reply, exception 4, 5 or 6).
 Guesses at the address base and the word order (mdl.device.survey.probe_guess) are said as guesses; the
-command's options are read by mdl.device.survey.probe_options.
+command's options are read by mdl.device.survey.probe_options. Progress goes to stderr: a line per unit, and
+where stderr is a terminal a line redrawn as requests go (`_Progress`, mdl discover's bar), not under -q.
 """
 
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, replace
 
 from mdl.device.connection import Connection
@@ -30,7 +33,7 @@ from mdl.device.survey.probe_guess import guesses
 from mdl.device.survey.probe_options import ProbeOptions, Span
 from mdl.diagnostics import DeviceError
 from mdl.model import BIT_TABLES, REGISTER_TYPES
-from mdl.model.layout import MAX_BITS, MAX_REGISTERS
+from mdl.model.layout import MAX_ADDRESS, MAX_BITS, MAX_REGISTERS
 from mdl.plan import Request
 
 STRUGGLING = 3  # signs in a row that a unit is struggling before it is left alone
@@ -46,6 +49,8 @@ class _Stop(Exception):
 
 
 BUDGET_RAN_OUT = "the request budget ran out: --max-requests, or a narrower --range"
+NOT_ASKED = "not in --tables"
+LINE_LOST = "the connection was lost"
 
 
 @dataclass
@@ -63,6 +68,7 @@ class UnitProbe:
     requests: int = 0
     notes: list[str] = field(default_factory=list)
     tables: tuple[str, ...] = REGISTER_TYPES  # the tables asked (--tables): the others were not probed
+    span: Span = (0, MAX_ADDRESS)  # the addresses asked (--range)
 
     def defined(self, table: str, first: int, values: list[int]) -> None:
         last = first + len(values) - 1
@@ -74,6 +80,10 @@ class UnitProbe:
         self.values[table].update(zip(range(first, last + 1), values, strict=True))
 
     def json(self) -> dict[str, object]:
+        """SPEC 14's object, with what the notes say of the spans not found: `unknown` (asked, no answer to
+        trust) and `not_probed` (never asked: the budget ran out, the unit was left alone, or the table is
+        not in --tables), each a list of {"table", "range": [FIRST, LAST], "why"}."""
+        not_asked = [(t, self.span, NOT_ASKED) for t in REGISTER_TYPES if t not in self.tables]
         return {
             "unit": self.unit,
             "serial": self.serial,
@@ -82,7 +92,70 @@ class UnitProbe:
                 t: [list(span) for span in self.ranges[t]] if t in self.tables else None for t in REGISTER_TYPES
             },
             "requests": self.requests,
+            "unknown": _spans_json((t, span, why) for t in REGISTER_TYPES for span, why in self.unknown[t]),
+            "not_probed": _spans_json(
+                sorted(
+                    [*((t, span, why) for t in REGISTER_TYPES for span, why in self.unasked[t]), *not_asked],
+                    key=lambda item: (REGISTER_TYPES.index(item[0]), item[1]),
+                )
+            ),
         }
+
+
+def _spans_json(spans: Iterable[tuple[str, Span, str]]) -> list[dict[str, object]]:
+    return [{"table": table, "range": [first, last], "why": why} for table, (first, last), why in spans]
+
+
+REDRAW = 0.1  # seconds between two drawings of the progress line at most (it is drawn at once when a unit begins)
+
+
+def _clock() -> float:
+    return time.monotonic()
+
+
+class _Progress:
+    """Where stderr is a terminal (and not under -q), one line redrawn as the requests go, as mdl discover's
+    bar: `asking units on LINE [DONE/TOTAL] unit U: TABLE ADDRESS, N/BUDGET requests`, drawn when a unit
+    begins and then at most every REDRAW seconds; at the end `asking units on LINE [DONE/TOTAL]` stays.
+    Elsewhere it draws nothing (the line said for each unit is the progress)."""
+
+    def __init__(self, on: bool, line: Connection, total: int) -> None:
+        self.on, self.total = on, total
+        self.label = f"asking units on {line}"
+        self.done = 0
+        self.unit = ""
+        self.shown = False
+        self.last = -1.0e9
+        self.width = max(20, shutil.get_terminal_size().columns - 1) if on else 0
+
+    def begin(self, unit: int) -> None:
+        self.unit = f"unit {unit}"
+        self._draw(self.unit)
+
+    def request(self, table: str, address: int, requests: int, budget: int) -> None:
+        if self.on and (not self.shown or _clock() - self.last >= REDRAW):
+            self._draw(f"{self.unit}: {table} {address}, {requests}/{budget} requests")
+
+    def hide(self) -> None:
+        """Clear the line, before a line of stderr's own; the next request draws it again."""
+        if self.shown:
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+            self.shown = False
+
+    def close(self) -> None:
+        if self.on:
+            sys.stderr.write(f"\r\x1b[K{self.label} [{self.done}/{self.total}]\n")
+            sys.stderr.flush()
+            self.shown = False
+
+    def _draw(self, where: str) -> None:
+        if not self.on:
+            return
+        text = f"{self.label} [{self.done}/{self.total}] {where}"
+        sys.stderr.write(f"\r\x1b[K{text[: self.width]}")
+        sys.stderr.flush()
+        self.shown, self.last = True, _clock()
 
 
 class _Pace:
@@ -100,17 +173,27 @@ class _Pace:
 
 
 class _Line(_Unit):
-    """mdl discover's judge of a unit's presence, and what settles the line after a reply not to trust."""
+    """mdl discover's judge of a unit's presence, and what settles the line after a reply not to trust (its
+    warning on a line of its own: the progress line is cleared first)."""
 
     command = "mdl probe"
+
+    def __init__(self, session: Link, unit: int, bar: _Progress) -> None:
+        super().__init__(session, unit)
+        self.bar = bar
+
+    def _stale(self) -> bool:
+        self.bar.hide()
+        return super()._stale()
 
 
 class _Prober:
     """The requests to one unit, counted against its budget; what each got, judged."""
 
-    def __init__(self, session: Link, unit: int, budget: int, pace: _Pace, found: UnitProbe) -> None:
+    def __init__(self, session: Link, unit: int, budget: int, pace: _Pace, found: UnitProbe, bar: _Progress) -> None:
         self.session, self.unit, self.budget, self.pace, self.found = session, unit, budget, pace, found
-        self.line = _Line(session, unit)
+        self.bar = bar
+        self.line = _Line(session, unit, bar)
         self.in_a_row = 0
         self.table_limit = budget  # _probe_unit gives each table its share
 
@@ -124,6 +207,7 @@ class _Prober:
                 raise _Spent
             self.pace.wait()
             self.found.requests += 1
+            self.bar.request(req.table, req.start, self.found.requests, self.budget)
             try:
                 return self.session.read_request(req)
             except ModbusExceptionError:
@@ -261,6 +345,9 @@ def _scan_table(prober: _Prober, table: str, low: int, high: int) -> None:
     except _Stop as stop:
         prober.found.unasked[table].append(((scan.pos, high), stop.unasked))
         raise
+    except LineLost:
+        prober.found.unasked[table].append(((scan.pos, high), LINE_LOST))
+        raise
 
 
 def _probe_unit(prober: _Prober, tables: list[str], low: int, high: int) -> None:
@@ -280,6 +367,10 @@ def _probe_unit(prober: _Prober, tables: list[str], low: int, high: int) -> None
                     found.unasked[later].append(((low, high), stop.unasked))
                 found.notes.append(f"left alone: {stop}")
                 return
+            except LineLost:
+                for later in tables[i + 1 :]:
+                    found.unasked[later].append(((low, high), LINE_LOST))
+                raise
     finally:
         _say_unknown(found, tables)
 
@@ -296,7 +387,10 @@ def _span(first: int, last: int) -> str:
     return str(first) if first == last else f"{first}-{last}"
 
 
-def _say(message: str) -> None:
+def _say(message: str, bar: _Progress | None = None) -> None:
+    """A line on stderr (the progress line cleared first)."""
+    if bar is not None:
+        bar.hide()
     print(f"mdl probe: {message}", file=sys.stderr, flush=True)
 
 
@@ -308,9 +402,10 @@ def _lines(connection: Connection, settings: list[tuple[int, str]]) -> Iterator[
         yield replace(connection, baud=baud, parity=parity)
 
 
-def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
+def probe(connection: Connection, options: ProbeOptions, quiet: bool = False) -> list[UnitProbe]:
     """Probe each unit over `connection` (on a serial line at each setting in turn, for the units no earlier
-    setting found); the units that answered, in ascending order. DeviceError (exit 3) if none did."""
+    setting found); the units that answered, in ascending order. DeviceError (exit 3) if none did. `quiet`
+    (-q): no progress, only warnings."""
     units = options.units
     if connection.serial is not None and 0 in units:
         _say("unit 0 is the broadcast address on a serial line, which no device answers: not asked")
@@ -319,11 +414,13 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
     pace = _Pace(options.rate)
     refused: DeviceError | None = None  # why the last setting tried could not be opened
     opened = False
+    terminal = not quiet and _is_terminal()
     for line in _lines(connection, options.settings):
         waiting = [u for u in units if u not in results]
         if not waiting:
             break
-        _say(f"asking {len(waiting)} unit{'s' * (len(waiting) != 1)} on {line}")
+        if not quiet:
+            _say(f"asking {len(waiting)} unit{'s' * (len(waiting) != 1)} on {line}")
         session = Link(line)
         session.client.set_max_no_responses(len(waiting) + 3)  # silent units are the rule here
         session.asking_units(waiting)
@@ -337,14 +434,27 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
             refused = exc
             continue
         opened = True
+        bar = _Progress(terminal, line, len(waiting))
         try:
             for unit in waiting:
-                found = _probe_one(session, unit, serial, options, pace)
-                if found is not None:
+                found = UnitProbe(unit, serial, tables=tuple(options.tables), span=(options.low, options.high))
+                bar.begin(unit)
+                try:
+                    there = _probe_one(session, found, options, pace, bar)
+                finally:
+                    bar.done += 1
+                if there:
                     results[unit] = found
-        except LineLost as exc:  # what was found is kept: said, and printed
-            _say(f"warning: {exc.diagnostics[0].message}; the units after it are not asked")
+                if not quiet and (there or not terminal):  # on a terminal the bar says who did not answer
+                    _say(_summary(found, there), bar)
+        except _Lost as lost:  # what was found is kept: said, and printed
+            if lost.found is not None:
+                results[lost.found.unit] = lost.found
+                if not quiet:
+                    _say(_summary(lost.found, True), bar)
+            _say(f"warning: {lost.exc.diagnostics[0].message}; the units after it are not asked", bar)
         finally:
+            bar.close()
             session.close()
     if refused is not None and not opened:  # no setting could be opened: that is the error
         raise refused
@@ -356,27 +466,55 @@ def probe(connection: Connection, options: ProbeOptions) -> list[UnitProbe]:
     return [results[u] for u in sorted(results)]
 
 
-def _probe_one(
-    session: Link, unit: int, serial: dict[str, object] | None, options: ProbeOptions, pace: _Pace
-) -> UnitProbe | None:
-    found = UnitProbe(unit, serial, tables=tuple(options.tables))
-    prober = _Prober(session, unit, options.max_requests, pace, found)
-    prober.ask(options.tables[0], options.low, 1)  # is anybody there? (one request)
-    if prober.line.absent or not prober.line.answered:
-        _say(f"unit {unit}: no answer")
-        return None
-    _probe_unit(prober, options.tables, options.low, options.high)
-    found.notes += guesses(found.ranges, found.values, options.low)
+def _is_terminal() -> bool:
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        return False
+
+
+def _summary(found: UnitProbe, there: bool) -> str:
+    if not there:
+        return f"unit {found.unit}: no answer"
     total = sum(len(r) for r in found.ranges.values())
-    _say(f"unit {unit}: {total} defined range{'s' * (total != 1)}, {found.requests} requests")
-    return found
+    return f"unit {found.unit}: {total} defined range{'s' * (total != 1)}, {found.requests} requests"
+
+
+class _Lost(Exception):
+    """The line was lost (LineLost) while a unit was probed: `found` is what it found if it answered."""
+
+    def __init__(self, exc: LineLost, found: UnitProbe | None) -> None:
+        super().__init__(str(exc))
+        self.exc, self.found = exc, found
+
+
+def _probe_one(session: Link, found: UnitProbe, options: ProbeOptions, pace: _Pace, bar: _Progress) -> bool:
+    """Whether the unit answered; what it defines in `found`. _Lost where the line was lost."""
+    prober = _Prober(session, found.unit, options.max_requests, pace, found, bar)
+    try:
+        prober.ask(options.tables[0], options.low, 1)  # is anybody there? (one request)
+    except LineLost as exc:
+        raise _Lost(exc, None) from None
+    if prober.line.absent or not prober.line.answered:
+        return False
+    try:
+        _probe_unit(prober, options.tables, options.low, options.high)
+    except LineLost as exc:
+        found.notes += guesses(found.ranges, found.values, options.low)
+        raise _Lost(exc, found) from None
+    found.notes += guesses(found.ranges, found.values, options.low)
+    return True
+
+
+_SPAN = re.compile(r"\[\n *(\d+),\n *(\d+)\n *\]")  # a JSON string holds no line break: only arrays match
 
 
 def render(results: list[UnitProbe], fmt: str) -> str:
     """`json`: SPEC 14's list, one object per unit; `table`: per unit a line, then each table's ranges with
     their counts, then its notes and guesses."""
     if fmt == "json":
-        return json.dumps([r.json() for r in results], indent=2) + "\n"
+        text = json.dumps([r.json() for r in results], indent=2)
+        return _SPAN.sub(r"[\1, \2]", text) + "\n"  # a span [FIRST, LAST] on one line
     out: list[str] = []
     for r in results:
         where = f" at {r.serial['baud']} baud, parity {r.serial['parity']}" if r.serial else ""
