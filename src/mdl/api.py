@@ -124,7 +124,8 @@ def export(device: Device, to: str, out: StrPath, **options: Any) -> list[Diagno
     """Write `device` as format or engine `to` (as `mdl export --to`: "xif", "wise", "senml",
     "volttron", "homeassistant", "telegraf", "esphome", "thingsboard"; `out` a file, or the folder
     VOLTTRON's files go in). Options as the command's: `connection` (a URL such as
-    "tcp://192.0.2.10:502" or a Connection), `unit`, `interval` (seconds), `board`, `tx_pin`, `rx_pin`.
+    "tcp://192.0.2.10:502" or a Connection), `unit`, `interval` (seconds), `board`, `tx_pin`, `rx_pin`,
+    `flow_control_pin` (each pin checked as the command checks it).
     The warnings the format's losses give (one per kind of loss, naming the functions)."""
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
     from mdl.exports import export as export_engine
@@ -133,9 +134,15 @@ def export(device: Device, to: str, out: StrPath, **options: Any) -> list[Diagno
 
     if to not in outputs():
         raise error(f"unknown export {to!r}: one of {', '.join(outputs())}")
-    unknown = set(options) - {"connection", "unit", "interval", "board", "tx_pin", "rx_pin"}
+    unknown = set(options) - {"connection", "unit", "interval", "board", "tx_pin", "rx_pin", "flow_control_pin"}
     if unknown:
         raise error(f"export takes no option {sorted(unknown)[0]!r}")
+    from mdl.exports.esphome import pin_problem
+
+    for key in ("tx_pin", "rx_pin", "flow_control_pin"):
+        problem = None if options.get(key) is None else pin_problem(str(options[key]))
+        if problem is not None:
+            raise error(f"{key}: {problem}")
     connection = options.get("connection")
     if isinstance(connection, str):
         connection = _connection(connection)[0]
@@ -148,6 +155,7 @@ def export(device: Device, to: str, out: StrPath, **options: Any) -> list[Diagno
         str(options.get("board", "esp32dev")),
         str(options.get("tx_pin", "GPIO17")),
         str(options.get("rx_pin", "GPIO16")),
+        None if options.get("flow_control_pin") is None else str(options["flow_control_pin"]),
     )
     result = export_engine(device, to, settings)
     target = Path(out)

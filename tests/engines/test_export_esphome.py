@@ -362,6 +362,23 @@ def test_node_options_need_esphome():
     assert (node["uart"]["tx_pin"], node["uart"]["rx_pin"]) == ("GPIO4", "GPIO5")
 
 
+@pytest.mark.parametrize("pin", ["GPIO4", "4"])
+def test_esphome_config_accepts_a_flow_control_pin(tmp_path, pin):
+    """Issue 37: a MAX485 module's DE/RE pin, which ESPHome's modbus drives high while it sends, from
+    --flow-control-pin. The control: ESPHome refuses the pin the UART sends on, as the command does."""
+    text = export(TEMCO, "--baud", "9600", "--parity", "E", "--flow-control-pin", pin).stdout
+    assert yaml.safe_load(text)["modbus"] == {"flow_control_pin": pin}
+    assert_valid(tmp_path, text)
+    clash = text.replace(
+        f"flow_control_pin: '{pin}'" if pin.isdigit() else f"flow_control_pin: {pin}", "flow_control_pin: GPIO17"
+    )
+    assert "flow_control_pin: GPIO17" in clash
+    proc = esphome_config(tmp_path / "clash", clash)
+    assert proc.returncode != 0 and "Pin 17 is used in multiple places" in proc.stdout, proc.stdout[-3000:]
+    refused = run_mdl("export", TEMCO, "--to", "esphome", "--flow-control-pin", "GPIO17")
+    assert_clean_error(refused, 2, "--tx-pin GPIO17 and --flow-control-pin GPIO17 name one pin")
+
+
 def test_esphome_export_is_deterministic():
     assert export(ALL_TABLES).stdout == export(ALL_TABLES).stdout
 

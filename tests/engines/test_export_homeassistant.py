@@ -3,8 +3,8 @@
   on Python 3.11, in a venv of its own: tests/support/engines.py) accepts the exported YAML and keeps every entity
   (its validator drops a second entity on one register: the export leaves it out and says so);
 - Home Assistant's own entity classes (ModbusHub, ModbusRegisterSensor, ModbusBinarySensor, ModbusSwitch,
-  in that venv) read `mdl sim` and show what `mdl read` gives, and their writes land in it with the
-  function code mdl writes with (a proxy records each request);
+  ModbusThermostat, in that venv) read `mdl sim` and show what `mdl read` gives, and their writes land in it
+  with the function code mdl writes with (a proxy records each request);
 - a reader that follows the YAML's own meaning, as Home Assistant's docs and base_platform.py give it
   (swap byte/word/word_byte, struct unpack, scale * value + offset, nan_value, precision), reads `mdl sim`
   with pymodbus and shows what `mdl read` gives."""
@@ -64,7 +64,7 @@ class Keep(logging.Handler):
 logging.getLogger("homeassistant.components.modbus").addHandler(Keep())
 logging.getLogger("homeassistant.components.modbus").setLevel(logging.WARNING)
 
-KINDS = ("sensors", "binary_sensors", "switches")
+KINDS = ("sensors", "binary_sensors", "switches", "climates")
 config = load_yaml(sys.argv[1])
 given = [[len(hub.get(kind, [])) for kind in KINDS] for hub in config["modbus"]]
 valid = CONFIG_SCHEMA(config)
@@ -132,7 +132,7 @@ class Keep(logging.Handler):
         logged.append(record.getMessage())
 logging.getLogger("homeassistant.components.modbus").addHandler(Keep())
 logging.getLogger("homeassistant.components.modbus").setLevel(logging.WARNING)
-KINDS = ("sensors", "binary_sensors", "switches")
+KINDS = ("sensors", "binary_sensors", "switches", "climates")
 for path in sys.argv[1:]:
     logged.clear()
     config = load_yaml(path)
@@ -343,7 +343,36 @@ def labels_of(path) -> dict[str, dict[int, str] | None]:
     return {f.name: f.fn.values for f in load_resolved(path).functions}
 
 
-@pytest.mark.parametrize(("path", "raw", "entities"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 14)])
+def register_switch(client: ModbusTcpClient, entity: dict) -> bool | None:
+    """A register's switch as its verify reads it (base_platform.BaseSwitch.async_update): on at command_on,
+    off at command_off, else unchanged (None here)."""
+    value = client.read_holding_registers(entity["address"], count=1, device_id=entity["device_address"]).registers[0]
+    on, off = entity.get("command_on", 1), entity.get("command_off", 0)
+    return True if value == on else False if value == off else None
+
+
+def current_of(path, climate: dict) -> str:
+    """The function a climate reads as its current temperature (its address and table)."""
+    from mdl.formats.loading import load_resolved
+
+    table = climate.get("input_type", "holding")
+    (name,) = [
+        f.name
+        for f in load_resolved(path).functions
+        if (f.layout.table, f.layout.addresses[0]) == (table, climate["address"])
+    ]
+    return name
+
+
+def climate_readings(climate: dict) -> list[tuple[str, dict]]:
+    """The climate's two readings as sensors of the same struct: its current temperature (address, input_type)
+    and its target (target_temp_register, a holding register; climate.py async_update)."""
+    target = {**climate, "address": climate["target_temp_register"], "input_type": "holding"}
+    return [("current", climate), ("target", target)]
+
+
+# TEMCO: 13 sensors, 5 relays' switches, the climate's current and target temperature
+@pytest.mark.parametrize(("path", "raw", "entities"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 20)])
 def test_reading_as_the_yaml_says_gives_mdl_read_values(sim_factory, tmp_path, path, raw, entities):
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps(raw))
@@ -368,14 +397,23 @@ def test_reading_as_the_yaml_says_gives_mdl_read_values(sim_factory, tmp_path, p
                 if kind == "switches" and "verify" not in entity:
                     continue  # write-only: Home Assistant shows what it wrote
                 table = entity.get("input_type", entity.get("write_type"))
-                assert bits(client, table, entity["address"], entity["device_address"]) == expected[entity["name"]]
+                if table in ("holding", "holdings"):  # a register of range 0..1: on where mdl reads 1
+                    assert register_switch(client, entity) is (expected[entity["name"]] == 1), entity
+                else:
+                    assert bits(client, table, entity["address"], entity["device_address"]) == expected[entity["name"]]
+                checked += 1
+        for climate in hub.get("climates", []):
+            names = {"current": current_of(path, climate), "target": climate["name"]}
+            for reading, sensor in climate_readings(climate):
+                shown = mdl_as_ha_shows(expected[names[reading]], sensor, None)
+                assert ha_sensor_state(client, sensor) == shown, (reading, climate)
                 checked += 1
     finally:
         client.close()
     assert checked == entities
 
 
-@pytest.mark.parametrize(("path", "raw", "entities"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 14)])
+@pytest.mark.parametrize(("path", "raw", "entities"), [(ALL_TABLES, ALL_TABLES_RAW, 17), (TEMCO, TEMCO_RAW, 20)])
 def test_home_assistant_own_entities_show_mdl_read_values(sim_factory, tmp_path, path, raw, entities):
     registers = tmp_path / "raw.json"
     registers.write_text(json.dumps(raw))
@@ -398,8 +436,13 @@ def test_home_assistant_own_entities_show_mdl_read_values(sim_factory, tmp_path,
         for entity in hub.get(kind, []):
             if kind == "switches" and "verify" not in entity:
                 continue  # write-only: Home Assistant shows what it wrote
-            assert states[kind][entity["name"]] == expected[entity["name"]], entity
+            assert states[kind][entity["name"]] is bool(expected[entity["name"]]), entity
             checked += 1
+    for climate in hub.get("climates", []):
+        (shown,) = through_the_climate(tmp_path, text)
+        assert shown["current"] == expected[current_of(path, climate)], shown
+        assert shown["target"] == expected[climate["name"]], shown
+        checked += 2
     assert checked == entities
 
 
@@ -500,7 +543,7 @@ def test_one_entity_per_register_as_home_assistant_loads_them(tmp_path):
     assert proc_schema.returncode == 0, proc_schema.stderr[-3000:]
     result = json.loads(proc_schema.stdout.strip().splitlines()[-1])
     # sensors lo, in5, bit10, in10; binary_sensors coil5_ro, di5; switches coil5, bit10
-    assert result["given"] == result["kept"] == [[4, 2, 2]] and result["logged"] == []
+    assert result["given"] == result["kept"] == [[4, 2, 2, 0]] and result["logged"] == []
     # put back what the export left out: Home Assistant drops exactly those
     config = yaml.safe_load(proc.stdout)
     for name in sorted(dropped):
@@ -603,3 +646,156 @@ def test_roles_give_certain_classes_home_assistant_accepts(tmp_path):
     assert checked.returncode == 0, checked.stderr[-3000:]
     result = json.loads(checked.stdout.strip().splitlines()[-1])
     assert result["class_errors"] == [] and result["logged"] == [], result
+
+
+# --- thermostats: Home Assistant's own climate ---------------------------------------------------------------
+
+# Home Assistant's own thermostat on the exported hub (climate.py ModbusThermostat, outside a running Home
+# Assistant): updated, then each action taken in turn (each ends with the entity's own update); its state
+# after each, as Home Assistant holds it
+CLIMATE = r"""
+import asyncio, json, sys
+from homeassistant.core import HomeAssistant
+from homeassistant.util.yaml import load_yaml
+from homeassistant.components.climate import HVACMode
+from homeassistant.components.modbus import CONFIG_SCHEMA
+from homeassistant.components.modbus.modbus import ModbusHub
+from homeassistant.components.modbus.climate import ModbusThermostat
+
+async def main():
+    hub_config = CONFIG_SCHEMA(load_yaml(sys.argv[1]))["modbus"][0]
+    actions = json.loads(sys.argv[2])
+    hass = HomeAssistant(sys.argv[3])
+    kinds = ("sensors", "binary_sensors", "switches", "climates")
+    hub = ModbusHub(hass, {k: v for k, v in hub_config.items() if k not in kinds})
+    assert await hub.async_setup()
+    await hass.async_block_till_done()
+    (config,) = hub_config["climates"]
+    climate = ModbusThermostat(hass, hub, config)
+    climate.async_write_ha_state = lambda: None  # not added to a running Home Assistant: no state machine
+
+    def state():
+        return {"current": climate.current_temperature, "target": climate.target_temperature,
+                "hvac_mode": climate.hvac_mode, "hvac_modes": sorted(climate.hvac_modes),
+                "fan_mode": climate.fan_mode, "fan_modes": climate.fan_modes, "min": climate.min_temp,
+                "max": climate.max_temp, "step": climate.target_temperature_step, "unit": climate.temperature_unit}
+
+    await climate.async_update()
+    out = [state()]
+    for action in actions:
+        if "temperature" in action:
+            await climate.async_set_temperature(temperature=action["temperature"])
+        if "hvac_mode" in action:
+            await climate.async_set_hvac_mode(HVACMode(action["hvac_mode"]))
+        if "fan_mode" in action:
+            await climate.async_set_fan_mode(action["fan_mode"])
+        out.append(state())
+    await hass.async_stop(force=True)
+    print(json.dumps(out, default=str))
+
+asyncio.run(main())
+"""
+
+
+def through_the_climate(tmp_path, text: str, actions: list[dict] | None = None) -> list[dict]:
+    """Home Assistant's own climate on the exported hub: its state, then after each action (CLIMATE)."""
+    python = require(HOMEASSISTANT)
+    path = configuration(tmp_path / "climate", text)
+    config_dir = tmp_path / "ha_climate_config"
+    config_dir.mkdir(exist_ok=True)
+    proc = subprocess.run(
+        [str(python), "-c", CLIMATE, str(path), json.dumps(actions or []), str(config_dir)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_home_assistant_schema_accepts_the_thermostats_climate(tmp_path):
+    """Issue 37: the TEMCO thermostat's set point is writable in Home Assistant, as a climate its own schema
+    accepts and keeps (its target register a list of one per HVAC mode), with nothing logged; the relays are
+    switches it keeps."""
+    proc = validate(tmp_path, export(TEMCO, "--host", "192.0.2.10", "--unit", "3").stdout)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["given"] == result["kept"] == [[13, 0, 5, 1]] and result["logged"] == [], result
+    (climate,) = result["valid"]["modbus"][0]["climates"]
+    assert climate["target_temp_register"] == [345] * 7 and climate["address"] == 121
+    assert (climate["min_temp"], climate["max_temp"], climate["temp_step"]) == (10.0, 30.0, 0.5)
+    assert (climate["temperature_unit"], climate["device_address"], climate["structure"]) == ("C", 3, ">h")
+
+
+def test_home_assistant_own_climate_reads_and_writes_the_thermostat(sim_factory, tmp_path):
+    """Home Assistant's own ModbusThermostat shows the room temperature and the set point mdl reads, and its
+    target temperature lands as mdl reads it, written with function 6 as mdl writes it (a proxy refuses 16).
+    The control: a target off the export's temp_step (10.1, as an automation may send it) lands one step
+    lower, 10.0: Home Assistant cuts 10.1 / 0.1 = 100.99999999999999 to 100, as the export's warning says."""
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(TEMCO_RAW))
+    sim = sim_factory(TEMCO, "--registers", registers)
+    with refusing_proxy(sim.host, sim.port, refused={16}) as proxy:
+        proc = export(TEMCO, "--host", proxy.host, "--port", str(proxy.port))
+        assert "10.1 written 100 where mdl writes 101" in proc.stderr
+        shown = through_the_climate(tmp_path, proc.stdout, [{"temperature": 22.5}, {"temperature": 10.1}])
+        written = [code for code in proxy.codes if code in (6, 16)]
+        mdl = json.loads(run_mdl("read", TEMCO, *sim.connection, "--format", "json").stdout)
+        assert run_mdl("write", TEMCO, *sim.connection, "occupied_setpoint=23.5").returncode == 0
+        assert through_the_climate(tmp_path, proc.stdout)[0]["target"] == 23.5  # what mdl wrote, Home Assistant reads
+    assert written == [6, 6], proxy.codes
+    first, after, control = shown
+    assert (first["current"], first["target"]) == (-25.0, 21.5)  # raw 0xFF06 and 215 at scale 0.1
+    assert (first["min"], first["max"], first["step"], first["unit"]) == (10.0, 30.0, 0.5, "°C")
+    assert after["target"] == 22.5 and control["target"] == 10.0
+    assert (mdl["room_temperature"], mdl["occupied_setpoint"]) == (-25.0, 10.0)
+
+
+ZONE = (
+    fn_xml("room", 0, format="INT16", multiplier="0.5", units="degC", access="read", role="room_temperature_c")
+    + fn_xml("sp", 1, format="INT16", multiplier="0.5", minimum="5", maximum="30", role="setpoint_c")
+    + fn_xml("hvac", 2, format="UINT16", values={0: "Off", 1: "Heat", 2: "Cool", 3: "Auto"}, role="mode")
+    + fn_xml("fan", 3, format="UINT16", values={0: "auto", 1: "low", 2: "high"}, write_multiple="true")
+)
+
+
+def test_home_assistant_own_climate_sets_modes_as_mdl_writes_them(sim_factory, tmp_path, write_device):
+    """A thermostat with the profile's roles: Home Assistant's climate shows the HVAC and fan modes mdl reads (by
+    their labels) and sets them as mdl writes them, the fan with function 16 (write_multiple), the mode and the
+    target with 6; its schema keeps the mode registers."""
+    path = write_device(ZONE, name="Zone")
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps({"holding": {"0": 41, "1": 40, "2": 2, "3": 1}}))
+    sim = sim_factory(path, "--registers", registers)
+    with refusing_proxy(sim.host, sim.port) as proxy:
+        text = export(path, "--host", proxy.host, "--port", str(proxy.port)).stdout
+        checked = json.loads(validate(tmp_path, text).stdout.strip().splitlines()[-1])
+        assert checked["given"] == checked["kept"] and checked["logged"] == [], checked
+        (climate,) = checked["valid"]["modbus"][0]["climates"]
+        assert climate["hvac_mode_register"]["address"] == 2 and climate["fan_mode_register"]["address"] == [3]
+        actions = [{"hvac_mode": "heat"}, {"fan_mode": "high"}, {"temperature": 21.5}]
+        first, *_, last = through_the_climate(tmp_path, text, actions)
+        written = [code for code in proxy.codes if code in (6, 16)]
+    assert written == [6, 16, 6], proxy.codes
+    assert (first["current"], first["target"], first["hvac_mode"], first["fan_mode"]) == (20.5, 20.0, "cool", "low")
+    assert first["hvac_modes"] == ["auto", "cool", "heat", "off"] and first["fan_modes"] == ["auto", "low", "high"]
+    assert (last["hvac_mode"], last["fan_mode"], last["target"]) == ("heat", "high", 21.5)
+    mdl = json.loads(run_mdl("read", path, *sim.connection, "--format", "json").stdout)
+    assert (mdl["hvac"], mdl["fan"], mdl["sp"]) == ("Heat", "high", 21.5)
+
+
+def test_home_assistant_own_switch_writes_a_relay_register(sim_factory, tmp_path):
+    """The TEMCO relays (a byte of a register, range 0..1) are switches: Home Assistant's own switch turns one
+    off and on with function 6, writing what mdl writes, and its verify reads the state mdl reads."""
+    registers = tmp_path / "raw.json"
+    registers.write_text(json.dumps(TEMCO_RAW))
+    sim = sim_factory(TEMCO, "--registers", registers)
+    with refusing_proxy(sim.host, sim.port, refused={16}) as proxy:
+        text = export(TEMCO, "--host", proxy.host, "--port", str(proxy.port)).stdout
+        states = through_home_assistant(tmp_path, text, {"fan_relay_on": False, "cooling_stage1_relay_on": True})
+        written = [code for code in proxy.codes if code in (6, 16)]
+    assert written == [6, 6], proxy.codes
+    mdl = json.loads(run_mdl("read", TEMCO, *sim.connection, "--format", "json").stdout)
+    assert (mdl["fan_relay_on"], mdl["cooling_stage1_relay_on"]) == (0, 1)
+    relays = [name for name in mdl if name.endswith("_relay_on")]
+    assert {name: states["switches"][name] for name in relays} == {name: mdl[name] == 1 for name in relays}

@@ -69,6 +69,11 @@ def test_table_to_device_through_the_public_names_only(tmp_path, capsys):
     warnings = mdl.export(device, "xif", tmp_path / "tstat.mod")
     assert (tmp_path / "tstat.mod").read_text().startswith("#filetype")
     assert all(isinstance(w, mdl.Diagnostic) for w in warnings)
+    mdl.export(device, "esphome", tmp_path / "node.yaml", flow_control_pin="GPIO4")  # as --flow-control-pin
+    assert "flow_control_pin: GPIO4" in (tmp_path / "node.yaml").read_text()
+    with pytest.raises(mdl.MdlError, match="flow_control_pin: 'GPIO4: x' is no pin"):
+        mdl.export(device, "esphome", tmp_path / "bad.yaml", flow_control_pin="GPIO4: x")
+    assert not (tmp_path / "bad.yaml").exists()
     shutil.copy(EXAMPLE / "temco_tstat.xml", xml)
     sim = Sim(xml)
     try:

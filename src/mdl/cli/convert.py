@@ -141,6 +141,9 @@ def import_(
 ) -> None:
     """Convert another device description to MDL 1.0.
 
+    With -o FILE it says `wrote FILE` on stderr (not with -q/--quiet); without -o (or with -o -) the MDL goes
+    to stdout and nothing more is said.
+
     \b
     Examples:
       mdl import examples/toolkit_heat_pump/heat_pump.yaml -o heat_pump.xml
@@ -170,6 +173,16 @@ def import_(
     emit_text(check_written(xml, "import"), output)
 
 
+def _pin(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """A pin option's value, checked before it reaches the node's YAML (a usage error, exit 2)."""
+    from mdl.exports.esphome import pin_problem
+
+    problem = None if value is None else pin_problem(value)
+    if problem is not None:
+        raise click.BadParameter(problem, ctx, param)
+    return value
+
+
 @main.command(name="export")
 @click.argument("file", type=INPUT)
 @click.option(
@@ -183,7 +196,7 @@ def import_(
     "-o",
     "--output",
     type=click.Path(path_type=Path, allow_dash=True),
-    help="Output file (default: stdout); a folder for volttron.",
+    help="Output file (default: stdout); a folder for volttron. Says `wrote FILE` on stderr.",
 )
 @connection_options(optional=True, line_alone=True)
 @unit_option
@@ -195,8 +208,27 @@ def import_(
 )
 @click.option("--force", is_flag=True, help="Write into a folder (volttron) that is not empty.")
 @click.option("--board", default="esp32dev", show_default=True, help="esphome: the ESP32 board.")
-@click.option("--tx-pin", default="GPIO17", show_default=True, help="esphome: the UART's TX pin (to the RS-485 DI).")
-@click.option("--rx-pin", default="GPIO16", show_default=True, help="esphome: the UART's RX pin (from the RS-485 RO).")
+@click.option(
+    "--tx-pin",
+    default="GPIO17",
+    show_default=True,
+    callback=_pin,
+    help="esphome: the UART's TX pin (to the RS-485 DI).",
+)
+@click.option(
+    "--rx-pin",
+    default="GPIO16",
+    show_default=True,
+    callback=_pin,
+    help="esphome: the UART's RX pin (from the RS-485 RO).",
+)
+@click.option(
+    "--flow-control-pin",
+    metavar="PIN",
+    callback=_pin,
+    help="esphome: the pin driving the RS-485 transceiver's DE/RE (a MAX485 module), high while sending "
+    "(default: none, for a transceiver that switches itself).",
+)
 @click.option(
     "--names",
     type=click.Choice(["functions", "roles"], case_sensitive=False),
@@ -223,11 +255,17 @@ def export_(
     board: str,
     tx_pin: str,
     rx_pin: str,
+    flow_control_pin: str | None,
 ) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
     What the format cannot express is reported as one warning per kind of loss naming the functions
     it concerns (exit 1 with --fail-on-warning, before anything is written). Output is deterministic.
+    Each file written is said on stderr as `wrote FILE` (not with -q/--quiet, nor for stdout).
+
+    --to homeassistant makes a thermostat (a writable set point in °C or °F, with its room temperature)
+    a climate entity and a writable register of range 0..1 a switch (docs/fleet.md). --to esphome
+    writes the node; --flow-control-pin gives its RS-485 transceiver's DE/RE pin (MAX485 modules).
 
     \b
     Examples:
@@ -237,7 +275,7 @@ def export_(
       mdl export examples/temco_tstat/temco_tstat.xml --to volttron -o volttron/ --host 192.0.2.10
       mdl export examples/temco_tstat/temco_tstat.xml --to telegraf --host 192.0.2.10 --interval 10
       mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
-      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --baud 9600 --parity E -o node.yaml
+      mdl export examples/temco_tstat/temco_tstat.xml --to esphome --baud 9600 --flow-control-pin GPIO4 -o node.yaml
       mdl export examples/temco_tstat/temco_tstat.xml --to thingsboard --host 192.0.2.10 -o modbus.json
     """
     from mdl.diagnostics import error
@@ -247,13 +285,20 @@ def export_(
     if exports.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
     given = click.get_current_context().get_parameter_source
-    node = [n for n in ("board", "tx_pin", "rx_pin") if given(n) is not click.core.ParameterSource.DEFAULT]
+    node = [
+        n
+        for n in ("board", "tx_pin", "rx_pin", "flow_control_pin")
+        if given(n) not in (None, click.core.ParameterSource.DEFAULT)
+    ]
     if node and fmt.lower() != "esphome":
         raise click.UsageError(f"--{node[0].replace('_', '-')} sets the ESPHome node: it needs --to esphome")
+    _distinct_pins({"--tx-pin": tx_pin, "--rx-pin": rx_pin, "--flow-control-pin": flow_control_pin})
     if connection is not None and connection.serial == LINE_ONLY and fmt.lower() != "esphome":
         line = next(n for n in SERIAL_OPTIONS if given(n) is not click.core.ParameterSource.DEFAULT)
         raise click.UsageError(line_needs_serial(line))  # only the ESPHome node is on a line it need not name
-    settings = Settings(connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin)
+    settings = Settings(
+        connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin, flow_control_pin
+    )
     resolved = resolved_file(file)
     if profile is not None and names.lower() != "roles":
         raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")
@@ -280,3 +325,14 @@ def export_(
             write_atomic(output / name, text)
     for name in result.files:
         wrote(output / name)
+
+
+def _distinct_pins(pins: dict[str, str | None]) -> None:
+    """ESPHome refuses a pin used twice: the node's pins must be three (a usage error, exit 2)."""
+    from mdl.exports.esphome import same_pin
+
+    named = [(option, pin) for option, pin in pins.items() if pin is not None]
+    for i, (option, pin) in enumerate(named):
+        for other, pin2 in named[i + 1 :]:
+            if same_pin(pin, pin2):
+                raise click.UsageError(f"{option} {pin} and {other} {pin2} name one pin: each needs its own")

@@ -28,6 +28,7 @@ class Settings:
     board: str = "esp32dev"  # esphome: the ESP32 board (--board)
     tx_pin: str = "GPIO17"  # esphome: the UART's pins to the RS-485 transceiver (--tx-pin, --rx-pin)
     rx_pin: str = "GPIO16"
+    flow_control_pin: str | None = None  # esphome: the RS-485 transceiver's DE/RE pin (--flow-control-pin)
 
 
 @dataclass

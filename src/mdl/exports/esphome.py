@@ -3,8 +3,9 @@ modbus_controller (SPEC 11; docs/fleet.md, "ESPHome").
 
 The file is a whole node configuration: `esphome` (its name from the description's stem, friendly_name the
 device's name), `esp32` (--board), `uart` (--tx-pin, --rx-pin, and the line's --baud, --parity,
---stopbits, --bytesize), `modbus`, `modbus_controller` (address --unit, update_interval --interval), and
-one entity per function:
+--stopbits, --bytesize), `modbus` (`flow_control_pin`: --flow-control-pin, the RS-485 transceiver's DE/RE
+pin; every pin checked by `pin_problem` before it reaches the YAML), `modbus_controller` (address --unit,
+update_interval --interval), and one entity per function:
 - `sensor` for a readable number: `register_type` (holding, or read for an input register), `address`,
   `value_type` (esphome_types: U_WORD ... S_QWORD_R, FP32, FP32_R), a `bitmask` for an 8-bit value or a
   range of `bits`, `filters` (`multiply`, then `offset`: mdl's scale; a signed byte's sign), the unit in
@@ -24,6 +25,7 @@ Whatever ESPHome cannot express is said with one warning per kind of loss (base.
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -399,6 +401,22 @@ def _uart(settings: Settings, notes: Notes) -> Entity:
     }
 
 
+# a pin as ESPHome's esp32 component names one (gpio.py _translate_pin): GPIOn, a number, or a board's pin name
+PIN = re.compile(r"GPIO[0-9]{1,2}|[0-9]{1,2}|[A-Z][A-Z0-9_]{0,31}")
+
+
+def pin_problem(text: str) -> str | None:
+    """Why `text` is not a pin name the node can be written with (before it reaches the YAML), or None."""
+    if PIN.fullmatch(text):
+        return None
+    return f"{text[:40]!r} is no pin: give GPIOn (GPIO4), a number (4) or one of the board's pin names (D4, TX)"
+
+
+def same_pin(a: str, b: str) -> bool:
+    """Whether two pin names name one pin (GPIO4 and 4 do)."""
+    return a.removeprefix("GPIO").lstrip("0") == b.removeprefix("GPIO").lstrip("0") if a != b else True
+
+
 def export_esphome(resolved: ResolvedDevice, settings: Settings) -> Export:
     notes = Notes(resolved, ENGINE)
     uart = _uart(settings, notes)
@@ -416,7 +434,7 @@ def export_esphome(resolved: ResolvedDevice, settings: Settings) -> Export:
         "esphome": {"name": node_name(resolved.stem), "friendly_name": friendly},
         "esp32": {"board": settings.board, "framework": {"type": "esp-idf"}},
         "uart": uart,
-        "modbus": {},
+        "modbus": {"flow_control_pin": settings.flow_control_pin} if settings.flow_control_pin else {},
         "modbus_controller": [{"address": settings.unit, "update_interval": interval}],
     }
     for platform, found in entities.items():

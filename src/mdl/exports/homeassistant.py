@@ -22,20 +22,27 @@ one hub (named by the device's stem, with the connection of the command line) ho
   (`input_type` holding or input; binary_sensor.py: `registers[0] & 1`), read-only (a switch writes the
   whole register); any other bits, and a value scaled by another register (`scale_exponent`,
   `scale_by`: a sensor's scale and offset are constants), are left out with a warning;
+- a writable register of range 0..1 (minimum 0, maximum 1, unscaled, without labels: a relay, an enable) is
+  also a switch writing what mdl writes for 1 and 0 (command_on/command_off where not 1 and 0), with
+  `verify` where it can be read;
+- a thermostat (a writable set point in °C or °F with a room temperature Home Assistant reads alike, or the
+  thermostat profile's roles) is a `climate` (ha_climate): the set point its target temperature, the room
+  temperature its current one (which then has no sensor of its own: one entity per register), an
+  enumeration of HVAC modes or fan modes its hvac_mode_register or fan_mode_register;
 each with `name` (the function's), `unique_id` (stem, unit, identifier), `device_address` (--unit),
 `address` (the wire address) and `scan_interval` (--interval, whole seconds).
 
-Home Assistant's modbus integration has no writable number entity: a writable register is exported
-as a sensor, with a warning. Home Assistant loads one entity per register and table (its validator's
-key: hub, address, input_type or write_type, command_on/off, device_address; validators.py
-check_config): where two functions share one, the second is left out with a warning, as Home
-Assistant would drop it. Checked against Home Assistant 2024.3's own schema
-(homeassistant.components.modbus.CONFIG_SCHEMA) and its value rules (base_platform.py).
+Home Assistant's modbus integration has no writable number entity: any other writable register is exported
+as a sensor, with a warning naming the modbus.write_register action. Home Assistant loads one entity per
+register and table (its validator's key: hub, address, input_type or write_type, command_on/off,
+device_address; a climate's also its target, HVAC mode and fan mode registers; validators.py check_config):
+where two functions share one, the second is left out with a warning, as Home Assistant would drop it.
+Checked against Home Assistant 2024.3's own schema (homeassistant.components.modbus.CONFIG_SCHEMA) and its
+value rules (base_platform.py, climate.py).
 """
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -60,89 +67,29 @@ from mdl.exports.base import (
     write_code,
     written_by_fragment,
 )
+from mdl.exports.ha_climate import CURRENT_LEFT_OUT, WRITTEN, Climate, climate_of
+from mdl.exports.ha_types import NO_DATA_TYPE, ha_type, shape, unpacked
 from mdl.exports.ha_units import ROLE_CLASSES, ha_unit
+from mdl.ir.codec import CodecError, compile_encoder
 from mdl.model.layout import integer_range
 
 if TYPE_CHECKING:
     from mdl.exchange.export import Settings
-    from mdl.model.layout import Layout
     from mdl.resolver import ResolvedDevice, ResolvedFunction
 
 ENGINE = "Home Assistant"
-_TYPES = {
-    ("int", 16, True): "int16",
-    ("int", 16, False): "uint16",
-    ("int", 32, True): "int32",
-    ("int", 32, False): "uint32",
-    ("int", 64, True): "int64",
-    ("int", 64, False): "uint64",
-    ("float", 32, True): "float32",
-    ("float", 64, True): "float64",
-}
-_STRUCT = {
-    "int16": "h",
-    "uint16": "H",
-    "int32": "i",
-    "uint32": "I",
-    "int64": "q",
-    "uint64": "Q",
-    "float32": "f",
-    "float64": "d",
-}
 FLOAT_PRECISION = 2  # what Home Assistant shows of a float without precision
 MIN_SCAN = 5  # Home Assistant warns of a scan_interval under this many seconds
 # the hub's entity lists, by Home Assistant's platform names, in the order its validator reads them (const.PLATFORMS)
-_PLATFORM = {"binary_sensors": "binary_sensor", "sensors": "sensor", "switches": "switch"}
-_PLATFORM_ORDER = ("binary_sensors", "sensors", "switches")
+_PLATFORM = {"binary_sensors": "binary_sensor", "climates": "climate", "sensors": "sensor", "switches": "switch"}
+_PLATFORM_ORDER = ("binary_sensors", "climates", "sensors", "switches")
 _DEFAULTS: dict[str, dict[str, Any]] = {  # the schema's defaults that the validator's key reads (__init__.py)
     "binary_sensors": {"input_type": "coil"},
+    "climates": {"input_type": "holding"},
     "sensors": {"input_type": "holding"},
     "switches": {"write_type": "holding", "command_on": 1, "command_off": 0},
 }
 Entity = tuple["ResolvedFunction", dict[str, Any]]
-
-
-NO_DATA_TYPE = "no data_type holds its value"
-
-
-def _shape(lay: Layout) -> str:
-    return f"a {lay.bits}-bit {lay.kind} in {len(lay.addresses)} registers"
-
-
-def ha_type(lay: Layout) -> dict[str, Any] | str:
-    """data_type with its swap, count or structure, as Home Assistant reads the layout; or why none does
-    (NO_DATA_TYPE: `_shape` says what the value is)."""
-    n = len(lay.addresses)
-    if lay.unit in ("low", "high") or (n == 1 and lay.bits == 8):
-        code = "b" if lay.signed else "B"
-        low = lay.unit == "low" or (lay.unit == "word" and lay.byte_order == "big")
-        return {"data_type": "custom", "structure": f">x{code}" if low else f">{code}x", "count": 1}
-    swap = {
-        ("big", "big"): None,
-        ("little", "big"): "byte",
-        ("big", "little"): "word",
-        ("little", "little"): "word_byte",
-    }[(lay.byte_order, lay.word_order if n > 1 else "big")]
-    if lay.kind == "string":
-        if swap not in (None, "byte"):
-            return "text in more than one register never has its words swapped"
-        return {"data_type": "string", "count": n, **({"swap": swap} if swap else {})}
-    data_type = _TYPES.get((lay.kind, lay.bits, lay.signed))
-    if data_type is None or lay.bits != 16 * n:
-        return NO_DATA_TYPE
-    return {"data_type": data_type, **({"swap": swap} if swap else {})}
-
-
-def unpacked(kind: dict[str, Any], registers: tuple[int, ...]) -> Any:
-    """What Home Assistant unpacks from `registers` for a sensor of this kind (base_platform.py)."""
-    regs = list(registers)
-    if kind.get("swap") in ("byte", "word_byte"):
-        regs = [((r & 0xFF) << 8) | (r >> 8) for r in regs]
-    if kind.get("swap") in ("word", "word_byte"):
-        regs.reverse()
-    data = b"".join(r.to_bytes(2, "big") for r in regs)
-    structure = kind.get("structure") or ">" + _STRUCT[kind["data_type"]]
-    return struct.unpack(structure, data)[0]
 
 
 def _nan_value(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int | None:
@@ -200,10 +147,14 @@ def _precision(f: ResolvedFunction, kind: dict[str, Any], notes: Notes) -> int |
     return places or None
 
 
-def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str, Any] | None:
+def _sensor(
+    f: ResolvedFunction, base: dict[str, Any], notes: Notes, written: str | None = None
+) -> dict[str, Any] | None:
+    """A readable number or text as a sensor, or None (warned); `written`: what writes the function instead of the
+    modbus.write_register action (a switch, the climate), said in a note."""
     kind = ha_type(f.layout)
     if isinstance(kind, str):
-        notes.warn(f, f"{kind}: left out", _shape(f.layout) if kind == NO_DATA_TYPE else None)
+        notes.warn(f, f"{kind}: left out", shape(f.layout) if kind == NO_DATA_TYPE else None)
         return None
     entry = dict(base)
     entry["input_type"] = "input" if f.layout.table == "input" else "holding"
@@ -226,7 +177,11 @@ def _sensor(f: ResolvedFunction, base: dict[str, Any], notes: Notes) -> dict[str
         notes.warn(f, "a sensor has no enumeration: it shows the number, not the label")
     if kind["data_type"] == "string":
         notes.warn(f, "the text keeps the NUL padding that mdl strips")
-    if f.fn.writable:
+    if f.fn.writable and written == SWITCH:
+        pass  # its switch writes it (said there)
+    elif f.fn.writable and written is not None:
+        notes.note_for(f, WRITTEN, written)
+    elif f.fn.writable:
         notes.warn(
             f,
             "the modbus integration has no entity that writes a register value: exported as a sensor: "
@@ -321,13 +276,56 @@ def _write_detail(f: ResolvedFunction) -> str | None:
     return "its value a list of registers: function 16, as mdl writes it" if write_code(f) == 16 else None
 
 
-def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str, list[Entity]]:
-    out: dict[str, list[Entity]] = {"sensors": [], "binary_sensors": [], "switches": []}
+SWITCH = "its switch"  # what writes a two-state register (`_sensor`'s `written`)
+
+
+def _on_off(f: ResolvedFunction) -> tuple[int, int] | None:
+    """The register values mdl writes for 1 and 0, for a writable integer of one holding register whose range is
+    0..1 (minimum 0, maximum 1: a relay, an enable; unscaled, without labels), which a switch writes as its
+    command_on and command_off; None for any other function."""
+    lay = f.layout
+    if lay.table != "holding" or lay.kind != "int" or len(lay.addresses) != 1 or f.fn.bits is not None:
+        return None
+    if f.fn.values or scale_of(f) is not None or (f.fn.minimum, f.fn.maximum) != (0, 1) or f.codec.encode is None:
+        return None
+    encode = compile_encoder(f.codec, f.codec.encode)
+    try:
+        on, off = encode(1), encode(0)
+    except CodecError:
+        return None
+    return on[0], off[0]
+
+
+def _register_switch(
+    f: ResolvedFunction, base: dict[str, Any], on_off: tuple[int, int], notes: Notes
+) -> dict[str, Any]:
+    """A switch that writes a two-state register as mdl writes 1 and 0; `verify` reads the register back."""
+    switch = {**base, "write_type": _write_type(f)}
+    if on_off != (1, 0):
+        switch.update(command_on=on_off[0], command_off=on_off[1])
+    if not f.fn.readable:
+        notes.warn(f, "write-only: the switch shows the state it last wrote")
+        return switch
+    switch["verify"] = {}
+    if f.layout.unit != "word" or f.layout.bits != 16:
+        notes.warn(
+            f,
+            "a switch's verify compares the whole register, of which the function is one byte: where the other "
+            "byte is not 0 the switch keeps the state it showed (Home Assistant logs the register)",
+        )
+    return switch
+
+
+def _entities(
+    resolved: ResolvedDevice, settings: Settings, notes: Notes, climate: Climate | None
+) -> dict[str, list[Entity]]:
+    out: dict[str, list[Entity]] = {"sensors": [], "binary_sensors": [], "switches": [], "climates": []}
     scan = whole_seconds(settings, notes)
     if scan < MIN_SCAN:
         notes.device_warning(
             f"scan_interval {scan} is under {MIN_SCAN} seconds, which Home Assistant warns may make it unstable"
         )
+    written = climate.writes if climate is not None else {}
     for f in resolved.functions:
         if f.fn.readable and left_out_unreadable(f, notes):
             continue
@@ -337,6 +335,9 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
             "device_address": settings.unit,
             "address": f.layout.addresses[0],
         }
+        if climate is not None and f is climate.current:
+            notes.warn(f, CURRENT_LEFT_OUT, f"climate '{climate.target.name}'")
+            continue
         if f.fn.factor is not None:
             notes.warn(
                 f,
@@ -379,29 +380,55 @@ def _entities(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dic
             elif not f.fn.readable:
                 notes.warn(f, "neither readable nor writable here: left out")
             continue
+        on_off = _on_off(f) if writable and f.name not in written else None
+        if on_off is not None:
+            out["switches"].append((f, {**_register_switch(f, base, on_off, notes), "scan_interval": scan}))
         if not f.fn.readable:
-            notes.warn(
-                f,
-                f"write-only register: the modbus integration writes it only with {WRITE_ACTION}: left out",
-                _write_detail(f),
-            )
+            if on_off is None:
+                notes.warn(
+                    f,
+                    f"write-only register: the modbus integration writes it only with {WRITE_ACTION}: left out",
+                    _write_detail(f),
+                )
             continue
-        sensor = _sensor(f, base, notes)
+        sensor = _sensor(f, base, notes, SWITCH if on_off is not None else written.get(f.name))
         if sensor is not None:
             out["sensors"].append((f, {**sensor, "scan_interval": scan}))
+    if climate is not None:
+        target = climate.target
+        entity = {
+            "name": target.name,
+            "unique_id": f"{resolved.stem}_{settings.unit}_{target.ident}",
+            "device_address": settings.unit,
+            **climate.entity,
+            "scan_interval": scan,
+        }
+        out["climates"].append((target, entity))
     return {key: value for key, value in out.items() if value}
 
 
-def _key(hub: str, component: str, entity: dict[str, Any]) -> tuple[str, str]:
+HVAC_MODE_COUNT = 7  # Home Assistant's HVAC modes: a climate's target_temp_register is a list of this many
+
+
+def _keys(hub: str, component: str, entity: dict[str, Any]) -> tuple[list[str], str]:
     """Home Assistant's keys for an entity (validators.py check_config.validate_entity, its schema's
-    defaults filled in): its register key and its name key."""
+    defaults filled in): its register keys (a climate's also for its target, HVAC mode and fan mode registers)
+    and its name key."""
     filled = {**_DEFAULTS[component], **entity}
+    device = filled.get("device_address", 0)
     register = f"{hub}{filled['address']}"
     for conf in ("input_type", "write_type", "command_on", "command_off"):
         if conf in filled:
             register += f"_{filled[conf]}"
-    register += f"_{filled.get('device_address', 0)}"
-    return register, f"{_PLATFORM[component]}.{filled['name']}"
+    keys = [f"{register}_{device}"]
+    if component == "climates":
+        keys.append(f"{hub}{[filled['target_temp_register']] * HVAC_MODE_COUNT}_{device}")  # the schema's list
+        keys += [
+            f"{hub}{filled[conf]['address']}_{device}"
+            for conf in ("hvac_mode_register", "fan_mode_register")
+            if conf in filled
+        ]
+    return keys, f"{_PLATFORM[component]}.{filled['name']}"
 
 
 def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) -> dict[str, list[dict[str, Any]]]:
@@ -412,8 +439,8 @@ def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) 
     kept: dict[str, list[dict[str, Any]]] = {}
     for component in sorted(entities, key=_PLATFORM_ORDER.index):
         for f, entity in entities[component]:
-            register, name = _key(hub, component, entity)
-            first = registers.get(register)
+            keys, name = _keys(hub, component, entity)
+            first = next((registers[key] for key in keys if key in registers), None)
             if first is not None or name in names:
                 table = entity.get("input_type") or entity.get("write_type", "holding")
                 if first is not None:
@@ -428,7 +455,7 @@ def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) 
                     detail,
                 )
                 continue
-            registers[register] = f
+            registers.update(dict.fromkeys(keys, f))
             names.add(name)
             kept.setdefault(component, []).append(entity)
     return {component: kept[component] for component in entities if component in kept}
@@ -455,8 +482,13 @@ def _hub(resolved: ResolvedDevice, settings: Settings, notes: Notes) -> dict[str
 
 def export_homeassistant(resolved: ResolvedDevice, settings: Settings) -> Export:
     notes = Notes(resolved, ENGINE)
+    climate = climate_of(resolved, notes)
     hub = _hub(resolved, settings, notes)
-    entities = _drop_duplicates(hub["name"], _entities(resolved, settings, notes), notes)
+    entities = _drop_duplicates(hub["name"], _entities(resolved, settings, notes, climate), notes)
+    if climate is not None and "climates" not in entities:  # Home Assistant would drop it: no climate, then
+        notes = Notes(resolved, ENGINE)
+        hub = _hub(resolved, settings, notes)
+        entities = _drop_duplicates(hub["name"], _entities(resolved, settings, notes, None), notes)
     if not entities:
         raise nothing_left(resolved, ENGINE, notes)
     hub.update(entities)
