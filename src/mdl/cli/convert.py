@@ -241,6 +241,12 @@ def _pin(ctx: click.Context, param: click.Parameter, value: str | None) -> str |
     metavar="NAME|FILE.yaml",
     help="With --names roles: also give each role's value in the role's unit and sign (kW as W).",
 )
+@click.option("--tm", is_flag=True, help="wot: the device type's Thing Model instead of a Thing Description.")
+@click.option(
+    "--publish",
+    metavar="mqtt://HOST[:PORT]/PREFIX",
+    help="nodered: wire each poll's message to an MQTT broker (an mqtt out node).",
+)
 @fail_on_warning_option
 def export_(
     file: Path,
@@ -256,6 +262,8 @@ def export_(
     tx_pin: str,
     rx_pin: str,
     flow_control_pin: str | None,
+    tm: bool,
+    publish: str | None,
 ) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
@@ -293,11 +301,25 @@ def export_(
     if node and fmt.lower() != "esphome":
         raise click.UsageError(f"--{node[0].replace('_', '-')} sets the ESPHome node: it needs --to esphome")
     _distinct_pins({"--tx-pin": tx_pin, "--rx-pin": rx_pin, "--flow-control-pin": flow_control_pin})
+    if tm and fmt.lower() != "wot":
+        raise click.UsageError("--tm writes a WoT Thing Model: it needs --to wot")
+    if publish is not None and fmt.lower() != "nodered":
+        raise click.UsageError("--publish wires the Node-RED flow to a broker: it needs --to nodered")
     if connection is not None and connection.serial == LINE_ONLY and fmt.lower() != "esphome":
         line = next(n for n in SERIAL_OPTIONS if given(n) is not click.core.ParameterSource.DEFAULT)
         raise click.UsageError(line_needs_serial(line))  # only the ESPHome node is on a line it need not name
     settings = Settings(
-        connection, unit, interval or DEFAULT_INTERVAL, interval is not None, board, tx_pin, rx_pin, flow_control_pin
+        connection,
+        unit,
+        interval or DEFAULT_INTERVAL,
+        interval is not None,
+        board,
+        tx_pin,
+        rx_pin,
+        flow_control_pin,
+        thing_model=tm,
+        publish=publish,
+        profile=profile,
     )
     resolved = resolved_file(file)
     if profile is not None and names.lower() != "roles":

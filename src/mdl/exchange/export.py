@@ -29,6 +29,9 @@ class Settings:
     tx_pin: str = "GPIO17"  # esphome: the UART's pins to the RS-485 transceiver (--tx-pin, --rx-pin)
     rx_pin: str = "GPIO16"
     flow_control_pin: str | None = None  # esphome: the RS-485 transceiver's DE/RE pin (--flow-control-pin)
+    thing_model: bool = False  # wot: the device type's Thing Model, not a Thing Description (--tm)
+    publish: str | None = None  # nodered: the MQTT broker each poll's message goes to (--publish mqtt://...)
+    profile: str | None = None  # the profile the functions are named after (--names roles --profile NAME|FILE)
 
 
 @dataclass
