@@ -189,51 +189,61 @@ class Page:
         finally:
             c.FPDFText_ClosePage(text)
 
-    def _segments(self) -> Iterator[dict[str, Any]]:
+    def _objects(self) -> Iterator[tuple[Any, Matrix]]:
+        """The page's path objects, inside forms too (to _FORM_DEPTH), each with the matrix of the forms
+        around it."""
         c = self._c
+        path, form = c.FPDF_PAGEOBJ_PATH, c.FPDF_PAGEOBJ_FORM
+        get_type = c.FPDFPageObj_GetType
         page = self._page.raw
-        for i in range(c.FPDFPage_CountObjects(page)):
-            yield from self._object_edges(c.FPDFPage_GetObject(page, i), _IDENTITY, 0)
-
-    def _object_edges(self, obj: Any, outer: Matrix, depth: int) -> Iterator[dict[str, Any]]:
-        c = self._c
-        kind = c.FPDFPageObj_GetType(obj)
-        if kind == c.FPDF_PAGEOBJ_FORM:
-            fs = c.FS_MATRIX()
-            if depth < _FORM_DEPTH and c.FPDFPageObj_GetMatrix(obj, ctypes.byref(fs)):
-                m = _then((fs.a, fs.b, fs.c, fs.d, fs.e, fs.f), outer)
-                for k in range(c.FPDFFormObj_CountObjects(obj)):
-                    yield from self._object_edges(c.FPDFFormObj_GetObject(obj, k), m, depth + 1)
-            return
-        if kind != c.FPDF_PAGEOBJ_PATH:
-            return
-        fill, stroke = ctypes.c_int(), ctypes.c_int()
-        if not c.FPDFPath_GetDrawMode(obj, ctypes.byref(fill), ctypes.byref(stroke)):
-            return
-        if fill.value == 0 and not stroke.value:  # a path that paints nothing
-            return
-        # most rules are paths no wider or taller than a line (a thin filled box, a stroked line):
-        # their box, in the space of the form around them, is the edge, read in one call
-        bounds = [ctypes.c_float() for _ in range(4)]
-        if not c.FPDFPageObj_GetBounds(obj, *(ctypes.byref(v) for v in bounds)):
-            return
-        left, bottom, right, top = (v.value for v in bounds)
-        a, b, cc, d, e, f = _then(outer, self._ctm)
-        xs = [x * a + y * cc + e for x in (left, right) for y in (bottom, top)]
-        ys = [x * b + y * d + f for x in (left, right) for y in (bottom, top)]
-        x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
-        if x1 - x0 < _THIN and y1 - y0 < _THIN:
-            return  # a dot
-        if x1 - x0 < _THIN:
-            yield from _edge(((x0 + x1) / 2, y0), ((x0 + x1) / 2, y1))
-            return
-        if y1 - y0 < _THIN:
-            yield from _edge((x0, (y0 + y1) / 2), (x1, (y0 + y1) / 2))
-            return
         fs = c.FS_MATRIX()
-        if c.FPDFPageObj_GetMatrix(obj, ctypes.byref(fs)):
-            m = _then((fs.a, fs.b, fs.c, fs.d, fs.e, fs.f), outer)
-            yield from self._path_edges(obj, _then(m, self._ctm))
+        walks: list[tuple[Any, Matrix, int]] = [(None, _IDENTITY, 0)]  # (form or None: the page, matrix, depth)
+        while walks:
+            holder, outer, depth = walks.pop()
+            count = c.FPDFPage_CountObjects(page) if holder is None else c.FPDFFormObj_CountObjects(holder)
+            for i in range(count):
+                obj = c.FPDFPage_GetObject(page, i) if holder is None else c.FPDFFormObj_GetObject(holder, i)
+                kind = get_type(obj)
+                if kind == path:
+                    yield obj, outer
+                elif kind == form and depth < _FORM_DEPTH and c.FPDFPageObj_GetMatrix(obj, ctypes.byref(fs)):
+                    walks.append((obj, _then((fs.a, fs.b, fs.c, fs.d, fs.e, fs.f), outer), depth + 1))
+
+    def _segments(self) -> Iterator[dict[str, Any]]:
+        """Each painted path's level and plumb segments. Most rules are paths no wider or taller than a
+        line (a thin filled box, a stroked line): their box, in the space of the forms around them, is
+        the edge, read in one call; other paths segment by segment."""
+        c = self._c
+        draw_mode, get_bounds = c.FPDFPath_GetDrawMode, c.FPDFPageObj_GetBounds
+        fill, stroke = ctypes.c_int(), ctypes.c_int()
+        modes = (ctypes.byref(fill), ctypes.byref(stroke))
+        bounds = [ctypes.c_float() for _ in range(4)]
+        box = tuple(ctypes.byref(v) for v in bounds)
+        fs = c.FS_MATRIX()
+        outer_seen: Matrix | None = None
+        a = b = cc = d = e = f = 0.0
+        for obj, outer in self._objects():
+            if not draw_mode(obj, *modes) or (fill.value == 0 and not stroke.value):  # paints nothing
+                continue
+            if not get_bounds(obj, *box):
+                continue
+            if outer is not outer_seen:
+                a, b, cc, d, e, f = _then(outer, self._ctm)
+                outer_seen = outer
+            left, bottom, right, top = (v.value for v in bounds)
+            corners = ((left, bottom), (left, top), (right, bottom), (right, top))
+            xs = [x * a + y * cc + e for x, y in corners]
+            ys = [x * b + y * d + f for x, y in corners]
+            x0, x1, y0, y1 = min(xs), max(xs), min(ys), max(ys)
+            if x1 - x0 < _THIN and y1 - y0 < _THIN:
+                continue  # a dot
+            if x1 - x0 < _THIN:
+                yield from _edge(((x0 + x1) / 2, y0), ((x0 + x1) / 2, y1))
+            elif y1 - y0 < _THIN:
+                yield from _edge((x0, (y0 + y1) / 2), (x1, (y0 + y1) / 2))
+            elif c.FPDFPageObj_GetMatrix(obj, ctypes.byref(fs)):
+                m = _then((fs.a, fs.b, fs.c, fs.d, fs.e, fs.f), outer)
+                yield from self._path_edges(obj, _then(m, self._ctm))
 
     def _path_edges(self, obj: Any, m: Matrix) -> Iterator[dict[str, Any]]:
         c = self._c
