@@ -1,6 +1,7 @@
 """Documented examples as commands (docs/testing.md, "Documented examples"): the fenced blocks of a document,
 each runnable line a Command, and a Runner that runs them in a scratch folder as a reader would (sims in the
-background, a socat pair, cd kept)."""
+background, a socat pair, cd kept); `shows`, the check that an ```output block is what its command printed,
+and `unchecked_outputs`, the blocks that look like mdl's output without being checked."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import shlex
 import shutil
 import subprocess
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -25,7 +26,24 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 COPIED = ["examples", "tests/data", "tests/cpp"]  # what the examples name, copied into each scratch folder
 
 
-_FENCE = re.compile(r"^\s*(```|~~~)\s*([^\s`]*)")
+_FENCE = re.compile(r"^\s*(```|~~~)\s*([^\s`]*)\s*(.*?)\s*$")
+
+
+SHOWN_ONLY = "shown-only:"  # ```LANG shown-only: REASON: a block that shows mdl's output and cannot be checked
+
+
+_ELISION = re.compile(r"\.\.\.|…")  # in an ```output line: any text; a line of its own: any lines, none too
+
+
+_MDL_COMMAND = re.compile(r"mdl(?: |$)(?![a-z0-9-]+: )")  # `mdl sim x.xml`, not its `mdl sim: serving ...`
+
+
+# a line mdl prints: wrote FILE, [FILE:LINE:COL: ]error|warning|note: ..., mdl CMD: ..., N passed, M failed,
+# FILE: valid MDL ..., FILE: profile NAME: N of M roles
+_OUTPUT_LIKE = re.compile(
+    r"^(?:wrote \S|(?:\S+: ?)?(?:error|warning|note): |mdl [a-z0-9-]+: |\d+ passed, \d+ failed)"
+    r"|: valid MDL \d|: profile \S+: \d+ of \d+ roles"
+)
 
 
 _EXIT = re.compile(r"\bexit (\d+)\b")
@@ -85,16 +103,22 @@ class Block:
     lang: str
     line: int  # of its first content line
     lines: tuple[str, ...]
+    info: str = ""  # what the opening fence says after the language
+
+    @property
+    def shown_only(self) -> bool:
+        """Marked ```LANG shown-only: REASON: shows mdl's output that no test can reach (a real device)."""
+        return self.info.startswith(SHOWN_ONLY) and bool(self.info[len(SHOWN_ONLY) :].strip())
 
 
 def blocks(text: str) -> list[Block]:
-    found, current, start, lang = [], None, 0, ""
+    found, current, start, lang, info = [], None, 0, "", ""
     for number, line in enumerate(text.splitlines(), 1):
         fence = _FENCE.match(line)
         if current is None and fence:
-            current, start, lang = [], number + 1, fence.group(2)
-        elif current is not None and fence and not fence.group(2):
-            found.append(Block(lang, start, tuple(current)))
+            current, start, lang, info = [], number + 1, fence.group(2), fence.group(3)
+        elif current is not None and fence and not fence.group(2) and not fence.group(3):
+            found.append(Block(lang, start, tuple(current), info))
             current = None
         elif current is not None:
             current.append(line)
@@ -123,6 +147,67 @@ def doc_commands(text: str, name: str) -> list[Command]:
                     commands.append(found)
         previous = block.lang
     return commands
+
+
+def _output_like(block: Block) -> list[str]:
+    """The lines of a block (not ```sh, not ```output) that read as mdl's output: a line that is not a command,
+    or the comment of one (`mdl test x.xml   # 1 passed, 0 failed`)."""
+    found = []
+    for line in block.lines:
+        text = line.strip()
+        if block.lang == "sh" or text.startswith(("$ ", "> ")) or _MDL_COMMAND.match(text):
+            text = split_comment(text)[1]
+        if _OUTPUT_LIKE.search(text):
+            found.append(line.strip())
+    return found
+
+
+def unchecked_outputs(text: str, name: str) -> list[str]:
+    """Blocks that show mdl's output without a check: a block (other than ```output) holding a line that
+    reads as mdl's output (or a ```sh comment that does) and not marked ```LANG shown-only: REASON, and an
+    ```output block that follows no ```sh block."""
+    found, previous = [], ""
+    for block in blocks(text):
+        if block.lang == "output":
+            if previous != "sh":
+                found.append(f"{name}:{block.line}: an ```output block after no ```sh block is never checked")
+        elif not block.shown_only and (lines := _output_like(block)):
+            found.append(f"{name}:{block.line}: ```{block.lang} shows {lines[0]!r}")
+        previous = block.lang if block.lang != "output" else previous
+    return found
+
+
+def _squeezed(line: str) -> str:
+    return " ".join(line.split())
+
+
+def _line_matches(shown: str, printed: str) -> bool:
+    parts = _ELISION.split(_squeezed(shown))
+    return re.fullmatch(".*".join(map(re.escape, parts)), printed) is not None
+
+
+def shows(block: Sequence[str], stdout: str, stderr: str) -> bool:
+    """True when the ```output lines `block` are what a terminal shows of `stdout` and `stderr`: each
+    printed line once, whole (runs of spaces as one, blank lines aside), in its stream's order, the two
+    streams interleaved in any way. `...` (or `…`) in a line stands for any text; a line of its own
+    `...` for any lines, none too."""
+    streams = [[_squeezed(line) for line in text.splitlines() if line.strip()] for text in (stdout, stderr)]
+    out, err = streams
+    states = {(0, 0)}  # lines of stdout and of stderr shown so far, after each line of the block
+    for shown in filter(str.strip, block):
+        if _squeezed(shown) in ("...", "…"):  # any lines: every state at or past one reached
+            least, after = len(err) + 1, set()
+            for j in range(len(out) + 1):
+                least = min([least, *(k0 for j0, k0 in states if j0 == j)])
+                after |= {(j, k) for k in range(least, len(err) + 1)}
+            states = after
+            continue
+        states = {(j + 1, k) for j, k in states if j < len(out) and _line_matches(shown, out[j])} | {
+            (j, k + 1) for j, k in states if k < len(err) and _line_matches(shown, err[k])
+        }
+        if not states:
+            return False
+    return (len(out), len(err)) in states
 
 
 def unmarked_examples(text: str, name: str) -> list[str]:
@@ -173,11 +258,17 @@ class Runner:
             if self.line is not None:
                 self.line.close()
 
-    def _real(self, text: str) -> str:
-        """The text with the ports and pseudo terminals the docs name replaced by the real ones."""
-        for named, real in self.names.items():
-            text = re.sub(rf"(?<![\w./-]){re.escape(named)}(?![\w./-])", real, text)
-        return text
+    def _real(self, text: str, printed: bool = False) -> str:
+        """The text with the ports and pseudo terminals the docs name replaced by the real ones; in what a
+        command prints (`printed`), a port only as HOST:PORT (`it listens on 5020` stays)."""
+        if not self.names:
+            return text
+        named = [
+            (rf"(?<=:){re.escape(name)}" if printed and name.isdigit() else rf"(?<![\w./-]){re.escape(name)}")
+            + r"(?![\w./-])"
+            for name in sorted(self.names, key=len, reverse=True)
+        ]  # all at once: /dev/pts/3 -> /dev/pts/4 must not go on to /dev/pts/4 -> /dev/pts/5
+        return re.sub("|".join(named), lambda m: self.names[m.group(0)], text)
 
     def _take_pseudo_terminals(self, code: str) -> None:
         for pts in _PTS.findall(code):
@@ -197,11 +288,12 @@ class Runner:
         parts = re.split(r"\s+&&\s+", self._real(cmd.code))
         for part in parts[:-1]:
             self._one(replace(cmd, code=part, background=False, status=0, output=()))
-        self._one(replace(cmd, code=parts[-1], output=tuple(map(self._real, cmd.output))))
+        self._one(replace(cmd, code=parts[-1]))  # its output's names are made real once they are known
         self.ran += 1
 
     def _one(self, cmd: Command) -> None:
         words = cmd.words
+        assert not (cmd.output and (words[0] == "cd" or cmd.code == _SOCAT_PAIR)), f"{cmd.where}: no output to check"
         if words[0] == "cd":
             self.cwd = (self.cwd / words[1]).resolve()
             assert self.cwd.is_relative_to(self.top) and self.cwd.is_dir(), (cmd.where, self.cwd)
@@ -221,9 +313,9 @@ class Runner:
         shown = f"{cmd.where}: {cmd.code}\n{proc.stdout}{proc.stderr}"
         assert proc.returncode == cmd.status, (proc.returncode, shown)
         assert "Traceback" not in proc.stderr, shown
-        printed = " ".join((proc.stdout + proc.stderr).split())
-        for line in cmd.output:
-            assert " ".join(line.split()) in printed, (line, shown)
+        if cmd.output:
+            cmd = replace(cmd, output=tuple(self._real(line, printed=True) for line in cmd.output))
+            assert shows(cmd.output, proc.stdout, proc.stderr), _differs(cmd, proc.stdout, proc.stderr)
 
     def _shell(self, cmd: Command, program: str) -> subprocess.CompletedProcess[str]:
         if "/" not in program and program != "mdl" and shutil.which(program) is None:
@@ -263,6 +355,18 @@ class Runner:
         self.sims.append(sim)
         if port and port != "0":
             self.names[port] = str(sim.port)
+        if cmd.output:  # what it printed when ready: its serving lines (stderr is read when it stops)
+            output = tuple(self._real(line, printed=True) for line in cmd.output)
+            printed = "\n".join(sim.ready_lines)
+            assert shows(output, printed, ""), _differs(replace(cmd, output=output), printed, "")
+
+
+def _differs(cmd: Command, stdout: str, stderr: str) -> str:
+    return (
+        f"{cmd.where}: {cmd.code}\nthe ```output block (each line whole, in order; `...` for lines left out):\n"
+        + "\n".join(cmd.output)
+        + f"\n--- what it printed, stdout:\n{stdout}--- stderr:\n{stderr}"
+    )
 
 
 def _tokens(code: str) -> list[str]:
