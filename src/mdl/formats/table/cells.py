@@ -155,6 +155,9 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
     second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
     wire address in brackets: the bracket wins, and the two must agree); `35.` is 35."""
     text = squeeze(unlisted(text))
+    iec = [p for p in re.split(r"\s*\n\s*", text.strip()) if p]
+    if iec and all(_IEC.match(p) for p in iec):
+        return _iec_address(text, iec)
     m = bit_of(text)
     if m:
         addresses, table = parse_addresses(m.group(1), base)
@@ -186,6 +189,36 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
             raise CellError(f"address {wire} is over {MAX_ADDRESS}")
         return AddressCell([wire], table)
     return AddressCell(*parse_addresses(text, base))
+
+
+# IEC 61131-3's based numbers, as Schneider's drives print addresses: `16#2136`, with the decimal after
+# it (`16#2136 = 08502`) and a remark (`16#219B = 8603 (speed)`)
+_IEC = re.compile(r"^(2|8|16)#([0-9A-Fa-f][0-9A-Fa-f_]*)(?:\s*=\s*([0-9]+))?(?:\s*\(([^()]{0,40})\))?$")
+
+
+def _iec_address(text: str, lines: list[str]) -> AddressCell:
+    """`16#2136` or `16#2136 = 08502` (the two must agree) -> the address; a cell with one such address on
+    each of several lines names one register per remark (`(speed)`, `(frequency)`: the drive's profile),
+    not a list: an error saying so (the row is skipped; `[function NAME] addresses =` gives the one meant)."""
+    if len(lines) > 1:
+        remarks = [m.group(4) for m in map(_IEC.match, lines) if m and m.group(4)]
+        why = f", one for each of {', '.join(repr(r) for r in remarks)}" if remarks else ""
+        raise CellError(
+            f"{shown(' '.join(text.split()))} names {len(lines)} addresses{why}: one register is meant "
+            "(give it in [function NAME] addresses =)"
+        )
+    m = _IEC.match(lines[0])
+    assert m is not None
+    radix, digits, decimal = int(m.group(1)), m.group(2).replace("_", ""), m.group(3)
+    try:
+        address = int(digits, radix)
+    except ValueError:
+        raise CellError(f"{shown(lines[0])}: {digits!r} is not a base-{radix} number") from None
+    if decimal is not None and int(decimal) != address:
+        raise CellError(f"{shown(lines[0])}: {m.group(1)}#{digits} is {address}, not {int(decimal)}")
+    if address > MAX_ADDRESS:
+        raise CellError(f"address {address} is over {MAX_ADDRESS}")
+    return AddressCell([address], None)
 
 
 def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
@@ -324,7 +357,32 @@ def read_type(text: str) -> TypeCell:
     for rx, fmt in _FORMATS:
         if rx.match(t):
             return TypeCell(fmt, widthless=bool(_WIDTHLESS.match(t)))
+    m = _REMARKED.match(t)
+    if m:  # `INT (Signed16)`, `WORD (BitString16)`, `UINT (Unsigned16)`: a type and what it is, in brackets
+        return _remarked(text, m.group(1), m.group(2))
     raise CellError(f"unknown format {shown(text.strip())}")
+
+
+_REMARKED = re.compile(r"^([^()]+?)\s*\(([^()]{1,40})\)$")
+
+
+def _remarked(text: str, outer: str, inner: str) -> TypeCell:
+    """A type with a remark in brackets (Schneider's `INT (Signed16)`): the remark where it is a type of
+    its own with a width (it says more), and it must be the type's; else the type, the remark a word of
+    the vendor's (`WORD (Enumeration)`, `WORD (BitString16)`)."""
+    try:
+        typed = read_type(outer)
+    except CellError:
+        raise CellError(f"unknown format {shown(text.strip())}") from None
+    try:
+        said = read_type(inner)
+    except CellError:
+        return typed
+    if said.widthless:
+        return typed
+    if said.format == typed.format or (typed.widthless and said.format.startswith(typed.format.rstrip("0123456789"))):
+        return said  # INT (Signed16), UINT (Unsigned16): the width the type leaves out
+    raise CellError(f"{shown(text.strip())}: {outer} and {inner} are not one format ({typed.format}, {said.format})")
 
 
 @dataclass(frozen=True)

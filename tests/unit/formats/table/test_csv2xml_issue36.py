@@ -7,6 +7,7 @@ type over a count of registers, and --all keeping a row's own name over a simila
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -225,3 +226,57 @@ def test_a_bit_address_of_a_byte_format_is_that_byte(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert (fns["high"]["length"], fns["high"]["format"], "bits" in fns["high"]) == ("Upper byte", "UINT8", False)
     assert (fns["low"]["length"], fns["low"]["format"], "bits" in fns["low"]) == ("Lower byte", "INT8", False)
+
+
+@pytest.mark.parametrize(
+    ("cell", "addresses"),
+    [("16#2136", [8502]), ("16#2136 = 08502", [8502]), ("16#0C84 = 03204", [3204]), ("8#17", [15]), ("35.", [35])],
+)
+def test_iec_based_numbers_and_numbered_lists_are_addresses(cell, addresses):
+    """Schneider's logic addresses (IEC 61131-3 based numbers, with the decimal beside them) and a number
+    written as a numbered list (Growatt's `35.`)."""
+    from mdl.formats.table.cells import read_address_cell
+
+    assert read_address_cell(cell).addresses == addresses
+
+
+@pytest.mark.parametrize(
+    ("cell", "message"),
+    [
+        ("16#2136 = 08503", "16#2136 is 8502, not 8503"),
+        (
+            "16#219B = 8603 (speed)\n16#0C81 = 3201 (frequency)",
+            "names 2 addresses, one for each of 'speed', 'frequency'",
+        ),
+        ("16#FFFFF", "address 1048575 is over 65535"),
+    ],
+)
+def test_iec_addresses_that_say_two_things_are_refused(cell, message):
+    from mdl.formats.table.cells import CellError, read_address_cell
+
+    with pytest.raises(CellError, match=re.escape(message)):
+        read_address_cell(cell)
+
+
+@pytest.mark.parametrize(
+    ("cell", "fmt"),
+    [
+        ("INT (Signed16)", "INT16"),
+        ("UINT (Unsigned16)", "UINT16"),
+        ("DINT (Signed32)", "INT32"),
+        ("WORD (BitString16)", "UINT16"),
+        ("WORD (Enumeration)", "UINT16"),
+    ],
+)
+def test_a_type_with_its_kind_in_brackets_is_read(cell, fmt):
+    from mdl.formats.table.cells import read_type
+
+    typed = read_type(cell)
+    assert typed.format == fmt and not typed.widthless
+
+
+def test_a_type_whose_bracket_says_another_is_refused():
+    from mdl.formats.table.cells import CellError, read_type
+
+    with pytest.raises(CellError, match="INT and Unsigned16 are not one format"):
+        read_type("INT (Unsigned16)")

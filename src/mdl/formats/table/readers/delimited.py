@@ -187,7 +187,9 @@ HEADER_SYNONYMS = {
 
 # words around a header that say how a column is written, not what it holds: 'Modbus Protocol Start
 # Address Hex' is an address column (whose header says hex: see address_base.guess_address_base)
-QUALIFIERS = frozenset(("modbus", "protocol", "start", "starting", "hex", "hexadecimal", "dec", "decimal"))
+QUALIFIERS = frozenset(
+    ("modbus", "protocol", "start", "starting", "hex", "hexadecimal", "dec", "decimal", "logic", "logical")
+)  # words beside a header word that leave its meaning (Schneider's "Logic address" is the address)
 
 
 def normalize_header(text: str) -> str:
