@@ -1,7 +1,7 @@
 """A poll's records (issue 29): `output.record` prints json, csv, table and senml from a plan worked out
 once per list of functions, and writes out the JSON of a poll of finite numbers itself; for any functions
 and values it must print what the plain construction from the one-value helpers prints (`json_value`,
-`shown`, `_cell`, `_shown_text`, `_csv_line`, `_table`, `senml`, with json.dumps), and a second record of
+`shown`, `_cell`, `shown_text`, `_csv_line`, `_table`, `senml`, with json.dumps), and a second record of
 the same list (the plan reused) what a fresh list prints."""
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def oracle(functions: list[Function], values: dict, fmt: str, when: datetime, na
         return output._csv_line(
             [output.iso_time(when), *(output._cell(output.shown(fn, values[fn.name])) for fn in functions)]
         )
-    rows = [(fn.name, output._shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
+    rows = [(fn.name, output.shown_text(fn, values[fn.name]), (fn.units or "").strip()) for fn in functions]
     return output._table([(output.TIME_KEY, output.iso_time(when), ""), *rows]) + "\n"
 
 
