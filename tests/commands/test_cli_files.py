@@ -453,5 +453,5 @@ def test_every_command_that_writes_says_so_on_stderr_and_quiet_silences_it(tmp_p
 def test_every_command_takes_quiet():
     from mdl.cli import main
 
-    lacking = [name for name, cmd in main.commands.items() if not any(p.name == "quiet" for p in cmd.params)]
+    lacking = [name for name, cmd in main.every_command().items() if not any(p.name == "quiet" for p in cmd.params)]
     assert not lacking

@@ -68,7 +68,7 @@ def _ipv6_loopback() -> bool:
 
 
 def _choice_params():
-    for name, command in main.commands.items():
+    for name, command in main.every_command().items():
         for param in command.params:
             if isinstance(param.type, click.Choice):
                 yield f"{name} {param.opts[0]}", param.type

@@ -19,7 +19,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mdl.device import output
-from mdl.device.fleet.run import device_ids, looks_like_target, parse_target
+from mdl.device.connection import looks_like_target
+from mdl.device.fleet.run import device_ids, parse_target
 from mdl.model import Function
 from support.common import DATA
 from support.devices import read_lines

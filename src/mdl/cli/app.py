@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import importlib
 import logging
 import sys
 from collections.abc import Iterator
@@ -39,11 +40,45 @@ def collector_paused() -> Iterator[None]:
             gc.enable()
 
 
+# each command's module, imported when the command is asked for (a one-shot `mdl read` imports neither the
+# converters nor the exporters; `mdl --help` imports them all, for their one-line help)
+COMMANDS = {
+    "csv2xml": "mdl.cli.convert",
+    "import": "mdl.cli.convert",
+    "export": "mdl.cli.convert",
+    "gen": "mdl.cli.gen",
+    "validate": "mdl.cli.validate",
+    "profiles": "mdl.cli.validate",
+    "test": "mdl.cli.scenarios",
+    "sim": "mdl.cli.live",
+    "read": "mdl.cli.live",
+    "write": "mdl.cli.live",
+    "serve": "mdl.cli.live",
+    "discover": "mdl.cli.survey",
+    "probe": "mdl.cli.survey",
+    "capture": "mdl.cli.survey",
+    "examples": "mdl.cli.examples",
+}
+
+
 class Group(click.Group):
     def add_command(self, cmd: click.Command, name: str | None = None) -> None:
         if not any(param.name == "quiet" for param in cmd.params):
             cmd.params.append(quiet_option())
         super().add_command(cmd, name)
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(self.commands) | set(COMMANDS))
+
+    def every_command(self) -> dict[str, click.Command]:
+        """Each command by name, every module imported (help, completion and the tests' checks)."""
+        ctx = click.Context(self)
+        return {name: cmd for name in self.list_commands(ctx) if (cmd := self.get_command(ctx, name)) is not None}
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.commands and cmd_name in COMMANDS:
+            importlib.import_module(COMMANDS[cmd_name])  # its module registers it on `main`
+        return self.commands.get(cmd_name)
 
     def invoke(self, ctx: click.Context) -> Any:
         gc.set_threshold(*GC_THRESHOLDS)

@@ -12,10 +12,10 @@ import click
 from mdl.cli.app import main
 from mdl.cli.options import INPUT, InputOrTarget, connection_options, fail_on_warning_option, stdin_once, unit_option
 from mdl.cli.printer import resolved_file, say
-from mdl.device.connection import Connection
+from mdl.device.connection import TARGET_FORMS, Connection, looks_like_target
 
 if TYPE_CHECKING:
-    from mdl.device.fleet.run import Target
+    from mdl.device.fleet.run import Sink, Target
     from mdl.device.survey.rawread import RawRange, RawSession
     from mdl.model import Function
     from mdl.resolver import ResolvedDevice
@@ -259,19 +259,31 @@ def _sim_units(units: tuple[int, ...], files: int) -> list[int]:
     metavar="S",
     help="Poll: read every S seconds (start to start) and print a record each time, until SIGINT.",
 )
-@click.option("--count", type=click.IntRange(1), metavar="N", help="With --interval: stop after N polls.")
+@click.option(
+    "--count",
+    type=click.IntRange(1),
+    metavar="N",
+    help="With --interval or --inventory: stop after N polls (each device's).",
+)
 @click.option(
     "--publish",
     multiple=True,
     metavar="URL",
-    help="With --interval: send each poll on: mqtt://HOST[:PORT]/PREFIX (MQTT, Home Assistant discovery; "
-    "mqtts:// with TLS), prometheus://[HOST]:PORT (metrics of the last poll). See docs/fleet.md.",
+    help="With --interval or --inventory: send each poll on: mqtt://HOST[:PORT]/PREFIX (MQTT, Home Assistant "
+    "discovery; mqtts:// with TLS), prometheus://[HOST]:PORT (metrics of the last poll). See docs/fleet.md.",
 )
 @click.option(
     "--mqtt-ca",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     metavar="FILE",
     help="With --publish mqtts://: trust only the CA certificates (PEM) in FILE, not the system's.",
+)
+@click.option(
+    "--inventory",
+    type=INPUT,
+    metavar="FLEET.yaml|FLEET.csv",
+    help="Poll every device the inventory names, each on its own interval, until SIGINT/SIGTERM (or --count "
+    "polls each); NAMES are functions of every device. See docs/fleet.md, Inventory.",
 )
 @fail_on_warning_option
 def read(
@@ -288,6 +300,7 @@ def read(
     count: int | None,
     publish: tuple[str, ...],
     mqtt_ca: Path | None,
+    inventory: Path | None,
 ) -> None:
     """Read functions (all readable ones by default) with the coalesced read plan.
 
@@ -323,19 +336,24 @@ def read(
       $ mdl read meter.xml@tcp://192.0.2.10:502#3 'meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2' --interval 5
       $ mdl read examples/temco_tstat/temco_tstat.xml --host 192.0.2.10 --interval 10 --publish mqtt://localhost/mdl
       $ mdl read meter.xml@tcp://192.0.2.10#1 meter.xml@tcp://192.0.2.10#2 --interval 15 --publish prometheus://:9105
-    """
-    from mdl.device import output
-    from mdl.device.fleet.poll import poll
-    from mdl.device.runtime import Session
 
+    \b
+    A site's inventory (docs/fleet.md, Inventory): every device it names on its own interval, records
+    {"time", "device": ID, "values"}; a device that fails 3 polls in a row is polled again after 2, 4, 8 ...
+    intervals (at most 10 minutes apart), said once on stderr as it goes (ID: backing off: ...) and once as
+    it comes back (ID: answering again):
+      $ mdl read --inventory examples/fleet/site.yml --format json --publish mqtt://broker.lan/site1
+    """
+    if mqtt_ca is not None and not any(url.lower().startswith("mqtts://") for url in publish):
+        raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
+    if inventory is not None:
+        _refuse_beside_inventory(file, connection, raw, (as_type, word_order, byte_order), interval)
+        names = (str(file), *names) if file is not None else names
+        sys.exit(_read_inventory(inventory, names, fmt, count, publish, mqtt_ca))
     if count is not None and interval is None:
         raise click.UsageError("--count needs --interval (polling)")
     if publish and interval is None:
         raise click.UsageError("--publish needs --interval (polling)")
-    if mqtt_ca is not None and not any(url.lower().startswith("mqtts://") for url in publish):
-        raise click.UsageError("--mqtt-ca goes with --publish mqtts://...")
-    from mdl.device.fleet.run import looks_like_target
-
     address = next((n for n in names if _ADDRESS.fullmatch(n)), None)
     if address is not None:  # no function is named so: a connection written where NAMES go
         raise click.UsageError(f"'{address}' looks like where the device is, not a function: write --host {address}")
@@ -352,19 +370,24 @@ def read(
     for option, value in (("--as", as_type), ("--word-order", word_order), ("--byte-order", byte_order)):
         if value is not None:
             raise click.UsageError(f"{option} goes with --raw (a description says how its values are read)")
+    from mdl.device import output
+    from mdl.device.runtime import Session
+
     resolved = resolved_file(file)  # the one resolve: the session reads this
     device = resolved.device
     functions = device.select(names)
     if interval is not None:
+        from mdl.device.fleet.poll import poll
+
         sys.exit(poll(Session(resolved, connection, unit), functions, fmt, interval, count))
     with Session(resolved, connection, unit) as session:
         values = session.read(functions)
     click.echo(output.render(functions, values, fmt, device.name), nl=False)
 
 
-_ADDRESS = re.compile(
-    r"(localhost|\d{1,3}(\.\d{1,3}){3}|\[[0-9a-fA-F:]+\]|[\w.-]+\.[a-z]{2,})(:\d{1,5})?|[\w.-]+:\d{1,5}"
-)
+# a connection written where NAMES go: localhost, an IPv4 or [IPv6] address, or any HOST:PORT (a function's
+# name may hold dots, never a colon and digits at its end)
+_ADDRESS = re.compile(r"(localhost|\d{1,3}(\.\d{1,3}){3}|\[[0-9a-fA-F:]+\])(:\d{1,5})?|[\w.-]+:\d{1,5}")
 NO_CONNECTION = "no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"
 
 
@@ -380,7 +403,7 @@ def _targets(file: str, names: tuple[str, ...], connection: Connection | None) -
     if click.get_current_context().get_parameter_source("unit") is not ParameterSource.DEFAULT:
         raise click.UsageError("--unit: a target gives its unit id as FILE@CONNECTION#UNIT")
     targets = []
-    for text in [file, *(n for n in names if fleet.looks_like_target(n))]:
+    for text in [file, *(n for n in names if looks_like_target(n))]:
         try:
             targets.append(fleet.parse_target(text))
         except ValueError as exc:
@@ -404,21 +427,14 @@ def _read_targets(
 
     if isinstance(file, str):
         targets = _targets(file, names, connection)
-        names = tuple(n for n in names if not fleet.looks_like_target(n))
-    elif any(fleet.looks_like_target(n) for n in names) or file is None:
-        raise click.UsageError(f"several devices are each {fleet.TARGET_FORMS}")
+        names = tuple(n for n in names if not looks_like_target(n))
+    elif any(looks_like_target(n) for n in names) or file is None:
+        raise click.UsageError(f"several devices are each {TARGET_FORMS}")
     elif connection is None:
         raise click.UsageError(NO_CONNECTION)
     else:
         targets = [fleet.Target(str(file), file, connection, unit)]
-    from mdl.exports.ha_units import ha_unit
-
-    sinks: list[fleet.Sink] = []
-    for url in publish:
-        try:
-            sinks.append(fleet.publisher(url, sys.stderr, ha_unit, mqtt_ca))
-        except ValueError as exc:
-            raise click.BadParameter(f"{fleet.redacted(url)!r}: {exc}", param_hint="'--publish'") from None
+    sinks = _publishers(publish, mqtt_ca)
     files: dict[Path, ResolvedDevice] = {}
     polled = []
     for target in targets:
@@ -436,6 +452,67 @@ def _read_targets(
     printer = fleet.Printer(fmt, len(targets) > 1, sys.stdout, sys.stderr)
     # publishers take each poll before it is printed: a record on stdout means every publisher holds it
     return fleet.poll_fleet(polled, [*sinks, printer], interval or 1.0, count if interval is not None else 1)
+
+
+def _publishers(publish: tuple[str, ...], mqtt_ca: Path | None) -> list[Sink]:
+    """The sinks --publish names; a usage error (never quoting a password) for a URL that is not one."""
+    from mdl.device.fleet import run as fleet
+    from mdl.exports.ha_units import ha_unit
+
+    sinks: list[fleet.Sink] = []
+    for url in publish:
+        try:
+            sinks.append(fleet.publisher(url, sys.stderr, ha_unit, mqtt_ca))
+        except ValueError as exc:
+            raise click.BadParameter(f"{fleet.redacted(url)!r}: {exc}", param_hint="'--publish'") from None
+    return sinks
+
+
+def _refuse_beside_inventory(
+    file: Path | str | None,
+    connection: Connection | None,
+    raw: tuple[str, ...],
+    how: tuple[str | None, ...],
+    interval: float | None,
+) -> None:
+    """Usage errors for what an inventory gives itself (its devices, their connections and intervals)."""
+    from click.core import ParameterSource
+
+    if isinstance(file, str):
+        raise click.UsageError(f"{file!r}: --inventory names the devices; leave out FILE@CONNECTION targets")
+    if connection is not None:
+        raise click.UsageError("--inventory gives each device its connection: leave out --host and --serial")
+    if click.get_current_context().get_parameter_source("unit") is not ParameterSource.DEFAULT:
+        raise click.UsageError("--inventory gives each device its unit: leave out --unit")
+    if interval is not None:
+        raise click.UsageError("--inventory gives each device its interval (or its defaults): leave out --interval")
+    if raw or any(how):
+        raise click.UsageError("--raw (--as, --word-order, --byte-order) reads no description: not with --inventory")
+
+
+def _read_inventory(
+    path: Path, names: tuple[str, ...], fmt: str, count: int | None, publish: tuple[str, ...], mqtt_ca: Path | None
+) -> int:
+    """`mdl read --inventory FILE`: every device of the inventory polled on its own interval, backed off while
+    it fails (mdl.device.fleet.run), records naming it by its id; the exit status."""
+    from mdl.cli.inventory import load_members
+    from mdl.device.fleet import run as fleet
+    from mdl.device.fleet.inventory import DEFAULT_INTERVAL
+
+    sinks = _publishers(publish, mqtt_ca)
+    members = load_members(path)
+    polled = []
+    for member in members:
+        entry = member.entry
+        target = fleet.Target(entry.id, entry.description, entry.connection, entry.unit)
+        functions = member.resolved.device.select(names)
+        polled.append(fleet.Polled(target, member.resolved, functions, entry.id, entry.interval))
+    printer = fleet.Printer(fmt, True, sys.stdout, sys.stderr)
+    # publishers take each poll before it is printed, as for targets
+    status = fleet.poll_fleet(polled, [*sinks, printer], DEFAULT_INTERVAL, count)
+    # a site's poller ends on SIGINT/SIGTERM with exit 0 whatever its devices do (SPEC 15): a dead device
+    # is said on stderr, not in the status; --count (a test's bounded run) says 3 if a last poll failed
+    return status if count is not None else 0
 
 
 @main.command()
@@ -496,7 +573,6 @@ def raw_read(
     """`mdl read` without FILE: read (or poll) the `--raw` ranges and print them; the exit status. Usage
     errors (click's, exit 2) for no FILE and no --raw, FILE and --raw together, a bad range or --as."""
     from mdl.device import output
-    from mdl.device.fleet.poll import poll
     from mdl.device.survey.rawread import AS_TYPES, RawSession, modicon_hint, parse_raw_range, raw_device, raw_functions
     from mdl.diagnostics import DeviceError
 
@@ -517,6 +593,8 @@ def raw_read(
     resolved = raw_device(functions)
     session = RawSession(resolved, connection, unit, as_type)
     if interval is not None:
+        from mdl.device.fleet.poll import poll
+
         status = poll(session, functions, fmt, interval, count)
         _say_refused(functions, session, ranges)
         return status

@@ -44,7 +44,7 @@ class InputOrTarget(click.Path):
         super().__init__(path_type=Path, allow_dash=True, readable=False)
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Path | str:
-        from mdl.device.fleet.run import looks_like_target
+        from mdl.device.connection import looks_like_target
 
         if isinstance(value, str) and looks_like_target(value):
             return value

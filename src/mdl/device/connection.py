@@ -11,6 +11,7 @@ with what opens it (a pymodbus client or server, the serial device); the command
 from __future__ import annotations
 
 import os
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -190,6 +191,17 @@ class Connection(Endpoint):
         if self.rtu:
             return "check the unit id, and the converter's baud rate and parity"
         return ""
+
+
+_AT = re.compile(r"@(?=(?:tcp|rtu\+tcp|rtu)://)")  # FILE@CONNECTION: where the connection starts
+TARGET_FORMS = (
+    "FILE@tcp://HOST[:PORT][#UNIT], FILE@rtu+tcp://HOST[:PORT][#UNIT] or FILE@rtu://DEVICE[?baud=B&parity=P][#UNIT]"
+)
+
+
+def looks_like_target(text: str) -> bool:
+    """Whether a command-line argument is a FILE@CONNECTION target (not a file or a function name)."""
+    return _AT.search(text) is not None
 
 
 def parse_connection(url: str, **defaults: Any) -> tuple[Connection, int | None]:

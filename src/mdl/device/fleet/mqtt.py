@@ -69,6 +69,7 @@ REFUSALS = {
     140: "bad authentication method",
 }
 _PLAIN = re.compile(r"[A-Za-z0-9_]+")
+_NODE = re.compile(r"[A-Za-z0-9_-]+")  # the characters of Home Assistant's node ids
 Message = tuple[str, bytes]
 
 
@@ -158,7 +159,10 @@ def node_id(prefix: str, ident: str) -> str:
     """A device's node in Home Assistant's discovery topics and ids: the prefix and the device, distinct for
     every (prefix, device) and the same on every run. A prefix of letters, digits and `_` is itself
     (`site1-meter`); another is spelled so and followed by a digest of it (`site_hall-1c2d3e4f-meter`).
-    Device names are identifiers (no `-`), so the last `-` parts them."""
+    An inventory's device id may hold `.`, which Home Assistant's node ids may not: it is spelled `_` and
+    followed by a digest of the id (`meter_3_9f8e7d6c` for `meter.3`), so `meter.3` and `meter_3` differ."""
+    if not _NODE.fullmatch(ident):
+        ident = f"{re.sub(r'[^A-Za-z0-9_-]', '_', ident)}_{hashlib.sha256(ident.encode()).hexdigest()[:8]}"
     if _PLAIN.fullmatch(prefix):
         return f"{prefix}-{ident}"
     digest = hashlib.sha256(prefix.encode()).hexdigest()[:8]

@@ -4,17 +4,18 @@ FILE@CONNECTION[#UNIT]...`, and `mdl read ... --interval S --publish URL`.
 A target is a description and where its device is: `meter.xml@tcp://10.0.0.5:502#3`,
 `meter.xml@rtu+tcp://10.0.0.6:4001#2` (RTU frames over TCP), `meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2`.
 Each target is polled by its own asyncio task on one event loop, on its own schedule (start to start,
-as mdl.device.fleet.poll), through a pymodbus asyncio client: a device that does not answer waits out its
-own timeout and delays no other. Devices on one serial line, or behind one RTU-over-TCP converter,
-share the line's client and take turns, as the bus makes them. Every poll goes to the sinks: the
-printer (records on stdout, naming their device when there are several) and the publishers
-(mdl.device.fleet.mqtt, mdl.device.fleet.prometheus).
+as mdl.device.fleet.poll; an inventory's devices each at their own interval, mdl.device.fleet.inventory),
+through a pymodbus asyncio client: a device that does not answer waits out its own timeout and delays no
+other. Devices on one serial line, or behind one RTU-over-TCP converter, share the line's client and take
+turns, as the bus makes them, the line held only while one polls. A device that fails BACK_OFF_AFTER polls
+in a row is backed off (after_poll: 2, 4, 8 ... intervals, at most MAX_BACK_OFF s), said once going and
+once coming back. Every poll goes to the sinks: the printer (records on stdout, naming their device when
+there are several) and the publishers (mdl.device.fleet.mqtt, mdl.device.fleet.prometheus).
 """
 
 from __future__ import annotations
 
 import asyncio
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -24,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Protocol, TextIO, runtime_checkable
 from pymodbus.exceptions import ModbusException
 
 from mdl.device import output
-from mdl.device.connection import Connection, parse_connection
+from mdl.device.connection import _AT, TARGET_FORMS, Connection, parse_connection
 from mdl.device.fleet.poll import STOP_SIGNALS, _refuse_time_clash, _silence
 from mdl.device.frames import Wire
 from mdl.device.link import ModbusExceptionError
@@ -41,16 +42,6 @@ if TYPE_CHECKING:
     from mdl.device.fleet.mqtt import Classify
     from mdl.plan import Request
     from mdl.resolver import ResolvedDevice, ResolvedFunction
-
-_AT = re.compile(r"@(?=(?:tcp|rtu\+tcp|rtu)://)")
-TARGET_FORMS = (
-    "FILE@tcp://HOST[:PORT][#UNIT], FILE@rtu+tcp://HOST[:PORT][#UNIT] or FILE@rtu://DEVICE[?baud=B&parity=P][#UNIT]"
-)
-
-
-def looks_like_target(text: str) -> bool:
-    """Whether a command-line argument is a FILE@CONNECTION target (not a file or a function name)."""
-    return _AT.search(text) is not None
 
 
 @dataclass(frozen=True)
@@ -107,6 +98,8 @@ class Polled:
     resolved: ResolvedDevice
     functions: list[Function]
     ident: str
+    interval: float | None = None  # its own seconds between polls (an inventory's); None: the run's --interval
+    backing_off: bool = False  # failed BACK_OFF_AFTER polls in a row and has not read since (set by the poller)
 
 
 class Sink(Protocol):
@@ -116,6 +109,13 @@ class Sink(Protocol):
     def record(self, polled: Polled, values: dict[str, Value], when: datetime) -> None: ...
     def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None: ...
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class Teller(Protocol):
+    """A sink that says when a device starts backing off and when it answers again (the printer, on stderr)."""
+
+    def told(self, polled: Polled, when: datetime, text: str) -> None: ...
 
 
 @runtime_checkable
@@ -151,9 +151,15 @@ class Printer:
             self._emit(self.out, output.record(polled.functions, values, self.fmt, when, name))
 
     def failed(self, polled: Polled, when: datetime, exc: MdlError) -> None:
+        if polled.backing_off:  # said once when it went (told); its failed polls are not printed again
+            return
         who = f"{polled.ident}: " if self.several else ""
         for diag in exc.diagnostics:
             self._emit(self.err, f"{output.iso_time(when)}: {who}{diag}\n")
+
+    def told(self, polled: Polled, when: datetime, text: str) -> None:
+        who = f"{polled.ident}: " if self.several else ""
+        self._emit(self.err, f"{output.iso_time(when)}: {who}{text}\n")
 
     def close(self) -> None:
         pass
@@ -180,17 +186,58 @@ class _Line:
         self.lock = asyncio.Lock()
 
 
-def _line_settings(conn: Connection) -> tuple[object, ...]:
+def line_settings(conn: Connection) -> tuple[object, ...]:
     """What a shared line has one of: its serial settings and its timing."""
     return (conn.baud, conn.parity, conn.stopbits, conn.bytesize, conn.timeout, conn.retries)
 
 
-def _line_key(target: Target, index: int) -> object:
-    """Targets on one serial line or one RTU-over-TCP converter share a line; a Modbus TCP device has its own."""
-    conn = target.connection
+def shared_line(conn: Connection) -> tuple[str, ...] | None:
+    """The line a connection shares with others: a serial device, or an RTU-over-TCP converter's host and
+    port; None for a Modbus TCP device, which has a connection of its own."""
     if conn.serial is not None:
         return ("serial", conn.serial)
-    return ("rtu", conn.host, conn.port) if conn.rtu else index
+    return ("rtu", conn.host, str(conn.port)) if conn.rtu else None
+
+
+def _line_key(target: Target, index: int) -> object:
+    """Targets on one serial line or one RTU-over-TCP converter share a line; a Modbus TCP device has its own."""
+    line = shared_line(target.connection)
+    return index if line is None else line
+
+
+# A device that fails BACK_OFF_AFTER polls in a row is backed off (SPEC 15): polled again after 2, 4, 8 ...
+# times its interval, at most MAX_BACK_OFF seconds apart (or its interval, where that is longer).
+BACK_OFF_AFTER = 3
+MAX_BACK_OFF = 600.0
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one poll's end means for its device: its failed polls in a row since, the seconds from this
+    poll's start to the next, and what to say (`backing off`, `answering again`, or nothing)."""
+
+    failures: int
+    delay: float
+    said: str | None = None
+
+
+def after_poll(interval: float, failures: int, ok: bool) -> Outcome:
+    """The schedule of a device after a poll (`failures`: its failed polls in a row before this one; `ok`:
+    this one read). A pure function: the poller's whole back-off is here."""
+    if ok:
+        return Outcome(0, interval, "answering again" if failures >= BACK_OFF_AFTER else None)
+    failures += 1
+    return Outcome(failures, retry_delay(interval, failures), "backing off" if failures == BACK_OFF_AFTER else None)
+
+
+def retry_delay(interval: float, failures: int) -> float:
+    """Seconds from the start of a poll to the next after `failures` failed polls in a row: the interval,
+    then from the BACK_OFF_AFTER-th failure 2, 4, 8 ... intervals, at most MAX_BACK_OFF (never less than
+    the interval)."""
+    if failures < BACK_OFF_AFTER:
+        return interval
+    doubling = min(failures - BACK_OFF_AFTER + 1, 32)  # 2**32 intervals outgrow any cap: no overflow
+    return max(interval, min(interval * float(2**doubling), MAX_BACK_OFF))
 
 
 async def _fetch(session: Session, client: ModbusBaseClient, req: Request) -> list[int]:
@@ -248,7 +295,7 @@ class _Fleet:
             if key not in lines:
                 lines[key] = (_Line(p.target.connection), p)
             line, first = lines[key]
-            if _line_settings(p.target.connection) != _line_settings(first.target.connection):
+            if line_settings(p.target.connection) != line_settings(first.target.connection):
                 raise error(
                     f"{p.target.text} and {first.target.text} share a line but give it different settings "
                     "(baud, parity, stop bits, byte size, timeout, retries): a line has one; give both the same"
@@ -297,12 +344,15 @@ class _Fleet:
         return max(self.status, default=0)
 
     async def _poll(self, i: int) -> None:
-        """Poll one target on its own schedule until --count or a stop."""
+        """Poll one target on its own schedule (its interval, backed off while it fails: after_poll) until
+        --count or a stop. The line is held only while it polls: a device backed off delays no other."""
         p, line = self.polled[i], self.lines[i]
+        interval = self.interval if p.interval is None else p.interval
         session = Session(p.resolved, p.target.connection, p.target.unit)
         session.wire = line.wire  # the line's client traces into the line's wire
         loop = asyncio.get_running_loop()
-        next_start, polls = loop.time(), 0
+        next_start, polls, failures = loop.time(), 0, 0
+        tellers = [sink for sink in self.sinks if isinstance(sink, Teller)]
         while self.count is None or polls < self.count:
             if polls:
                 try:
@@ -310,20 +360,39 @@ class _Fleet:
                     return
                 except asyncio.TimeoutError:
                     pass
-            next_start = loop.time() + self.interval
+            started = loop.time()
             turn: list[datetime] = []
             try:
                 values = await _read(session, line, p.functions, turn)
             except MdlError as exc:
                 when = turn[0] if turn else datetime.now(timezone.utc)
+                outcome = after_poll(interval, failures, ok=False)
                 self.status[i] = EXIT_DEVICE
                 for sink in self.sinks:
                     sink.failed(p, when, exc)
+                if outcome.said is not None:
+                    reason = exc.diagnostics[0].message if exc.diagnostics else str(exc)
+                    for teller in tellers:
+                        teller.told(p, when, f"{outcome.said}: {reason} ({_BACK_OFF_NOTE})")
+                    p.backing_off = True
             else:
+                outcome = after_poll(interval, failures, ok=True)
                 self.status[i] = 0
+                if outcome.said is not None:
+                    p.backing_off = False
+                    for teller in tellers:
+                        teller.told(p, turn[0], outcome.said)
                 for sink in self.sinks:
                     sink.record(p, values, turn[0])
+            failures = outcome.failures
+            next_start = started + outcome.delay
             polls += 1
+
+
+_BACK_OFF_NOTE = (
+    f"{BACK_OFF_AFTER} failed polls in a row: tried again after 2, 4, 8 ... intervals, "
+    f"{MAX_BACK_OFF / 60:g} minutes apart at most"
+)
 
 
 def poll_fleet(polled: list[Polled], sinks: list[Sink], interval: float, count: int | None) -> int:
