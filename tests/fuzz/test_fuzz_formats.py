@@ -113,7 +113,7 @@ def test_a_file_name_decides_before_the_file_and_xif_before_wise(tmp_path):
 
 def test_the_registry_gives_import_and_export_their_choices():
     """`mdl import --from` offers every format, `mdl export --to` the formats that write and then the engines."""
-    assert formats.names() == ["xif", "wise", "schema", "sunspec"]
+    assert formats.names() == ["xif", "wise", "schema", "sunspec", "wot"]
     assert list(exports.outputs()) == [
         "xif",
         "wise",
@@ -123,6 +123,7 @@ def test_the_registry_gives_import_and_export_their_choices():
         "telegraf",
         "esphome",
         "thingsboard",
+        "wot",
     ]
     for command, names in (("import", formats.names()), ("export", list(exports.outputs()))):
         proc = cli(command, "--help")

@@ -14,7 +14,7 @@ from mdl.diagnostics import EXIT_INVALID
 
 
 @main.command()
-@click.argument("files", nargs=-1, required=True, type=INPUT)
+@click.argument("files", nargs=-1, type=INPUT)
 @click.option(
     "--schema",
     "version",
@@ -28,18 +28,39 @@ from mdl.diagnostics import EXIT_INVALID
     metavar="NAME|FILE.yaml",
     help="Also say which of the profile's roles the device provides (exit 1 if a required one is missing).",
 )
+@click.option(
+    "--inventory",
+    type=INPUT,
+    metavar="FLEET.yaml|FLEET.csv",
+    help="Instead of FILES: check a fleet's inventory (docs/fleet.md, Inventory), every mistake at its FILE:LINE.",
+)
 @fail_on_warning_option
-def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None:
-    """Validate MDL files (- for stdin) against the XSD and the semantic rules.
+def validate(files: tuple[Path, ...], version: str, profile: str | None, inventory: Path | None) -> None:
+    """Validate MDL files (- for stdin) against the XSD and the semantic rules; or a fleet's inventory
+    (--inventory): its ids, descriptions, profiles, connections and lines, a line per device (exit 0) or
+    every mistake as FILE:LINE: error: ... (exit 1).
 
     \b
     Example:
       mdl validate examples/temco_tstat/temco_tstat.xml examples/discovery/em100.xml
       mdl validate examples/temco_tstat/temco_tstat.xml --schema 1.0
       mdl validate examples/profiles/meter_a.xml --profile meter
+      mdl validate --inventory examples/fleet/site.yml
+      mdl validate --inventory examples/fleet/site.csv
     """
     from mdl.formats.mdl import validate_file
 
+    if inventory is not None:
+        from click.core import ParameterSource
+
+        from mdl.cli.inventory import validate_inventory
+
+        given = click.get_current_context().get_parameter_source("version") is not ParameterSource.DEFAULT
+        if files or profile is not None or given:
+            raise click.UsageError("--inventory checks the inventory's devices: leave out FILES, --profile, --schema")
+        sys.exit(validate_inventory(inventory))
+    if not files:
+        raise click.UsageError("missing FILES: give the files to validate (- for stdin), or --inventory FILE")
     stdin_once(files)
     chosen = None
     if profile is not None:
@@ -79,7 +100,13 @@ def validate(files: tuple[Path, ...], version: str, profile: str | None) -> None
 @click.option(
     "--format", "fmt", type=click.Choice(["table", "json"], case_sensitive=False), default="table", show_default=True
 )
-def profiles(name: str | None, fmt: str) -> None:
+@click.option(
+    "--as",
+    "as_",
+    type=click.Choice(["tm"], case_sensitive=False),
+    help="tm: the profile as a W3C WoT Thing Model (JSON-LD), which `mdl export --to wot --profile NAME` links.",
+)
+def profiles(name: str | None, fmt: str, as_: str | None) -> None:
     """List the profiles mdl ships, or show one profile's roles (a shipped NAME or your own FILE.yaml).
 
     \b
@@ -87,10 +114,20 @@ def profiles(name: str | None, fmt: str) -> None:
       mdl profiles
       mdl profiles meter
       mdl profiles meter --format json
+      mdl profiles meter --as tm
     """
     from mdl.profiles.load import load_profile
     from mdl.profiles.report import listing, roles_json, roles_table
 
+    if as_ is not None:
+        if name is None:
+            raise click.UsageError("--as tm writes one profile's Thing Model: give its NAME or FILE.yaml")
+        if click.get_current_context().get_parameter_source("fmt") is not click.core.ParameterSource.DEFAULT:
+            raise click.UsageError("--as tm writes the Thing Model (JSON-LD): it takes no --format")
+        from mdl.exports.wot_tm import profile_thing_model
+
+        click.echo(profile_thing_model(load_profile(name)), nl=False)
+        return
     if name is None:
         if fmt == "json":
             import json

@@ -48,6 +48,7 @@ ENGINES: Registry[Output] = Registry(
         "the ThingsBoard IoT Gateway's Modbus connector (JSON)",
         lazy("mdl.exports.thingsboard", "export_thingsboard"),
     ),
+    Output("wot", "a W3C WoT Thing Description with Modbus forms (JSON-LD)", lazy("mdl.exports.wot", "export_wot")),
 )
 
 

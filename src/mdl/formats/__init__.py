@@ -1,6 +1,7 @@
 """The device description formats other than MDL, one package per format (SPEC 7): `xif/` (SmartServer
 `.mod`), `wise/` (WISE-Agent `Modbus.ini`), `toolkit/` (Modbus Schema Toolkit YAML, the format
-`schema`) and `sunspec/` (SunSpec model definitions, read only), each with its
+`schema`), `sunspec/` (SunSpec model definitions, read only) and `wot/` (W3C WoT Thing Descriptions with
+Modbus forms, read only; the export is mdl.exports.wot), each with its
 `read.py` (a file -> the document model) and, where the format is an output too, its `write.py` (a
 resolved device -> an mdl.exchange.export.Export).
 
@@ -18,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mdl.fileio import is_stdin
-from mdl.formats import wise, xif
+from mdl.formats import wise, wot, xif
 from mdl.registry import Registry, lazy
 
 if TYPE_CHECKING:
@@ -80,6 +81,13 @@ FORMATS: Registry[Format] = Registry(
         "SunSpec model definitions (pysunspec2's JSON: model ids or files; SPEC 12)",
         lazy("mdl.formats.sunspec.read", "read_sunspec"),
     ),
+    Format(
+        "wot",
+        "a W3C WoT Thing Description with Modbus forms",
+        lazy("mdl.formats.wot.read", "read_wot"),
+        guess=wot.guess,
+        suffixes=(".jsonld",),
+    ),
 )
 
 
@@ -95,9 +103,10 @@ def by_name(name: str) -> Format:
 
 def guess_format(path: StrPath) -> str | None:
     """The format SPEC 1 tells from the file: a file name ending one format claims (`.mod` XIF, `.yaml`/
-    `.yml` a Toolkit schema) decides, else the first format whose `guess` takes the file's first 64 KiB
-    (a first line `#filetype,Modbus_xif` is XIF, an INI with a `[Platform]` section WISE-Agent); None
-    otherwise (MDL XML, for the commands that read it)."""
+    `.yml` a Toolkit schema, `.jsonld` a WoT TD) decides, else the first format whose `guess` takes the
+    file's first 64 KiB (a first line `#filetype,Modbus_xif` is XIF, an INI with a `[Platform]` section
+    WISE-Agent, a JSON object naming `modbus+tcp://` or `modv:` a TD); None otherwise (MDL XML, for the
+    commands that read it)."""
     p = Path(path)
     if is_stdin(p):  # read once, by the reader of its format: standard input is MDL XML unless --from says
         return None
