@@ -79,6 +79,7 @@ def _importable(path: StrPath) -> str | None:
         "xif": "an XIF file (SmartServer .mod)",
         "schema": "a Modbus Schema Toolkit YAML file",
         "wise": "a WISE-Agent Modbus.ini",
+        "wot": "a W3C WoT Thing Description",
     }.get(guess_format(path) or "")
 
 
