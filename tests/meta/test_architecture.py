@@ -118,7 +118,7 @@ def test_registries_and_their_members_do_not_import_each_other():
     shared types below both (mdl.exchange), never its registry back. The registry's own modules beside
     it (formats/loading.py, which reads any description; formats/sniff.py, which says what a file is)
     are its users, not its members."""
-    own = {SRC / "formats" / "loading.py", SRC / "formats" / "sniff.py"}
+    own = {SRC / "formats" / "loading.py", SRC / "formats" / "sniff.py", SRC / "exports" / "fleet.py"}
     for registry in ("formats", "exports"):
         for path in (SRC / registry).rglob("*.py"):
             if path == SRC / registry / "__init__.py" or path in own:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -23,6 +24,9 @@ from mdl.cli.printer import emit_text, report_warnings, resolved_file, say, wrot
 from mdl.device.connection import Connection
 from mdl.exchange.connection import LINE_ONLY
 from mdl.fileio import STDIO_ARG
+
+if TYPE_CHECKING:
+    from mdl.exchange.export import Settings
 
 
 @main.command()
@@ -184,7 +188,7 @@ def _pin(ctx: click.Context, param: click.Parameter, value: str | None) -> str |
 
 
 @main.command(name="export")
-@click.argument("file", type=INPUT)
+@click.argument("file", type=INPUT, required=False)
 @click.option(
     "--to",
     "fmt",
@@ -247,9 +251,22 @@ def _pin(ctx: click.Context, param: click.Parameter, value: str | None) -> str |
     metavar="mqtt://HOST[:PORT]/PREFIX",
     help="nodered: wire each poll's message to an MQTT broker (an mqtt out node).",
 )
+@click.option(
+    "--inventory",
+    type=INPUT,
+    metavar="FLEET.yaml|FLEET.csv",
+    help="Instead of FILE: one configuration for an inventory's devices (docs/fleet.md), written to -o DIR.",
+)
+@click.option(
+    "--shards",
+    type=click.IntRange(1, 10_000),
+    default=1,
+    show_default=True,
+    help="With --inventory --to telegraf: this many agents, a serial line or gateway never split.",
+)
 @fail_on_warning_option
 def export_(
-    file: Path,
+    file: Path | None,
     fmt: str,
     output: Path | None,
     connection: Connection | None,
@@ -264,6 +281,8 @@ def export_(
     flow_control_pin: str | None,
     tm: bool,
     publish: str | None,
+    inventory: Path | None,
+    shards: int,
 ) -> None:
     """Convert an MDL description to another format or to a polling engine's configuration.
 
@@ -285,11 +304,17 @@ def export_(
       mdl export examples/profiles/meter_b.xml --to telegraf --names roles --profile meter --host 192.0.2.10
       mdl export examples/temco_tstat/temco_tstat.xml --to esphome --baud 9600 --flow-control-pin GPIO4 -o node.yaml
       mdl export examples/temco_tstat/temco_tstat.xml --to thingsboard --host 192.0.2.10 -o modbus.json
+      mdl export --inventory examples/fleet/site.yml --to telegraf --shards 2 -o telegraf/
+      mdl export --inventory examples/fleet/site.yml --to thingsboard -o thingsboard/
     """
-    from mdl.diagnostics import error
     from mdl.exchange.export import DEFAULT_INTERVAL, Settings
-    from mdl.fileio import all_or_none, write_atomic
 
+    if (file is None) == (inventory is None):
+        raise click.UsageError("give FILE (one description) or --inventory FLEET (a fleet's devices)")
+    if inventory is not None and (output is None or str(output) == STDIO_ARG):
+        raise click.UsageError("--inventory writes a folder of files: give -o DIR")
+    if shards != 1 and inventory is None:
+        raise click.UsageError("--shards splits an inventory's devices: it needs --inventory")
     if exports.outputs()[fmt].folder and (output is None or str(output) == STDIO_ARG):
         raise click.UsageError(f"--to {fmt} writes a folder of files: give -o DIR")
     given = click.get_current_context().get_parameter_source
@@ -321,6 +346,10 @@ def export_(
         publish=publish,
         profile=profile,
     )
+    if inventory is not None:
+        _export_inventory(inventory, fmt, settings, shards, output, force)
+        return
+    assert file is not None
     resolved = resolved_file(file)
     if profile is not None and names.lower() != "roles":
         raise click.UsageError("--profile gives values in the roles' units: use it with --names roles")
@@ -337,15 +366,40 @@ def export_(
         emit_text(result.text, output)
         return
     assert output is not None
+    _write_folder(result.files, output, force)
+
+
+def _export_inventory(
+    inventory: Path, fmt: str, settings: Settings, shards: int, output: Path | None, force: bool
+) -> None:
+    """`mdl export --inventory`: the fleet's configuration in the folder `output` (mdl.exports.fleet)."""
+    from mdl.cli.inventory import load_members
+    from mdl.exports.fleet import export_fleet
+
+    assert output is not None
+    members = load_members(inventory)
+    result, notes = export_fleet(members, fmt.lower(), settings, shards)
+    report_warnings(result.warnings, inventory)
+    for note in notes:
+        say(f"{inventory}: note: {note}")
+    _write_folder(result.files, output, force)
+
+
+def _write_folder(files: dict[str, str], output: Path, force: bool) -> None:
+    """Every file into the folder, written whole or none of them, each said."""
+    from mdl.diagnostics import error
+    from mdl.fileio import all_or_none, write_atomic
+
     if output.exists() and not output.is_dir():
         raise error("not a directory", output)
     if output.is_dir() and any(output.iterdir()) and not force:
         raise error("the folder is not empty; give --force to write into it", output)
     output.mkdir(parents=True, exist_ok=True)
     with all_or_none():
-        for name, text in result.files.items():
+        for name, text in files.items():
+            (output / name).parent.mkdir(parents=True, exist_ok=True)
             write_atomic(output / name, text)
-    for name in result.files:
+    for name in files:
         wrote(output / name)
 
 

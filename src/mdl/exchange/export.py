@@ -32,6 +32,8 @@ class Settings:
     thing_model: bool = False  # wot: the device type's Thing Model, not a Thing Description (--tm)
     publish: str | None = None  # nodered: the MQTT broker each poll's message goes to (--publish mqtt://...)
     profile: str | None = None  # the profile the functions are named after (--names roles --profile NAME|FILE)
+    name: str | None = None  # the device's name in the configuration (an inventory's id; None: the description's)
+    tags: tuple[tuple[str, str], ...] = ()  # an inventory's tags, where the engine carries them
 
 
 @dataclass

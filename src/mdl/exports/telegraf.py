@@ -33,6 +33,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from mdl.diagnostics import error
 from mdl.exchange.export import Export
 from mdl.exchange.text import comment_text, toml_string
 from mdl.exports.base import (
@@ -228,7 +229,7 @@ def _fields(order: str, members: list[ResolvedFunction], bits: bool) -> list[str
 
 def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported: dict[str, ResolvedFunction]) -> str:
     conn = connection_of(settings, notes)
-    out = ["[[inputs.modbus]]", f"  name = {_toml(resolved.name)}"]
+    out = ["[[inputs.modbus]]", f"  name = {_toml(settings.name or resolved.name)}"]
     if conn.serial is not None:
         out += [
             f"  controller = {_toml('file://' + conn.serial)}",
@@ -249,6 +250,10 @@ def _input(resolved: ResolvedDevice, settings: Settings, notes: Notes, exported:
         f"  interval = {_toml(plain_number(settings.interval) + 's')}",
         '  configuration_type = "request"',
     ]
+    if settings.name is not None or settings.tags:  # a fleet's device: its id and its inventory tags
+        out += ["", "  [inputs.modbus.tags]"]
+        tags = (("device", settings.name), *settings.tags) if settings.name is not None else settings.tags
+        out += [f"    {toml_string(key)} = {_toml(value)}" for key, value in tags]
     for group in resolved.plan:
         request = group.request
         members = [exported[name] for name in request.functions if name in exported]
@@ -361,6 +366,33 @@ def _processors(resolved: ResolvedDevice, exported: dict[str, ResolvedFunction])
 def _version(exported: dict[str, ResolvedFunction]) -> str:
     """The oldest Telegraf that reads every field: 1.32 for a BIT field (influxdata/telegraf#15648), else 1.30."""
     return "1.32" if any(register_bit(f) is not None for f in exported.values()) else "1.30"
+
+
+def export_telegraf_fleet(parts: list[tuple[ResolvedDevice, Settings]]) -> Export:
+    """One agent's configuration for several devices (an inventory's shard): each device's input as the
+    single export gives it, named after its id and tagged, and each kind's processors once (a processor
+    per device of a kind would apply twice to every metric of its measurement)."""
+    inputs: list[str] = []
+    processors: list[str] = []
+    kinds: dict[str, ResolvedDevice] = {}
+    warnings = []
+    for resolved, settings in parts:
+        notes = Notes(resolved, ENGINE)
+        exported = _exported(resolved, notes)
+        if not exported:
+            raise nothing_left(resolved, ENGINE, notes)
+        inputs.append(_input(resolved, settings, notes, exported))
+        known = kinds.setdefault(resolved.stem, resolved)
+        if known is resolved and len(kinds) > len(processors):
+            processors.append(_processors(resolved, exported))
+        elif known.device.source != resolved.device.source:
+            raise error(
+                f"two descriptions are the measurement {resolved.stem!r} ({known.device.source}, "
+                f"{resolved.device.source}): their files need other names"
+            )
+        warnings += [w for w in notes.found if w not in warnings]
+    head = "# Telegraf modbus inputs of a fleet's shard (mdl export --inventory): one per device.\n"
+    return Export(text=head + "\n".join(["", *inputs]) + "".join(processors), warnings=warnings)
 
 
 def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:

@@ -216,7 +216,7 @@ def export_thingsboard(resolved: ResolvedDevice, settings: Settings) -> Export:
         slave = {
             **connection,
             "unitId": settings.unit,
-            "deviceName": resolved.name,
+            "deviceName": settings.name or resolved.name,
             "deviceType": "default",
             "byteOrder": byte_order,
             "wordOrder": word_order,

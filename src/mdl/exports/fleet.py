@@ -1,0 +1,126 @@
+"""`mdl export --inventory FLEET --to ENGINE -o DIR [--shards K]` (SPEC 15): one engine configuration for
+the devices of an inventory, each device's part what the single export gives for it (its connection, unit
+and interval from the inventory), named after the device's id and carrying its tags where the engine has
+a place for them.
+
+- `thingsboard`: one connector, `modbus.json`, with each device's slaves (`deviceName`: its id).
+- `telegraf`: K agent folders, `shard-1/telegraf.conf` ...: each device an `[[inputs.modbus]]` named
+  after its id with `[inputs.modbus.tags]` (`device` and the inventory's tags), each kind's processors
+  once per agent; the devices of one serial line or one gateway (a host and port) stay in one shard,
+  the lines spread so that the shards' device counts are as even as whole lines allow.
+- `volttron`, `wot`: each device's own files in a folder named after its id (VOLTTRON's driver files,
+  the Thing Description `ID.td.jsonld`).
+
+The other engines (Home Assistant, ESPHome, Node-RED) are not written for a fleet yet: a clear error.
+Warnings are the single exports', each kind said once for the fleet.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+from mdl.diagnostics import Diagnostic, MdlError, error
+from mdl.exchange.export import Export, Settings
+
+if TYPE_CHECKING:
+    from mdl.device.fleet.inventory import Member
+
+FLEET_ENGINES = ("telegraf", "thingsboard", "volttron", "wot")
+
+
+def _settings(member: Member, base: Settings) -> Settings:
+    entry = member.entry
+    return replace(
+        base,
+        connection=entry.connection,
+        unit=entry.unit,
+        interval=entry.interval,
+        interval_given=True,
+        name=entry.id,
+        tags=tuple(sorted(entry.tags.items())),
+    )
+
+
+def line_of(member: Member) -> tuple[object, ...]:
+    """What a shard never splits: a serial line, or a host and port (a gateway's units, a TCP device)."""
+    conn = member.entry.connection
+    return ("serial", conn.serial) if conn.serial is not None else ("tcp", conn.host, conn.port)
+
+
+def shards_of(members: list[Member], k: int) -> list[list[Member]]:
+    """At most k shards of whole lines, the largest lines placed first on the emptiest shard; each shard's
+    devices in the inventory's order."""
+    lines: dict[tuple[object, ...], list[Member]] = {}
+    for m in members:
+        lines.setdefault(line_of(m), []).append(m)
+    shards: list[list[Member]] = [[] for _ in range(min(k, len(lines)))]
+    for group in sorted(lines.values(), key=len, reverse=True):
+        min(shards, key=len).extend(group)
+    order = {id(m): i for i, m in enumerate(members)}
+    return [sorted(shard, key=lambda m: order[id(m)]) for shard in shards]
+
+
+def _one(member: Member, to: str, base: Settings) -> Export:
+    """One device's export; its errors name the device's id and its line in the inventory."""
+    from mdl.exports import export
+
+    try:
+        return export(member.resolved, to, _settings(member, base))
+    except MdlError as exc:
+        entry = member.entry
+        raise MdlError(
+            [
+                Diagnostic(d.file, d.line, d.col, f"device {entry.id} (inventory line {entry.line}): {d.message}")
+                for d in exc.diagnostics
+            ]
+        ) from None
+
+
+def export_fleet(members: list[Member], to: str, base: Settings, shards: int = 1) -> tuple[Export, list[str]]:
+    """The fleet's files, and the notes saying how it was split."""
+
+    if to not in FLEET_ENGINES:
+        raise error(f"--inventory: --to {to} is not written for a fleet yet (one of {', '.join(FLEET_ENGINES)})")
+    if shards != 1 and to != "telegraf":
+        raise error("--shards splits Telegraf's agents: it needs --to telegraf")
+    files: dict[str, str] = {}
+    warnings: list[Diagnostic] = []
+    notes: list[str] = []
+
+    def said(found: list[Diagnostic]) -> None:
+        warnings.extend(w for w in found if w not in warnings)
+
+    if to == "telegraf":
+        from mdl.exports.telegraf import export_telegraf_fleet
+
+        split = shards_of(members, shards)
+        if len(split) < shards:
+            notes.append(f"--shards {shards}: the fleet has {len(split)} lines, and a line is not split")
+        for i, shard in enumerate(split, 1):
+            result = export_telegraf_fleet([(m.resolved, _settings(m, base)) for m in shard])
+            files[f"shard-{i}/telegraf.conf"] = result.text or ""
+            said(result.warnings)
+        return Export(files=files, warnings=warnings), notes
+    if to == "thingsboard":
+        import json
+
+        from mdl.exchange.text import json_text
+
+        slaves = []
+        for m in members:
+            result = _one(m, to, base)
+            slaves += json.loads(result.text or "{}")["master"]["slaves"]
+            said(result.warnings)
+        tagged = [m.entry.id for m in members if m.entry.tags]
+        if tagged:
+            notes.append(f"ThingsBoard's connector has no place for tags: those of {', '.join(tagged)} are not in it")
+        return Export(files={"modbus.json": json_text({"master": {"slaves": slaves}}, 2)}, warnings=warnings), notes
+    for m in members:
+        result = _one(m, to, base)
+        said(result.warnings)
+        if result.text is not None:
+            files[f"{m.entry.id}/{m.entry.id}.td.jsonld" if to == "wot" else f"{m.entry.id}/{to}"] = result.text
+        for name, text in result.files.items():
+            files[f"{m.entry.id}/{name}"] = text
+    return Export(files=files, warnings=warnings), notes
