@@ -124,6 +124,7 @@ def test_the_registry_gives_import_and_export_their_choices():
         "esphome",
         "thingsboard",
         "wot",
+        "nodered",
     ]
     for command, names in (("import", formats.names()), ("export", list(exports.outputs()))):
         proc = cli(command, "--help")

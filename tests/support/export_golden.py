@@ -31,6 +31,7 @@ FILES = {
     "telegraf": "telegraf.toml",
     "esphome": "esphome.yaml",
     "thingsboard": "thingsboard.json",
+    "nodered": "nodered.json",
     "wot": "wot.td.jsonld",
 }
 

@@ -49,6 +49,7 @@ ENGINES: Registry[Output] = Registry(
         lazy("mdl.exports.thingsboard", "export_thingsboard"),
     ),
     Output("wot", "a W3C WoT Thing Description with Modbus forms (JSON-LD)", lazy("mdl.exports.wot", "export_wot")),
+    Output("nodered", "a Node-RED flow for node-red-contrib-modbus", lazy("mdl.exports.nodered", "export_nodered")),
 )
 
 
