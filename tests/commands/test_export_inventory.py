@@ -99,3 +99,22 @@ def test_what_a_fleet_export_cannot_do_is_said(site, tmp_path):
     assert not out.exists()
     proc = cli("export", "--inventory", site, "--to", "telegraf", "--shards", "9", "-o", out)
     assert proc.returncode == 0 and "--shards 9: the fleet has 3 lines, and a line is not split" in proc.stderr
+
+
+def test_node_red_is_one_flow_with_a_tab_per_line(site, tmp_path):
+    """A tab per line; the two thermostats on one serial line share its one modbus-client (a port opens once),
+    the meters behind one gateway have a connection each; with --publish, one broker for the fleet."""
+    proc = cli("export", "--inventory", site, "--to", "nodered", "--publish", "mqtt://127.0.0.1/site", "-o",
+               tmp_path / "nr")  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    nodes = json.loads((tmp_path / "nr" / "flows.json").read_text())
+    tabs = {n["id"]: n["label"] for n in nodes if n["type"] == "tab"}
+    clients = {n["id"]: n for n in nodes if n["type"] == "modbus-client"}
+    assert len(tabs) == 3 and len([n for n in nodes if n["type"] == "mqtt-broker"]) == 1
+    serial = [c for c in clients.values() if c["clienttype"] == "simpleser"]
+    assert len(serial) == 1 and len(clients) == 4  # ttyUSB0 once; hall-meter-1, -2 and roof-em100 their own
+    reads = [n for n in nodes if n["type"] == "modbus-read"]
+    assert {n["server"] for n in reads} == set(clients) and {n["z"] for n in nodes if "z" in n} == set(tabs)
+    decoders = sorted(n["name"] for n in nodes if n["type"] == "function" and n["name"].startswith("decode "))
+    assert decoders == [f"decode {i}" for i in ("hall-meter-1", "hall-meter-2", "office-tstat-3", "office-tstat-4",
+                                                "roof-em100")]  # fmt: skip

@@ -203,9 +203,14 @@ def export_flow(path: Path, *args: str) -> tuple[list[dict], str]:
     return json.loads(proc.stdout), proc.stderr
 
 
-def with_sink(nodes: list[dict], sink: Path, name: str) -> list[dict]:
-    """The flow with a `file` node writing each message of its decoding node as a line of JSON."""
-    decode = next(n for n in nodes if n["type"] == "function" and n["name"].startswith("decode "))
+def with_sink(nodes: list[dict], sink: Path, name: str, decode_name: str | None = None) -> list[dict]:
+    """The flow with a `file` node writing each message of its decoding node (the one named `decode_name`,
+    else the first) as a line of JSON."""
+    decode = next(
+        n
+        for n in nodes
+        if n["type"] == "function" and n["name"].startswith("decode ") and decode_name in (None, n["name"])
+    )
     sink_id = f"sink{name}".ljust(16, "0")[:16]
     decode["wires"][0].append(sink_id)
     file_node = {
@@ -419,3 +424,46 @@ def test_fragments_decode_as_python(tmp_path):
         if js != want:
             wrong.append((codes[i], regs, js, want))
     assert not wrong, wrong[:10]
+
+
+def test_a_fleets_flow_has_a_tab_per_line_and_node_red_reads_every_device(sim_factory, node_red, tmp_path):
+    """`mdl export --inventory --to nodered` (SPEC 15): three units behind one gateway (a host and port) share a
+    tab, each with its own connection, a fourth device on its own port has its own tab; Node-RED gives every
+    device's values as `mdl read` reads them, each message named by the device's id."""
+    temco_raw, tables_raw = tmp_path / "temco.json", tmp_path / "tables.json"
+    temco_raw.write_text(json.dumps(TEMCO_RAW), encoding="utf-8")
+    tables_raw.write_text(json.dumps(ALL_TABLES_RAW), encoding="utf-8")
+    gateway = sim_factory(
+        [TEMCO, TEMCO, TEMCO], "--unit", "1", "--unit", "2", "--unit", "3",
+        "--registers", temco_raw, "--registers", temco_raw, "--registers", temco_raw,
+    )  # fmt: skip
+    alone = sim_factory(ALL_TABLES, "--registers", tables_raw)
+    rows = ["id,description,connection,unit,interval"]
+    rows += [f"tstat-{u},{TEMCO},tcp://{gateway.host}:{gateway.port},{u},1" for u in (1, 2, 3)]
+    rows.append(f"tables,{ALL_TABLES},tcp://{alone.host}:{alone.port},1,1")
+    inventory = tmp_path / "site.csv"
+    inventory.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    proc = run_mdl("export", "--inventory", inventory, "--to", "nodered", "-o", tmp_path / "flow")
+    assert proc.returncode == 0, proc.stderr
+    nodes = json.loads((tmp_path / "flow" / "flows.json").read_text(encoding="utf-8"))
+    tabs = [n for n in nodes if n["type"] == "tab"]
+    clients = [n for n in nodes if n["type"] == "modbus-client"]
+    assert len(tabs) == 2 and len(clients) == 4  # a tab per line, a connection per TCP device
+    assert {n["z"] for n in nodes if "z" in n} == {t["id"] for t in tabs}
+    assert {n["server"] for n in nodes if n["type"] == "modbus-read"} == {c["id"] for c in clients}
+    sinks = {}
+    for decode in [n for n in nodes if n["type"] == "function" and n["name"].startswith("decode ")]:
+        ident = decode["name"].removeprefix("decode ")
+        sinks[ident] = tmp_path / f"{ident}.jsonl"
+        nodes = with_sink(nodes, sinks[ident], ident.replace("-", ""), decode["name"])
+    assert sorted(sinks) == ["tables", "tstat-1", "tstat-2", "tstat-3"]
+    red = node_red(tmp_path / "node-red", nodes)
+    wait_or_fail(red, lambda: all(len(messages(s)) >= 1 for s in sinks.values()), 120, "a poll of every device")
+    red.stop()
+    for ident, sink in sinks.items():
+        got = messages(sink)[-1]
+        assert got["device"] == ident
+        path, sim, unit = (ALL_TABLES, alone, 1) if ident == "tables" else (TEMCO, gateway, int(ident[-1]))
+        read = run_mdl("read", path, *sim.connection, "--unit", str(unit), "--format", "json")
+        want = {k: v for k, v in json.loads(read.stdout).items() if k in got["values"]}
+        assert sorted(got["values"]) == sorted(want) and all(same(got["values"][k], want[k]) for k in want), ident

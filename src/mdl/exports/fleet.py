@@ -8,25 +8,34 @@ a place for them.
   after its id with `[inputs.modbus.tags]` (`device` and the inventory's tags), each kind's processors
   once per agent; the devices of one serial line or one gateway (a host and port) stay in one shard,
   the lines spread so that the shards' device counts are as even as whole lines allow.
+- `nodered`: one flow, `flows.json`, with a tab per line (a serial line, or a host and port): the line's
+  devices' nodes on it, one `modbus-client` for a serial line (node-red-contrib-modbus queues its
+  requests) and one per device behind a TCP gateway (its client times out requests for several unit ids
+  queued on one connection), one `mqtt-broker` for the fleet with `--publish`; messages and topics name
+  each device by its id.
 - `volttron`, `wot`: each device's own files in a folder named after its id (VOLTTRON's driver files,
   the Thing Description `ID.td.jsonld`).
 
-The other engines (Home Assistant, ESPHome, Node-RED) are not written for a fleet yet: a clear error.
+The other engines (Home Assistant, ESPHome) are not written for a fleet yet: a clear error.
 Warnings are the single exports', each kind said once for the fleet.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.exchange.export import Export, Settings
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from mdl.device.fleet.inventory import Member
 
-FLEET_ENGINES = ("telegraf", "thingsboard", "volttron", "wot")
+Node = dict[str, Any]
+
+FLEET_ENGINES = ("telegraf", "thingsboard", "nodered", "volttron", "wot")
 
 
 def _settings(member: Member, base: Settings) -> Settings:
@@ -116,6 +125,8 @@ def export_fleet(members: list[Member], to: str, base: Settings, shards: int = 1
         if tagged:
             notes.append(f"ThingsBoard's connector has no place for tags: those of {', '.join(tagged)} are not in it")
         return Export(files={"modbus.json": json_text({"master": {"slaves": slaves}}, 2)}, warnings=warnings), notes
+    if to == "nodered":
+        return Export(files={"flows.json": _nodered_flow(members, base, said)}, warnings=warnings), notes
     for m in members:
         result = _one(m, to, base)
         said(result.warnings)
@@ -124,3 +135,61 @@ def export_fleet(members: list[Member], to: str, base: Settings, shards: int = 1
         for name, text in result.files.items():
             files[f"{m.entry.id}/{name}"] = text
     return Export(files=files, warnings=warnings), notes
+
+
+def _nodered_flow(members: list[Member], base: Settings, said: Callable[[list[Diagnostic]], None]) -> str:
+    """Each device's flow, its nodes moved onto its line's tab (below the devices before it) and its reads
+    to the line's one client; the brokers one."""
+    import json
+
+    from mdl.exchange.text import json_text
+
+    tabs: dict[tuple[object, ...], tuple[Node, Node]] = {}  # line -> (its tab, its client)
+    flow: list[Node] = []
+    brokers: dict[str, str] = {}  # a broker's settings -> its node id
+    depth: dict[tuple[object, ...], int] = {}
+    for m in members:
+        result = _one(m, "nodered", base)
+        said(result.warnings)
+        nodes: list[Node] = json.loads(result.text or "[]")
+        line = line_of(m)
+        tab = next(n for n in nodes if n["type"] == "tab")
+        client = next(n for n in nodes if n["type"] == "modbus-client")
+        if line not in tabs:
+            label = f"mdl: {m.entry.connection}"
+            tabs[line] = ({**tab, "label": label}, client)
+            flow += [tabs[line][0], client]
+        line_tab, line_client = tabs[line]
+        if m.entry.connection.serial is None and line_client is not client:
+            # a TCP gateway takes a connection per device: node-red-contrib-modbus times out requests for
+            # several unit ids queued on one client (seen with 5.23.3), where a serial port can only be one
+            flow.append(client)
+            line_client = client
+        shift = depth.get(line, 0)
+        bottom = 0
+        for node in nodes:
+            if node["type"] in ("tab", "modbus-client"):
+                continue
+            if node["type"] == "mqtt-broker":
+                key = json.dumps({k: v for k, v in node.items() if k != "id"}, sort_keys=True)
+                if key in brokers:
+                    continue
+                brokers[key] = node["id"]
+                flow.append(node)
+                continue
+            if "z" in node:
+                node["z"] = line_tab["id"]
+            if node.get("server") == client["id"]:
+                node["server"] = line_client["id"]
+            if "broker" in node:
+                key = json.dumps(
+                    {k: v for k, v in next(n for n in nodes if n["id"] == node["broker"]).items() if k != "id"},
+                    sort_keys=True,
+                )
+                node["broker"] = brokers.get(key, node["broker"])
+            if "y" in node:
+                node["y"] += shift
+                bottom = max(bottom, node["y"])
+            flow.append(node)
+        depth[line] = bottom + 80
+    return json_text(flow, 2)

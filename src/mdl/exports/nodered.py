@@ -181,12 +181,14 @@ def export_nodered(resolved: ResolvedDevice, settings: Settings) -> Export:
     if any(g.smaller for g in groups):
         notes.note(REFUSED)
     rate = _rate(settings, notes)
-    ids = _Ids(resolved.name, conn, settings.unit)
+    device = settings.name or resolved.name  # an inventory's id names the device where it is given
+    ids = _Ids(device, conn, settings.unit)
     tab, client, assemble, decode, debug = (ids(role) for role in ("tab", "client", "assemble", "decode", "debug"))
     publish = None
     if settings.publish is not None:
         publish = _broker(settings.publish, ids("broker"), notes)
-    topic = f"{publish[1]}/{resolved.stem}" if publish is not None else resolved.stem
+    stem = settings.name or resolved.stem
+    topic = f"{publish[1]}/{stem}" if publish is not None else stem
     reads: list[Node] = []
     requests: list[tuple[str, int, int]] = []
     for i, g in enumerate(groups):
@@ -224,12 +226,12 @@ def export_nodered(resolved: ResolvedDevice, settings: Settings) -> Export:
     middle = 100 + 30 * (len(groups) - 1)
     outputs = [debug] + ([ids("mqtt out")] if publish is not None else [])
     nodes: list[Node] = [
-        {"id": tab, "type": "tab", "label": f"mdl: {resolved.name}", "disabled": False, "info": ""},
+        {"id": tab, "type": "tab", "label": f"mdl: {device}", "disabled": False, "info": ""},
         *reads,
         _function(assemble, tab, "assemble the poll", assemble_code(requests, resolved.buffer_size), decode, middle),
         {
-            **_function(decode, tab, f"decode {resolved.name}", "", None, middle),
-            "func": decode_code(resolved.name, settings.unit, topic, functions),
+            **_function(decode, tab, f"decode {device}", "", None, middle),
+            "func": decode_code(device, settings.unit, topic, functions),
             "x": 690,
             "wires": [outputs],
         },
@@ -237,7 +239,7 @@ def export_nodered(resolved: ResolvedDevice, settings: Settings) -> Export:
             "id": debug,
             "type": "debug",
             "z": tab,
-            "name": f"{resolved.name} values",
+            "name": f"{device} values",
             "active": True,
             "tosidebar": True,
             "console": False,
@@ -273,7 +275,7 @@ def export_nodered(resolved: ResolvedDevice, settings: Settings) -> Export:
                 "wires": [],
             }
         )
-    nodes.append(_client(conn, settings.unit, client, f"{resolved.name} ({conn})"))
+    nodes.append(_client(conn, settings.unit, client, f"{device} ({conn})"))
     if publish is not None:
         nodes.append(publish[0])
     return Export(text=json_text(nodes, 2), warnings=notes.found)
