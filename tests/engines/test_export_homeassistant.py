@@ -799,3 +799,28 @@ def test_home_assistant_own_switch_writes_a_relay_register(sim_factory, tmp_path
     assert (mdl["fan_relay_on"], mdl["cooling_stage1_relay_on"]) == (0, 1)
     relays = [name for name in mdl if name.endswith("_relay_on")]
     assert {name: states["switches"][name] for name in relays} == {name: mdl[name] == 1 for name in relays}
+
+
+def test_home_assistant_schema_accepts_a_fleets_hubs(tmp_path):
+    """`mdl export --inventory --to homeassistant` (SPEC 15): a hub per line with every device's entities,
+    named after the device's id; Home Assistant's schema keeps every one (no name or register dropped as a
+    duplicate of another device's)."""
+    import shutil
+
+    from support.common import ROOT
+
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    out = tmp_path / "ha"
+    proc = run_mdl("export", "--inventory", tmp_path / "examples" / "fleet" / "site.yml", "--to", "homeassistant",
+                   "-o", out)  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    checked = validate(tmp_path, (out / "modbus.yaml").read_text())
+    assert checked.returncode == 0, checked.stderr[-3000:]
+    result = json.loads(checked.stdout.strip().splitlines()[-1])
+    assert result["given"] == result["kept"] and result["logged"] == [], result
+    hubs = result["valid"]["modbus"]
+    assert len(hubs) == 3  # the gateway, the serial line, the EM100's address
+    for kind in ("sensors", "binary_sensors", "switches", "climates"):  # a name once per platform, fleet-wide
+        names = [e["name"] for hub in hubs for e in hub.get(kind, [])]
+        assert len(names) == len(set(names)), kind
+    assert any(e["name"].startswith("office-tstat-4 ") for hub in hubs for e in hub.get("sensors", []))

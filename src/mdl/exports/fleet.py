@@ -16,7 +16,10 @@ a place for them.
 - `volttron`, `wot`: each device's own files in a folder named after its id (VOLTTRON's driver files,
   the Thing Description `ID.td.jsonld`).
 
-The other engines (Home Assistant, ESPHome) are not written for a fleet yet: a clear error.
+- `homeassistant`: one `modbus.yaml` with a hub per line (a serial port, or a host and port), each
+  device's entities on it, named `ID NAME` (Home Assistant's entity names are one namespace).
+
+ESPHome is a node per device on its own RS-485 line: not written for a fleet (a clear error).
 Warnings are the single exports', each kind said once for the fleet.
 """
 
@@ -35,7 +38,7 @@ if TYPE_CHECKING:
 
 Node = dict[str, Any]
 
-FLEET_ENGINES = ("telegraf", "thingsboard", "nodered", "volttron", "wot")
+FLEET_ENGINES = ("telegraf", "thingsboard", "homeassistant", "nodered", "volttron", "wot")
 
 
 def _settings(member: Member, base: Settings) -> Settings:
@@ -68,6 +71,13 @@ def shards_of(members: list[Member], k: int) -> list[list[Member]]:
         min(shards, key=len).extend(group)
     order = {id(m): i for i, m in enumerate(members)}
     return [sorted(shard, key=lambda m: order[id(m)]) for shard in shards]
+
+
+def _hub_name(member: Member) -> str:
+    """A Home Assistant hub's name for a line: its port or host and port, in the characters a name keeps."""
+    conn = member.entry.connection
+    where = conn.serial if conn.serial is not None else f"{conn.host}_{conn.port}"
+    return "line_" + "".join(ch if ch.isalnum() else "_" for ch in where).strip("_")
 
 
 def _one(member: Member, to: str, base: Settings) -> Export:
@@ -125,6 +135,22 @@ def export_fleet(members: list[Member], to: str, base: Settings, shards: int = 1
         if tagged:
             notes.append(f"ThingsBoard's connector has no place for tags: those of {', '.join(tagged)} are not in it")
         return Export(files={"modbus.json": json_text({"master": {"slaves": slaves}}, 2)}, warnings=warnings), notes
+    if to == "homeassistant":
+        from mdl.exports.homeassistant import fleet_text, hub_of
+
+        hubs: dict[tuple[object, ...], dict[str, Any]] = {}
+        for m in members:
+            result = _one(m, to, base)
+            said(result.warnings)
+            hub = hub_of(result.text or "")
+            line = line_of(m)
+            if line not in hubs:
+                hubs[line] = {**hub, "name": _hub_name(m)}
+                continue
+            for key, value in hub.items():
+                if isinstance(value, list):
+                    hubs[line].setdefault(key, []).extend(value)
+        return Export(files={"modbus.yaml": fleet_text(list(hubs.values()))}, warnings=warnings), notes
     if to == "nodered":
         return Export(files={"flows.json": _nodered_flow(members, base, said)}, warnings=warnings), notes
     for m in members:

@@ -330,8 +330,8 @@ def _entities(
         if f.fn.readable and left_out_unreadable(f, notes):
             continue
         base = {
-            "name": f.name,
-            "unique_id": f"{resolved.stem}_{settings.unit}_{f.ident}",
+            "name": _named(f.name, settings),
+            "unique_id": _unique(resolved, settings, f.ident),
             "device_address": settings.unit,
             "address": f.layout.addresses[0],
         }
@@ -397,8 +397,8 @@ def _entities(
     if climate is not None:
         target = climate.target
         entity = {
-            "name": target.name,
-            "unique_id": f"{resolved.stem}_{settings.unit}_{target.ident}",
+            "name": _named(target.name, settings),
+            "unique_id": _unique(resolved, settings, target.ident),
             "device_address": settings.unit,
             **climate.entity,
             "scan_interval": scan,
@@ -429,6 +429,34 @@ def _keys(hub: str, component: str, entity: dict[str, Any]) -> tuple[list[str], 
             if conf in filled
         ]
     return keys, f"{_PLATFORM[component]}.{filled['name']}"
+
+
+def _named(name: str, settings: Settings) -> str:
+    """An entity's name: the function's, after the device's id in a fleet (Home Assistant's names are one
+    namespace for every hub)."""
+    return f"{settings.name} {name}" if settings.name is not None else name
+
+
+def _unique(resolved: ResolvedDevice, settings: Settings, ident: str) -> str:
+    return f"{settings.name}_{ident}" if settings.name is not None else f"{resolved.stem}_{settings.unit}_{ident}"
+
+
+def hub_of(text: str) -> dict[str, Any]:
+    """The one hub of a single device's export (its text), for a fleet's file (mdl.exports.fleet)."""
+    hubs = yaml.safe_load(text)
+    assert isinstance(hubs, list) and len(hubs) == 1
+    return dict(hubs[0])
+
+
+def fleet_text(hubs: list[dict[str, Any]]) -> str:
+    """A fleet's hubs as one modbus.yaml, dumped as a device's is."""
+    head = (
+        "# Home Assistant modbus integration: a fleet's hubs, one per line, by mdl export --inventory.\n"
+        "# Save it as modbus.yaml beside configuration.yaml, which reads it with\n#   modbus: !include modbus.yaml\n"
+    )
+    return head + yaml.dump(
+        hubs, Dumper=yaml_dumper(), sort_keys=False, allow_unicode=True, default_flow_style=False, width=100
+    )
 
 
 def _drop_duplicates(hub: str, entities: dict[str, list[Entity]], notes: Notes) -> dict[str, list[dict[str, Any]]]:
