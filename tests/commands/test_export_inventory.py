@@ -88,7 +88,8 @@ def test_wot_gives_each_device_its_folder_and_a_device_an_engine_cannot_reach_is
 
 def test_what_a_fleet_export_cannot_do_is_said(site, tmp_path):
     out = tmp_path / "out"
-    assert_clean_error(cli("export", "--inventory", site, "--to", "esphome", "-o", out), 1, "is not written for a fleet")
+    proc = cli("export", "--inventory", site, "--to", "esphome", "-o", out)
+    assert_clean_error(proc, 1, "is not written for a fleet")
     assert_clean_error(cli("export", "--inventory", site, "--to", "thingsboard", "--shards", "2", "-o", out), 1,
                        "--shards splits Telegraf's agents")  # fmt: skip
     assert_clean_error(cli("export", str(SITE.parent.parent / "temco_tstat" / "temco_tstat.xml"), "--inventory", site,
