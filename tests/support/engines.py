@@ -26,6 +26,7 @@ import shutil
 import subprocess
 import sys
 import venv
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -129,14 +130,20 @@ def installed_version(python: Path, distribution: str) -> str:
 
 def require(engine: Engine) -> Path:
     """The engine's Python for a test; skipped with the reason when it cannot be installed (a failure in CI)."""
+    return installed(engine.name, lambda: engine_python(engine))
+
+
+def installed(name: str, install: Callable[[], Path]) -> Path:
+    """What `install` gives (an engine's Python or folder) for a test of the engines tier; the test skipped
+    with the reason when the engine cannot be installed (a failure in CI)."""
     from support.common import skip_or_fail
     from support.tiers import require_tier
 
-    require_tier("engines", f"the {engine.name} environment")
+    require_tier("engines", f"the {name} installation")
     try:
-        return engine_python(engine)
+        return install()
     except EngineUnavailable as exc:
-        skip_or_fail(f"{engine.name} is not available: {exc}")
+        skip_or_fail(f"{name} is not available: {exc}")
         raise AssertionError("unreachable") from None
 
 

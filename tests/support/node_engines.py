@@ -24,7 +24,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run as a script: `support` importable
 
-from support.engines import EngineUnavailable, cache_root  # noqa: E402
+from support.engines import EngineUnavailable, cache_root, installed  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -92,15 +92,7 @@ def engine_dir(engine: NodeEngine, *, timeout: float = 1800) -> Path:
 
 def require_node_engine(engine: NodeEngine) -> Path:
     """The engine's folder for a test; skipped with the reason when it cannot be installed (a failure in CI)."""
-    from support.common import skip_or_fail
-    from support.tiers import require_tier
-
-    require_tier("engines", f"the {engine.name} installation")
-    try:
-        return engine_dir(engine)
-    except EngineUnavailable as exc:
-        skip_or_fail(f"{engine.name} is not available: {exc}")
-        raise AssertionError("unreachable") from None
+    return installed(engine.name, lambda: engine_dir(engine))
 
 
 if __name__ == "__main__":
