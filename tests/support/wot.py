@@ -1,4 +1,4 @@
-"""What the WoT tests share (tests/unit/exports/test_export_wot.py, tests/unit/formats/test_wot_import.py,
+"""What the WoT tests share (tests/unit/exports/test_export_wot_td.py, tests/unit/formats/test_wot_import.py,
 tests/fuzz/test_fuzz_wot.py, tests/engines/test_export_wot.py): the export's warnings taken apart, the mdl:
 terms applied as docs/wot.md tells a consumer to, and the devices the engine test reads and writes."""
 
