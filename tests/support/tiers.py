@@ -17,7 +17,7 @@ import pytest
 TESTS = Path(__file__).resolve().parent.parent
 
 # cheapest first; `scripts/test --fast` runs FAST
-TIER_NAMES = ("unit", "commands", "meta", "hostile", "compile", "engines", "fuzz")
+TIER_NAMES = ("unit", "commands", "meta", "hostile", "compile", "engines", "fleet", "fuzz")
 FAST = ("unit", "commands", "meta")
 ABOUT = {
     "unit": "one module of src/mdl, in process (tests/unit/ mirrors src/mdl)",
@@ -26,6 +26,7 @@ ABOUT = {
     "hostile": "hostile inputs whose proof costs seconds each (memory caps, bombs, floods, timeouts)",
     "compile": "generated C, C++ and Python built, linted and run; the wheel",
     "engines": "the engines' own code in cached virtual environments, a real broker",
+    "fleet": "a site of hundreds of simulated devices polled at scale, with a real broker (SPEC 15)",
     "fuzz": "hypothesis fuzzers and property tests (also marked exhaustive)",
 }
 

@@ -515,7 +515,7 @@ class MqttPublisher:
             with self._cond:
                 if self._finished():
                     break
-                self._send(client, mids)
+            self._send(client, mids)
             if client.loop(0.02) != mqtt.MQTT_ERR_SUCCESS:
                 state["lost"] = True
         if state["lost"]:
@@ -530,15 +530,22 @@ class MqttPublisher:
         return True
 
     def _send(self, client: mqtt.Client, mids: dict[int, tuple[_Batch, int]]) -> None:
-        """Hand queued messages to paho in order, keeping at most WINDOW unacknowledged (under the lock)."""
-        for batch in self._pending:
-            while batch.unsent:
-                if len(mids) >= WINDOW:
-                    return
-                index = batch.unsent[0]
-                topic, payload = batch.messages[index]
-                info = client.publish(topic, payload, qos=1, retain=True)
-                if info.rc != mqtt.MQTT_ERR_SUCCESS:
-                    return  # the connection is gone: the loop finds out
-                batch.unsent.popleft()
-                mids[info.mid] = (batch, index)
+        """Hand queued messages to paho in order, keeping at most WINDOW unacknowledged. The queue's lock is held
+        only to pick them, never across paho's work: the polling thread takes it for every poll (record), and
+        must not wait for this thread while the system has it paused mid-send (a busy machine)."""
+        picked: list[tuple[_Batch, int]] = []
+        with self._cond:
+            for batch in self._pending:
+                while batch.unsent and len(mids) + len(picked) < WINDOW:
+                    picked.append((batch, batch.unsent.popleft()))
+                if len(mids) + len(picked) >= WINDOW:
+                    break
+        for n, (batch, index) in enumerate(picked):
+            topic, payload = batch.messages[index]
+            info = client.publish(topic, payload, qos=1, retain=True)
+            if info.rc != mqtt.MQTT_ERR_SUCCESS:  # the connection is gone: the loop finds out; these go again
+                with self._cond:
+                    for unsent_batch, unsent in reversed(picked[n:]):
+                        unsent_batch.unsent.appendleft(unsent)
+                return
+            mids[info.mid] = (batch, index)

@@ -3,14 +3,17 @@ FILE@CONNECTION[#UNIT]...`, and `mdl read ... --interval S --publish URL`.
 
 A target is a description and where its device is: `meter.xml@tcp://10.0.0.5:502#3`,
 `meter.xml@rtu+tcp://10.0.0.6:4001#2` (RTU frames over TCP), `meter.xml@rtu:///dev/ttyUSB0?baud=9600&parity=E#2`.
-Each target is polled by its own asyncio task on one event loop, on its own schedule (start to start,
-as mdl.device.fleet.poll; an inventory's devices each at their own interval, mdl.device.fleet.inventory),
-through a pymodbus asyncio client: a device that does not answer waits out its own timeout and delays no
-other. Devices on one serial line, or behind one RTU-over-TCP converter, share the line's client and take
-turns, as the bus makes them, the line held only while one polls. A device that fails BACK_OFF_AFTER polls
-in a row is backed off (after_poll: 2, 4, 8 ... intervals, at most MAX_BACK_OFF s), said once going and
-once coming back. Every poll goes to the sinks: the printer (records on stdout, naming their device when
-there are several) and the publishers (mdl.device.fleet.mqtt, mdl.device.fleet.prometheus).
+Each target is polled by its own asyncio task on one event loop, on its own schedule (an inventory's
+devices each at their own interval, mdl.device.fleet.inventory): its first poll STAGGER s after the one
+before it (wrapped into its interval: hundreds of devices never connect and poll at once), then one every
+interval from when the last was due (next_start), through a pymodbus asyncio client: a device that does
+not answer waits out its own timeout and delays no other. The devices of one description share its read
+plan and compiled decoder (_Fleet._session). Devices on one serial line, or behind one RTU-over-TCP
+converter, share the line's client and take turns, as the bus makes them, the line held only while one
+polls. A device that fails BACK_OFF_AFTER polls in a row is backed off (after_poll: 2, 4, 8 ... intervals,
+at most MAX_BACK_OFF s), said once going and once coming back. Every poll goes to the sinks: the printer
+(records on stdout, naming their device when there are several) and the publishers (mdl.device.fleet.mqtt,
+mdl.device.fleet.prometheus).
 """
 
 from __future__ import annotations
@@ -240,6 +243,25 @@ def retry_delay(interval: float, failures: int) -> float:
     return max(interval, min(interval * float(2**doubling), MAX_BACK_OFF))
 
 
+# Devices start polling STAGGER seconds apart, wrapped into each one's interval (first_start): hundreds of
+# devices never connect and poll all at once, and their polls stay spread over every interval after.
+STAGGER = 0.01
+
+
+def first_start(index: int, interval: float, count: int | None) -> float:
+    """Seconds from the start of the run to the first poll of the `index`-th device: index x STAGGER,
+    wrapped into its interval (a few devices start within milliseconds; thousands spread evenly over their
+    interval); 0 for one read of each (`count` 1), which nothing follows."""
+    return 0.0 if count == 1 else (index * STAGGER) % interval
+
+
+def next_start(due: float, delay: float, now: float) -> float:
+    """When a device's next poll starts: `delay` after the one that just ended was due, not after it began
+    (a poll that began late, waiting for the event loop or its line, shifts none after it), or `now` if that
+    has passed (a poll slower than its interval is followed at once, never by a burst to catch up)."""
+    return max(due + delay, now)
+
+
 async def _fetch(session: Session, client: ModbusBaseClient, req: Request) -> list[int]:
     """One request on the asyncio client, judged as Session.read_request judges its replies."""
     what = session.reading(req)
@@ -288,6 +310,7 @@ class _Fleet:
         self.polled, self.sinks, self.interval, self.count = polled, sinks, interval, count
         self.status = [0] * len(polled)
         self.stop = asyncio.Event()
+        self.sessions: dict[int, Session] = {}  # the first session of each description (one read plan for all)
         lines: dict[object, tuple[_Line, Polled]] = {}
         self.lines = []
         for i, p in enumerate(polled):
@@ -348,19 +371,15 @@ class _Fleet:
         --count or a stop. The line is held only while it polls: a device backed off delays no other."""
         p, line = self.polled[i], self.lines[i]
         interval = self.interval if p.interval is None else p.interval
-        session = Session(p.resolved, p.target.connection, p.target.unit)
+        session = self._session(p)
         session.wire = line.wire  # the line's client traces into the line's wire
         loop = asyncio.get_running_loop()
-        next_start, polls, failures = loop.time(), 0, 0
+        due, polls, failures = loop.time() + first_start(i, interval, self.count), 0, 0
         tellers = [sink for sink in self.sinks if isinstance(sink, Teller)]
         while self.count is None or polls < self.count:
-            if polls:
-                try:
-                    await asyncio.wait_for(self.stop.wait(), max(0.0, next_start - loop.time()))
-                    return
-                except asyncio.TimeoutError:
-                    pass
-            started = loop.time()
+            wait = due - loop.time()
+            if wait > 0:  # a stop cancels the task (run)
+                await asyncio.sleep(wait)
             turn: list[datetime] = []
             try:
                 values = await _read(session, line, p.functions, turn)
@@ -385,8 +404,17 @@ class _Fleet:
                 for sink in self.sinks:
                     sink.record(p, values, turn[0])
             failures = outcome.failures
-            next_start = started + outcome.delay
+            due = next_start(due, outcome.delay, loop.time())
             polls += 1
+
+    def _session(self, p: Polled) -> Session:
+        """A session with the device; the devices of one description share its read plan and decoder (made
+        and compiled once, not once per device: a site of hundreds of one meter compiles one)."""
+        session = Session(p.resolved, p.target.connection, p.target.unit)
+        first = self.sessions.setdefault(id(p.resolved), session)
+        if first is not session:  # the plan is the description's; what a device refused stays its own
+            session._evaluator, session._plans = first.evaluator, first._plans
+        return session
 
 
 _BACK_OFF_NOTE = (
