@@ -25,6 +25,13 @@ CPU (/proc, sampled; wait4 at the end), for each run:
 - RSS: the poller's peak resident memory (wait4);
 - sims: the `mdl sim` processes' CPU over the run, as a share of one core, and the load average
   (1 minute) before and after: what else was on the cores.
+
+Beside mdl's poller, on the same site and for as long, each engine the fleet tier proves (`--engines`): the
+ThingsBoard gateway's own Modbus connector (tests/support/fleet_thingsboard.py) and Node-RED with
+node-red-contrib-modbus (tests/support/fleet_nodered.py), each from its export of the same inventory, with
+their own figures: device polls a second, CPU ms per device poll and share of a core of the engine's
+process, late (a poll more than 1.5 S after the one before) and the worst gap, and peak RSS. An engine
+not installed here (tests/support/engines_fleet.py, node_engines.py) is left out with the reason.
 """
 
 from __future__ import annotations
@@ -156,15 +163,59 @@ def poll(site: Site, folder: Path, interval: float, polls: int, broker_port: int
     }
 
 
+def bench_thingsboard(site: Site, seconds: float) -> dict:
+    from support.fleet_thingsboard import bench_thingsboard as run
+
+    return run(site, seconds)
+
+
+def bench_nodered(site: Site, seconds: float) -> dict:
+    from support.fleet_nodered import figures
+
+    r = figures(site, site.folder / "nodered", seconds)  # after a warm-up of two intervals
+    return {
+        "device_polls_per_s": r["polls_per_s"],  # a poll: one device's message
+        "cpu_share": r["core"],
+        "late_share": r["late_share"],
+        "worst_gap_over_interval": r["max_gap_ratio"],
+        "peak_rss_mb": r["rss_mb"],
+    }
+
+
+# an engine's name -> its run on a site for some seconds: a dict with device_polls_per_s, cpu_share (of one
+# core), late_share, worst_gap_over_interval and peak_rss_mb
+ENGINES = {"thingsboard": bench_thingsboard, "nodered": bench_nodered}
+
+
+def engine_row(name: str, site: Site, units: int, interval: float, seconds: float) -> str:
+    """One engine's row, or why it is left out."""
+    try:
+        r = ENGINES[name](site, seconds)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # noqa: BLE001  (an engine missing here, a skip, or a failure: said in its row)
+        why = " ".join(str(exc).split())[:160]
+        return f"{units:>5} {interval:>5g} {name:>11}  left out: {type(exc).__name__}: {why}"
+    polls = r["device_polls_per_s"]
+    cpu_ms = 1000 * r["cpu_share"] / polls if polls else math.nan
+    max_late = (r["worst_gap_over_interval"] - 1) * interval
+    return (
+        f"{units:>5} {interval:>5g} {name:>11} {polls:>8.1f} {cpu_ms:>12.2f} {r['cpu_share']:>5.0%} "
+        f"{r['late_share']:>6.1%} {max_late:>8.2f}s {'':>6} {'':>9} {r['peak_rss_mb']:>6.0f}"
+    )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", default="500@10,2000@10,200@0.5", help="UNITS@INTERVAL_S, comma separated")
     ap.add_argument("--polls", type=int, default=5, help="polls of each device in a run (--count)")
     ap.add_argument("--publish", default="none,mqtt", help="none (records only) and/or mqtt (records and MQTT)")
     ap.add_argument("--keep", type=Path, help="copy each run's records and stderr into this folder")
+    ap.add_argument("--engines", default=",".join(ENGINES), help="engines beside mdl's poller ('' for none)")
     args = ap.parse_args()
     runs = [(int(u), float(s)) for u, s in (run.split("@") for run in args.runs.split(","))]
     modes = args.publish.split(",")
+    engines = [e for e in args.engines.split(",") if e]
     mosquitto = shutil.which("mosquitto") or shutil.which("/usr/sbin/mosquitto")
     if "mqtt" in modes and mosquitto is None:
         print("mosquitto is not installed (apt-get install mosquitto): the mqtt rows are left out")
@@ -175,7 +226,7 @@ def main() -> None:
         f" {os.cpu_count()} cores, load {' '.join(f'{x:.2f}' for x in os.getloadavg())} (1, 5, 15 min)"
     )
     head = (
-        f"{'units':>5} {'S':>5} {'publish':>7} {'polls/s':>8} {'CPU ms/poll':>12} {'core':>5} {'late':>6} "
+        f"{'units':>5} {'S':>5} {'run':>11} {'polls/s':>8} {'CPU ms/poll':>12} {'core':>5} {'late':>6} "
         f"{'max late':>9} {'start':>6} {'1st round':>9} {'RSS MB':>6} {'sims':>5} {'load':>11}  target"
     )
     print(head)
@@ -209,7 +260,7 @@ def main() -> None:
                             broker.stop()
                     target = TARGETS.get((units, interval), "")
                     print(
-                        f"{units:>5} {interval:>5g} {mode:>7} {r['polls_per_s']:>8.1f} "
+                        f"{units:>5} {interval:>5g} {'mdl ' + mode:>11} {r['polls_per_s']:>8.1f} "
                         f"{r['cpu_ms_steady']:>5.2f} /{r['cpu_ms_all']:>5.2f} {r['core']:>5.0%} {r['late']:>6.1%} "
                         f"{r['max_late']:>8.2f}s {r['start']:>5.1f}s {r['first_round']:>8.1f}s {r['rss_mb']:>6.0f} "
                         f"{r['sims_core']:>5.0%} "
@@ -221,6 +272,9 @@ def main() -> None:
                             f"      {r['devices']} of {units} devices answered; {r['failed']} failed polls "
                             f"(exit {r['status']}) {r['first_failure']}"
                         )
+                seconds = max(args.polls * interval, MIN_SECONDS)
+                for name in engines:  # the same site, for as long as the poller's run
+                    print(engine_row(name, site, units, interval, seconds), flush=True)
             finally:
                 if site is not None:
                     site.close()
@@ -230,7 +284,8 @@ def main() -> None:
                     sim.stop()
     print("CPU ms/poll: once every device has polled / over the whole run (start-up included); core: of one")
     print("core once every device has polled; late: polls more than 1.5 S after the one before; sims: CPU of")
-    print("the mdl sim processes (share of one core), on the same cores")
+    print("the mdl sim processes (share of one core), on the same cores. Engine rows: device polls a second, CPU")
+    print("ms per device poll and share of a core of the engine's process, late and the worst poll's lateness, RSS")
 
 
 if __name__ == "__main__":

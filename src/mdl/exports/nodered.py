@@ -88,7 +88,20 @@ def _decoded(resolved: ResolvedDevice, notes: Notes) -> list[Decoded]:
 
 def _client(conn: Endpoint, unit: int, node_id: str, name: str) -> Node:
     """The modbus-client config node of the connection. RTU frames over TCP are modbus-serial's TELNET port
-    (frames as they are, CRC included); its TCP-RTU-BUFFERED port sends Modbus TCP frames instead."""
+    (frames as they are, CRC included); its TCP-RTU-BUFFERED port sends Modbus TCP frames instead.
+
+    A serial line is one client for all its units (a fleet's flow, mdl.exports.fleet), so, as node-red-contrib-
+    modbus 5.23.3 behaves with it (seen in Node-RED, tests/fleet/test_nodered_at_scale.py):
+    - `parallelUnitIdsAllowed` off for a serial line: on, the client sends one request of every unit id with
+      requests queued at once, and RTU frames carry no transaction id to tell the replies apart (every request
+      on a line of several units timed out). A TCP client (RTU over TCP included) keeps it on: it serves one
+      device, and off, its state machine (which does not wait for a reply before the next send on a TCP
+      client) loses queued requests once a request times out;
+    - `reconnectOnTimeout` off for a serial line: on, a unit that does not answer makes the client close the
+      port, empty every unit's queue and stop every `modbus-read` until it reconnects, so one silent unit
+      silenced the whole line. Over TCP (a client per device) a timeout still reconnects: the connection may
+      be what broke, and the device's queued requests are dropped with it (one timeout a poll, not one a
+      request)."""
     serial = conn.serial is not None
     return {
         "id": node_id,
@@ -113,9 +126,9 @@ def _client(conn: Endpoint, unit: int, node_id: str, name: str) -> Node:
         "unit_id": str(unit),
         "commandDelay": "1",
         "clientTimeout": str(max(1, round(conn.timeout * 1000))),
-        "reconnectOnTimeout": True,
+        "reconnectOnTimeout": not serial,
         "reconnectTimeout": "2000",
-        "parallelUnitIdsAllowed": True,
+        "parallelUnitIdsAllowed": not serial,
     }
 
 

@@ -82,9 +82,12 @@ def test_serial_and_rtu_over_tcp_clients():
     assert client["clienttype"] == "simpleser" and client["serialPort"] == "/dev/ttyUSB1"
     assert (client["serialBaudrate"], client["serialParity"], client["serialStopbits"]) == ("9600", "odd", "2")
     assert client["serialType"] == "RTU-BUFFERD" and client["serialDatabits"] == "8"
+    # a line's units share the client: one request at a time, and a silent unit does not reconnect the line
+    assert client["parallelUnitIdsAllowed"] is False and client["reconnectOnTimeout"] is False
     nodes, _ = export(ALL_TABLES, *TCP, "--framer", "rtu", "--timeout", "1.5")
     (client,) = of_type(nodes, "modbus-client")
     assert (client["clienttype"], client["tcpType"], client["clientTimeout"]) == ("tcp", "TELNET", "1500")
+    assert client["parallelUnitIdsAllowed"] is True and client["reconnectOnTimeout"] is True  # a client a device
 
 
 def test_no_connection_is_a_note():
