@@ -7,7 +7,7 @@
 #define MDL_TEMCO_TSTAT_H
 
 // This run of mdl gen: temco_tstat.cc refuses to compile with a temco_tstat.h of another run.
-#define MDL_TEMCO_TSTAT_GENERATION 0xe13d1869afa7
+#define MDL_TEMCO_TSTAT_GENERATION 0x9c5dc0c447e4
 
 #include <modbus.h>
 
@@ -186,7 +186,7 @@ private:
 #define MDL_TEMCO_TSTAT_C_H
 
 /* This run of mdl gen: temco_tstat.c refuses to compile with a temco_tstat.h of another run. */
-#define MDL_TEMCO_TSTAT_GENERATION 0xe13d1869afa7
+#define MDL_TEMCO_TSTAT_GENERATION 0x9c5dc0c447e4
 
 #include <modbus.h>
 #include <stdbool.h>

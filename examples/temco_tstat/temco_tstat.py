@@ -503,28 +503,66 @@ class TemcoTstatValues(TypedDict):
     occupied_heating_setpoint: float
 
 
-def _values(raw: list[int | None]) -> TemcoTstatValues:
-    """Every readable function's value from the registers of the read plan, in dependency order."""
-    if None in raw:
+def _values(raw: list[int | None], whole: bool = False) -> TemcoTstatValues:
+    """Every readable function's value from the registers of the read plan, in dependency order; `whole`:
+    every group was read whole (no register is None)."""
+    if not whole and None in raw:
         _refused(raw)
     regs = cast("list[int]", raw)  # only expressions read a register the device refused
-    v_serial_number = _decode_serial_number([regs[0], regs[1], regs[2], regs[3]])
-    v_firmware_version = _decode_firmware_version([regs[4], regs[5]])
-    v_modbus_address = _decode_modbus_address([regs[6]])
-    v_product_model = _decode_product_model([regs[7]])
-    v_room_temperature = _decode_room_temperature([regs[8]])
-    v_humidity = _decode_humidity([regs[11]])
+    x: float
+    v = ((regs[0] & 0xFF) << 24) | ((regs[1] & 0xFF) << 16) | ((regs[2] & 0xFF) << 8) | (regs[3] & 0xFF)
+    v_serial_number = v
+    v = ((regs[4] & 0xFF) << 8) | (regs[5] & 0xFF)
+    x = float(v)
+    x = x / 10.0
+    v_firmware_version = x
+    v = regs[6] & 0xFF
+    v_modbus_address = v
+    v = regs[7] & 0xFF
+    v_product_model = v
+    v = regs[8]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 10.0
+    v_room_temperature = x
+    v = regs[11]
+    x = float(v)
+    x = x / 10.0
+    v_humidity = x
     v_occupancy = _decode_occupancy([regs[12]])
-    v_fan_speed = _decode_fan_speed([regs[10]])
-    v_system_mode = _decode_system_mode([regs[9]])
-    v_fan_relay_on = _decode_fan_relay_on([regs[13]])
-    v_cooling_stage1_relay_on = _decode_cooling_stage1_relay_on([regs[14]])
-    v_cooling_stage2_relay_on = _decode_cooling_stage2_relay_on([regs[15]])
-    v_heating_stage1_relay_on = _decode_heating_stage1_relay_on([regs[16]])
-    v_heating_stage2_relay_on = _decode_heating_stage2_relay_on([regs[17]])
-    v_occupied_setpoint = _decode_occupied_setpoint([regs[18]])
-    v_unoccupied_setpoint = _decode_unoccupied_setpoint([regs[19]])
-    v_occupied_heating_setpoint = _decode_occupied_heating_setpoint([regs[20]])
+    v = regs[10] & 0xFF
+    v_fan_speed = v
+    v = regs[9] & 0xFF
+    v_system_mode = v
+    v = regs[13] & 0xFF
+    v_fan_relay_on = v
+    v = regs[14] & 0xFF
+    v_cooling_stage1_relay_on = v
+    v = regs[15] & 0xFF
+    v_cooling_stage2_relay_on = v
+    v = regs[16] & 0xFF
+    v_heating_stage1_relay_on = v
+    v = regs[17] & 0xFF
+    v_heating_stage2_relay_on = v
+    v = regs[18]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 10.0
+    v_occupied_setpoint = x
+    v = regs[19]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 10.0
+    v_unoccupied_setpoint = x
+    v = regs[20]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 10.0
+    v_occupied_heating_setpoint = x
     values = cast("TemcoTstatValues", _NAMES.copy())  # every key in place: nothing grows as it fills
     values['serial_number'] = v_serial_number
     values['firmware_version'] = v_firmware_version
@@ -729,10 +767,11 @@ class TemcoTstat:
         'Occupied heating setpoint [\xb0C]'
         self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
-    def _read_plan(self) -> list[int | None]:
-        """The registers and bits of the whole read plan, group after group; None where the device
-        refused one even when asked alone."""
+    def _read_plan(self) -> tuple[list[int | None], bool]:
+        """The registers and bits of the whole read plan, group after group (None where the device
+        refused one even when asked alone), and whether every group was read whole."""
         raw: list[int | None] = [None] * _BUFFER_SIZE
+        whole = True
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
@@ -742,6 +781,7 @@ class TemcoTstat:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
+            whole = False
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
@@ -749,7 +789,7 @@ class TemcoTstat:
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
-        return raw
+        return raw, whole
 
     def read_all(self) -> TemcoTstatValues:
         """Read every readable function with the fewest requests; returns {name: value}.
@@ -757,7 +797,7 @@ class TemcoTstat:
         A group the device refuses with exception 2 is read as smaller requests from then on; a
         register it refuses even alone has no value: expressions that need it read None, any
         other function raises ModbusExceptionError."""
-        return _values(self._read_plan())
+        return _values(*self._read_plan())
 
 
 class AsyncTemcoTstat:
@@ -943,10 +983,11 @@ class AsyncTemcoTstat:
         'Occupied heating setpoint [\xb0C]'
         await self._write_runs([('holding', 348, 1)], _encode_occupied_heating_setpoint(value))
 
-    async def _read_plan(self) -> list[int | None]:
-        """The registers and bits of the whole read plan, group after group; None where the device
-        refused one even when asked alone."""
+    async def _read_plan(self) -> tuple[list[int | None], bool]:
+        """The registers and bits of the whole read plan, group after group (None where the device
+        refused one even when asked alone), and whether every group was read whole."""
         raw: list[int | None] = [None] * _BUFFER_SIZE
+        whole = True
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
@@ -956,6 +997,7 @@ class AsyncTemcoTstat:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
+            whole = False
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
@@ -963,7 +1005,7 @@ class AsyncTemcoTstat:
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
-        return raw
+        return raw, whole
 
     async def read_all(self) -> TemcoTstatValues:
         """Read every readable function with the fewest requests; returns {name: value}.
@@ -971,4 +1013,4 @@ class AsyncTemcoTstat:
         A group the device refuses with exception 2 is read as smaller requests from then on; a
         register it refuses even alone has no value: expressions that need it read None, any
         other function raises ModbusExceptionError."""
-        return _values(await self._read_plan())
+        return _values(*await self._read_plan())

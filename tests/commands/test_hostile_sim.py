@@ -4,6 +4,8 @@ under a burst of bad frames from several clients is rate-limited per client, wit
 
 from __future__ import annotations
 
+import io
+import logging
 import random
 import socket
 import struct
@@ -14,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mdl.device.server.sim import LOG_PER_CLIENT, LOG_TOTAL
+from mdl.device.server.sim import LOG_PER_CLIENT, LOG_TOTAL, LogLimiter
 from support.common import DATA
 from support.hostile_server import rtu_frame
 
@@ -162,3 +164,32 @@ def test_fuzz_any_request_gets_a_reply_of_its_function_and_no_traceback(sim_fact
         answered()
         assert tcp_request(sock, SERVED[0]) == SERVED[1]
     assert_clean(sim)
+
+
+def test_a_client_leaving_before_its_reply_is_not_said(sim_factory):
+    """A client that sends a request and leaves at once (its connection reset before the reply): the sim says
+    nothing (pymodbus logs "Cancel send, because not connected!" as it drops the reply), and goes on serving."""
+    sim = sim_factory(ALL, "--unit", "1")
+    for _ in range(200):
+        sock = socket.create_connection((sim.host, sim.port), timeout=10)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))  # close sends a reset
+        sock.sendall(struct.pack(">HHHB", 7, 0, len(SERVED[0]) + 1, 1) + SERVED[0])
+        sock.close()
+    with socket.create_connection((sim.host, sim.port), timeout=10) as sock:
+        assert tcp_request(sock, SERVED[0]) == SERVED[1]
+    assert assert_clean(sim) == []
+
+
+def test_what_says_nothing_is_not_logged():
+    """pymodbus's error lines carry its last frames after the message; the message alone decides."""
+    out = io.StringIO()
+    limiter = LogLimiter("client", out)
+    for msg in (
+        "Cancel send, because not connected!",
+        "Cancel send, because not connected!\n 0x0 0x7",
+        "Repeating....",
+    ):
+        limiter.emit(logging.LogRecord("pymodbus", logging.ERROR, __file__, 1, msg, None, None))
+    assert out.getvalue() == ""
+    limiter.emit(logging.LogRecord("pymodbus", logging.ERROR, __file__, 1, "Unable to decode frame", None, None))
+    assert out.getvalue() == "mdl sim: client: Unable to decode frame\n"

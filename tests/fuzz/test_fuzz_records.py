@@ -96,3 +96,22 @@ def test_a_function_listed_twice_keeps_one_json_key():
     a = Function("a", "", [0], format="UINT16")
     when = datetime(2026, 11, 26, tzinfo=timezone.utc)
     assert output.record([a, a], {"a": 7}, "json", when) == '{"time": "2026-11-26T00:00:00.000Z", "a": 7}\n'
+
+
+# few values, so that the records of one list repeat them (the plan's texts printed before are taken again),
+# of every type that compares equal to another while printing otherwise
+REPEATED = st.sampled_from([0, 0.0, -0.0, 1, 1.0, True, False, 230.1, 230.10000610351562, 2.5, math.nan, math.inf, "1"])
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.data(), st.integers(1, 4), st.sampled_from(["json", "csv", "table", "senml"]))
+def test_records_of_values_read_before_print_what_the_plain_construction_prints(data, n, fmt):
+    functions: list[Function] = []
+    for i in range(n):
+        fn = data.draw(function(i))
+        if fn.name not in {f.name for f in functions}:
+            functions.append(fn)
+    when = datetime(2026, 11, 26, 12, 0, 0, 123000, tzinfo=timezone.utc)
+    for _ in range(6):
+        values = {fn.name: data.draw(REPEATED) for fn in functions}
+        assert output.record(functions, values, fmt, when, "Dev") == oracle(functions, values, fmt, when, "Dev")

@@ -106,11 +106,12 @@ class BufferDecoder:
         self.uses = 0
         self.compiled: Callable[[Buffer], dict[str, Value]] | None = None
 
-    def __call__(self, raw: Buffer) -> dict[str, Value]:
+    def __call__(self, raw: Buffer, whole: bool = False) -> dict[str, Value]:
+        """The values; `whole`: the caller knows that no slot is None (every request was answered whole)."""
         self.uses += 1
         if self.compiled is None and self.uses > 1:
             self.compiled = self._compile()
-        if self.compiled is not None and None not in raw:
+        if self.compiled is not None and (whole or None not in raw):
             return self.compiled(raw)
         values = self.evaluator._run(self.steps, raw)
         return {name: values[name] for name in self.names}

@@ -16,9 +16,10 @@ import functools
 import io
 import json
 import math
+import operator
 import struct
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
 from typing import Any, TypedDict, cast
@@ -277,6 +278,7 @@ def record_header(functions: list[Function], fmt: str) -> str:
 
 
 _PLAIN, _LABELLED, _FLOAT32_SHOWN, _PRECISION = range(4)  # how a record shows a function's value
+MEMO_MOST = 8  # texts a plan remembers per function (a poll's readings mostly repeat the last polls')
 
 
 class _Plan:
@@ -288,6 +290,10 @@ class _Plan:
         self.functions, self.device_name = functions, device_name
         self.members = list(functions)  # the list's content when planned (a list is mutable)
         self.names = [fn.name for fn in functions]
+        # a record's values, in the list's order, taken from the values read at once
+        self.take: Callable[[dict[str, Value]], Sequence[Value]] = (
+            operator.itemgetter(*self.names) if len(self.names) > 1 else lambda values: [values[n] for n in self.names]
+        )
         self.kinds = [
             _PRECISION
             if fn.precision is not None
@@ -302,6 +308,10 @@ class _Plan:
         self.table_names = [f"{n:<{width}}  " for n in self.names]
         self.table_units = [f" {u}" if (u := (fn.units or "").strip()) else "" for fn in functions]
         self.time_row = f"{TIME_KEY:<{width}}  "
+        # the table's rows joined at once: name, value (None here), units and the line's end, row after row
+        self.table_parts: list[str | None] = [None] * (3 * len(functions))
+        self.table_parts[0::3] = self.table_names
+        self.table_parts[2::3] = [units + "\n" for units in self.table_units]
         # the values shown otherwise than as they are: float32 as their shortest decimal, and the rest
         self.float32 = [i for i, kind in enumerate(self.kinds) if kind == _FLOAT32_SHOWN]
         self.special = [i for i, kind in enumerate(self.kinds) if kind in (_LABELLED, _PRECISION)]
@@ -324,7 +334,33 @@ class _Plan:
                     [", " + _dumps(rest)[1:] if rest else "}" for _, _, rest in entries],
                 )
             )
+        # each block's entries joined at once: before, the value (None here), after and ", " but after the last
+        self.senml_parts: list[tuple[str, list[int], list[str | None]]] = []
+        for head, at, before, after in self.senml:
+            parts: list[str | None] = [None] * (3 * len(at))
+            parts[0::3] = before
+            parts[2::3] = [*(a + ", " for a in after[:-1]), *after[-1:]]
+            self.senml_parts.append((head, at, parts))
         self.unlabelled = not any(fn.values for fn in functions)  # no label: a number is shown as a number
+        self.shows_float32 = [kind == _FLOAT32_SHOWN for kind in self.kinds]
+        # json written out, where each name is a key once: each key's JSON after the one before ("time" first),
+        # then its value (None here)
+        self.json_fast = len(set(self.names)) == len(self.names) and TIME_KEY not in self.names
+        self.json_parts: list[str | None] = [None] * (2 * len(functions))
+        self.json_parts[0::2] = [f", {_dumps(n)}: " for n in self.names]
+        # the text of each value printed before, by function (`_texts`): exact (json) and shown (the others),
+        # for the types of the values it was last asked for
+        self.types: list[type] | None = None
+        self.numbers = self.texty = False  # those types: int and float only; int, float and str only
+        self.memos: tuple[list[dict[Value, str]], list[dict[Value, str]]] = ([], [])
+
+    def remember(self, types: list[type]) -> None:
+        """Start remembering texts of values of these types (one a function), forgetting the others: a text is
+        found by its value, and values of other types can be equal (1 == 1.0 == True) and print otherwise."""
+        self.types = types
+        self.numbers = _NUMBER_TYPES.issuperset(types)
+        self.texty = self.numbers or _STR_TYPES.issuperset(types)
+        self.memos = ([{} for _ in types], [{} for _ in types])
 
     def shown(self, i: int, value: Value) -> Value:
         kind = self.kinds[i]
@@ -369,53 +405,83 @@ def _dumps(value: object) -> str:
 
 
 _STR_TYPES = frozenset((int, float, str))  # values whose text, in csv and table, is their str
+_NUMBER_TYPES = frozenset((int, float))  # values whose text in every format is their str (if finite)
 
 
-def _plain_texts(plan: _Plan, got: list[Value], text: Callable[[_Plan, int, Value], str]) -> list[str] | None:
-    """Each value's text where every value is an int, a float or a text (most polls): its str, a float32's
-    shortest decimal's, `text` of those labelled or with a precision; None otherwise."""
-    if not _STR_TYPES.issuperset(map(type, got)):
+def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], bool] | None:
+    """Each value's text, and whether every number is finite, where every value is an int or a float (or, if
+    `shown`, a text): its str, or if `shown` a float32's shortest decimal's where the function shows one
+    (labels and precisions are the caller's); None where another type is there. A text printed before for the
+    same value of the function, of the same type, is taken from the plan (MEMO_MOST at most per function;
+    never for a zero of a float, whose two signs are equal values and print otherwise, nor for a NaN)."""
+    types = list(map(type, got))
+    if types != plan.types:
+        plan.remember(types)
+    if not (plan.texty if shown else plan.numbers):
         return None
-    texts = list(map(str, got))
-    for i in plan.float32:
-        value = got[i]
-        if type(value) is float:
-            texts[i] = str(shortest_float32(value))
-    for i in plan.special:
-        texts[i] = text(plan, i, got[i])
-    return texts
+    memos = plan.memos[shown]
+    texts: list[Any] = list(map(dict.get, memos, got))
+    finite = True
+    if not all(texts):  # some printed afresh (or a text that is empty)
+        float32 = plan.shows_float32
+        i = -1
+        while True:
+            try:
+                i = texts.index(None, i + 1)
+            except ValueError:  # no more
+                break
+            value = got[i]
+            if type(value) is float:
+                if shown and float32[i]:
+                    text = str(shortest_float32(value))
+                else:
+                    text = str(value)
+                if not math.isfinite(value):
+                    finite = False
+                    texts[i] = text
+                    continue
+                if not value:  # 0.0 or -0.0
+                    texts[i] = text
+                    continue
+            else:
+                text = str(value)
+            memo = memos[i]
+            if len(memo) >= MEMO_MOST:
+                memo.clear()
+            memo[value] = texts[i] = text
+    return texts, finite
 
 
-def _senml_record(plan: _Plan, got: list[Value], when: datetime) -> str | None:
+def _senml_record(plan: _Plan, got: Sequence[Value], when: datetime) -> str | None:
     """The senml record written out where every value is a finite number shown as itself (most polls):
     None otherwise."""
-    if not plan.unlabelled or not _finite_numbers(got):
+    if not plan.unlabelled:
         return None
-    for i in plan.float32:
-        value = got[i]
-        if type(value) is float:
-            got[i] = shortest_float32(value)
+    found = _texts(plan, got, True)
+    if found is None or not plan.numbers or not found[1]:  # a text, a NaN or an infinity
+        return None
+    texts = found[0]
     for i in plan.special:
-        got[i] = plan.shown(i, got[i])
+        texts[i] = repr(plan.shown(i, got[i]))
     bt = f"{round(when.timestamp(), 3)!r}, {_dumps('e')}: ["
-    blocks = [
-        head + bt + ", ".join(map("".join, zip(before, map(repr, map(got.__getitem__, at)), after, strict=True))) + "]}"
-        for head, at, before, after in plan.senml
-    ]
+    blocks = []
+    for head, at, template in plan.senml_parts:
+        parts = template.copy()
+        parts[1::3] = texts if len(at) == len(texts) else [texts[i] for i in at]  # one block: every entry, in order
+        blocks.append(head + bt + "".join(parts) + "]}")  # type: ignore[arg-type]  # every part a text now
     return "{" + ", ".join(blocks) + "}\n"
 
 
-_NUMBER_TYPES = frozenset((int, float))
-
-
-def _finite_numbers(got: list[Value]) -> bool:
-    """Whether every value is an int or a finite float (not a bool)."""
-    if not _NUMBER_TYPES.issuperset(map(type, got)):
-        return False
-    try:
-        return all(map(math.isfinite, got))  # type: ignore[arg-type]
-    except OverflowError:  # an integer past a double's range: the general way prints it
-        return False
+def _number_texts(plan: _Plan, got: Sequence[Value], text: Callable[[_Plan, int, Value], str]) -> list[str] | None:
+    """csv's and table's texts of the values where every value is an int, a float or a text (most polls), with
+    `text` of those labelled or with a precision; None otherwise."""
+    found = _texts(plan, got, True)
+    if found is None:
+        return None
+    texts = found[0]
+    for i in plan.special:
+        texts[i] = text(plan, i, got[i])
+    return texts
 
 
 def record(functions: list[Function], values: dict[str, Value], fmt: str, when: datetime, device_name: str = "") -> str:
@@ -423,8 +489,14 @@ def record(functions: list[Function], values: dict[str, Value], fmt: str, when: 
     first; table a block (a time row, the values, a blank line); senml one document on one line, each
     block with `bt`, the time in seconds since 1970 (UTC)."""
     plan = _plan(functions, device_name)
-    got = [values[name] for name in plan.names]
+    got = plan.take(values)
     if fmt == "json":
+        if plan.unlabelled and plan.json_fast:  # finite numbers, each as it is: their JSON is their str
+            found = _texts(plan, got, False)
+            if found is not None and found[1]:
+                parts = plan.json_parts.copy()
+                parts[1::2] = found[0]
+                return f'{{"{TIME_KEY}": "{iso_time(when)}"' + "".join(parts) + "}\n"  # type: ignore[arg-type]
         if plan.unlabelled:  # each value as it is, but NaN and the infinities (allow_nan: ValueError)
             try:
                 numbers = {TIME_KEY: iso_time(when), **dict(zip(plan.names, got, strict=True))}
@@ -443,11 +515,12 @@ def record(functions: list[Function], values: dict[str, Value], fmt: str, when: 
         }
         return json.dumps(doc, ensure_ascii=False) + "\n"
     if fmt == "csv":
-        texts = _plain_texts(plan, got, _csv_text) or [_csv_text(plan, i, v) for i, v in enumerate(got)]
+        texts = _number_texts(plan, got, _csv_text) or [_csv_text(plan, i, v) for i, v in enumerate(got)]
         return _csv_cells([iso_time(when), *texts])
-    texts = _plain_texts(plan, got, _table_text) or [_table_text(plan, i, v) for i, v in enumerate(got)]
-    rows = "\n".join(map("".join, zip(plan.table_names, texts, plan.table_units, strict=True)))
-    return f"{plan.time_row}{iso_time(when)}\n{rows}\n\n" if rows else f"{plan.time_row}{iso_time(when)}\n\n"
+    texts = _number_texts(plan, got, _table_text) or [_table_text(plan, i, v) for i, v in enumerate(got)]
+    parts = plan.table_parts.copy()
+    parts[1::3] = texts
+    return f"{plan.time_row}{iso_time(when)}\n" + "".join(parts) + "\n"  # type: ignore[arg-type]
 
 
 def _csv_text(plan: _Plan, i: int, value: Value) -> str:

@@ -70,6 +70,9 @@ class Session(Link):
         self.refused: set[Request] = set()  # groups the device refused (exception 2): read split from then on
         self._evaluator: Evaluator | None = None
         self._plans: dict[tuple[str, ...], _ReadPlan] = {}  # the names read -> how to read them
+        # the functions of the last read and their plan: a poll reads the same list again and again, and
+        # comparing the lists (identity first, in C) costs less than naming their functions each time
+        self._last: tuple[list[Function], _ReadPlan] | None = None
 
     @property
     def evaluator(self) -> Evaluator:
@@ -118,9 +121,15 @@ class Session(Link):
 
     def read_steps(self, functions: list[Function]) -> ReadSteps:
         """`read` as steps: yields each request and is sent its registers (`drive`)."""
-        plan = self._plan(tuple(fn.name for fn in functions))
+        last = self._last
+        if last is not None and last[0] == functions:
+            plan = last[1]
+        else:
+            plan = self._plan(tuple(fn.name for fn in functions))
+            self._last = (list(functions), plan)
         raw: list[int | None] = [None] * plan.size
         missing: list[Request] = []
+        whole = True  # every group read whole (none refused): no slot is left None
         for i, (group, offset, smaller) in enumerate(plan.groups):
             if group not in self.refused:
                 try:
@@ -137,6 +146,7 @@ class Session(Link):
                     missing.append(group)  # refused even alone: these registers have no value
                     continue
                 self.refused.add(group)
+            whole = False
             for req in smaller or ():
                 try:
                     at = offset + req.start - group.start
@@ -155,7 +165,7 @@ class Session(Link):
                     unanswered.append((name, req))
             self.without_value(unanswered)
         try:
-            return plan.decode(raw)
+            return plan.decode(raw, whole and not missing)
         except (ValueError, ZeroDivisionError, ArithmeticError) as exc:
             raise error(f"cannot compute a value: {exc}") from None
 

@@ -7,7 +7,7 @@
 #define MDL_ALL_TABLES_H
 
 // This run of mdl gen: all_tables.cc refuses to compile with a all_tables.h of another run.
-#define MDL_ALL_TABLES_GENERATION 0x491186b347a9
+#define MDL_ALL_TABLES_GENERATION 0x0606c539587b
 
 #include <modbus.h>
 
@@ -207,7 +207,7 @@ private:
 #define MDL_ALL_TABLES_C_H
 
 /* This run of mdl gen: all_tables.c refuses to compile with a all_tables.h of another run. */
-#define MDL_ALL_TABLES_GENERATION 0x491186b347a9
+#define MDL_ALL_TABLES_GENERATION 0x0606c539587b
 
 #include <modbus.h>
 #include <stdbool.h>

@@ -507,30 +507,60 @@ class AllTablesValues(TypedDict):
     high_byte: int
 
 
-def _values(raw: list[int | None]) -> AllTablesValues:
-    """Every readable function's value from the registers of the read plan, in dependency order."""
-    if None in raw:
+def _values(raw: list[int | None], whole: bool = False) -> AllTablesValues:
+    """Every readable function's value from the registers of the read plan, in dependency order; `whole`:
+    every group was read whole (no register is None)."""
+    if not whole and None in raw:
         _refused(raw)
     regs = cast("list[int]", raw)  # only expressions read a register the device refused
-    v_pump = _decode_pump([regs[0]])
-    v_fan = _decode_fan([regs[1]])
-    v_door_open = _decode_door_open([regs[2]])
-    v_filter_dirty = _decode_filter_dirty([regs[3]])
-    v_energy = _decode_energy([regs[23], regs[24]])
-    v_power = _decode_power([regs[25], regs[26]])
+    x: float
+    v_pump = bool(regs[0])
+    v_fan = bool(regs[1])
+    v_door_open = bool(regs[2])
+    v_filter_dirty = bool(regs[3])
+    v = (regs[24] << 16) | regs[23]
+    x = float(v)
+    x = x / 1000.0
+    v_energy = x
+    v = (regs[25] << 16) | regs[26]
+    x = struct.unpack('>f', v.to_bytes(4, 'big'))[0]
+    v_power = x
     v_voltage = _decode_voltage([regs[27]])
-    v_gap_low = _decode_gap_low([regs[4]])
-    v_gap_high = _decode_gap_high([regs[5]])
-    v_setpoint = _decode_setpoint([regs[6]])
-    v_mode = _decode_mode([regs[7]])
-    v_label = _decode_label([regs[8], regs[9], regs[10], regs[11]])
+    v = regs[4]
+    v_gap_low = v
+    v = regs[5]
+    v_gap_high = v
+    v = regs[6]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 10.0
+    v_setpoint = x
+    v = regs[7]
+    v_mode = v
+    v = (regs[8] << 48) | (regs[9] << 32) | (regs[10] << 16) | regs[11]
+    v_label = v.to_bytes(8, 'big').rstrip(b'\x00 ').decode('utf-8', 'replace')
     v_status_bit = _decode_status_bit([regs[12]])
     v_flow = _decode_flow([regs[13]])
-    v_big = _decode_big([regs[14], regs[15], regs[16], regs[17]])
-    v_temp_offset = _decode_temp_offset([regs[18]])
-    v_serial = _decode_serial([regs[19], regs[20]])
-    v_low_byte = _decode_low_byte([regs[21]])
-    v_high_byte = _decode_high_byte([regs[22]])
+    v = (regs[14] << 48) | (regs[15] << 32) | (regs[16] << 16) | regs[17]
+    if v >> 63:
+        v -= 0x10000000000000000
+    v_big = v
+    v = regs[18]
+    if v >> 15:
+        v -= 0x10000
+    x = float(v)
+    x = x / 2.0
+    x = x + -40.0
+    v_temp_offset = x
+    v = ((((regs[19] & 0xFF) << 8) | (regs[19] >> 8)) << 16) | (((regs[20] & 0xFF) << 8) | (regs[20] >> 8))
+    v_serial = v
+    v = regs[21] & 0xFF
+    if v >> 7:
+        v -= 0x100
+    v_low_byte = v
+    v = regs[22] >> 8
+    v_high_byte = v
     values = cast("AllTablesValues", _NAMES.copy())  # every key in place: nothing grows as it fills
     values['pump'] = v_pump
     values['fan'] = v_fan
@@ -757,10 +787,11 @@ class AllTables:
         'high_byte'
         self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
-    def _read_plan(self) -> list[int | None]:
-        """The registers and bits of the whole read plan, group after group; None where the device
-        refused one even when asked alone."""
+    def _read_plan(self) -> tuple[list[int | None], bool]:
+        """The registers and bits of the whole read plan, group after group (None where the device
+        refused one even when asked alone), and whether every group was read whole."""
         raw: list[int | None] = [None] * _BUFFER_SIZE
+        whole = True
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
@@ -770,6 +801,7 @@ class AllTables:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
+            whole = False
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
@@ -777,7 +809,7 @@ class AllTables:
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
-        return raw
+        return raw, whole
 
     def read_all(self) -> AllTablesValues:
         """Read every readable function with the fewest requests; returns {name: value}.
@@ -785,7 +817,7 @@ class AllTables:
         A group the device refuses with exception 2 is read as smaller requests from then on; a
         register it refuses even alone has no value: expressions that need it read None, any
         other function raises ModbusExceptionError."""
-        return _values(self._read_plan())
+        return _values(*self._read_plan())
 
 
 class AsyncAllTables:
@@ -991,10 +1023,11 @@ class AsyncAllTables:
         'high_byte'
         await self._write_runs([('holding', 403, 1)], _encode_high_byte(value))
 
-    async def _read_plan(self) -> list[int | None]:
-        """The registers and bits of the whole read plan, group after group; None where the device
-        refused one even when asked alone."""
+    async def _read_plan(self) -> tuple[list[int | None], bool]:
+        """The registers and bits of the whole read plan, group after group (None where the device
+        refused one even when asked alone), and whether every group was read whole."""
         raw: list[int | None] = [None] * _BUFFER_SIZE
+        whole = True
         for group, offset, smaller in _PLAN:
             if group not in self._refused:
                 try:
@@ -1004,6 +1037,7 @@ class AsyncAllTables:
                     if exc.code != 2:
                         raise
                     self._refused.add(group)
+            whole = False
             for table, start, count in smaller:
                 at = offset + start - group[1]
                 try:
@@ -1011,7 +1045,7 @@ class AsyncAllTables:
                 except ModbusExceptionError as exc:
                     if exc.code != 2:
                         raise
-        return raw
+        return raw, whole
 
     async def read_all(self) -> AllTablesValues:
         """Read every readable function with the fewest requests; returns {name: value}.
@@ -1019,4 +1053,4 @@ class AsyncAllTables:
         A group the device refuses with exception 2 is read as smaller requests from then on; a
         register it refuses even alone has no value: expressions that need it read None, any
         other function raises ModbusExceptionError."""
-        return _values(await self._read_plan())
+        return _values(*await self._read_plan())

@@ -6,6 +6,8 @@ decoder and encoder, _decode_<ident> and _encode_<ident>, are templates/ops.j2's
 
 from __future__ import annotations
 
+import re
+from functools import cache
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -110,13 +112,58 @@ def value_fields(readable: list[FunctionCode], form: str) -> str:
     return "\n".join([f"    {ascii(f.name)}: {f.type}," for f in readable])
 
 
+# a register of a decoder's body (ops.j2 names them r[0], r[1], ...)
+_REGISTER = re.compile(r"\br\[(\d+)\]")
+RESULT = "\x00RESULT\x00"  # where an inlined body's value is assigned
+
+
+@cache  # once per distinct body: functions of one IR share theirs
+def inlined(body: str) -> tuple[tuple[str, ...], tuple[int, ...]] | None:
+    """A decoder's body (ops.j2's decode_body) as lines of its caller: its text around each register
+    it reads (r[i] -> i), its `return X` at the end as `RESULT X`, and `x: float =` as `x =` (the caller
+    declares x once); None where it returns early (not implemented, a scale factor without a value) or
+    reads its registers otherwise than one at a time."""
+    lines = body.split("\n")
+    last = lines[-1]
+    if not last.startswith("    return ") or any("return" in line for line in lines[:-1]):
+        return None
+    text = "\n".join([*lines[:-1], "    " + RESULT + last[len("    return ") :]]).replace("x: float = ", "x = ")
+    parts = _REGISTER.split(text)
+    texts = tuple(parts[0::2])
+    if any(re.search(r"\br\b", t) for t in texts):
+        return None
+    return texts, tuple(int(i) for i in parts[1::2])
+
+
+def inline_lines(body: str, buffer: str, slots: tuple[int, ...], result: str) -> str | None:
+    """The lines computing a function's value from `buffer` into `result`, its decoder's body inlined
+    (its registers at `slots` in the buffer); None where it cannot be (`inlined`)."""
+    found = inlined(body)
+    if found is None:
+        return None
+    texts, registers = found
+    out = [texts[0]]
+    for i, text in zip(registers, texts[1:], strict=True):
+        out += (f"{buffer}[{slots[i]}]", text)
+    return "".join(out).replace(RESULT, f"{result} = ")
+
+
 def decode_lines(readable: list[FunctionCode]) -> str:
     """_values' decoding of each function from the buffer (`raw` for an expression, which reads
-    None where the device refused a register; else `regs`), one a line, in decode order: _values'
-    first loop in device.py.j2."""
+    None where the device refused a register; else `regs`), in decode order: _values' first loop in
+    device.py.j2. A function of a plain shape (no fragment, no expression, no scale factor) has its
+    decoder's lines inlined (a call and a list of its registers cost more than the decoding); the
+    others call their decoder, one a line."""
     out: list[str] = []
+    floats = False  # whether an inlined body assigns x (its decoder declares `x: float`)
     for f in readable:
         ident, span, slots = f.ident, f.span, f.slots
+        if f.resolved.decode_shape is not None and not f.args:
+            lines = inline_lines(f.decode_body, "regs", slots, f"v_{ident}")
+            if lines is not None:
+                out.append(lines)
+                floats = floats or "    x = " in lines
+                continue
         buffer = "raw" if f.resolved.compiled is not None else "regs"
         if span:
             regs = f"{buffer}[{span[0]}:{span[1]}]"
@@ -125,7 +172,7 @@ def decode_lines(readable: list[FunctionCode]) -> str:
         else:
             regs = "[" + ", ".join([f"{buffer}[{slot}]" for slot in slots]) + "]"
         out.append(f"    v_{ident} = _decode_{ident}({regs}{f.args})")
-    return "\n".join(out)
+    return "\n".join(["    x: float", *out] if floats else out)
 
 
 def store_lines(readable: list[FunctionCode]) -> str:

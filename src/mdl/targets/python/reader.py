@@ -11,6 +11,7 @@ from typing import Literal
 
 from mdl.ir import steps as ir
 from mdl.targets.python.emit import environment, span
+from mdl.targets.python.per_function import inline_lines
 
 
 @dataclass(frozen=True)
@@ -36,8 +37,20 @@ def reader_source(
 ) -> str:
     """Python source defining `decode(raw) -> {name: value}`: `shapes` are the distinct decode IRs
     (without fragments and expressions), `rows` every function to decode, dependencies first;
-    `results` (name, var) what it returns. The caller binds `_f<index>` and `struct`."""
+    `results` (name, var) what it returns. The caller binds `_f<index>` and `struct`. A row of a shape
+    whose decoder returns only at its end has the decoder's lines in place of the call, as a generated
+    driver's _values has (mdl.targets.python.per_function.inline_lines)."""
     env = environment()
+    ops = env.get_template("python/templates/ops.j2").module
+    bodies = [ops.decode_body(steps, [], []).rstrip() for steps in shapes]  # type: ignore[attr-defined]
+    inline = [
+        inline_lines(bodies[row.index], "raw", row.slots, f"v{row.var}")
+        if row.kind == "shape" and not row.deps
+        else None
+        for row in rows
+    ]
     return env.get_template("python/templates/reader.py.j2").render(
-        shapes=shapes, rows=[row.as_tuple() for row in rows], results=results
+        shapes=shapes,
+        rows=[(*row.as_tuple(), lines) for row, lines in zip(rows, inline, strict=True)],
+        results=results,
     )
