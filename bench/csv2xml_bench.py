@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
-"""`mdl csv2xml` against ORNL's 2014 `csvxml.py` on the same generated register tables. Prints a
-table; asserts nothing.
+"""`mdl csv2xml` against ORNL's 2014 `csvxml.py` on the same generated register tables, and the same
+table read from a PDF manual beside them, in one run. Prints a table; asserts nothing.
 
-    python3 bench/csv2xml_bench.py                               # mdl only
-    python3 bench/csv2xml_bench.py --ornl ~/ornl/csvxml.py       # and ORNL's script beside it
-    python3 bench/csv2xml_bench.py --sizes 5000x200 --ornl ...   # one size
-    python3 bench/csv2xml_bench.py --grid                        # 1,000/5,000/10,000 rows x 50/200/500
+    python3 bench/csv2xml_bench.py                                # mdl alone, 1,000 x 50 ... 10,000 x 500
+    python3 bench/csv2xml_bench.py --sizes 5000x200 --ornl ~/ornl/csvxml.py
+    python3 bench/csv2xml_bench.py --sizes 5000x200 --ornl ~/ornl/csvxml.py --callgrind
+    python3 bench/csv2xml_bench.py --grid                         # 1,000/5,000/10,000 rows x 50/200/500
 
 Each table is what a vendor publishes (address, description, format, multiplier, units, access) with
 one INI in ORNL's format that both tools read unchanged. Descriptions are built from the words such
@@ -13,17 +13,37 @@ tables use (phase, total, demand, import, voltage, power ...), so that rows rese
 they do in real tables; every function's synonyms are one row's description (as typed, and in
 lower case with doubled spaces), so each function has exactly one right row, known in advance.
 
-Each tool runs as a child process (`mdl csv2xml device.ini -o mdl.xml`; ORNL's `python3 csvxml.py
-device.ini` in the table's folder); the bench prints its wall time, its peak resident memory
-(ru_maxrss from wait4) and how many functions landed on their right row, and for mdl how its time
-grows per (row x function) against the smallest size. ORNL's script is public (ORNL's MDL tool
-set); give its path with --ornl, or the bench measures mdl alone.
+Each tool runs as a child process: `mdl csv2xml device.ini -o mdl.xml`; `mdl csv2xml map.pdf --ini
+device.ini` on the same rows written as a PDF manual (tables_bench.write_pdf: A4 pages of 40 ruled rows
+under the header, 125 pages at 5,000 rows); ORNL's `python3 csvxml.py device.ini` in the table's
+folder. For each the bench prints the wall time, the CPU time (user + system, from wait4: what a shared
+machine's load disturbs least; mdl's runs are the least of --repeat), the peak resident memory
+(ru_maxrss), how many functions landed on their right row and the CPU time per (row x function); and
+how many times mdl's CPU time ORNL's script takes. With --callgrind, each also runs once under
+`valgrind --tool=callgrind`: its instructions (every process's, the PDF reader's two halves
+included), which the load does not change, and the speed-up by them. ORNL's script computes a ratio
+for every (row, synonym) pair, each function's alike: under callgrind it would take hours at 5,000 x
+200, so its instructions are counted on --ornl-sample of its functions (every Nth, the same table)
+and scaled to all of them by their synonyms' characters (a function's ratios cost about in proportion
+to them), its start-up (an INI with no function) counted apart: start-up + (sample - start-up) x
+(characters of all) / (characters of the sample). At 600 x 20, 4 functions so scaled gave 11.64 G
+where all 20 counted 11.47 G. `--ornl-sample 0` counts them all. The callgrind runs go at once,
+ORNL's first (it takes longest).
+
+Every child runs with its bytecode cached under the bench's folder (PYTHONPYCACHEPREFIX), after one
+unmeasured run of each tool on a small table: the figures are of warm runs, whatever state the
+tree's __pycache__ is in. The machine's load average is printed when the bench starts and ends.
+ORNL's script is public (ORNL's MDL tool set); give its path with --ornl, or the bench measures mdl
+alone.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import importlib.util
 import os
+import platform
 import random
 import shutil
 import subprocess
@@ -202,25 +222,63 @@ operation_info      = 5
 
 @dataclass
 class Run:
-    seconds: float
+    wall: float
+    cpu: float  # user + system, the child's and its children's
     peak_mb: float
     ok: bool
     right: int = 0
     note: str = ""
+    instructions: int | None = None  # with --callgrind
 
 
-def measure(cmd: list[str], cwd: Path) -> Run:
-    """Wall time and peak RSS of one child process (wait4 gives that child's own rusage)."""
+def child_env(folder: Path) -> dict[str, str]:
+    """The environment of every child: bytecode cached (and written) under `folder`."""
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env["PYTHONPYCACHEPREFIX"] = str(folder / "pycache")
+    return env
+
+
+def measure(cmd: list[str], cwd: Path, env: dict[str, str]) -> Run:
+    """Wall time, CPU time and peak RSS of one child process (wait4 gives that child's own rusage, with
+    that of the children it waited for)."""
     start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=cwd)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, cwd=cwd, env=env)
     assert proc.stderr is not None
     err = proc.stderr.read()
     _, status, usage = os.wait4(proc.pid, 0)
-    seconds = time.perf_counter() - start
+    wall = time.perf_counter() - start
     proc.stderr.close()
-    code = os.waitstatus_to_exitcode(status)
+    proc.returncode = code = os.waitstatus_to_exitcode(status)
     note = "" if code == 0 else (err.decode(errors="replace").strip().splitlines() or [f"exit {code}"])[-1][:80]
-    return Run(seconds, usage.ru_maxrss / 1024, code == 0, note=note)
+    return Run(wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024, code == 0, note=note)
+
+
+def best(cmd: list[str], cwd: Path, env: dict[str, str], repeat: int) -> Run:
+    """The run of least CPU time of `repeat` (the one the load disturbed least)."""
+    return min((measure(cmd, cwd, env) for _ in range(max(1, repeat))), key=lambda r: (not r.ok, r.cpu))
+
+
+def callgrind(cmd: list[str], cwd: Path, env: dict[str, str], out: Path) -> subprocess.Popen[bytes]:
+    """`cmd` started under callgrind, one output file per process (out.PID); `instructions` sums them."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for old in out.parent.glob(out.name + ".*"):
+        old.unlink()
+    grind = ["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}.%p", *cmd]
+    return subprocess.Popen(grind, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd, env=env)
+
+
+def instructions(proc: subprocess.Popen[bytes], out: Path) -> int | None:
+    """The instructions of every process of a finished callgrind run (None if it failed)."""
+    if proc.wait() != 0:
+        return None
+    total = 0
+    for path in out.parent.glob(out.name + ".*"):
+        for line in path.read_text(errors="replace").splitlines():
+            if line.startswith(("totals:", "summary:")):
+                total += int(line.split()[1])
+                break
+    return total or None
 
 
 def right_rows(xml: Path, expected: dict[str, str]) -> int:
@@ -234,19 +292,60 @@ def right_rows(xml: Path, expected: dict[str, str]) -> int:
     return sum(got.get(name) == address for name, address in expected.items())
 
 
-def run_mdl(case: Case) -> Run:
-    out = case.folder / "mdl.xml"
-    run = measure([sys.executable, "-m", "mdl", "csv2xml", "device.ini", "-o", str(out)], case.folder)
-    run.right = right_rows(out, case.expected)
-    return run
+def write_pdf(case: Case) -> Path:
+    """The case's table as a PDF manual, by bench/tables_bench.py's writer (columns wide enough for the
+    longest description on one line, at its 9 points)."""
+    spec = importlib.util.spec_from_file_location("tables_bench", Path(__file__).resolve().parent / "tables_bench.py")
+    assert spec and spec.loader
+    tables = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tables)
+    tables.PDF_WIDTHS = [40.0, 290.0, 45.0, 50.0, 35.0, 35.0]  # 495 points: A4 less its margins
+    with (case.folder / "map.csv").open(newline="") as f:
+        table = list(csv.reader(f))
+    path = case.folder / "map.pdf"
+    tables.write_pdf(path, table)
+    return path
 
 
-def run_ornl(case: Case, script: Path) -> Run:
-    out = case.folder / "ornl.xml"
-    run = measure([sys.executable, str(script), "device.ini"], case.folder)
-    run.right = right_rows(out, case.expected)
-    run.ok = run.ok and out.exists()
-    return run
+def ornl_inis(case: Case, sample: int) -> tuple[str, str, int, float]:
+    """Two INIs beside device.ini for counting ORNL's instructions: none of its functions (start-up,
+    the table read, the XML written) and every Nth (`sample` of them); how many that is, and how many
+    times their synonyms' characters all the functions' are (a function's ratios cost about in
+    proportion to them: the scale)."""
+    text = (case.folder / "device.ini").read_text()
+    head, _, synonyms = text.partition("[Function Name Search Synonyms]\n")
+    lines = [x for x in synonyms.splitlines() if x.strip()]
+    step = max(1, len(lines) // sample)
+    picked = lines[step // 2 :: step][:sample]
+    for name, chosen in (("none", []), ("sample", picked)):
+        body = head.replace("output_xml_file      = ornl.xml", f"output_xml_file      = ornl-{name}.xml")
+        synonyms_part = "[Function Name Search Synonyms]\n" + "\n".join(chosen) + "\n"
+        (case.folder / f"device-{name}.ini").write_text(body + synonyms_part)
+
+    def chars(some: list[str]) -> int:  # as ORNL's script reads them: split at commas, stripped
+        return sum(len(w.strip()) for x in some for w in x.partition("=")[2].split(","))
+
+    return "device-none.ini", "device-sample.ini", len(picked), chars(lines) / chars(picked)
+
+
+@dataclass
+class Tool:
+    """One way of converting a case: its label and its command (run in the case's folder)."""
+
+    label: str
+    cmd: list[str]
+    out: str  # the MDL it writes, in the case's folder
+    repeat: int
+
+
+def tools(case: Case, ornl: Path | None, pdf: bool, repeat: int) -> list[Tool]:
+    mdl = [sys.executable, "-m", "mdl", "csv2xml"]
+    out = [Tool("mdl, CSV", [*mdl, "device.ini", "-o", "mdl.xml"], "mdl.xml", repeat)]
+    if pdf:
+        out.append(Tool("mdl, PDF", [*mdl, "map.pdf", "--ini", "device.ini", "-o", "pdf.xml"], "pdf.xml", repeat))
+    if ornl:
+        out.append(Tool("ORNL, CSV", [sys.executable, str(ornl), "device.ini"], "ornl.xml", 1))
+    return out
 
 
 def parse_sizes(text: str) -> list[tuple[int, int]]:
@@ -255,6 +354,29 @@ def parse_sizes(text: str) -> list[tuple[int, int]]:
         rows, _, functions = part.strip().lower().partition("x")
         sizes.append((int(rows), int(functions)))
     return sizes
+
+
+def load() -> str:
+    one, five, fifteen = os.getloadavg()
+    return f"{one:.2f} {five:.2f} {fifteen:.2f} ({os.cpu_count()} cores)"
+
+
+def line(case: Case, typos: bool, tool: Tool, run: Run, ornl: Run | None, grind: bool) -> str:
+    pairs = case.rows * case.functions
+    text = (
+        f"{'typos' if typos else 'exact':>8} {case.rows:>8,} x {case.functions:>5} | {tool.label:<9} "
+        f"{run.wall:8.2f} {run.cpu:8.2f} {run.peak_mb:5.0f} {run.right:>4}/{case.functions:<4} "
+        f"{1e6 * run.cpu / pairs:8.2f}"
+    )
+    if grind:
+        text += f" | {run.instructions / 1e9:9.2f}" if run.instructions else " |         -"
+    if ornl is not None and not tool.label.startswith("ORNL"):
+        text += f" | {ornl.cpu / run.cpu:8.1f}x"
+        if grind:
+            text += f" {ornl.instructions / run.instructions:8.1f}x" if ornl.instructions and run.instructions else ""
+    if not run.ok:
+        text += f"  failed: {run.note}"
+    return text
 
 
 def main() -> None:
@@ -266,37 +388,94 @@ def main() -> None:
     parser.add_argument(
         "--typos", action="store_true", help="also measure synonyms with a letter left out (fuzzy matches only)"
     )
+    parser.add_argument("--no-pdf", action="store_true", help="leave out the same table read from a PDF")
+    parser.add_argument("--repeat", type=int, default=3, help="runs of each mdl conversion; the least CPU is kept")
+    parser.add_argument("--callgrind", action="store_true", help="also count each run's instructions (valgrind)")
+    parser.add_argument(
+        "--ornl-sample",
+        type=int,
+        default=10,
+        help="ORNL's functions counted under callgrind, scaled to all (default 10; 0: all of them, hours)",
+    )
     args = parser.parse_args()
     sizes = args.sizes or (GRID if args.grid else DIAGONAL)
     ornl = args.ornl if args.ornl and args.ornl.is_file() else None
     if args.ornl and ornl is None:
         print(f"ORNL's script {args.ornl} is absent: measuring mdl alone", file=sys.stderr)
+    if args.callgrind and shutil.which("valgrind") is None:
+        raise SystemExit("--callgrind counts instructions with valgrind: install valgrind")
     base = args.keep or Path(tempfile.mkdtemp(prefix="csv2xml_bench_"))
-    head = f"{'synonyms':>8} {'rows x functions':>17} | {'mdl s':>7} {'MB':>6} {'right':>9} {'us/pair':>8}"
-    if ornl:
-        head += f" | {'ORNL s':>7} {'MB':>6} {'right':>9} | {'speed-up':>8}"
+    base.mkdir(parents=True, exist_ok=True)
+    env = child_env(base)
+    pdf = not args.no_pdf
+    print(f"python {platform.python_version()}; load average {load()} at the start")
+
+    warm = generate(20, 2, base / "warm")  # one unmeasured run of each tool: its bytecode cached
+    if pdf:
+        write_pdf(warm)
+    for tool in tools(warm, ornl, pdf, 1):
+        measure(tool.cmd, warm.folder, env)
+
+    head = (
+        f"{'synonyms':>8} {'rows x functions':>16} | {'run':<9} {'wall s':>8} {'CPU s':>8} {'MB':>5} "
+        f"{'right':>9} {'us/pair':>8}"
+    )
+    head += f" | {'G instr':>9}" if args.callgrind else ""
+    head += f" | {'ORNL/run':>9}" + (f" {'by instr':>9}" if args.callgrind else "") if ornl else ""
     print(head)
-    print("-" * len(head))
-    runs = [(rows, functions, False) for rows, functions in sizes]
-    runs += [(rows, functions, True) for rows, functions in sizes] if args.typos else []
-    for rows, functions, typos in runs:
+    print("-" * len(head), flush=True)
+    cases = [(rows, functions, False) for rows, functions in sizes]
+    cases += [(rows, functions, True) for rows, functions in sizes] if args.typos else []
+    for rows, functions, typos in cases:
         case = generate(rows, functions, base / f"{rows}x{functions}{'-typos' * typos}", typos=typos)
-        mine = run_mdl(case)
-        line = (
-            f"{'typos' if typos else 'exact':>8} {rows:>8,} x {functions:>6} | {mine.seconds:7.2f} "
-            f"{mine.peak_mb:6.0f} {mine.right:>4}/{functions:<4} {1e6 * mine.seconds / (rows * functions):8.2f}"
-        )
-        if not mine.ok:
-            line += f"  mdl failed: {mine.note}"
-        if ornl:
-            theirs = run_ornl(case, ornl)
-            line += (
-                f" | {theirs.seconds:7.2f} {theirs.peak_mb:6.0f} {theirs.right:>4}/{functions:<4} | "
-                f"{theirs.seconds / mine.seconds:7.1f}x"
-            )
-            if not theirs.ok:
-                line += f"  ORNL failed: {theirs.note}"
-        print(line, flush=True)
+        if pdf:
+            write_pdf(case)
+        runs: dict[str, Run] = {}
+        how = ""
+        todo = tools(case, ornl, pdf, args.repeat)
+        for tool in todo:
+            runs[tool.label] = run = best(tool.cmd, case.folder, env, tool.repeat)
+            run.right = right_rows(case.folder / tool.out, case.expected)
+            run.ok = run.ok and (case.folder / tool.out).exists()
+        if args.callgrind:  # at once, the longest (ORNL's) first: they take as long as it does
+            grinds = base / "callgrind" / case.folder.name
+            scaled = None
+            if ornl and 0 < args.ornl_sample < functions:
+                none, some, k, scale = ornl_inis(case, args.ornl_sample)
+                apart = [
+                    (f"ornl-{n}", [sys.executable, str(ornl), ini]) for n, ini in (("none", none), ("sample", some))
+                ]
+                scaled = (k, scale, [(callgrind(cmd, case.folder, env, grinds / n), grinds / n) for n, cmd in apart])
+            started = [
+                (tool, callgrind(tool.cmd, case.folder, env, grinds / tool.out))
+                for tool in reversed(todo)
+                if not (scaled and tool.label.startswith("ORNL"))
+            ]
+            for tool, proc in started:
+                runs[tool.label].instructions = instructions(proc, grinds / tool.out)
+            if scaled:
+                k, scale, ((p0, o0), (p1, o1)) = scaled
+                start_up, sampled = instructions(p0, o0), instructions(p1, o1)
+                if start_up and sampled:
+                    runs["ORNL, CSV"].instructions = round(start_up + (sampled - start_up) * scale)
+                    how = (
+                        f"ORNL's instructions: {start_up / 1e9:.2f} G with no function, {sampled / 1e9:.2f} G with "
+                        f"{k} of its {functions} (every {functions // k}th), scaled by their synonyms' characters "
+                        f"(x{scale:.2f})"
+                    )
+        theirs = runs.get("ORNL, CSV")
+        for tool in todo:
+            print(line(case, typos, tool, runs[tool.label], theirs, args.callgrind), flush=True)
+        mine = runs["mdl, CSV"]
+        if pdf:
+            paper = runs["mdl, PDF"]
+            said = f"the PDF takes {paper.cpu / mine.cpu:.1f}x the CSV's CPU"
+            if paper.instructions and mine.instructions:
+                said += f", {paper.instructions / mine.instructions:.1f}x its instructions"
+            print(f"{'':>25} | {said}", flush=True)
+        if how:
+            print(f"{'':>25} | {how}", flush=True)
+    print(f"load average {load()} at the end")
     if not args.keep:
         shutil.rmtree(base, ignore_errors=True)
 

@@ -10,8 +10,8 @@ from pathlib import Path
 from mdl.diagnostics import error
 from mdl.exchange.yamlnodes import Map, Node, Text, load_yaml, need, opt
 from mdl.model.units import SI
+from mdl.profiles.shipped import DATA
 
-DATA = Path(__file__).resolve().parent / "data"
 NAME = re.compile(r"[a-z][a-z0-9_]{0,62}")
 RATIO = "1"  # the unit of a plain number (a power factor): a function in % is divided by 100
 TYPES = ("float", "int", "bool")

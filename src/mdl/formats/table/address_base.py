@@ -42,7 +42,11 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
         )
     plain: list[tuple[Row, list[str]]] = []
     for r in rows:
-        text = unlisted(r.cell(index))
+        text = r.cell(index)
+        if text.isascii() and text.isdigit():  # most cells: one plain number, its own only token
+            plain.append((r, [text]))
+            continue
+        text = unlisted(text)
         worded = _WORDED.match(text.strip()) if text else None
         bit = bit_of(text) if text else None
         if worded and worded.group(1).lower() in WORDED_TABLES:
@@ -53,10 +57,15 @@ def guess_address_base(rows: list[Row], index: int, header: str, type_index: int
             plain.append((r, re.findall(r"\d+", text)))
     if not plain:
         return BaseGuess("0", None)  # hex, named or Modicon-x forms only: nothing to guess
+    # (tokens hold no spaces: is_modicon_number needs 5 or 6 characters, looked at first)
     shaped = [
         (r, tokens)
         for r, tokens in plain
-        if tokens and all(is_modicon_number(t) for t in tokens) or tokens and _coil_numbers(r, tokens, type_index)
+        if tokens
+        and (
+            all(len(t) in (5, 6) and is_modicon_number(t) for t in tokens)
+            or (type_index is not None and _coil_numbers(r, tokens, type_index))
+        )
     ]
     if not shaped:
         return BaseGuess(

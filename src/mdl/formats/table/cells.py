@@ -6,8 +6,11 @@ import re
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any, TypeVar, cast
 
 from mdl.diagnostics import shown
+from mdl.formats.table.lazy import lazy
 from mdl.model.addressing import (
     MODICON_TABLE,
     NAMED,
@@ -24,27 +27,37 @@ class CellError(ValueError):
     """A cell that cannot be understood; the message says what it holds."""
 
 
-_HEX = re.compile(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
-_RANGE = re.compile(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—|~|～)\s*(.+)$")  # ～: the full-width tilde
+F = TypeVar("F", bound=Callable[..., Any])
 
 
-_SPACE_RUN = re.compile(r"\s+")
+def cell_cache(reader: F) -> F:
+    """`reader`, keeping what it read of the last 4,096 distinct cells. A cell's reading depends on its
+    text alone and is immutable, and a column repeats its cells (int16, 0.1, R/W) thousands of times:
+    each is read once. A cell it refuses is read again each time (no CellError is kept)."""
+    return cast(F, lru_cache(maxsize=4096)(reader))
+
+
+_HEX = lazy(r"(?i)^0x[0-9a-f]+h?$|^[0-9a-f]+h$")
+_RANGE = lazy(r"(?i)^(.+?)\s*(?:\bto\b|to|\.\.|-|–|—|~|～)\s*(.+)$")  # ～: the full-width tilde
+
+
+_SPACE_RUN = lazy(r"\s+")
 
 
 def squeeze(text: str) -> str:
     """`text` with each run of whitespace one character: a line break if it holds one, else a space.
     An address cell is read after this, so that no pattern's `\\s*` walks a long run from each of its
     characters (quadratic: `1`, 20,000 spaces, `x`)."""
-    return _SPACE_RUN.sub(lambda m: "\n" if "\n" in m.group() else " ", text)
+    return _SPACE_RUN().sub(lambda m: "\n" if "\n" in m.group() else " ", text)
 
 
-_LISTED = re.compile(r"^\s*([0-9]+)\.\s*$")
+_LISTED = lazy(r"^\s*([0-9]+)\.\s*$")
 
 
 def unlisted(text: str) -> str:
     """A number written as a numbered list writes it (`35.`: Growatt's input registers) as the number;
     any other text as it is."""
-    m = _LISTED.match(text)
+    m = _LISTED().match(text)
     return m.group(1) if m else text
 
 
@@ -87,29 +100,34 @@ WORDED_TABLES = {
     "di": "discrete",
     "istat": "discrete",
 }
-_WORDED = re.compile(r"^([A-Za-z]+)\s+([0-9]{1,12})$")
+_WORDED = lazy(r"^([A-Za-z]+)\s+([0-9]{1,12})$")
 
 
 def _one(text: str, base: str) -> tuple[int, str | None]:
     """One address token -> (wire address, table or None)."""
     t = text.strip()
+    if is_digits(t):  # no notation below reads plain digits (each needs a letter, `:` or `#`)
+        return _plain(t, base)
     try:  # 0x... is hexadecimal here, not a Modicon coil; plain digits follow the address base
         found = match_address(t, modicon_digits=False, x_coils=False)
     except AddressError as exc:
         raise CellError(str(exc)) from None
     if found and found[2] == len(t):
         return found[1], found[0]
-    if _HEX.match(t):
+    if _HEX().match(t):
         digits = t.lower().removeprefix("0x").removesuffix("h").lstrip("0")
         if len(digits) > 12:
             raise CellError(f"address '{t[:20]}...' is too large")
         return int(digits or "0", 16), None
-    worded = _WORDED.match(t)
+    worded = _WORDED().match(t)
     if worded and worded.group(1).lower() in WORDED_TABLES:
         number, _ = _one(worded.group(2), "0" if base == "modicon" else base)
         return number, WORDED_TABLES[worded.group(1).lower()]
-    if not is_digits(t):
-        raise CellError(f"{shown(t)} is not an address")
+    raise CellError(f"{shown(t)} is not an address")
+
+
+def _plain(t: str, base: str) -> tuple[int, str | None]:
+    """A plain number (ASCII digits) as the address base reads it."""
     if base == "modicon":
         if not is_modicon_number(t):
             raise CellError(f"{shown(t)} is not a Modicon 5- or 6-digit register number")
@@ -127,13 +145,17 @@ def hexify(text: str) -> str:
     return re.sub(r"(?i)(?<![\w:])(?:0x)?([0-9a-f]+)(?!\w)", lambda m: "0x" + m.group(1), text)
 
 
-_BIT_OF = re.compile(r"^\s*([0-9]+|0x[0-9a-fA-F]+)\s*([./]|\.[bB])\s*([0-9]{1,2})\s*$")  # 40001.3, 40001/3, 0x0103.b8
-_BRACKETED = re.compile(r"^\s*([0-9]+)\s*\(\s*([0-9]+|0x[0-9a-fA-F]+)\s*\)\s*$")
+_LINES = lazy(r"\s*\n\s*")
+_LIST = lazy(r"\s*[,;\n]\s*")  # `31003 (1002)` on each line of a list
+_PARTS = lazy(r"\s*[,;/&\n]\s*|\s+and\s+")  # the parts of an address cell (parse_addresses)
+_BIT_OF = lazy(r"^\s*([0-9]+|0x[0-9a-fA-F]+)\s*([./]|\.[bB])\s*([0-9]{1,2})\s*$")  # 40001.3, 40001/3, 0x0103.b8
+_BRACKETED = lazy(r"^\s*([0-9]+)\s*\(\s*([0-9]+|0x[0-9a-fA-F]+)\s*\)\s*$")
 
 
-@dataclass(frozen=True)
+@dataclass
 class AddressCell:
-    """What an address cell says: its wire addresses, the table it names, a bit of the register."""
+    """What an address cell says: its wire addresses, the table it names, a bit of the register. (Not
+    frozen: one is made for every row, and a frozen dataclass is made several times slower.)"""
 
     addresses: list[int]
     table: str | None = None
@@ -144,7 +166,7 @@ class AddressCell:
 def bit_of(text: str) -> re.Match[str] | None:
     """A register-then-bit cell (`40001.3`, `40001/3`, `0x0103.b8`; `17/18`, whose second number is no bit
     below the first, is a list): the register is group 1, the bit group 3."""
-    m = _BIT_OF.match(text)
+    m = _BIT_OF().match(text)
     if m and int(m.group(3)) <= 15 and (m.group(2) != "/" or int(m.group(3)) < int(m.group(1), 0)):
         return m
     return None
@@ -154,9 +176,15 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
     """An address cell (parse_addresses), also `40001.3` / `40001/3` (register, then bit: `17/18`, whose
     second number is no bit below the first, stays a list) and `30101 (100)` (a register number and the
     wire address in brackets: the bracket wins, and the two must agree); `35.` is 35."""
+    t = text.strip()
+    if is_digits(t):  # most cells: one plain number, which every form below reads as _one does
+        address, table = _plain(t, base)
+        if address > MAX_ADDRESS:
+            raise CellError(f"address {address} is over {MAX_ADDRESS}")
+        return AddressCell([address], table)
     text = squeeze(unlisted(text))
-    iec = [p for p in re.split(r"\s*\n\s*", text.strip()) if p]
-    if iec and all(_IEC.match(p) for p in iec):
+    iec = [p for p in _LINES().split(text.strip()) if p]
+    if iec and all(_IEC().match(p) for p in iec):
         return _iec_address(text, iec)
     m = bit_of(text)
     if m:
@@ -165,8 +193,8 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
         if m.group(2) == "/":
             said = f"{shown(text.strip())} read as bit {int(m.group(3))} of register {m.group(1)}, not as a list of two"
         return AddressCell(addresses, table, str(int(m.group(3))), said)
-    parts = [p for p in re.split(r"\s*[,;\n]\s*", text.strip()) if p]
-    if len(parts) > 1 and all(_BRACKETED.match(p) for p in parts):  # `31003 (1002)` on each line of a list
+    parts = [p for p in _LIST().split(text.strip()) if p]
+    if len(parts) > 1 and all(_BRACKETED().match(p) for p in parts):  # `31003 (1002)` on each line of a list
         cells = [read_address_cell(p, base) for p in parts]
         tables = {c.table for c in cells} - {None}
         if len(tables) > 1:
@@ -175,7 +203,7 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
         if len(set(addresses)) != len(addresses):
             raise CellError(f"{shown(' '.join(text.split()))} lists an address twice")
         return AddressCell(addresses, tables.pop() if tables else None)
-    m = _BRACKETED.match(text)
+    m = _BRACKETED().match(text)
     if m:
         number, wire = m.group(1), int(m.group(2), 0)
         table = MODICON_TABLE[number[0]] if is_modicon_number(number) else None
@@ -193,7 +221,7 @@ def read_address_cell(text: str, base: str = "0") -> AddressCell:
 
 # IEC 61131-3's based numbers, as Schneider's drives print addresses: `16#2136`, with the decimal after
 # it (`16#2136 = 08502`) and a remark (`16#219B = 8603 (speed)`)
-_IEC = re.compile(r"^(2|8|16)#([0-9A-Fa-f][0-9A-Fa-f_]*)(?:\s*=\s*([0-9]+))?(?:\s*\(([^()]{0,40})\))?$")
+_IEC = lazy(r"^(2|8|16)#([0-9A-Fa-f][0-9A-Fa-f_]*)(?:\s*=\s*([0-9]+))?(?:\s*\(([^()]{0,40})\))?$")
 
 
 def _iec_address(text: str, lines: list[str]) -> AddressCell:
@@ -201,13 +229,13 @@ def _iec_address(text: str, lines: list[str]) -> AddressCell:
     each of several lines names one register per remark (`(speed)`, `(frequency)`: the drive's profile),
     not a list: an error saying so (the row is skipped; `[function NAME] addresses =` gives the one meant)."""
     if len(lines) > 1:
-        remarks = [m.group(4) for m in map(_IEC.match, lines) if m and m.group(4)]
+        remarks = [m.group(4) for m in map(_IEC().match, lines) if m and m.group(4)]
         why = f", one for each of {', '.join(repr(r) for r in remarks)}" if remarks else ""
         raise CellError(
             f"{shown(' '.join(text.split()))} names {len(lines)} addresses{why}: one register is meant "
             "(give it in [function NAME] addresses =)"
         )
-    m = _IEC.match(lines[0])
+    m = _IEC().match(lines[0])
     assert m is not None
     radix, digits, decimal = int(m.group(1)), m.group(2).replace("_", ""), m.group(3)
     try:
@@ -230,7 +258,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
     text = squeeze(text).strip()
     if not text:
         raise CellError("the address cell is empty")
-    parts = [p for p in re.split(r"\s*[,;/&\n]\s*|\s+and\s+", text) if p]
+    parts = [p for p in _PARTS().split(text) if p]
     addresses: list[int] = []
     table = None
     for part in parts:
@@ -241,7 +269,7 @@ def parse_addresses(text: str, base: str = "0") -> tuple[list[int], str | None]:
                 raise CellError(f"{shown(part)}: the count after '#' must be a positive number")
             run = _addresses(address_run, start, _number(count.strip(), "count"), part)
         else:
-            m = _RANGE.match(part)
+            m = _RANGE().match(part)
             if m and not NAMED.fullmatch(part.strip()) and not is_digits(part.strip().lstrip("-")):
                 start, tbl = _one(m.group(1), base)
                 end, tbl2 = _one(m.group(2), base)
@@ -276,18 +304,18 @@ FORMAT_WORDS = [
     (r"(?:s|i|signed\s*|int)\s*8|int8_t|sint|char", "INT8"),
     (r"bool(?:ean)?|bit|coil|binary|digital", "BIT"),
 ]
-_FORMATS = [(re.compile(rf"(?i)^(?:{pattern})$"), fmt) for pattern, fmt in FORMAT_WORDS]
-_STRING = re.compile(
+_FORMATS = [(lazy(rf"(?i)^(?:{pattern})$"), fmt) for pattern, fmt in FORMAT_WORDS]
+_STRING = lazy(
     r"(?i)^(?:char|string|str|ascii|text)\s*[\[(]\s*([0-9]+)\s*[\])]$"
     r"|^(?:string|str|ascii|text)([0-9]*)$"
 )
 
 
 # format words that give no width (some projects mean 32 bits by INT): read as one register, and said
-_WIDTHLESS = re.compile(r"(?i)^(?:u?int|integer|signed(?:\s*int)?|unsigned(?:\s*int)?)$")
+_WIDTHLESS = lazy(r"(?i)^(?:u?int|integer|signed(?:\s*int)?|unsigned(?:\s*int)?)$")
 # a Python struct type as VOLTTRON's register maps write them: byte order, then one code, with a pad
 # byte (x) beside a one-byte code (>xB: the lower byte of a register, >Bx: the upper)
-_STRUCT_TYPE = re.compile(r"^([<>=!])(x?)([bBhHiIlLqQfd])(x?)$")
+_STRUCT_TYPE = lazy(r"^([<>=!])(x?)([bBhHiIlLqQfd])(x?)$")
 STRUCT_ORDERS = {"<": "little", ">": "big", "!": "big", "=": "little"}  # '=': the host's order (x86, ARM: little)
 
 
@@ -305,7 +333,7 @@ class TypeCell:
 
 
 def _struct_type(t: str) -> TypeCell | None:
-    m = _STRUCT_TYPE.match(t)
+    m = _STRUCT_TYPE().match(t)
     if m is None:
         return None
     prefix, pad_before, code, pad_after = m.groups()
@@ -323,47 +351,49 @@ def _struct_type(t: str) -> TypeCell | None:
     return TypeCell(fmt, order=STRUCT_ORDERS[prefix], native=prefix == "=")
 
 
-_BIT_CELL = re.compile(r"(?i)^(?:bool(?:ean)?\s*\(\s*bits?\s*([0-9]{1,2})\s*\)|bits?\s*([0-9]{1,2})|b([0-9]{1,2}))$")
-_BIT_RANGE = re.compile(r"(?i)^(?:bits?\s*)?([0-9]{1,2})(?:\s*(?:-|\.\.|to)\s*([0-9]{1,2}))?$")
+_BIT_CELL = lazy(r"(?i)^(?:bool(?:ean)?\s*\(\s*bits?\s*([0-9]{1,2})\s*\)|bits?\s*([0-9]{1,2})|b([0-9]{1,2}))$")
+_BIT_RANGE = lazy(r"(?i)^(?:bits?\s*)?([0-9]{1,2})(?:\s*(?:-|\.\.|to)\s*([0-9]{1,2}))?$")
 
 
+@cell_cache
 def parse_bit_cell(text: str) -> str:
     """A cell of a `bits` column (`3`, `0-3`, `bit 3`, `bool (bit 3)`, `B3`) -> MDL bits ("3", "0-3")."""
     t = " ".join(text.strip().split())
-    m = _BIT_CELL.match(t)
+    m = _BIT_CELL().match(t)
     if m:
         return str(int(next(g for g in m.groups() if g is not None)))
-    m = _BIT_RANGE.match(t)
+    m = _BIT_RANGE().match(t)
     if m:
         return str(int(m.group(1))) + (f"-{int(m.group(2))}" if m.group(2) is not None else "")
     raise CellError(f"unknown bits {shown(text.strip())} (expected a bit number such as 3 or B3, or a range 0-3)")
 
 
+@cell_cache
 def read_type(text: str) -> TypeCell:
     """A format cell -> TypeCell: the vendors' words (`int16`, `S16`, `float`, `char[8]` ...), Python
     struct types (`>I`, `<h`, `>f`, `>xB`, as VOLTTRON's maps write them) and a bit of a register
     (`bit 3`, `bool (bit 3)`, `B3`: UINT16 and its bit)."""
     t = " ".join(text.strip().split())
-    m = _BIT_CELL.match(t)
+    m = _BIT_CELL().match(t)
     if m:
         return TypeCell("UINT16", bits=parse_bit_cell(t))
     found = _struct_type(t)
     if found is not None:
         return found
-    m = _STRING.match(t)
+    m = _STRING().match(t)
     if m:
         n = m.group(1) or m.group(2)
         return TypeCell("STRING", _number(n, "string length") if n else None)
     for rx, fmt in _FORMATS:
-        if rx.match(t):
-            return TypeCell(fmt, widthless=bool(_WIDTHLESS.match(t)))
-    m = _REMARKED.match(t)
+        if rx().match(t):
+            return TypeCell(fmt, widthless=bool(_WIDTHLESS().match(t)))
+    m = _REMARKED().match(t)
     if m:  # `INT (Signed16)`, `WORD (BitString16)`, `UINT (Unsigned16)`: a type and what it is, in brackets
         return _remarked(text, m.group(1), m.group(2))
     raise CellError(f"unknown format {shown(text.strip())}")
 
 
-_REMARKED = re.compile(r"^([^()]+?)\s*\(([^()]{1,40})\)$")
+_REMARKED = lazy(r"^([^()]+?)\s*\(([^()]{1,40})\)$")
 
 
 def _remarked(text: str, outer: str, inner: str) -> TypeCell:
@@ -394,15 +424,16 @@ class MappedFormat:
     bits: str | None = None
 
 
-_WITH = re.compile(r"(?i)^(.+?)\s+(?:(bits?\s*[0-9]{1,2}(?:\s*-\s*[0-9]{1,2})?)|([0-9]{1,3}))$")
+_WITH = lazy(r"(?i)^(.+?)\s+(?:(bits?\s*[0-9]{1,2}(?:\s*-\s*[0-9]{1,2})?)|([0-9]{1,3}))$")
 
 
+@cell_cache
 def read_mapped_format(text: str) -> MappedFormat:
     """`UINT16`, `STRING 16` (16 registers), `UINT16 bit 3`, `UINT32 bits 0-3` -> MappedFormat."""
     try:
         return MappedFormat(read_type(text))
     except CellError:
-        m = _WITH.match(" ".join(text.strip().split()))
+        m = _WITH().match(" ".join(text.strip().split()))
         if m is None:
             raise
     typed = read_type(m.group(1))
@@ -420,6 +451,7 @@ def parse_format(text: str) -> tuple[str, int | None]:
     return found.format, found.strlen
 
 
+@cell_cache
 def parse_length(text: str) -> str:
     t = text.strip().lower()
     if not t or t in ("full", "full word", "word", "16 bit", "16-bit", "16bit", "all"):
@@ -485,6 +517,7 @@ def access_words(cells: list[str]) -> str:
     return "write" if seen & BOTH_LETTERS else "read_write"
 
 
+@cell_cache
 def parse_access(text: str, w_alone: str = "write") -> str:
     t = " ".join(text.strip().lower().split())
     if t.endswith(")") and "(" in t:  # W/R(Reboot after write): the remark says nothing of access
@@ -552,6 +585,7 @@ class WordOrderCell:
     byte_order: str | None = None  # ABCD-style cells give the byte order too
 
 
+@cell_cache
 def parse_word_order(text: str) -> WordOrderCell:
     t = " ".join(text.strip().lower().replace("-", " ").replace("_", " ").split())
     if t in _SWAPPED:
@@ -615,10 +649,11 @@ FUNCTION_CODES = {
     22: "holding",
     23: "holding",
 }
-_CODE = re.compile(r"(?i)^(?:fc|func(?:tion)?(?:\s*code)?)?\s*(?:0x)?0*(\d{1,2})h?$")
-_CODE_IN_TEXT = re.compile(r"(?i)\bfc\s*0*(\d{1,2})\b|\(\s*0x0*(\d{1,2})\s*\)")
+_CODE = lazy(r"(?i)^(?:fc|func(?:tion)?(?:\s*code)?)?\s*(?:0x)?0*(\d{1,2})h?$")
+_CODE_IN_TEXT = lazy(r"(?i)\bfc\s*0*(\d{1,2})\b|\(\s*0x0*(\d{1,2})\s*\)")
 
 
+@cell_cache
 def parse_table(text: str) -> str:
     """A register-type cell -> holding | input | coil | discrete: table names (`Holding Register`,
     `4x`), VOLTTRON's (`analog_output_holding_registers`), function codes (`3`, `FC03`, `0x04`,
@@ -628,7 +663,7 @@ def parse_table(text: str) -> str:
     if t in TABLE_WORDS:
         return TABLE_WORDS[t]
     parts = [p for p in re.split(r"\s*[,/&+;]\s*|\s+and\s+|\s+", t) if p]
-    codes = [_CODE.match(p) for p in parts]
+    codes = [_CODE().match(p) for p in parts]
     if parts and all(codes):
         tables = set()
         for m in codes:
@@ -642,7 +677,7 @@ def parse_table(text: str) -> str:
                 f"{shown(text.strip())} names function codes of different tables ({', '.join(sorted(tables))})"
             )
         return tables.pop()
-    found = {FUNCTION_CODES.get(int(a or b)) for a, b in _CODE_IN_TEXT.findall(t)}
+    found = {FUNCTION_CODES.get(int(a or b)) for a, b in _CODE_IN_TEXT().findall(t)}
     if len(found) == 1 and None not in found:
         return found.pop()  # type: ignore[return-value]
     raise CellError(f"unknown register type {shown(text.strip())}")

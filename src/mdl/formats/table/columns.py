@@ -17,6 +17,7 @@ from mdl.formats.table.cells import (
     parse_word_order,
 )
 from mdl.formats.table.ini import DeviceIni
+from mdl.formats.table.lazy import lazy
 from mdl.formats.table.numbers import parse_int, parse_number, unit_alone
 from mdl.formats.table.readers.delimited import (
     HEADER_SYNONYMS,
@@ -65,14 +66,14 @@ HALF = 0.5
 MOSTLY = 0.8  # a text column whose cells are this much register types is a register-type column
 
 
-_NAMED_PREFIX = re.compile(r"(?i)\b(?:coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:")
-_ADDRESS_SHAPE = re.compile(r"(?i)^(?=.*\d)[\s0-9a-fx:#,;/&.()\-\u2013\u2014]+$")
+_NAMED_PREFIX = lazy(r"(?i)\b(?:coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:")
+_ADDRESS_SHAPE = lazy(r"(?i)^(?=.*\d)[\s0-9a-fx:#,;/&.()\-\u2013\u2014]+$")
 
 
 def _fits_address(cell: str) -> None:
     """An address in one of the forms parse_addresses reads (whether in range or not is the row's business)."""
-    text = re.sub(r"(?i)\b(?:to|and)\b|(?<=\d)to(?=\d)", " ", _NAMED_PREFIX.sub(" ", cell))
-    if not _ADDRESS_SHAPE.match(text):
+    text = re.sub(r"(?i)\b(?:to|and)\b|(?<=\d)to(?=\d)", " ", _NAMED_PREFIX().sub(" ", cell))
+    if not _ADDRESS_SHAPE().match(text):
         raise CellError("not an address")
 
 

@@ -8,7 +8,9 @@ writes is mdl.cli.csv2xml; where it may write, mdl.formats.table.target)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import gc
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -206,10 +208,12 @@ def _read_rows(
     progress = report.bar("mdl csv2xml: reading rows", len(data)) if len(data) >= LONG_TABLE else None
     report.progress = progress
     header_cells = [" ".join(c.split()).lower() for c in header.cells] if header is not None else None
+    at = cols.index.get("addresses")
     for row in data:
         if progress:
             progress()
-        kind = _not_a_register(row, cols, header_cells)
+        # a row whose address cell starts with a digit is a register (_not_a_register's first test)
+        kind = None if at is not None and row.cell(at)[:1].isdigit() else _not_a_register(row, cols, header_cells)
         if kind is not None:
             if kind not in said:
                 said.add(kind)
@@ -530,12 +534,17 @@ def _raw_limits(ini: DeviceIni, functions: list[Function]) -> None:
 def _roles_by_name(functions: list[Function], ini: DeviceIni, report: Report) -> None:
     """A function the INI names after a profile's role (`power_w = Total active power`) plays that role
     (SPEC 13), unless its [function NAME] says another; a note lists them."""
-    if not ini.synonyms:
+    unset = [fn for fn in functions if fn.role is None and fn.name in ini.synonyms]
+    if not unset:
         return
-    from mdl.profiles.load import shipped_roles  # the profiles' YAML, read only when an INI names functions
+    from mdl.profiles.shipped import keyed
+
+    if not keyed(fn.name for fn in unset):  # no profile has a key of these names: no YAML read
+        return
+    from mdl.profiles.load import shipped_roles
 
     roles = shipped_roles()
-    named = [fn for fn in functions if fn.role is None and fn.name in roles and fn.name in ini.synonyms]
+    named = [fn for fn in unset if fn.name in roles]
     for fn in named:
         fn.role = fn.name
     if named:
@@ -568,11 +577,28 @@ def convert(csv_path: Path, ini: DeviceIni | None, opts: Options, report: Report
     table = _read_chosen(csv_path, ini, report)
     report.located(str(csv_path), table.places)
     try:
-        return _convert(csv_path, table, ini, opts, report)
+        with _collector_paused():
+            return _convert(csv_path, table, ini, opts, report)
     except MdlError as exc:
         if not table.places:
             raise
         raise MdlError([report.placed(d) for d in exc.diagnostics], exc.exit_code) from None
+
+
+@contextmanager
+def _collector_paused() -> Iterator[None]:
+    """Python's cycle collector paused while the rows are read and matched: they build objects that are
+    all kept (a function, an index entry per row), which each collection would walk again, a tenth of
+    the work on a long table; what they drop is freed as it goes (no cycles), anything else once it
+    is on again. (Not while a document is read: a PDF's layout objects do hold cycles.)"""
+    if not gc.isenabled():
+        yield
+        return
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
 
 
 def _convert(csv_path: Path, table: Table, ini: DeviceIni | None, opts: Options, report: Report) -> Device | None:

@@ -40,17 +40,29 @@ class Index:
         self.sources: list[list[int]] = [[k for k, t in enumerate(texts) if t] for texts in row_texts]
         self.exact: dict[str, list[int]] = {}
         self.postings: dict[str, set[int]] = {}
+        exact, postings = self.exact, self.postings
         by_length: dict[int, list[tuple[int, int]]] = {}
         for r, texts in enumerate(self.texts):
             for k, t in enumerate(texts):
-                if not t.norm:
+                norm = t.norm
+                if not norm:
                     continue
-                rows = self.exact.setdefault(t.norm, [])
-                if not rows or rows[-1] != r:
+                rows = exact.get(norm)
+                if rows is None:
+                    exact[norm] = [r]
+                elif rows[-1] != r:
                     rows.append(r)
-                for word, _, _ in t.tokens:
-                    self.postings.setdefault(word, set()).add(r)
-                by_length.setdefault(len(t.norm), []).append((r, k))
+                for word in t.words:
+                    posting = postings.get(word)
+                    if posting is None:
+                        postings[word] = {r}
+                    else:
+                        posting.add(r)
+                same = by_length.get(len(norm))
+                if same is None:
+                    by_length[len(norm)] = [(r, k)]
+                else:
+                    same.append((r, k))
         self.lengths = sorted(by_length)
         self.by_length = [by_length[n] for n in self.lengths]  # (row, text) pairs, rows ascending
         self._counts: dict[str, Counter[str]] = {}

@@ -21,17 +21,18 @@ import re
 from dataclasses import dataclass
 
 from mdl.diagnostics import shown
-from mdl.formats.table.cells import CellError
+from mdl.formats.table.cells import CellError, cell_cache
+from mdl.formats.table.lazy import lazy
 
 _DIGITS = r"(?:\d+(?:[.,]\d+)*\.?|[.,]\d+)"
 _NUMBER = rf"[-+]?{_DIGITS}(?:[eE][-+]?\d+)?"
 # a unit starts with a letter or a sign of one (°C, %, µs, Ω); digits may follow (m3/h, m²)
 _UNIT = r"(?:[^\W\d_]|[°%‰µΩ℃℉'\"])[^()]*?"
-_PLAIN = re.compile(rf"^({_NUMBER})\s*({_UNIT})?\s*(\([^()]*\))?$")
-_SCALE_CALL = re.compile(rf"(?i)^scale\s*\(\s*({_NUMBER})\s*\)$")
-_TIMES = re.compile(rf"^[xX×*]\s*({_NUMBER})$")
-_FRACTION = re.compile(rf"^({_NUMBER})\s*/\s*({_NUMBER})\s*({_UNIT})?$")
-_POWER = re.compile(rf"^10\s*\^\s*([-+]?\d{{1,3}})\s*({_UNIT})?$")
+_PLAIN = lazy(rf"^({_NUMBER})\s*({_UNIT})?\s*(\([^()]*\))?$")
+_SCALE_CALL = lazy(rf"(?i)^scale\s*\(\s*({_NUMBER})\s*\)$")
+_TIMES = lazy(rf"^[xX×*]\s*({_NUMBER})$")
+_FRACTION = lazy(rf"^({_NUMBER})\s*/\s*({_NUMBER})\s*({_UNIT})?$")
+_POWER = lazy(rf"^10\s*\^\s*([-+]?\d{{1,3}})\s*({_UNIT})?$")
 NO_VALUE = frozenset({"-", "\u2013", "\u2014", "n/a", "na", "n.a.", "n.a", "n. a.", "none", "--", "/"})
 _PREFIX_ONLY = frozenset({"k", "K", "M", "G"})  # `10k`: ten thousand or ten of a unit? refused
 
@@ -45,22 +46,23 @@ class Number:
     times: bool = False  # `x10`, `*10`, `×10`: multiply by ten, or stored ten times larger? (read as 10, warned)
 
 
-_UNIT_ALONE = re.compile(rf"^{_UNIT}$")
-_BRACKETED = re.compile(r"^\[([^\[\]]*)\]$")
+_UNIT_ALONE = lazy(rf"^{_UNIT}$")
+_BRACKETED = lazy(r"^\[([^\[\]]*)\]$")
 
 
 def _unbracketed(cell: str) -> str:
     """`[0.1°C]` -> `0.1°C`: a unit column that prints its cells in square brackets (Lambda's heat pump
     table: `[0.01°C]`, `[Wh]`, `[Nr]`) says the same as without them. Left whole, the cell is no scale
     and becomes the unit `[0.01°C]` with scale 1: every value a hundred times too large, silently."""
-    m = _BRACKETED.match(cell)
+    m = _BRACKETED().match(cell)
     return " ".join(m.group(1).split()) if m else cell
 
 
+@cell_cache
 def unit_alone(text: str) -> str | None:
     """The unit of a cell that is a unit and nothing else (`W`, `V DC`, `°C`, `[Wh]`), else None."""
     cell = _unbracketed(" ".join(text.split()))
-    if not cell or cell.lower() in NO_VALUE or not _UNIT_ALONE.match(cell):
+    if not cell or cell.lower() in NO_VALUE or not _UNIT_ALONE().match(cell):
         return None
     try:
         return _unit(cell)
@@ -121,6 +123,7 @@ class _NotFinite(CellError):
     """Said as is (the existing message names the cell)."""
 
 
+@cell_cache
 def parse_number(text: str, decimal: str = "auto", what: str = "", scale: bool = False) -> Number | None:
     """A number cell -> Number, None for a cell that says "no value", CellError for anything else.
 
@@ -143,7 +146,7 @@ def parse_number(text: str, decimal: str = "auto", what: str = "", scale: bool =
 def _read(cell: str, decimal: str, what: str, scale: bool) -> Number | None:
     forms = (_PLAIN, _SCALE_CALL, _TIMES, _FRACTION, _POWER) if scale else (_PLAIN,)
     for form in forms:
-        m = form.match(cell)
+        m = form().match(cell)
         if not m:
             continue
         if form is _POWER:
@@ -165,6 +168,7 @@ def _read(cell: str, decimal: str, what: str, scale: bool) -> Number | None:
     return None
 
 
+@cell_cache
 def parse_int(text: str) -> int:
     """A whole number cell (`2`, `0x10`, `2.0`, `4 bytes`) -> int."""
     t = text.strip()

@@ -75,6 +75,9 @@ def row_texts(row: Row, cols: Columns) -> list[str]:
 
 def _check_writable(fn: Function) -> None:
     """CellError for a text no MDL document can hold (a control character in a description)."""
+    every = "".join(filter(None, (fn.description, fn.units, fn.read_function_code, fn.write_function_code)))
+    if every.isascii() and every.isprintable() and not fn.block_labels:  # most rows: XML takes all of it
+        return
     texts = [(key, getattr(fn, key)) for key in ("description", "units", "read_function_code", "write_function_code")]
     for what, text in texts + [("block label", label) for label in fn.block_labels]:
         bad = unwritable(text) if text else None
@@ -98,18 +101,24 @@ class _Cells:
 
     def __init__(self, row: Row, cols: Columns, st: RowSettings) -> None:
         self.row, self.cols, self.st = row, cols, st
+        cells, n = row.cells, len(row.cells)
+        # each field's cell as Row.cell gives it, read once (a row asks for each several times)
+        self.raws = {key: cells[i].strip() if i < n else "" for key, i in cols.index.items()}
         self.notes: list[tuple[str, str]] = []  # (what it is about, said once per table; the message)
         self.problems: list[tuple[str, str]] = []  # (field, warning): cells kept at their field's default
         self.mapped: set[str] = set()  # fields whose cell the INI mapped
         self.ok: set[str] = set()  # fields whose cell was read
 
     def raw(self, key: str) -> str:
-        i = self.cols.index.get(key)
-        return self.row.cell(i) if i is not None else ""
+        return self.raws.get(key, "")
 
     def text(self, key: str) -> str:
-        raw = self.raw(key)
-        found = mapped(self.st.cells, key, raw) if raw and self.st.cells else None
+        raw = self.raws.get(key, "")
+        return self._mapped(key, raw) if raw and self.st.cells else raw
+
+    def _mapped(self, key: str, raw: str) -> str:
+        """The cell as the INI's `[<key> cells]` maps it (with the note that says so), else as it is."""
+        found = mapped(self.st.cells, key, raw)
         if found is None:
             return raw
         self.mapped.add(key)
@@ -125,7 +134,9 @@ class _Cells:
     def read(self, key: str, reader: Callable[[str], T]) -> T | None:
         """The field read from its cell (None for an empty one); an unreadable essential cell of a named
         column raises FieldError, any other is a problem and None."""
-        text = self.text(key)
+        text = self.raws.get(key)
+        if text and self.st.cells:
+            text = self._mapped(key, text)
         if not text:
             return None
         try:
@@ -142,12 +153,14 @@ class _Cells:
 
 def _bits(cells: _Cells, typed: TypeCell | None, mapped_format: MappedFormat | None, at: AddressCell) -> str | None:
     """The bits the row says (a bits column, the address cell, the format cell); CellError where two disagree."""
-    said = {
-        "bits column": cells.read("bits", parse_bit_cell),
-        "address": at.bits,
-        "format": (mapped_format.bits if mapped_format else None) or (typed.bits if typed else None),
-    }
-    found = {k: v for k, v in said.items() if v is not None}
+    said = (
+        ("bits column", cells.read("bits", parse_bit_cell) if "bits" in cells.raws else None),
+        ("address", at.bits),
+        ("format", (mapped_format.bits if mapped_format else None) or (typed.bits if typed else None)),
+    )
+    found = {k: v for k, v in said if v is not None}
+    if not found:  # most rows
+        return None
     if len(set(found.values())) > 1:
         raise FieldError(f"the {' and the '.join(found)} name different bits ({', '.join(found.values())})", "bits")
     return next(iter(found.values()), None)
@@ -194,14 +207,14 @@ def _listed_width(
 def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     """None for rows without an address (section titles, notes); CellError for bad rows."""
     cells = _Cells(row, cols, st)
-    ix = cols.index
+    ix, raws = cols.index, cells.raws  # `key in raws`: the table has that column (else read gives None)
     address_text = cells.text("addresses")
     if not address_text:
         return None
     base = st.address_base
     if base == "hex":
         address_text, base = hexify(address_text), "0"
-    column_table = cells.read("register_type", parse_table)
+    column_table = cells.read("register_type", parse_table) if "register_type" in raws else None
     if base == "modicon" and column_table == "coil" and is_digits(address_text) and len(address_text) <= 4:
         address_text = address_text.zfill(5)  # coil number 1 is 00001 without its zeros (VOLTTRON's maps)
     try:
@@ -227,7 +240,8 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         table = column_table
     table = table or st.register_type or "holding"
 
-    if "format" in cells.mapped or (cells.raw("format") and mapped(st.cells, "format", cells.raw("format"))):
+    raw_format = cells.raw("format")
+    if "format" in cells.mapped or (st.cells and raw_format and mapped(st.cells, "format", raw_format)):
         mapped_format = cells.read("format", read_mapped_format)
         typed = mapped_format.typed if mapped_format else None
     else:
@@ -239,7 +253,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
     if table in BIT_TABLES:
         fmt = "BIT" if fmt is not None else None
         bits = None
-    length = cells.read("length", parse_length)
+    length = cells.read("length", parse_length) if "length" in raws else None
     if typed and typed.length:
         if length not in (None, typed.length):
             raise FieldError(
@@ -252,7 +266,7 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         length = "Lower byte" if at.bits == "0" else "Upper byte"  # `0x0103.b8` typed UINT8: the upper byte
         bits = None
     unit_bits = 16 if (length or "Full word") == "Full word" else 8
-    counted = cells.read("count", parse_int)
+    counted = cells.read("count", parse_int) if "count" in raws else None
     if counted is not None and counted < 1:
         raise FieldError(f"count {shown(cells.raw('count'))} must be 1 or more", "count")
     count = None
@@ -285,9 +299,10 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
             )
         )
         fmt = wide
-    texts = row_texts(row, cols)
-    if "description" in ix:  # the INI may map a description cell too
-        texts[0] = cells.text("description")
+    # row_texts, with the description cell as the INI may map it
+    texts = [cells.text("description") if "description" in ix else ""]
+    if cols.names:
+        texts += [row.cell(i) for i in cols.names if row.cell(i)]
     description, names = texts[0], texts[1:]
     byte_order, word_order, own_order = _orders(cells, st, typed)
     fn = Function(
@@ -303,11 +318,11 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
         bits=bits,
         line=row.line,
     )
-    label = cells.read("block_label", str)
+    label = cells.read("block_label", str) if "block_label" in raws else None
     if label:
         fn.block_labels = [label]
     guesses = _numbers(cells, st, fn)
-    access = cells.read("access", lambda t: parse_access(t, st.w_alone))
+    access = cells.read("access", lambda t: parse_access(t, st.w_alone)) if "access" in raws else None
     if access is not None:
         default = "read" if table in ("input", "discrete") else "read_write"
         if access != default:
@@ -335,10 +350,10 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
             guesses[WIDTHLESS] = cells.raw("format")
     if typed and typed.native:
         guesses[NATIVE] = cells.raw("format")
-    for problem in function_problems(fn, {}):
+    for problem in function_problems(fn, {}, lay):
         raise FieldError(problem, "bits" if fn.bits else "format")
     for key in ("read_function_code", "write_function_code"):  # C fragments (docs/fragments.md), not codes
-        code = cells.text(key)
+        code = cells.text(key) if key in raws else ""
         if code:
             try:
                 check(code, len(lay.addresses))
@@ -356,9 +371,8 @@ def parse_row(row: Row, cols: Columns, st: RowSettings) -> ParsedRow | None:
             cells.ok.add(key)
             setattr(fn, key, code)
     _check_writable(fn)
-    out = ParsedRow(row, fn, texts, names[0] if names else description or address_text, guesses)
-    out.notes, out.problems, out.ok = cells.notes, cells.problems, cells.ok
-    return out
+    named = names[0] if names else description or address_text
+    return ParsedRow(row, fn, texts, named, guesses, cells.notes, cells.problems, cells.ok)
 
 
 def _limits(fn: Function, st: RowSettings, guesses: dict[str, str], cells: _Cells) -> None:
@@ -398,7 +412,7 @@ def _orders(cells: _Cells, st: RowSettings, typed: TypeCell | None) -> tuple[str
     byte_order = typed.order if typed and typed.order else st.byte_order
     word_order = typed.order if typed and typed.order else st.word_order
     own = bool(typed and typed.order)
-    text = cells.text("word_order")
+    text = cells.text("word_order") if "word_order" in cells.raws else ""
     said = cells.read("word_order", parse_word_order) if text and text.strip().lower() not in NO_VALUE else None
     if said is not None:
         if said.swapped is not None:
@@ -414,8 +428,11 @@ def _orders(cells: _Cells, st: RowSettings, typed: TypeCell | None) -> tuple[str
 def _numbers(cells: _Cells, st: RowSettings, fn: Function) -> dict[str, str]:
     """Offset, limits, scale and units onto `fn`; what was guessed (a decimal comma, a unit alone in a
     scale column) with the cell. A cell that cannot be read leaves its field at the default (a problem)."""
-    cols, guesses = cells.cols, dict[str, str]()
+    cols = cells.cols
+    guesses: dict[str, str] = {}
     for key in ("offset", "minimum", "maximum"):
+        if key not in cells.raws:  # no such column (read would give None)
+            continue
         number = cells.read(key, partial(_number_or_none, decimal=st.decimal, what=key))
         if number is not None:
             if number.comma:
@@ -428,7 +445,8 @@ def _numbers(cells: _Cells, st: RowSettings, fn: Function) -> dict[str, str]:
         if scale.alone:
             guesses[UNIT_ALONE] = scale_cell
         fn.multiplier = None if scale.value == 1 else scale.value
-    _limits(fn, st, guesses, cells)
+    if fn.minimum is not None or fn.maximum is not None:
+        _limits(fn, st, guesses, cells)
     units = cells.text("units") if "units" in cols.index else ""
     if cols.scale_has_units:
         fn.units = scale.unit if scale is not None else None
@@ -473,6 +491,19 @@ def _scale(cells: _Cells, st: RowSettings) -> tuple[Number | None, str]:
     """The row's scale as a multiplier (a divisor d gives 1/d), with the unit written after it, and its cell.
     In a column that is both the scale and the units (`10V DC`, `0.01s`), a unit alone (`W`) is scale 1."""
     ix = cells.cols.index
+    if "divisor" not in ix:  # most tables: a multiplier column or none, read as below
+        m = _scale_of(cells, st, "multiplier") if "multiplier" in ix else None
+        if m is not None and m.value == 0:
+            cells.problems.append(
+                (
+                    "",
+                    f"{cells.cols.describe(ix['multiplier'])} multiplier {shown(cells.raw('multiplier'))}: "
+                    "0 would lose every value; "
+                    "multiplier left at its default (the row is kept)",
+                )
+            )
+            return None, ""
+        return m, cells.raw("multiplier")
     keys = [key for key in ("multiplier", "divisor") if key in ix]
     given = {key: n for key in keys if (n := _scale_of(cells, st, key)) is not None}
     raw = {key: cells.raw(key) for key in keys}

@@ -26,12 +26,14 @@ import difflib
 import re
 from dataclasses import dataclass
 
+from mdl.formats.table.lazy import lazy
+
 EXACT, PHRASE, NAME_EXACT, NAME_PHRASE, FUZZY = 4, 3, 2, 1, 0
 TIER_NAMES = {EXACT: "exact", PHRASE: "phrase", NAME_EXACT: "name", NAME_PHRASE: "name-phrase", FUZZY: "fuzzy"}
 _WORD = re.compile(r"[^\W_]+")
-_CLAUSE_BREAK = re.compile(r"[()\[\],.;:/\-\u2013\u2014]")
-_CLAUSE_ENDS = re.compile(r"\s*[(\[,.;:/\-\u2013\u2014]")
-_CLOSING = re.compile(r"^[\s)\]]+")  # closing brackets after a phrase: its own bracket ends, the clause goes on
+_CLAUSE_BREAK = lazy(r"[()\[\],.;:/\-\u2013\u2014]")
+_CLAUSE_ENDS = lazy(r"\s*[(\[,.;:/\-\u2013\u2014]")
+_CLOSING = lazy(r"^[\s)\]]+")  # closing brackets after a phrase: its own bracket ends, the clause goes on
 
 
 class FunctionName(str):
@@ -44,12 +46,31 @@ def tiers(synonym: str) -> tuple[int, int]:
     return (NAME_EXACT, NAME_PHRASE) if isinstance(synonym, FunctionName) else (EXACT, PHRASE)
 
 
+_NOT_WORD = re.compile(r"[^\w]+")
+# ASCII text (most tables) is split by bytes.translate instead, which a regex costs several times:
+# every byte but a word character (\w: [A-Za-z0-9_]; [^\W_]: [A-Za-z0-9]) becomes a space
+_ASCII_WORD = bytes(c if c < 128 and (chr(c).isalnum() or c == ord("_")) else 32 for c in range(256))
+_ASCII_ALNUM = bytes(c if c < 128 and chr(c).isalnum() else 32 for c in range(256))
+
+
+def _normal(lower: str) -> str:
+    if lower.isascii():
+        return " ".join(lower.encode().translate(_ASCII_WORD).decode().split())
+    return " ".join(_NOT_WORD.sub(" ", lower).split())
+
+
+def _words(lower: str) -> list[str]:
+    if lower.isascii():
+        return lower.encode().translate(_ASCII_ALNUM).decode().split()
+    return _WORD.findall(lower)
+
+
 def normalize(text: str) -> str:
-    return " ".join(re.sub(r"[^\w]+", " ", text.lower()).split())
+    return _normal(text.lower())
 
 
 def words(text: str) -> list[str]:
-    return _WORD.findall(text.lower())
+    return _words(text.lower())
 
 
 @dataclass(frozen=True, order=True)
@@ -75,15 +96,25 @@ class Phrase:
 
 
 class Text:
-    """A row's text, prepared once for every synonym scored against it."""
+    """A row's text, prepared once for every synonym scored against it: its words for every row (the
+    index of words), where they stand only for a row a phrase is looked for in."""
 
-    __slots__ = ("raw", "lower", "norm", "tokens")
+    __slots__ = ("raw", "lower", "norm", "words", "_tokens")
 
     def __init__(self, raw: str) -> None:
         self.raw = raw
-        self.lower = raw.lower()
-        self.norm = normalize(raw)
-        self.tokens = [(m.group(0), m.start(), m.end()) for m in _WORD.finditer(self.lower)]
+        self.lower = lower = raw.lower()
+        self.words = _words(lower)
+        # without an underscore, the runs of \w are the words: normalize's text, joined by spaces
+        self.norm = " ".join(self.words) if lower.isascii() and "_" not in lower else _normal(lower)
+        self._tokens: list[tuple[str, int, int]] | None = None
+
+    @property
+    def tokens(self) -> list[tuple[str, int, int]]:
+        """Each word with its start and end in `lower`."""
+        if self._tokens is None:
+            self._tokens = [(m.group(0), m.start(), m.end()) for m in _WORD.finditer(self.lower)]
+        return self._tokens
 
 
 def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | None:
@@ -103,7 +134,7 @@ def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | Non
             if nxt == len(tokens):
                 ok = False
                 break
-            if nxt > at + 1 and _CLAUSE_BREAK.search(text.lower, tokens[at][2], tokens[nxt][1]):
+            if nxt > at + 1 and _CLAUSE_BREAK().search(text.lower, tokens[at][2], tokens[nxt][1]):
                 ok = False  # words between, across a clause break: another clause
                 break
             between += nxt - at - 1
@@ -111,8 +142,8 @@ def find_phrase(syn_words: list[str], syn_norm: str, text: Text) -> Phrase | Non
         if not ok or between > k - 1:
             continue
         rest = text.lower[tokens[at][2] :]
-        rest = _CLOSING.sub("", rest)
-        clause_ends = not _WORD.search(rest) or bool(_CLAUSE_ENDS.match(rest))
+        rest = _CLOSING().sub("", rest)
+        clause_ends = not _WORD.search(rest) or bool(_CLAUSE_ENDS().match(rest))
         value = 0.9 + (0.1 if clause_ends else 0.02) * len(syn_norm) / len(text.norm)
         if best is None or value > best.value or (value == best.value and between < best.between):
             best = Phrase(value, between, clause_ends)

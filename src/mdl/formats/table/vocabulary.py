@@ -25,7 +25,7 @@ from mdl.formats.table.cells import (
 from mdl.formats.table.numbers import parse_int, parse_number
 from mdl.formats.table.report import Report
 from mdl.model import Function
-from mdl.model.layout import LayoutError, layout
+from mdl.model.layout import Layout, LayoutError, layout
 from mdl.resolver.checks import bound_problems
 from mdl.resolver.packing import packing_problems
 
@@ -147,15 +147,17 @@ def multiplier_of(fs: FunctionSection) -> float | None:
     return None
 
 
-def function_problems(fn: Function, functions: Mapping[str, Function]) -> list[str]:
+def function_problems(fn: Function, functions: Mapping[str, Function], lay: Layout | None = None) -> list[str]:
     """What makes `fn` impossible (its layout, bounds, bits, scale factor, role), the first first. A
-    function with an expression is checked where every expression is, by the resolve step."""
+    function with an expression is checked where every expression is, by the resolve step. `lay`:
+    the function's layout, where the caller has it."""
     if fn.expression is not None:
         return []
-    try:
-        lay = layout(fn)
-    except LayoutError as exc:
-        return [str(exc)]
+    if lay is None:
+        try:
+            lay = layout(fn)
+        except LayoutError as exc:
+            return [str(exc)]
     problems = bound_problems(fn, lay) + [
         m for m, severity, _ in packing_problems(fn, lay, functions) if severity == "error"
     ]

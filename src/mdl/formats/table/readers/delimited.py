@@ -278,9 +278,11 @@ def _records(text: str, delimiter: str, path: Path, markdown: bool = False) -> l
         for cells in reader:
             first = last + 1
             last = reader.line_num
-            if any(len(c) > MAX_CELL_CHARS for c in cells):
+            if not cells:
+                continue
+            if max(map(len, cells)) > MAX_CELL_CHARS:
                 raise _long_cell(text, first, delimiter, path)
-            if not any(c.strip() for c in cells):
+            if not "".join(cells).strip():  # every cell blank
                 continue
             if cells[0].lstrip().startswith("#"):
                 continue
@@ -374,7 +376,9 @@ def _pick_delimiter(text: str) -> str:
 
 
 def _is_markdown(text: str) -> bool:
-    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    if "|" not in text:  # most CSV files: no line starts with one
+        return False
+    lines = [line for line in map(str.strip, text.splitlines()) if line]
     piped = [line for line in lines if line.startswith("|") and line.endswith("|") and len(line) > 1]
     return (
         len(piped) >= 2
