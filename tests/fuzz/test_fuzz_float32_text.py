@@ -8,7 +8,7 @@ import struct
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mdl.device.output import shortest_float32
+from mdl.device.output import _shortest_float32, shortest_float32
 
 F32 = struct.Struct(">f")
 
@@ -48,3 +48,33 @@ def test_zeros_keep_their_sign_whichever_came_first():
         assert math.copysign(1.0, shortest_float32(first)) == math.copysign(1.0, first)
         assert math.copysign(1.0, shortest_float32(second)) == math.copysign(1.0, second)
     assert str(shortest_float32(0.0)) == "0.0" and str(shortest_float32(-0.0)) == "-0.0"
+
+
+def tried_digit_by_digit(value: float) -> float:
+    """The shortest text by trying 1, 2 ... 9 significant digits: what shortest_float32 gives in one try."""
+    bits = F32.pack(value)
+    for digits in range(1, 10):
+        candidate = float(f"{value:.{digits}g}")
+        try:
+            if F32.pack(candidate) == bits:
+                return candidate
+        except OverflowError:
+            continue
+    return value
+
+
+@settings(max_examples=5000, deadline=None)
+@given(
+    st.one_of(
+        st.integers(0, 2**32 - 1),  # any bits
+        st.integers(0, 2**24 - 1).map(lambda b: b | (0x3F800000 & ~0x7FFFFF)),  # mantissas around 1.0
+        st.sampled_from([0x00800000, 0x00800001, 0x007FFFFF, 0x7F7FFFFF, 0x4B800000, 0x3F800000, 0x40000000]),
+        st.integers(-(10**6), 10**6).map(lambda n: int.from_bytes(F32.pack(n / 100), "big")),  # two decimals
+    )
+)
+def test_one_try_at_six_digits_gives_what_trying_each_digit_gives(bits):
+    value = F32.unpack(bits.to_bytes(4, "big"))[0]
+    if not math.isfinite(value) or value == 0:
+        return
+    got = _shortest_float32.__wrapped__(value)  # uncached
+    assert got == tried_digit_by_digit(value) and math.copysign(1.0, got) == math.copysign(1.0, value)

@@ -138,4 +138,5 @@ def test_a_late_start_shifts_none_after_it_and_a_slow_poll_is_followed_at_once(m
     d1 = [t - began for t in at["d1"]]  # its second poll, due at 0.21, began late (d0 held the loop to 0.32)
     assert d1[1] >= 0.31 and 0.41 - 1e-3 <= d1[2] < 0.47  # the third still due at 0.41, not 0.52
     d2 = [t - began for t in at["d2"]]  # its second took 0.35 s (> 0.2): the third at once, then 0.2 on
-    assert d2[1] == pytest.approx(d2[2], abs=0.03) and 0.2 - 1e-3 <= d2[3] - d2[2] < 0.25
+    # (0.2 after the third was due, which was when the second ended: the third's turn may come a little later)
+    assert d2[1] == pytest.approx(d2[2], abs=0.03) and 0.2 - 0.03 <= d2[3] - d2[2] < 0.25
