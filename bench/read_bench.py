@@ -407,6 +407,9 @@ def cell(value: object, base: object, goal: float | None, width: int = 24) -> st
     if isinstance(value, str):
         return f"{value:>{width}}"
     assert isinstance(value, float)
+    if value <= 0:  # the longer run counted fewer instructions: something else changed between the two runs
+        text = f"not measured ({value:.3f})"
+        return f"{text:>{width}}"
     ratio = value / base if isinstance(base, float) and base else None
     mark = "" if ratio is None or goal is None else (" ok" if ratio <= goal else " NO")
     text = f"{value:.3f}" + (f" ({ratio:.2f}x{mark})" if ratio is not None else "")

@@ -87,13 +87,14 @@ class DeviceError(MdlError):
 
 SHOWN_EACH = 3  # messages of one kind said in full before the rest are summed up
 SHOWN_LINES = 3  # lines a summary names
-_VARYING = re.compile(r"'[^']*'|[0-9]+")  # what differs between two messages of one kind
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_VARYING = r"'[^']*'|[0-9]+"  # what differs between two messages of one kind
 
 
 def message_kind(message: str) -> str:
     """A message's kind when its reader gives none: the text with each quoted word and each number as
     `#` (`[AI] 'x' on line 7` and `[AI] 'y' on line 9` are one kind)."""
-    return _VARYING.sub("#", message)
+    return re.compile(_VARYING).sub("#", message)
 
 
 def line_order(d: Diagnostic) -> tuple[int, int]:
@@ -285,7 +286,7 @@ class Collector:
 
 
 TextStyle = Literal["xml", "plain", "single", "double"]  # how raw source text maps to the parsed text
-_XML_REFERENCE = re.compile(r"&(?:#[0-9]+|#x[0-9a-fA-F]+|[A-Za-z_][\w.-]*);")
+_XML_REFERENCE = r"&(?:#[0-9]+|#x[0-9a-fA-F]+|[A-Za-z_][\w.-]*);"
 _YAML_ESCAPE = {"x": 4, "u": 6, "U": 10}  # raw length of \xHH, \uHHHH, \UHHHHHHHH; other escapes: 2
 
 
@@ -323,7 +324,7 @@ class TextSpan:
             return 2
         if self.style == "xml":
             if ch == "&":
-                m = _XML_REFERENCE.match(raw, i)
+                m = re.compile(_XML_REFERENCE).match(raw, i)
                 return len(m.group(0)) if m else 1
             return 1
         if ch == "\n":  # YAML: a folded line break: the break and the next line's indentation

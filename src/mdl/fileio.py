@@ -26,8 +26,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import secrets
-import shutil
 import signal
 import socket
 import stat
@@ -203,7 +201,8 @@ def _cannot_write(exc: OSError, shown: Path, path: Path) -> MdlError:
     return error(f"cannot write{linked}: {exc.strerror or exc}", shown)
 
 
-_DESCRIPTOR = re.compile(
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_DESCRIPTOR = (
     r"/dev/(?:std(?P<std>out|err)|fd/(?P<fd>[0-9]+))|/proc/(?P<pid>self|thread-self|[0-9]+)/fd/(?P<pfd>[0-9]+)"
 )
 
@@ -212,7 +211,7 @@ def _own_descriptor(path: Path) -> int | None:
     """The open descriptor of this process `/dev/stdout`, `/dev/stderr`, `/dev/fd/N` or `/proc/self/fd/N`
     names: written to as it is, as bash does (reopening a socket fails, and reopening a file would
     start it over at its beginning, or replace a file `>>` appends to)."""
-    match = _DESCRIPTOR.fullmatch(os.path.normpath(os.path.abspath(path)))
+    match = re.compile(_DESCRIPTOR).fullmatch(os.path.normpath(os.path.abspath(path)))
     if match is None or match["pid"] not in (None, "self", "thread-self", str(os.getpid())):
         return None
     fd = {"out": 1, "err": 2}[match["std"]] if match["std"] else int(match["fd"] or match["pfd"])
@@ -299,6 +298,8 @@ _TOKEN_BYTES = 6  # RANDOM in the names below: 12 hex digits
 
 def _hidden_name(path: Path, kind: str) -> Path:
     """`.NAME.RANDOM.tmp` (a file being written) or `.NAME.RANDOM.old` (the old file's second name)."""
+    import secrets  # here, not at the top: only a write needs it (hashlib and hmac, for a one-shot read)
+
     return path.with_name(f".{path.name}.{secrets.token_hex(_TOKEN_BYTES)}.{kind}")
 
 
@@ -383,6 +384,8 @@ def _second_name(path: Path) -> Path | None:
     try:
         os.link(path, old, follow_symlinks=False)
     except OSError:
+        import shutil  # here: a hard link is the rule (and shutil imports bz2 and lzma)
+
         try:
             shutil.copy2(path, old, follow_symlinks=False)
         except OSError as exc:

@@ -354,7 +354,7 @@ def read(
         raise click.UsageError("--count needs --interval (polling)")
     if publish and interval is None:
         raise click.UsageError("--publish needs --interval (polling)")
-    address = next((n for n in names if _ADDRESS.fullmatch(n)), None)
+    address = next((n for n in names if re.compile(_ADDRESS).fullmatch(n)), None)
     if address is not None:  # no function is named so: a connection written where NAMES go
         raise click.UsageError(f"'{address}' looks like where the device is, not a function: write --host {address}")
     if isinstance(file, str) and not publish and not any(map(looks_like_target, names)):
@@ -387,7 +387,8 @@ def read(
 
 # a connection written where NAMES go: localhost, an IPv4 or [IPv6] address, or any HOST:PORT (a function's
 # name may hold dots, never a colon and digits at its end)
-_ADDRESS = re.compile(r"(localhost|\d{1,3}(\.\d{1,3}){3}|\[[0-9a-fA-F:]+\])(:\d{1,5})?|[\w.-]+:\d{1,5}")
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_ADDRESS = r"(localhost|\d{1,3}(\.\d{1,3}){3}|\[[0-9a-fA-F:]+\])(:\d{1,5})?|[\w.-]+:\d{1,5}"
 NO_CONNECTION = "no connection: give --host HOST (Modbus TCP) or --serial DEVICE (Modbus RTU)"
 
 

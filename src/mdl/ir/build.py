@@ -7,7 +7,6 @@ from __future__ import annotations
 import functools
 from collections.abc import Hashable
 
-from mdl.dsl.cfrag import compile_fragment
 from mdl.ir.steps import (
     Bits,
     CheckRange,
@@ -154,6 +153,8 @@ def decode_steps(fn: Function, lay: Layout, compiled: CompiledExpression | None 
     if fn.not_implemented:
         steps.append(NotImplemented(not_implemented_patterns(fn, n)))
     if fn.read_function_code:
+        from mdl.dsl.cfrag import compile_fragment  # here: the fragment compiler only for a fragment
+
         code = fn.read_function_code
         return (*steps, Fragment(code, n, True, compile_fragment(code, n, True)))
     if lay.kind == "bool":
@@ -187,6 +188,8 @@ def encode_steps(fn: Function, lay: Layout) -> tuple[EncodeStep, ...]:
         steps.append(CheckRange(fn.minimum, fn.maximum))
     n = len(lay.addresses)
     if fn.write_function_code and not fn.mask_write:
+        from mdl.dsl.cfrag import compile_fragment
+
         code = fn.write_function_code
         return (*steps, Fragment(code, n, False, compile_fragment(code, n, False)))
     field = bit_fields(fn, lay)

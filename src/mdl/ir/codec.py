@@ -14,7 +14,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from mdl.diagnostics import error
-from mdl.dsl.cfrag import compile_read, compile_write
 from mdl.ir import steps as ir
 from mdl.ir.build import build, decode_steps, encode_steps
 from mdl.model import Function, Scalar, Value
@@ -142,6 +141,8 @@ def compile_decoder(name: str, steps: tuple[ir.DecodeStep, ...]) -> Decoder:
     first = head[0]
     body: Decoder
     if isinstance(first, ir.Fragment):
+        from mdl.dsl.cfrag import compile_read  # here: the fragment compiler only for a fragment
+
         fragment = compile_read(first.code, first.nregs)
 
         def body(r: Sequence[int]) -> Value:
@@ -203,6 +204,8 @@ def compile_encoder(codec: ir.Codec, steps: tuple[ir.EncodeStep, ...]) -> Encode
     last = todo[0]
     body: Encoder
     if isinstance(last, ir.Fragment):
+        from mdl.dsl.cfrag import compile_write
+
         fragment = compile_write(last.code, last.nregs)
 
         def body(value: Scalar) -> list[int]:

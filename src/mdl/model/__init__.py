@@ -42,12 +42,13 @@ class CompiledExpression(Protocol):
     def type(self) -> str: ...  # its value's type: long, double, string, bool or list
 
 
-_BITS = re.compile(r"\s*([0-9]{1,2})\s*(?:-\s*([0-9]{1,2})\s*)?")
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_BITS = r"\s*([0-9]{1,2})\s*(?:-\s*([0-9]{1,2})\s*)?"
 
 
 def parse_bits(text: str) -> tuple[int, int] | None:
     """`N` or `N-M` (either order) -> (lowest, highest) bit; None if the text is neither."""
-    m = _BITS.fullmatch(text)
+    m = re.compile(_BITS).fullmatch(text)
     if m is None:
         return None
     a = int(m.group(1))

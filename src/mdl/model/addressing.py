@@ -29,8 +29,9 @@ NAMED_TABLE = {
 TABLE_PREFIX = {"coil": "c", "discrete": "di", "input": "ir", "holding": "hr"}
 
 NAMED = re.compile(r"(?i)(coil|c|discrete[-_]input|di|input[-_]register|ir|holding[-_]register|hr)\s*:\s*([0-9]+)")
-XFORM = re.compile(r"(?i)([0134])x([0-9]+)")
-MODICON = re.compile(r"([0134][0-9]{4,5})(?![0-9])")
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+XFORM = r"(?i)([0134])x([0-9]+)"
+MODICON = r"([0134][0-9]{4,5})(?![0-9])"
 # Decimal digits read as a number; longer ones would only be refused later (and Python
 # refuses to convert more than 4300 of them), so they are refused while still text.
 _MAX_DIGITS = 12
@@ -78,11 +79,11 @@ def match_address(text: str, pos: int = 0, modicon_digits: bool = True, x_coils:
     if m:
         table = NAMED_TABLE[m.group(1).lower().replace("_", "-")]
         return table, _wire(whole_number(m.group(2), "address")), m.end()
-    m = XFORM.match(text, pos)
+    m = re.compile(XFORM).match(text, pos)
     if m and (x_coils or m.group(1) != "0"):
         return MODICON_TABLE[m.group(1)], _register_number(m.group(2), m.group(0)), m.end()
     if modicon_digits:
-        m = MODICON.match(text, pos)
+        m = re.compile(MODICON).match(text, pos)
         if m:
             return MODICON_TABLE[m.group(1)[0]], _register_number(m.group(1)[1:], m.group(1)), m.end()
     return None

@@ -37,7 +37,6 @@ The rule:
 
 from __future__ import annotations
 
-import hashlib
 import re
 import unicodedata
 from collections.abc import Iterable
@@ -115,13 +114,14 @@ GENERATED_CLASSES = frozenset(
 CLASS_RESERVED = PY_BUILTIN_CLASSES | GENERATED_CLASSES
 
 
-_NOT_IDENT = re.compile(r"[^a-z0-9]+")
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_NOT_IDENT = r"[^a-z0-9]+"
 
 
 def identifier(name: str) -> str:
     # ASCII text is its own NFKD form: only other names need folding (asked of every function)
     folded = name if name.isascii() else unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode("ascii")
-    ident = _NOT_IDENT.sub("_", folded.lower()).strip("_")
+    ident = re.compile(_NOT_IDENT).sub("_", folded.lower()).strip("_")
     if not ident:
         ident = "unnamed"
     if ident[0].isdigit():
@@ -139,6 +139,8 @@ def stem(device_name: str) -> str:
     name; a longer one than STEM_LIMIT is shortened (stem_shortened)."""
     ident = identifier(device_name)
     if len(ident) > STEM_LIMIT:
+        import hashlib  # here: only a long name needs it (OpenSSL's bindings, for every command else)
+
         digest = hashlib.sha256(ident.encode("ascii")).hexdigest()[:_STEM_HASH]
         return f"{ident[: STEM_LIMIT - _STEM_HASH - 1].rstrip('_')}_{digest}"
     return ident + "_" if ident in STANDARD_HEADERS else ident

@@ -11,7 +11,8 @@ from mdl.model.layout import Layout, LayoutError, layout
 
 # (message, severity, the element it is about)
 Problem = tuple[str, str, str]
-_ROLE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+# a pattern's text, compiled where it is used (re.compile keeps it): no compiling at import (issue 40)
+_ROLE = r"[A-Za-z_][A-Za-z0-9_]*"
 
 
 def mask_write(fn: Function) -> bool:
@@ -21,7 +22,7 @@ def mask_write(fn: Function) -> bool:
 def packing_problems(fn: Function, lay: Layout, functions: Mapping[str, Function]) -> list[Problem]:
     """What is wrong with the function's bits, scale factor, initial values and role."""
     out = _bits_problems(fn, lay) + _scale_problems(fn, lay, functions) + _initial_problems(fn, lay)
-    if fn.role is not None and not _ROLE.fullmatch(fn.role):
+    if fn.role is not None and not re.compile(_ROLE).fullmatch(fn.role):
         out.append((f"role '{fn.role[:40]}' is not a name (letters, digits and _)", "error", "role"))
     return out
 

@@ -16,12 +16,28 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from mdl.dsl.cfrag.cemit import INCLUDES, CFragment, Dialect, helpers_source
 from mdl.dsl.cfrag.lexer import FragmentError
 from mdl.dsl.cfrag.parser import MAX_DEPTH, Statement, parse
 from mdl.dsl.cfrag.pyemit import FALLIBLE, HELPERS_SOURCE, helpers_namespace, statement
+
+if TYPE_CHECKING:
+    from mdl.dsl.cfrag.cemit import INCLUDES, CFragment, Dialect, helpers_source
+
+_C_EMITTER = ("INCLUDES", "CFragment", "helpers_source")  # from cemit when first asked for (the C targets)
+
+
+def __getattr__(name: str) -> Any:
+    # the C emitter is imported only by what prints C or C++: `mdl read` of a fragment runs the Python one
+    if name in _C_EMITTER:
+        from mdl.dsl.cfrag import cemit
+
+        value = getattr(cemit, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'mdl.dsl.cfrag' has no attribute {name!r}")
+
 
 __all__ = [
     "FALLIBLE",
@@ -61,6 +77,8 @@ class Fragment:
 
     def c(self, dialect: Dialect) -> CFragment:
         """The fragment as a C99 or C++17 function (see CFragment)."""
+        from mdl.dsl.cfrag.cemit import CFragment
+
         return CFragment(self.statements, self.nregs, self.reading, dialect)
 
 

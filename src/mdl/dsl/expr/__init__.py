@@ -6,6 +6,21 @@ straight-line Python, which `mdl read` and `mdl test` run and Python drivers car
 target prints them itself (mdl.targets.cpp.expressions, mdl.targets.c.expressions).
 """
 
-from mdl.dsl.expr.nodes import ExprError
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mdl.dsl.expr.nodes import ExprError
 
 __all__ = ["ExprError"]
+
+
+def __getattr__(name: str) -> Any:
+    # ExprError from nodes.py when first asked for: importing mdl.dsl.expr.fields (the runtime does, for
+    # python_function) then builds none of the expression tree's classes
+    if name == "ExprError":
+        from mdl.dsl.expr.nodes import ExprError
+
+        return ExprError
+    raise AttributeError(f"module 'mdl.dsl.expr' has no attribute {name!r}")

@@ -6,14 +6,19 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from mdl.dsl.expr.lower import Lowered, lower, scan
-from mdl.dsl.expr.nodes import ExprError, Node
-from mdl.dsl.expr.parser import MAX_DEPTH, FieldIndex, parse
-from mdl.dsl.expr.pyemit import HELPERS_SOURCE, body, signature
 from mdl.model import CompiledExpression, Device, Function, Value
 from mdl.model.layout import MAX_REGISTERS
+
+if TYPE_CHECKING:
+    from mdl.dsl.expr.lower import Lowered
+    from mdl.dsl.expr.nodes import Node
+    from mdl.dsl.expr.parser import FieldIndex
+
+# The parser, the lowering and the Python printer are imported by the functions that use them: the
+# runtime imports this module for python_function, and a device without expressions (every raw read)
+# never needs them.
 
 # a translated expression: (the function's registers, ascending, None where missing; p0, p1, ...) -> value
 FieldFunction = Callable[..., Value]
@@ -83,6 +88,10 @@ def _plain_uint64(fn: Function) -> bool:
 def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError]:
     """Compile every expression function into `into` (its name -> Compiled; the model is left as it
     is); return the problems found."""
+    from mdl.dsl.expr.lower import lower, scan
+    from mdl.dsl.expr.nodes import ExprError
+    from mdl.dsl.expr.parser import MAX_DEPTH, FieldIndex, parse
+
     errors: list[FieldError] = []
     blocks: dict[str, dict[str, Function]] = {}
     for fn in device.functions:
@@ -184,12 +193,16 @@ def compile_device(device: Device, into: dict[str, Compiled]) -> list[FieldError
 
 
 def python_source(lowered: Lowered, func_name: str = "_field") -> str:
+    from mdl.dsl.expr.pyemit import body, signature
+
     lines = [f"def {func_name}({signature(lowered)}):"] + ["    " + line for line in body(lowered)]
     return "\n".join(lines) + "\n"
 
 
 @cache
 def _namespace_for(source: str) -> FieldFunction:
+    from mdl.dsl.expr.pyemit import HELPERS_SOURCE
+
     ns: dict[str, Any] = {}
     exec(compile(HELPERS_SOURCE, "<mdl expression helpers>", "exec"), ns)
     exec(compile(source, "<mdl expression>", "exec"), ns)
