@@ -29,6 +29,54 @@ def single(tmp_path, description, to, *args):
     return out.read_text()
 
 
+def test_telegraf_publish_gives_each_agent_one_mqtt_output(site, tmp_path):
+    """`--publish mqtt://...` with --to telegraf: each agent sends its metrics to the broker (Telegraf's
+    outputs.mqtt), one JSON message a metric at PREFIX/DEVICE (the device tag) for a fleet's agent and at
+    PREFIX/STEM for one device, QoS 1, with the URL's user; a URL mdl would refuse is refused here too."""
+    url = "mqtt://collector:s3cret@broker.lan:1884/site1"
+    proc = cli("export", "--inventory", site, "--to", "telegraf", "--shards", "2", "--publish", url, "-o",
+               tmp_path / "tg")  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    for path in sorted((tmp_path / "tg").glob("shard-*/telegraf.conf")):
+        (output,) = tomllib.loads(path.read_text())["outputs"]["mqtt"]
+        assert output == {
+            "servers": ["mqtt://broker.lan:1884"],
+            "topic": 'site1/{{ .Tag "device" }}',
+            "qos": 1,
+            "keep_alive": 30,
+            "data_format": "json",
+            "username": "collector",
+            "password": "s3cret",
+        }
+    alone = tomllib.loads(
+        single(
+            tmp_path,
+            site.parent.parent / "temco_tstat" / "temco_tstat.xml",
+            "telegraf",
+            "--host",
+            "10.0.0.5",
+            "--publish",
+            "mqtts://broker.lan/x",
+        )  # fmt: skip
+    )
+    assert alone["outputs"]["mqtt"] == [
+        {
+            "servers": ["mqtts://broker.lan:8883"],
+            "topic": "x/temco_tstat",
+            "qos": 1,
+            "keep_alive": 30,
+            "data_format": "json",
+        }  # fmt: skip
+    ]
+    bad = cli("export", "--inventory", site, "--to", "telegraf", "--publish", "mqtt://broker.lan/a/+", "-o",
+              tmp_path / "bad")  # fmt: skip
+    assert_clean_error(bad, 1)
+    assert "--publish 'mqtt://broker.lan/a/+'" in bad.stderr and not (tmp_path / "bad").exists()
+    other = cli("export", "--inventory", site, "--to", "volttron", "--publish", url, "-o", tmp_path / "v")
+    assert_clean_error(other, 2)
+    assert "it needs --to nodered or telegraf" in other.stderr and "s3cret" not in other.stderr
+
+
 def test_telegraf_shards_keep_lines_whole_and_each_device_is_its_single_export(site, tmp_path):
     proc = cli("export", "--inventory", site, "--to", "telegraf", "--shards", "2", "-o", tmp_path / "tg")
     assert proc.returncode == 0, proc.stderr

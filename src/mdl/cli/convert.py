@@ -249,7 +249,7 @@ def _pin(ctx: click.Context, param: click.Parameter, value: str | None) -> str |
 @click.option(
     "--publish",
     metavar="mqtt://HOST[:PORT]/PREFIX",
-    help="nodered: wire each poll's message to an MQTT broker (an mqtt out node).",
+    help="nodered: wire each poll's message to an MQTT broker (an mqtt out node); telegraf: an outputs.mqtt.",
 )
 @click.option(
     "--inventory",
@@ -328,8 +328,10 @@ def export_(
     _distinct_pins({"--tx-pin": tx_pin, "--rx-pin": rx_pin, "--flow-control-pin": flow_control_pin})
     if tm and fmt.lower() != "wot":
         raise click.UsageError("--tm writes a WoT Thing Model: it needs --to wot")
-    if publish is not None and fmt.lower() != "nodered":
-        raise click.UsageError("--publish wires the Node-RED flow to a broker: it needs --to nodered")
+    if publish is not None and fmt.lower() not in ("nodered", "telegraf"):
+        raise click.UsageError(
+            "--publish wires a Node-RED flow or a Telegraf agent to a broker: it needs --to nodered or telegraf"
+        )
     if connection is not None and connection.serial == LINE_ONLY and fmt.lower() != "esphome":
         line = next(n for n in SERIAL_OPTIONS if given(n) is not click.core.ParameterSource.DEFAULT)
         raise click.UsageError(line_needs_serial(line))  # only the ESPHome node is on a line it need not name

@@ -368,6 +368,37 @@ def _version(exported: dict[str, ResolvedFunction]) -> str:
     return "1.32" if any(register_bit(f) is not None for f in exported.values()) else "1.30"
 
 
+def _mqtt_output(url_text: str, stem: str | None) -> str:
+    """`[[outputs.mqtt]]` of a `--publish mqtt[s]://...` URL: the agent's metrics to the broker, one message a
+    metric in Telegraf's json format (name, tags, fields, timestamp), QoS 1 as `mdl read --publish` sends, at
+    PREFIX/STEM for one device, and for a fleet's agent at PREFIX/DEVICE (its `device` tag, `stem` None).
+    keep_alive: Mosquitto 2.0.12 and later refuse a client that gives none."""
+    from mdl.device.fleet.mqtt import parse_url
+    from mdl.device.fleet.run import redacted
+
+    try:
+        url = parse_url(url_text)
+    except ValueError as exc:
+        raise error(f"--publish {redacted(url_text)!r}: {exc}") from None
+    scheme = "mqtts" if url.tls else "mqtt"
+    topic = f"{url.prefix}/{stem}" if stem is not None else url.prefix + '/{{ .Tag "device" }}'
+    out = [
+        "",
+        "[[outputs.mqtt]]",
+        "  ## mdl export --publish: every metric of this agent to the broker, one JSON message each",
+        f"  servers = [{toml_string(f'{scheme}://{url.host}:{url.port}')}]",
+        f"  topic = {toml_string(topic)}",
+        "  qos = 1",
+        "  keep_alive = 30",
+        '  data_format = "json"',
+    ]
+    if url.username is not None:
+        out.append(f"  username = {toml_string(url.username)}")
+    if url.password is not None:
+        out.append(f"  password = {toml_string(url.password)}")
+    return "\n".join(out) + "\n"
+
+
 def export_telegraf_fleet(parts: list[tuple[ResolvedDevice, Settings]]) -> Export:
     """One agent's configuration for several devices (an inventory's shard): each device's input as the
     single export gives it, named after its id and tagged, and each kind's processors once (a processor
@@ -392,7 +423,9 @@ def export_telegraf_fleet(parts: list[tuple[ResolvedDevice, Settings]]) -> Expor
             )
         warnings += [w for w in notes.found if w not in warnings]
     head = "# Telegraf modbus inputs of a fleet's shard (mdl export --inventory): one per device.\n"
-    return Export(text=head + "\n".join(["", *inputs]) + "".join(processors), warnings=warnings)
+    publish = parts[0][1].publish if parts else None
+    output = _mqtt_output(publish, None) if publish is not None else ""
+    return Export(text=head + "\n".join(["", *inputs]) + "".join(processors) + output, warnings=warnings)
 
 
 def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
@@ -406,4 +439,6 @@ def export_telegraf(resolved: ResolvedDevice, settings: Settings) -> Export:
         f"# One request section per request of mdl's read plan. Needs Telegraf {_version(exported)} or newer.\n"
     )
     text = head + _input(resolved, settings, notes, exported) + _processors(resolved, exported)
+    if settings.publish is not None:
+        text += _mqtt_output(settings.publish, resolved.stem)
     return Export(text=text, warnings=notes.found)
