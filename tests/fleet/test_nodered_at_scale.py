@@ -45,7 +45,7 @@ from support.fleet_nodered import (
     same,
 )
 from support.fleet_site import ALL, LINE_UNITS, Site
-from support.mqtt import Broker, wait_for
+from support.mqtt import wait_for
 from support.run import run_mdl
 
 UNITS = 500
@@ -53,17 +53,6 @@ INTERVAL = 10.0  # every device's (see above: Node-RED holds 1.5 times it at 500
 ROUNDS_BEFORE = 2  # every device's polls before the lone unit is stopped
 ROUNDS_AFTER = 4  # and after
 START = 180  # Node-RED's start (500 modbus-client and 5,500 modbus-read nodes) and its first round
-
-
-@pytest.fixture
-def broker(tmp_path):
-    folder = tmp_path / "broker"
-    folder.mkdir()
-    b = Broker(folder, "max_queued_messages 0\n")  # the test's subscriber may fall behind: none dropped
-    try:
-        yield b
-    finally:
-        b.stop()
 
 
 def test_node_red_polls_500_devices_every_value_on_time_and_a_stopped_unit_leaves_its_line_whole(

@@ -14,11 +14,9 @@ from collections import defaultdict
 from datetime import datetime, timezone
 from pathlib import Path
 
-import pytest
-
-from support.fleet_site import ALL, LINE_UNITS, Site
-from support.mqtt import Broker, Subscriber, wait_for
-from support.run import mdl_cmd, run_mdl
+from support.fleet_site import LINE_UNITS, Site, read_one
+from support.mqtt import Subscriber, wait_for
+from support.run import mdl_cmd
 
 UNITS = 500
 INTERVAL = 10.0  # every device's: the inventory's default (50 polls a second, 550 requests, 950 values)
@@ -31,30 +29,9 @@ def parse_time(text: str) -> datetime:
     return datetime.strptime(text, "%Y-%m-%dT%H:%M:%S.%fZ")
 
 
-def read_one(connection: str, unit: int) -> dict:
-    """`mdl read` of one unit, as a user reads it (json: every readable function)."""
-    scheme, _, where = connection.partition("://")
-    host, port = where.rsplit(":", 1)
-    framer = ["--framer", "rtu"] if scheme == "rtu+tcp" else []
-    proc = run_mdl("read", ALL, "--host", host, "--port", port, *framer, "--unit", unit, "--format", "json")
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
-
-
 def records_so_far(path: Path) -> list[dict]:
     text = path.read_text(encoding="utf-8")
     return [json.loads(line) for line in text.splitlines(keepends=True) if line.endswith("\n")]
-
-
-@pytest.fixture
-def broker(tmp_path):
-    folder = tmp_path / "broker"
-    folder.mkdir()
-    b = Broker(folder, "max_queued_messages 0\n")  # the test's subscriber may fall behind: none dropped
-    try:
-        yield b
-    finally:
-        b.stop()
 
 
 def test_500_devices_every_value_on_time_and_a_stopped_unit_backed_off(sim_factory, broker, tmp_path):

@@ -44,11 +44,9 @@ import math
 import time
 from collections import defaultdict
 
-import pytest
-
-from support.fleet_site import LINE_UNITS, Site
-from support.fleet_thingsboard import CONNECTOR, Connector, export_site, gaps, gateway_python, read_one, slave_of
-from support.mqtt import Broker, Subscriber, wait_for
+from support.fleet_site import LINE_UNITS, Site, read_one
+from support.fleet_thingsboard import CONNECTOR, Connector, export_site, gaps, gateway_python, slave_of
+from support.mqtt import Subscriber, wait_for
 
 UNITS = 500
 INTERVAL = 10.0  # every device's (pollPeriod 10000 ms)
@@ -64,17 +62,6 @@ def same(got, want) -> bool:
     if isinstance(want, bool) or isinstance(got, bool):
         return bool(got) == want and got in (0, 1)
     return isinstance(got, (int, float)) and math.isclose(got, want, rel_tol=1e-12, abs_tol=0)
-
-
-@pytest.fixture
-def broker(tmp_path):
-    folder = tmp_path / "broker"
-    folder.mkdir()
-    b = Broker(folder, "max_queued_messages 0\n")  # the test's subscriber may fall behind: none dropped
-    try:
-        yield b
-    finally:
-        b.stop()
 
 
 def test_500_devices_through_the_gateways_own_connector(sim_factory, broker, tmp_path):

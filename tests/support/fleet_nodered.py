@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from support.engines import EngineUnavailable
-from support.fleet_site import ALL, Site
+from support.fleet_site import Site, read_one
 from support.mqtt import Broker, free_port, mqtt, wait_for
 from support.node_engines import NODE_RED, engine_dir
 from support.run import run_mdl
@@ -179,16 +179,6 @@ class Usage:
         """CPU seconds at monotonic time `when` (the last sample at or before it)."""
         before = [cpu for t, cpu in self.samples if t <= when]
         return before[-1] if before else 0.0
-
-
-def read_one(connection: str, unit: int) -> dict:
-    """`mdl read` of one unit, as a user reads it (json: every readable function)."""
-    scheme, _, where = connection.partition("://")
-    host, port = where.rsplit(":", 1)
-    framer = ["--framer", "rtu"] if scheme == "rtu+tcp" else []
-    proc = run_mdl("read", ALL, "--host", host, "--port", port, *framer, "--unit", unit, "--format", "json")
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
 
 
 def read_site(site: Site) -> dict[str, dict]:

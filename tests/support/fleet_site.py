@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from support.common import DATA
+from support.run import run_mdl
 
 ALL = DATA / "all_tables.xml"
 PER_PORT = 90  # Modbus TCP units one sim serves (a sim holds at most 100 connections)
@@ -164,6 +165,17 @@ async def _reply_frame(reader: asyncio.StreamReader) -> bytes:
         size = await reader.readexactly(1)
         return head + size + await reader.readexactly(size[0] + 2)
     return head + await reader.readexactly(6)
+
+
+def read_one(connection: str, unit: int) -> dict:
+    """`mdl read` of one unit of a site (its connection URL and unit id), as a user reads it (json: every
+    readable function)."""
+    scheme, _, where = connection.partition("://")
+    host, port = where.rsplit(":", 1)
+    framer = ["--framer", "rtu"] if scheme == "rtu+tcp" else []
+    proc = run_mdl("read", ALL, "--host", host, "--port", port, *framer, "--unit", unit, "--format", "json")
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout)
 
 
 class Site:

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from support.fleet_site import ALL, Site
+from support.fleet_site import Site
 from support.run import run_mdl
 
 CONNECTOR = "Modbus"  # the connector's name (a gateway's tb_gateway.json names it), its logger's
@@ -127,16 +127,6 @@ def gateway_python() -> Path:
     except EngineUnavailable as exc:
         skip_or_fail(f"thingsboard-gateway is not available: {exc}")
         raise AssertionError("unreachable") from None
-
-
-def read_one(connection: str, unit: int) -> dict:
-    """`mdl read` of one unit, as a user reads it (json: every readable function)."""
-    scheme, _, where = connection.partition("://")
-    host, port = where.rsplit(":", 1)
-    framer = ["--framer", "rtu"] if scheme == "rtu+tcp" else []
-    proc = run_mdl("read", ALL, "--host", host, "--port", port, *framer, "--unit", unit, "--format", "json")
-    assert proc.returncode == 0, proc.stderr
-    return json.loads(proc.stdout)
 
 
 def export_site(inventory: Path, folder: Path) -> tuple[dict, str]:
