@@ -294,6 +294,7 @@ def record_header(functions: list[Function], fmt: str) -> str:
 
 _PLAIN, _LABELLED, _FLOAT32_SHOWN, _PRECISION = range(4)  # how a record shows a function's value
 MEMO_MOST = 8  # texts a plan remembers per function (a poll's readings mostly repeat the last polls')
+AFRESH_POLLS = 15  # polls whose json texts are made without the memos once most of a poll's were new
 
 
 class _Plan:
@@ -368,6 +369,8 @@ class _Plan:
         self.types: list[type] | None = None
         self.numbers = self.texty = False  # those types: int and float only; int, float and str only
         self.memos: tuple[list[dict[Value, str]], list[dict[Value, str]]] = ([], [])
+        self.floats_at: list[int] = []  # where those types are float
+        self.afresh = 0
 
     def remember(self, types: list[type]) -> None:
         """Start remembering texts of values of these types (one a function), forgetting the others: a text is
@@ -376,6 +379,8 @@ class _Plan:
         self.numbers = _NUMBER_TYPES.issuperset(types)
         self.texty = self.numbers or _STR_TYPES.issuperset(types)
         self.memos = ([{} for _ in types], [{} for _ in types])
+        self.floats_at = [i for i, kind in enumerate(types) if kind is float]
+        self.afresh = 0  # json texts to make without the memos, for this many more polls (`_texts`)
 
     def shown(self, i: int, value: Value) -> Value:
         kind = self.kinds[i]
@@ -434,10 +439,16 @@ def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], b
         plan.remember(types)
     if not (plan.texty if shown else plan.numbers):
         return None
+    if not shown and plan.afresh:  # values mostly new of late: each number's str, made at once
+        plan.afresh -= 1
+        floats = cast("list[float]", list(map(got.__getitem__, plan.floats_at)))
+        return list(map(str, got)), all(map(math.isfinite, floats))
     memos = plan.memos[shown]
     texts: list[Any] = list(map(dict.get, memos, got))
     finite = True
     if not all(texts):  # some printed afresh (or a text that is empty)
+        if not shown and 2 * texts.count(None) > len(texts):
+            plan.afresh = AFRESH_POLLS  # most are new: looking each up costs more than it saves
         float32 = plan.shows_float32
         i = -1
         while True:
