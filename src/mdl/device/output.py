@@ -371,6 +371,7 @@ class _Plan:
         self.memos: tuple[list[dict[Value, str]], list[dict[Value, str]]] = ([], [])
         self.floats_at: list[int] = []  # where those types are float
         self.afresh = 0
+        self.looked_up = False
 
     def remember(self, types: list[type]) -> None:
         """Start remembering texts of values of these types (one a function), forgetting the others: a text is
@@ -381,6 +382,7 @@ class _Plan:
         self.memos = ([{} for _ in types], [{} for _ in types])
         self.floats_at = [i for i, kind in enumerate(types) if kind is float]
         self.afresh = 0  # json texts to make without the memos, for this many more polls (`_texts`)
+        self.looked_up = False  # whether the json memos hold a poll's texts (the first poll finds none)
 
     def shown(self, i: int, value: Value) -> Value:
         kind = self.kinds[i]
@@ -447,7 +449,7 @@ def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], b
     texts: list[Any] = list(map(dict.get, memos, got))
     finite = True
     if not all(texts):  # some printed afresh (or a text that is empty)
-        if not shown and 2 * texts.count(None) > len(texts):
+        if not shown and plan.looked_up and 2 * texts.count(None) > len(texts):
             plan.afresh = AFRESH_POLLS  # most are new: looking each up costs more than it saves
         float32 = plan.shows_float32
         i = -1
@@ -475,6 +477,8 @@ def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], b
             if len(memo) >= MEMO_MOST:
                 memo.clear()
             memo[value] = texts[i] = text
+    if not shown:
+        plan.looked_up = True
     return texts, finite
 
 
