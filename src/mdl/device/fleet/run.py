@@ -303,6 +303,25 @@ async def _read(session: Session, line: _Line, functions: list[Function], turn: 
             raise
 
 
+async def _cancelled(tasks: list[asyncio.Future[Any]]) -> None:
+    """Cancel `tasks` and wait until every one has ended. A cancellation can be lost: in Python before 3.12,
+    asyncio.wait_for (pymodbus's connect and requests) returns its awaitable's result, or raises its error,
+    when that comes at the moment it is cancelled; the task then polls on (a device that refuses connections,
+    under load: a stop that never ended). Each task still running is cancelled again until it ends; the
+    polling loop also ends at its next turn once the stop is set."""
+    pending = set(tasks)
+    while pending:
+        for task in pending:
+            task.cancel()
+        _, pending = await asyncio.wait(pending, timeout=CANCEL_AGAIN)
+    for task in tasks:  # retrieved, as gather would: the run has said what it had to of each
+        if not task.cancelled():
+            task.exception()
+
+
+CANCEL_AGAIN = 0.5  # s: a task still running this long after its cancellation is cancelled again
+
+
 class _Fleet:
     """The polling tasks of one run, their last exit statuses, and the sinks they feed."""
 
@@ -353,9 +372,7 @@ class _Fleet:
             if polling.done() and not polling.cancelled() and polling.exception() is not None:
                 failure = polling.exception()  # a task that failed ends the run, said, never as a clean exit
         finally:
-            for task in [*tasks, stopping, polling]:
-                task.cancel()
-            await asyncio.gather(*tasks, stopping, polling, return_exceptions=True)
+            await _cancelled([*tasks, stopping, polling])
             for sig in STOP_SIGNALS:
                 loop.remove_signal_handler(sig)
             for line in {id(line): line for line in self.lines}.values():
@@ -376,7 +393,7 @@ class _Fleet:
         loop = asyncio.get_running_loop()
         due, polls, failures = loop.time() + first_start(i, interval, self.count), 0, 0
         tellers = [sink for sink in self.sinks if isinstance(sink, Teller)]
-        while self.count is None or polls < self.count:
+        while (self.count is None or polls < self.count) and not self.stop.is_set():
             wait = due - loop.time()
             if wait > 0:  # a stop cancels the task (run)
                 await asyncio.sleep(wait)

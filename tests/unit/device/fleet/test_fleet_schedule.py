@@ -140,3 +140,32 @@ def test_a_late_start_shifts_none_after_it_and_a_slow_poll_is_followed_at_once(m
     d2 = [t - began for t in at["d2"]]  # its second took 0.35 s (> 0.2): the third at once, then 0.2 on
     # (0.2 after the third was due, which was when the second ended: the third's turn may come a little later)
     assert d2[1] == pytest.approx(d2[2], abs=0.03) and 0.2 - 0.03 <= d2[3] - d2[2] < 0.25
+
+
+def test_a_stop_ends_the_run_though_a_read_swallows_its_cancellation(monkeypatch):
+    """asyncio.wait_for (pymodbus's connect and requests) can return its result, or raise its error, when that
+    comes as it is cancelled (Python before 3.12): the task then polled on, and a SIGINT under load never
+    ended `mdl read --interval` (seen in CI, a device refusing connections). The run cancels again and the
+    polling loop ends at its next turn once the stop is set."""
+    resolved = mdl.resolve(mdl.load(ALL))
+    swallowed: list[str] = []
+
+    async def read(session, line, functions, turn):
+        turn.append(run.datetime.now(run.timezone.utc))
+        try:
+            await asyncio.sleep(0.05)
+        except asyncio.CancelledError:  # what wait_for does when the connection's refusal comes at that moment
+            swallowed.append(f"unit {session.unit}")
+            raise run.error("cannot connect: refused") from None
+        return {}
+
+    monkeypatch.setattr(run, "_read", read)
+    polled = [_polled(resolved, i + 1, f"d{i}", 0.05) for i in range(3)]
+
+    async def main():
+        fleet = _Fleet(polled, [_Times()], 0.05, None)  # polls until stopped
+        asyncio.get_running_loop().call_later(0.3, fleet.stop.set)
+        return await asyncio.wait_for(fleet.run(), 10)
+
+    asyncio.run(main())
+    assert swallowed  # the stop came while a read was under way: its cancellation was swallowed, and it ended
