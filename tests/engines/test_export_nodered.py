@@ -13,9 +13,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import random
-import signal
 import struct
 import subprocess
 import time
@@ -27,8 +25,8 @@ import pytest
 from mdl.exports.base import patterns_of
 from mdl.formats.loading import load_resolved
 from support.common import DATA, EXAMPLE, device_xml, fn_xml
-from support.mqtt import Broker, Subscriber, free_port, wait_for
-from support.node_engines import NODE_RED, require_node_engine
+from support.mqtt import Broker, Subscriber, wait_for
+from support.node_engines import NODE_RED, NodeRed, require_node_engine
 from support.raw_images import ALL_TABLES_RAW, TEMCO_RAW
 from support.run import run_mdl
 
@@ -118,60 +116,13 @@ def same(got, want) -> bool:
     return got == want
 
 
-class NodeRed:
-    """Node-RED run headless from the cached install: a user folder holding the flows file and settings
-    without the editor or any HTTP endpoint; stopped with SIGINT, killed if it does not stop."""
-
-    def __init__(self, folder: Path, nodes: list[dict]) -> None:
-        self.home = require_node_engine(NODE_RED)
-        self.folder = folder
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "flows.json").write_text(json.dumps(nodes, indent=1), encoding="utf-8")
-        (folder / "settings.js").write_text(
-            "module.exports = {\n"
-            '  flowFile: "flows.json",\n'
-            f'  uiPort: {free_port()}, uiHost: "127.0.0.1",\n'
-            "  httpAdminRoot: false, httpNodeRoot: false, credentialSecret: false,\n"
-            "  telemetry: { enabled: false }, externalModules: { autoInstall: false },\n"
-            '  logging: { console: { level: "warn", metrics: false, audit: false } }\n'
-            "};\n",
-            encoding="utf-8",
-        )
-        self.log = open(folder / "node-red.log", "w")  # noqa: SIM115 - closed in stop()
-        red = self.home / "node_modules" / "node-red" / "red.js"
-        self.proc = subprocess.Popen(
-            ["node", str(red), "--userDir", str(folder), "--settings", str(folder / "settings.js")],
-            cwd=folder,
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            env={**os.environ, "NODE_RED_ENABLE_PROJECTS": "false"},
-        )
-
-    def said(self) -> str:
-        if not self.log.closed:
-            self.log.flush()
-        return (self.folder / "node-red.log").read_text(encoding="utf-8", errors="replace")[-4000:]
-
-    def stop(self) -> None:
-        if self.log.closed:
-            return
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log.close()
-
-
 @pytest.fixture
 def node_red():
     """start(folder, nodes) -> a running NodeRed, stopped when the test ends (whatever happens)."""
     started: list[NodeRed] = []
 
     def start(folder: Path, nodes: list[dict]) -> NodeRed:
-        red = NodeRed(folder, nodes)
+        red = NodeRed(folder, nodes, require_node_engine(NODE_RED))
         started.append(red)
         return red
 

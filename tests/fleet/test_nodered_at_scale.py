@@ -40,6 +40,7 @@ from support.fleet_nodered import (
     Usage,
     export_flow,
     gaps,
+    node_red_home,
     peak_rss_mb,
     read_site,
     same,
@@ -74,7 +75,7 @@ def test_node_red_polls_500_devices_every_value_on_time_and_a_stopped_unit_leave
         assert sum(n["type"] == "mqtt-broker" for n in nodes) == 1
         reads = sum(n["type"] == "modbus-read" for n in nodes)
         arrivals = Arrivals(broker.port)
-        red = NodeRed(tmp_path / "node-red", nodes)
+        red = NodeRed(tmp_path / "node-red", nodes, node_red_home())
         usage = Usage(red.pid)
 
         def polled(rounds: int):
@@ -205,7 +206,7 @@ def test_a_silent_unit_on_a_serial_line_leaves_the_others_whole_and_on_time(seri
     (client,) = [n for n in nodes if n["type"] == "modbus-client"]
     assert client["clienttype"] == "simpleser" and client["serialPort"] == where
     arrivals = Arrivals(broker.port)
-    red = NodeRed(tmp_path / "node-red", nodes)
+    red = NodeRed(tmp_path / "node-red", nodes, node_red_home())
     try:
         wait_for(lambda: arrivals.messages, 60 + 2 * SERIAL_INTERVAL, "a first poll")
         first = arrivals.messages[0][0]

@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import subprocess
 import threading
 import time
 from collections import defaultdict
@@ -28,8 +26,8 @@ from typing import Any
 
 from support.engines import EngineUnavailable
 from support.fleet_site import Site, read_one
-from support.mqtt import Broker, free_port, mqtt, wait_for
-from support.node_engines import NODE_RED, engine_dir
+from support.mqtt import Broker, mqtt, wait_for
+from support.node_engines import NODE_RED, NodeRed, engine_dir
 from support.run import run_mdl
 
 BOUND = 1.5  # a device is polled within 1.5 times its interval (SPEC 15)
@@ -48,54 +46,6 @@ def node_red_home() -> Path:
     except EngineUnavailable as exc:
         skip_or_fail(f"node-red is not available: {exc}")
         raise AssertionError("unreachable") from None
-
-
-class NodeRed:
-    """Node-RED run headless from the cached install: a user folder holding the flows file and settings
-    without the editor or any HTTP endpoint; stopped with SIGINT, killed if it does not stop."""
-
-    def __init__(self, folder: Path, nodes: list[dict], level: str = "warn") -> None:
-        self.home = node_red_home()
-        self.folder = folder
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "flows.json").write_text(json.dumps(nodes, indent=1), encoding="utf-8")
-        (folder / "settings.js").write_text(
-            "module.exports = {\n"
-            '  flowFile: "flows.json",\n'
-            f'  uiPort: {free_port()}, uiHost: "127.0.0.1",\n'
-            "  httpAdminRoot: false, httpNodeRoot: false, credentialSecret: false,\n"
-            "  telemetry: { enabled: false }, externalModules: { autoInstall: false },\n"
-            f'  logging: {{ console: {{ level: "{level}", metrics: false, audit: false }} }}\n'
-            "};\n",
-            encoding="utf-8",
-        )
-        self.log = open(folder / "node-red.log", "w")  # noqa: SIM115 - closed in stop()
-        red = self.home / "node_modules" / "node-red" / "red.js"
-        self.proc = subprocess.Popen(
-            ["node", str(red), "--userDir", str(folder), "--settings", str(folder / "settings.js")],
-            cwd=folder,
-            stdout=self.log,
-            stderr=subprocess.STDOUT,
-            env={**os.environ, "NODE_RED_ENABLE_PROJECTS": "false"},
-        )
-        self.pid = self.proc.pid
-
-    def said(self, tail: int = 4000) -> str:
-        if not self.log.closed:
-            self.log.flush()
-        return (self.folder / "node-red.log").read_text(encoding="utf-8", errors="replace")[-tail:]
-
-    def stop(self) -> None:
-        if self.log.closed:
-            return
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        self.log.close()
 
 
 class Arrivals:
@@ -238,7 +188,7 @@ def figures(site: Site, folder: Path, duration: float, warmup: float | None = No
         nodes, _ = export_flow(site.inventory(), folder / "flow", broker.port)
         arrivals = Arrivals(broker.port)
         began = time.monotonic()
-        red = NodeRed(folder / "node-red", nodes)
+        red = NodeRed(folder / "node-red", nodes, node_red_home())
         usage = Usage(red.pid)
         wait_for(lambda: arrivals.messages, 120 + 2 * max(interval.values()), "Node-RED's first poll")
         first = arrivals.messages[0][0]

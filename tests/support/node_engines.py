@@ -16,7 +16,10 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
+import json
+import os
 import shutil
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -25,6 +28,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # run as a script: `support` importable
 
 from support.engines import EngineUnavailable, cache_root, installed  # noqa: E402
+from support.mqtt import free_port  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -98,3 +102,51 @@ def require_node_engine(engine: NodeEngine) -> Path:
 if __name__ == "__main__":
     for name in sys.argv[1:] or list(NODE_ENGINES):
         print(f"{name}: {engine_dir(NODE_ENGINES[name])}")
+
+
+class NodeRed:
+    """Node-RED run headless from the cached install: a user folder holding the flows file and settings
+    without the editor or any HTTP endpoint; stopped with SIGINT, killed if it does not stop."""
+
+    def __init__(self, folder: Path, nodes: list[dict], home: Path, level: str = "warn") -> None:
+        self.home = home  # the install's folder: engine_dir or require_node_engine of NODE_RED
+        self.folder = folder
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "flows.json").write_text(json.dumps(nodes, indent=1), encoding="utf-8")
+        (folder / "settings.js").write_text(
+            "module.exports = {\n"
+            '  flowFile: "flows.json",\n'
+            f'  uiPort: {free_port()}, uiHost: "127.0.0.1",\n'
+            "  httpAdminRoot: false, httpNodeRoot: false, credentialSecret: false,\n"
+            "  telemetry: { enabled: false }, externalModules: { autoInstall: false },\n"
+            f'  logging: {{ console: {{ level: "{level}", metrics: false, audit: false }} }}\n'
+            "};\n",
+            encoding="utf-8",
+        )
+        self.log = open(folder / "node-red.log", "w")  # noqa: SIM115 - closed in stop()
+        red = self.home / "node_modules" / "node-red" / "red.js"
+        self.proc = subprocess.Popen(
+            ["node", str(red), "--userDir", str(folder), "--settings", str(folder / "settings.js")],
+            cwd=folder,
+            stdout=self.log,
+            stderr=subprocess.STDOUT,
+            env={**os.environ, "NODE_RED_ENABLE_PROJECTS": "false"},
+        )
+        self.pid = self.proc.pid
+
+    def said(self, tail: int = 4000) -> str:
+        if not self.log.closed:
+            self.log.flush()
+        return (self.folder / "node-red.log").read_text(encoding="utf-8", errors="replace")[-tail:]
+
+    def stop(self) -> None:
+        if self.log.closed:
+            return
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+        self.log.close()
