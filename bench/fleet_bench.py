@@ -45,7 +45,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections import defaultdict
 from datetime import datetime, timezone
@@ -55,50 +54,13 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests"))  # the fleet tier's site and broker
 
 from support.devices import Sim  # noqa: E402
-from support.fleet_site import LINE_UNITS, Site  # noqa: E402
+from support.fleet_site import LINE_UNITS, Site, Usage, cpu_seconds  # noqa: E402
 
-TICK = os.sysconf("SC_CLK_TCK")
 MIN_SECONDS = 10.0  # a run polls for this long at least (more polls at short intervals)
 TARGETS = {  # (units, interval): what the poller must hold (issue 40)
     (2000, 10.0): "none late, on one core",
     (200, 0.5): "none late",
 }
-
-
-def cpu_seconds(pid: int) -> float | None:
-    """User + system CPU of a running process, from /proc (None once it has gone)."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return None
-    return (int(fields[11]) + int(fields[12])) / TICK
-
-
-class Sampler:
-    """The CPU of a process, sampled every `every` s on a thread: (wall time, CPU seconds) pairs."""
-
-    def __init__(self, pid: int, every: float = 0.25) -> None:
-        self.pid, self.every, self.samples = pid, every, []
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while not self.done.is_set():
-            cpu = cpu_seconds(self.pid)
-            if cpu is None:
-                return
-            self.samples.append((time.time(), cpu))
-            self.done.wait(self.every)
-
-    def stop(self) -> None:
-        self.done.set()
-        self.thread.join()
-
-    def at(self, when: float) -> float:
-        """CPU seconds at wall time `when` (the sample at or before it)."""
-        before = [cpu for t, cpu in self.samples if t <= when]
-        return before[-1] if before else 0.0
 
 
 def parse_time(text: str) -> float:
@@ -116,7 +78,7 @@ def poll(site: Site, folder: Path, interval: float, polls: int, broker_port: int
     with (folder / "records.jsonl").open("w+") as out, (folder / "stderr.txt").open("w+") as err:
         started = time.time()
         proc = subprocess.Popen([sys.executable, "-m", "mdl", *args], stdout=out, stderr=err, text=True)
-        sampler = Sampler(proc.pid)
+        sampler = Usage(proc.pid, every=0.25, clock=time.time)
         _, status, usage = os.wait4(proc.pid, 0)
         ended = time.time()
         sampler.stop()

@@ -37,7 +37,6 @@ from support.fleet_nodered import (
     PREFIX,
     Arrivals,
     NodeRed,
-    Usage,
     export_flow,
     gaps,
     node_red_home,
@@ -45,7 +44,7 @@ from support.fleet_nodered import (
     read_site,
     same,
 )
-from support.fleet_site import ALL, LINE_UNITS, Site
+from support.fleet_site import ALL, LINE_UNITS, Site, Usage
 from support.mqtt import wait_for
 from support.run import run_mdl
 

@@ -7,7 +7,8 @@ tests/engines/test_export_nodered.py starts it. The flow is what `mdl export --i
 --publish mqtt://127.0.0.1:PORT/PREFIX -o DIR` writes (one flow, a tab per line), unchanged: only Node-RED's
 own code reads the devices, and the tests and the bench only observe what reaches Mosquitto on loopback
 (`Arrivals`: every message under PREFIX/# with the monotonic time it arrived; a poll's message is
-`{device, unit, values}` on PREFIX/ID). `Usage` samples the node process's CPU and memory from /proc.
+`{device, unit, values}` on PREFIX/ID). `peak_rss_mb` reads the node process's memory from /proc
+(support.fleet_site.Usage samples its CPU).
 
 `figures(site, folder, duration)` runs a whole measurement for the bench: a broker, the export, Node-RED for
 `duration` seconds of steady polling, and the figures (polls/s, CPU ms per poll, the share of polls late
@@ -17,7 +18,6 @@ beyond 1.5 times the interval, peak RSS).
 from __future__ import annotations
 
 import json
-import os
 import threading
 import time
 from collections import defaultdict
@@ -25,14 +25,13 @@ from pathlib import Path
 from typing import Any
 
 from support.engines import EngineUnavailable
-from support.fleet_site import Site, read_one
+from support.fleet_site import Site, Usage, read_one
 from support.mqtt import Broker, mqtt, wait_for
 from support.node_engines import NODE_RED, NodeRed, engine_dir
 from support.run import run_mdl
 
 BOUND = 1.5  # a device is polled within 1.5 times its interval (SPEC 15)
 PREFIX = "site"
-TICK = os.sysconf("SC_CLK_TCK")
 SAFE = (1 << 53) - 1  # the largest integer a JavaScript number holds, with every one below it
 
 
@@ -82,15 +81,6 @@ class Arrivals:
         self.client.disconnect()
 
 
-def cpu_seconds(pid: int) -> float | None:
-    """User + system CPU of a running process, from /proc (None once it has gone)."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return None
-    return (int(fields[11]) + int(fields[12])) / TICK
-
-
 def peak_rss_mb(pid: int) -> float | None:
     """The process's peak resident memory so far (VmHWM), in MiB."""
     try:
@@ -101,34 +91,6 @@ def peak_rss_mb(pid: int) -> float | None:
         if line.startswith("VmHWM:"):
             return int(line.split()[1]) / 1024
     return None
-
-
-class Usage:
-    """The CPU of a process, sampled every `every` s on a thread: (monotonic time, CPU seconds) pairs."""
-
-    def __init__(self, pid: int, every: float = 0.5) -> None:
-        self.pid, self.every = pid, every
-        self.samples: list[tuple[float, float]] = []
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._run, daemon=True)
-        self.thread.start()
-
-    def _run(self) -> None:
-        while not self.done.is_set():
-            cpu = cpu_seconds(self.pid)
-            if cpu is None:
-                return
-            self.samples.append((time.monotonic(), cpu))
-            self.done.wait(self.every)
-
-    def stop(self) -> None:
-        self.done.set()
-        self.thread.join()
-
-    def at(self, when: float) -> float:
-        """CPU seconds at monotonic time `when` (the last sample at or before it)."""
-        before = [cpu for t, cpu in self.samples if t <= when]
-        return before[-1] if before else 0.0
 
 
 def read_site(site: Site) -> dict[str, dict]:

@@ -18,8 +18,10 @@ from __future__ import annotations
 import asyncio
 import itertools
 import json
+import os
 import random
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -176,6 +178,46 @@ def read_one(connection: str, unit: int) -> dict:
     proc = run_mdl("read", ALL, "--host", host, "--port", port, *framer, "--unit", unit, "--format", "json")
     assert proc.returncode == 0, proc.stderr
     return json.loads(proc.stdout)
+
+
+TICK = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """User + system CPU of a running process, from /proc (None once it has gone)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / TICK
+
+
+class Usage:
+    """The CPU of a process, sampled every `every` s on a thread: (`clock`'s time, CPU seconds) pairs."""
+
+    def __init__(self, pid: int, every: float = 0.5, clock: Callable[[], float] = time.monotonic) -> None:
+        self.pid, self.every, self.clock = pid, every, clock
+        self.samples: list[tuple[float, float]] = []
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        while not self.done.is_set():
+            cpu = cpu_seconds(self.pid)
+            if cpu is None:
+                return
+            self.samples.append((self.clock(), cpu))
+            self.done.wait(self.every)
+
+    def stop(self) -> None:
+        self.done.set()
+        self.thread.join()
+
+    def at(self, when: float) -> float:
+        """CPU seconds at `when` (the clock's time) (the last sample at or before it)."""
+        before = [cpu for t, cpu in self.samples if t <= when]
+        return before[-1] if before else 0.0
 
 
 class Site:
