@@ -12,15 +12,15 @@ linear in the number of functions: `plan_groups` plans a device and splits every
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 
 from mdl.model import Device, Function
 from mdl.model.layout import MAX_BITS, MAX_REGISTERS, Layout, address_runs, layouts_by_name
+from mdl.records import record
 
 TABLE_ORDER = ("coil", "discrete", "holding", "input")
 
 
-@dataclass(frozen=True)
+@record
 class Request:
     table: str
     start: int

@@ -78,7 +78,7 @@ STAGES = [
     "cli",
     "__main__",
 ]
-HELPERS = {"diagnostics", "fileio", "forks", "registry", "resources"}
+HELPERS = {"diagnostics", "fileio", "forks", "records", "registry", "resources"}
 
 
 def test_the_graph_sees_known_edges():

@@ -14,12 +14,12 @@ writer are imported when first called, so that commands start fast.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mdl.fileio import is_stdin
 from mdl.formats import wise, wot, xif
+from mdl.records import record
 from mdl.registry import Registry, lazy
 
 if TYPE_CHECKING:
@@ -33,7 +33,7 @@ Reader = Callable[["StrPath"], "Device"]
 HEAD_BYTES = 64 * 1024  # what guess_format reads of a file
 
 
-@dataclass(frozen=True)
+@record
 class Format:
     """A description format: its `--from`/`--to` name, the line `mdl export --help` gives it, its reader,
     its writer (None: read only), how its file is recognised (`suffixes`: file name endings that decide;

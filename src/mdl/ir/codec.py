@@ -11,13 +11,13 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 from mdl.diagnostics import error
 from mdl.ir import steps as ir
 from mdl.ir.build import build, decode_steps, encode_steps
 from mdl.model import Function, Scalar, Value
 from mdl.model.layout import layout
+from mdl.records import record
 
 
 class CodecError(ValueError):
@@ -316,7 +316,7 @@ def _numeric_encoder(steps: list[ir.EncodeStep], n: int) -> Encoder:
     return encode
 
 
-@dataclass(frozen=True)
+@record
 class Compiled:
     """A function's decoder and encoder (None where it cannot be read or written)."""
 

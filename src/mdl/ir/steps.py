@@ -55,8 +55,9 @@ Encoding starts from `value` and ends with `r`:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, TypeAlias, TypeVar
+
+from mdl.records import record
 
 if TYPE_CHECKING:
     from mdl.dsl.cfrag import Fragment as FragmentTree
@@ -71,7 +72,7 @@ MAX_EXPONENT = 22
 Part = Literal["word", "swap", "low", "high"]  # the register as is, its bytes swapped, its low / high byte
 
 
-@dataclass(frozen=True)
+@record
 class Unit:
     """One unit of a composed value: `(part of r[index]) << shift`. For `low` and `high` the part
     is the byte value (0..255); `high` puts it back into bits 8-15 when splitting."""
@@ -81,12 +82,12 @@ class Unit:
     shift: int
 
 
-@dataclass(frozen=True)
+@record
 class NotImplemented:
     patterns: tuple[tuple[int, ...], ...]
 
 
-@dataclass(frozen=True)
+@record
 class Fragment:
     code: str  # the checked fragment text (mdl.dsl.cfrag compiles it for each target)
     nregs: int
@@ -94,58 +95,58 @@ class Fragment:
     tree: FragmentTree
 
 
-@dataclass(frozen=True)
+@record
 class Expression:
     lowered: Lowered
     deps: tuple[str, ...]  # the function names it refers to, in parameter order
 
 
-@dataclass(frozen=True)
+@record
 class ToBool:
     pass
 
 
-@dataclass(frozen=True)
+@record
 class Compose:
     units: tuple[Unit, ...]
 
 
-@dataclass(frozen=True)
+@record
 class ToText:
     units: tuple[Unit, ...]
     nbytes: int
 
 
-@dataclass(frozen=True)
+@record
 class Mask:
     bits: int
 
 
-@dataclass(frozen=True)
+@record
 class SignExtend:
     bits: int
 
 
-@dataclass(frozen=True)
+@record
 class ToFloat:
     bits: int
 
 
-@dataclass(frozen=True)
+@record
 class Scale:
     divisor: int | None  # x / divisor, when the multiplier is its exact reciprocal
     multiplier: float  # else x * multiplier
     offset: float
 
 
-@dataclass(frozen=True)
+@record
 class Bits:
     shift: int
     width: int
     boolean: bool
 
 
-@dataclass(frozen=True)
+@record
 class ScaleFactor:
     exponent: bool  # True: scale_exponent (10^f), False: scale_by (f)
     divisor: int | None
@@ -153,7 +154,7 @@ class ScaleFactor:
     offset: float
 
 
-@dataclass(frozen=True)
+@record
 class UnscaleFactor:
     exponent: bool
     divisor: int | None
@@ -161,48 +162,48 @@ class UnscaleFactor:
     offset: float
 
 
-@dataclass(frozen=True)
+@record
 class PlaceBits:
     shift: int
     boolean: bool
 
 
-@dataclass(frozen=True)
+@record
 class Merge:
     masks: tuple[int, ...]  # per register, address order: the bits the function owns
     mask_write: bool  # write with function 22 (Mask Write Register) instead of read-modify-write
 
 
-@dataclass(frozen=True)
+@record
 class CheckRange:
     minimum: float | None
     maximum: float | None
 
 
-@dataclass(frozen=True)
+@record
 class FromBool:
     pass
 
 
-@dataclass(frozen=True)
+@record
 class FromText:
     units: tuple[Unit, ...]
     nbytes: int
 
 
-@dataclass(frozen=True)
+@record
 class Unscale:
     divisor: int | None
     multiplier: float
     offset: float
 
 
-@dataclass(frozen=True)
+@record
 class FromFloat:
     bits: int
 
 
-@dataclass(frozen=True)
+@record
 class RoundInt:
     low: int
     high: int
@@ -211,7 +212,7 @@ class RoundInt:
     bits: int  # the integer's own width, for messages ("does not fit int16")
 
 
-@dataclass(frozen=True)
+@record
 class Split:
     units: tuple[Unit, ...]
 
@@ -247,7 +248,7 @@ EncodeStep: TypeAlias = (
 ValueKind = Literal["int", "float", "string", "bool", "expr"]
 
 
-@dataclass(frozen=True)
+@record
 class ValueType:
     """The type of a function's value, which every target spells its own way.
 
@@ -264,39 +265,6 @@ class ValueType:
     expr_type: str = ""
 
 
-def _plain_repr(*classes: type) -> None:
-    """Give each class dataclass's own generated repr without the guard against recursion it wraps
-    it in (IR steps are trees, never cycles): the text is the same, and the targets print every
-    function's IR as text (mdl.resolver's decode_shape), where the guard was much of the cost."""
-    for cls in classes:
-        setattr(cls, "__repr__", getattr(cls.__repr__, "__wrapped__", cls.__repr__))  # noqa: B010
-
-
-_plain_repr(
-    Unit,
-    NotImplemented,
-    ToBool,
-    Compose,
-    ToText,
-    Mask,
-    SignExtend,
-    ToFloat,
-    Scale,
-    Bits,
-    ScaleFactor,
-    UnscaleFactor,
-    PlaceBits,
-    Merge,
-    CheckRange,
-    FromBool,
-    FromText,
-    Unscale,
-    FromFloat,
-    RoundInt,
-    Split,
-)
-
-
 def find_step(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None, kind: type[T]) -> T | None:
     """The step of that kind in a program, if it has one (a plain loop: every target asks it of every
     function several times)."""
@@ -306,7 +274,7 @@ def find_step(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None, kin
     return None
 
 
-@dataclass(frozen=True)
+@record
 class Codec:
     """A function's value IR. `decode` is None for a function that cannot be read, `encode` for
     one that cannot be written; `write_type` is the type a write takes (a number for fragments)."""

@@ -13,10 +13,10 @@ One rule for every consumer (codec, read plan, simulator, generators):
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
 from typing import Literal
 
 from mdl.model import BIT_TABLES, CompiledExpression, Function
+from mdl.records import record
 
 MAX_REGISTERS = 125
 MAX_BITS = 2000
@@ -45,7 +45,7 @@ class LayoutError(ValueError):
     """The function cannot be read as written; the message says why."""
 
 
-@dataclass(frozen=True)
+@record
 class Layout:
     table: str
     addresses: tuple[int, ...]

@@ -20,6 +20,7 @@ from mdl.model import Device, Function
 from mdl.model.layout import Layout, layout
 from mdl.model.names import camel, stem, unique_identifiers
 from mdl.plan import Request, plan_groups
+from mdl.records import record
 from mdl.resolver.checks import check_device
 
 if TYPE_CHECKING:
@@ -105,7 +106,7 @@ def _shape(steps: tuple[DecodeStep, ...] | tuple[EncodeStep, ...] | None) -> str
     return repr(steps)
 
 
-@dataclass(frozen=True)
+@record
 class PlanGroup:
     """A request of the read plan, the smaller ones used when the device refuses it (exception 2),
     and where its registers go in a read_all buffer holding the whole plan's, group after group."""

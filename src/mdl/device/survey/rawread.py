@@ -17,7 +17,6 @@ A range such as `hr:40001` that the device refuses is said to look like a manual
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 
 from mdl.device.connection import Connection
 from mdl.device.runtime import Session
@@ -25,6 +24,7 @@ from mdl.model import BIT_TABLES, Device, Function, Value
 from mdl.model.addressing import NAMED_TABLE, TABLE_PREFIX, AddressError, whole_number
 from mdl.model.layout import MAX_ADDRESS, MAX_REGISTERS
 from mdl.plan import Request
+from mdl.records import record
 from mdl.resolver import ResolvedDevice, resolve
 
 # --as TYPE -> (MDL format, registers per value); string: the whole range is one value
@@ -79,7 +79,7 @@ def modicon_hint(rng: RawRange) -> str:
     return ""
 
 
-@dataclass(frozen=True)
+@record
 class RawRange:
     """A range of one table, wire addresses `first` to `last`, both included."""
 

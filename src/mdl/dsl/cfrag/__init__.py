@@ -14,13 +14,13 @@ generated Python drivers) and the C99/C++17 functions (cemit) generated C and C+
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
 from mdl.dsl.cfrag.lexer import FragmentError
 from mdl.dsl.cfrag.parser import MAX_DEPTH, Statement, parse
 from mdl.dsl.cfrag.pyemit import FALLIBLE, HELPERS_SOURCE, helpers_namespace, statement
+from mdl.records import record
 
 if TYPE_CHECKING:
     from mdl.dsl.cfrag.cemit import INCLUDES, CFragment, Dialect, helpers_source
@@ -60,7 +60,7 @@ ReadFragment = Callable[[list[int]], float]  # registers r1..rn -> arg
 WriteFragment = Callable[[float], list[int]]  # arg -> registers r1..rn
 
 
-@dataclass(frozen=True)
+@record
 class Fragment:
     """A checked fragment: its statements (compound assignments written out), for a function of
     `nregs` registers, read (registers -> arg) or written (arg -> registers)."""

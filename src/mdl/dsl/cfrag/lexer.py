@@ -10,7 +10,8 @@ U+2028, U+2029, ...) are refused wherever they stand, comments included.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+
+from mdl.records import record
 
 
 class FragmentError(ValueError):
@@ -21,7 +22,7 @@ class FragmentError(ValueError):
         self.col = col
 
 
-@dataclass(frozen=True)
+@record
 class Token:
     kind: str  # num | ident | op | end
     text: str

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import re
 from bisect import bisect_right
-from dataclasses import dataclass
 from functools import cache
 from typing import TYPE_CHECKING
 
@@ -13,6 +12,7 @@ from lxml import etree
 from mdl.diagnostics import Diagnostic, MdlError
 from mdl.fileio import read_bytes
 from mdl.formats.sniff import not_xml, starts_with_markup
+from mdl.records import record
 from mdl.resources import schema_path
 
 if TYPE_CHECKING:
@@ -61,7 +61,7 @@ _MARKUP = re.compile(
 )
 
 
-@dataclass(frozen=True)
+@record
 class StartTag:
     """An element's start tag in the source text: where the tag and where its text begin (1-based)."""
 

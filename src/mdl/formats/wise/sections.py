@@ -9,15 +9,15 @@ line is `offset,name`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Literal
 
 from mdl.model import BIT_TABLES
+from mdl.records import record
 
 PLATFORM = "Platform"
 
 
-@dataclass(frozen=True)
+@record
 class Section:
     name: str  # as the files write it: "Input Registers"
     table: str  # MDL register_type
@@ -57,7 +57,7 @@ def agent_section(table: str) -> Section:
     return next(s for s in AGENT_SECTIONS if s.table == table)
 
 
-@dataclass(frozen=True)
+@record
 class DataType:
     """A register line's datatype column: how the agent composes the value from its registers."""
 

@@ -5,9 +5,8 @@ them from here."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 from mdl.exchange.text import FORMULA_STARTS
+from mdl.records import record
 
 FILETYPE = "Modbus_xif"
 
@@ -117,7 +116,7 @@ def heading_names(key: str) -> str:
     return " / ".join(f"'{n}'" for n in names)
 
 
-@dataclass(frozen=True)
+@record
 class Native:
     """A native type: the MDL format it reads as and the registers one value takes (strings: from
     ASCII Length, `chars` characters in each register)."""

@@ -1,0 +1,126 @@
+"""Frozen records: the value classes mdl makes by the dozen (IR steps, plans, layouts, tokens), as
+`@dataclass(frozen=True)` makes them, without its cost at import.
+
+Python 3.10 and 3.11 compile six methods from source for each frozen dataclass as its class is made
+(__init__, __repr__, __eq__, __hash__, __setattr__, __delattr__): some 3 M instructions a class, and a
+one-shot `mdl read` made some 50 of them before it read a register, a third of its instructions
+(docs/performance.md). `record` compiles only `__init__` (so that making a record costs what making the
+dataclass cost) and gives each class the rest from one shared base: equality and hash over its fields as
+a tuple (only with a record of the same class), the same repr text (`Mask(bits=16)`), fields that cannot be
+assigned or deleted (dataclasses.FrozenInstanceError), `__match_args__`, and `__record_fields__` (the
+field names, in order).
+
+A record is a class of fields and their defaults, nothing more: no `field(...)`, no `__post_init__`, no
+mutable default, no fields inherited from another record; `record` refuses the rest with a TypeError as the
+class is made. It is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it, so the
+types the library gives its users (mdl.Diagnostic, the model, the resolved device) stay dataclasses. Type
+checkers see a frozen dataclass (`dataclass_transform`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import FrozenInstanceError
+from operator import attrgetter
+from typing import TYPE_CHECKING, Any, TypeVar
+
+if TYPE_CHECKING:
+    from typing_extensions import dataclass_transform
+else:
+
+    def dataclass_transform(**_: Any) -> Callable[[Any], Any]:
+        return lambda decorated: decorated
+
+
+C = TypeVar("C", bound=type)
+
+_MUTABLE = (list, dict, set, bytearray)
+
+
+class Record:
+    """The methods every record shares, over `_values(record)` (set by `record` per class: `_values`)."""
+
+    __slots__ = ()
+    __record_fields__: tuple[str, ...] = ()
+    _values: Callable[[Any], Any]
+
+    _shown: str  # the repr's format: "{}(a={!r}, b={!r})", the class's __qualname__ first
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is self.__class__:
+            values = self._values
+            return values(self) == values(other)  # type: ignore[no-any-return]
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._values(self))
+
+    def __repr__(self) -> str:
+        values = self._values(self)
+        return self._shown.format(type(self).__qualname__, *(values if self.__record_fields__ else ()))
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __delattr__(self, name: str) -> None:
+        raise FrozenInstanceError(f"cannot delete field {name!r}")
+
+
+def _names(cls: type) -> tuple[list[str], dict[str, Any]]:
+    """The class's fields in order, and the defaults of those that have one."""
+    names: list[str] = []
+    defaults: dict[str, Any] = {}
+    for name, note in cls.__dict__.get("__annotations__", {}).items():
+        text = note if isinstance(note, str) else getattr(note, "__name__", "")
+        if text.startswith(("ClassVar", "typing.ClassVar", "InitVar", "dataclasses.InitVar")):
+            raise TypeError(f"{cls.__qualname__}.{name}: a record has no ClassVar or InitVar fields")
+        names.append(name)
+        if name in cls.__dict__:
+            default = cls.__dict__[name]
+            if type(default).__name__ == "Field" or isinstance(default, _MUTABLE):
+                raise TypeError(f"{cls.__qualname__}.{name}: a record's default is a plain immutable value")
+            defaults[name] = default
+        elif defaults:
+            raise TypeError(f"{cls.__qualname__}.{name}: a field without a default follows one with a default")
+    return names, defaults
+
+
+def _init(cls: type, names: list[str], defaults: dict[str, Any]) -> Callable[..., None]:
+    """`__init__(self, <fields>)`, setting each field as a frozen dataclass's does (one small compile)."""
+    params = ", ".join(f"{n}=_d_{n}" if n in defaults else n for n in names)
+    body = "".join(f"\n    _set(self, {n!r}, {n})" for n in names) or "\n    pass"
+    scope: dict[str, Any] = {"_set": object.__setattr__, **{f"_d_{n}": v for n, v in defaults.items()}}
+    exec(f"def __init__(self{', ' if params else ''}{params}) -> None:{body}", scope)  # noqa: S102
+    init: Callable[..., None] = scope["__init__"]
+    init.__qualname__ = f"{cls.__qualname__}.__init__"
+    init.__module__ = cls.__module__
+    return init
+
+
+def _values(names: list[str]) -> Callable[[Any], Any]:
+    """The fields' values of a record as one object to compare, hash and show: a C callable, which the
+    class holds as it is (no method binding). Several fields: their tuple. One field: it twice (an
+    attrgetter of one name gives the bare value, which a tuple-valued field would spread over the repr's
+    format; the format uses the first). No field: the record's class."""
+    if not names:
+        return type
+    return attrgetter(*names) if len(names) >= 2 else attrgetter(names[0], names[0])
+
+
+@dataclass_transform(eq_default=True, frozen_default=True)
+def record(cls: C) -> C:
+    """`cls` as a record: a new class of the same name, bases, body and docstring, with Record's methods."""
+    if any(issubclass(base, Record) for base in cls.__bases__) or "__post_init__" in cls.__dict__:
+        raise TypeError(f"{cls.__qualname__}: a record inherits no fields and has no __post_init__")
+    names, defaults = _names(cls)
+    body = {k: v for k, v in cls.__dict__.items() if k not in ("__dict__", "__weakref__")}
+    body.update(
+        __init__=_init(cls, names, defaults),
+        __match_args__=tuple(names),
+        __record_fields__=tuple(names),
+        _values=_values(names),
+        _shown="{}(" + ", ".join(f"{n}={{!r}}" for n in names) + ")",
+    )
+    made = type(cls)(cls.__name__, (Record, *(b for b in cls.__bases__ if b is not object)), body)
+    made.__qualname__ = cls.__qualname__
+    return made
