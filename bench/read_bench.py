@@ -18,7 +18,8 @@ others are held against), the generated Python driver's read_all (sync, asyncio)
 
 Records: `mdl.device.output.record` of the runtime's values in each --format, as a fraction of the runtime's
 read, measured the same way; "steady" the values the sim serves, the same at every poll (what polling a device
-whose readings hold gives), "new" other values at every poll (every number printed afresh).
+whose readings hold gives), "new" other values at every poll (every number printed afresh). Beside them, the
+floor: `str` of every value of the poll and nothing else, what any record printing them all pays.
 
 Sim: the server's instructions per request, `mdl sim` against a plain pymodbus server (ModbusTcpServer on a
 SimDevice of the same 500 registers, written here), reading 10 or 125 holding registers over 1, 10 and 50
@@ -66,6 +67,8 @@ from poll_bench import (  # noqa: E402  (bench/ on the path first)
 READ_CLIENTS = ("hand", "py-sync", "py-async", "runtime")
 READ_GOALS = {"py-sync": 1.1, "py-async": 1.25, "runtime": 1.1}  # at most, x the hand batch
 FORMATS = ("json", "csv", "table", "senml")
+# not a format: Python's own text of every value (`str`), which any record of them must make at least: the floor
+FLOOR = "str"
 RECORD_GOAL = 0.3  # at most, x the runtime's read
 SIM_GOAL = 1.0  # at most, x the plain server's instructions per request
 WARM, SHORT, LONG = 3, 2, 12  # polls
@@ -139,6 +142,13 @@ def record_client(host: str, port: int, xml: Path, fmt: str, fresh: bool) -> Cal
             sets.append(evaluate(resolved, names, lambda table, address, regs=regs: regs[address]))
     name = resolved.device.name
     turn = iter(range(10**9))
+
+    if fmt == FLOOR:
+
+        def floor() -> object:
+            return list(map(str, sets[next(turn) % len(sets)].values()))
+
+        return floor
 
     def poll() -> str:
         return output.record(functions, sets[next(turn) % len(sets)], fmt, datetime.now(timezone.utc), name)
@@ -354,7 +364,7 @@ def reads_and_records(
             generate(src, xml, gen_dir, "python")
             kinds = [*READ_CLIENTS] if "reads" in parts else ["runtime"]
             if "records" in parts:
-                kinds += [f"record:{fmt}:{v}" for v in ("steady", "new") for fmt in FORMATS]
+                kinds += [f"record:{fmt}:{v}" for v in ("steady", "new") for fmt in (*FORMATS, FLOOR)]
             for kind in kinds:
                 if label != "after" and kind == "hand":
                     continue  # the same code either way
@@ -480,11 +490,13 @@ def main() -> int:
         print("A poll's record, mdl.device.output.record (M instructions; x the runtime's read of the same tree)")
         print(head)
         for values_kind in ("steady", "new"):
-            for fmt in FORMATS:
+            for fmt in (*FORMATS, FLOOR):
                 kind = f"record:{fmt}:{values_kind}"
                 read = {label: reads.get((label, "runtime")) for label in labels}
-                cells = "".join(cell(reads.get((label, kind)), read[label], RECORD_GOAL) for label in labels)
-                print(f"{f'{fmt} ({values_kind} values)':28}{cells}   <= {RECORD_GOAL}x")
+                goal = None if fmt == FLOOR else RECORD_GOAL
+                cells = "".join(cell(reads.get((label, kind)), read[label], goal) for label in labels)
+                title = f"{fmt} ({values_kind} values)" if goal else f"floor: str of each ({values_kind})"
+                print(f"{title:28}{cells}   {f'<= {goal}x' if goal else ''}")
     if "sim" in parts:
         print()
         print("mdl sim, the server's instructions per request (M; x the plain pymodbus server)")

@@ -10,7 +10,7 @@ import unicodedata
 import weakref
 from collections import Counter
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING, Literal
 
@@ -101,16 +101,18 @@ def line_order(d: Diagnostic) -> tuple[int, int]:
     return d.line or 0, d.col or 0
 
 
-@dataclass
 class _Kind:
     """Where one kind of message was seen: those said in full, how many in all, on how many rows (one
     line twice in a row counts once) and lines for the summary (see Collector)."""
 
-    said: list[Diagnostic] = field(default_factory=list)
-    times: int = 0
-    rows: int = 0
-    lines: list[int | None] = field(default_factory=list)
-    last_line: int | None = None
+    __slots__ = ("last_line", "lines", "rows", "said", "times")
+
+    def __init__(self, said: list[Diagnostic] | None = None) -> None:
+        self.said: list[Diagnostic] = said if said is not None else []
+        self.times = 0
+        self.rows = 0
+        self.lines: list[int | None] = []
+        self.last_line: int | None = None
 
     def add_row(self, line: int | None, shown_lines: int) -> None:
         self.times += 1

@@ -12,9 +12,9 @@ field names, in order).
 
 A record is a class of fields and their defaults, nothing more: no `field(...)`, no `__post_init__`, no
 mutable default, no fields inherited from another record; `record` refuses the rest with a TypeError as the
-class is made. It is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it, so the
-types the library gives its users (mdl.Diagnostic, the model, the resolved device) stay dataclasses. Type
-checkers see a frozen dataclass (`dataclass_transform`).
+class is made. It is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it (`replace`
+below is its own), so the types the library's users build and change themselves (mdl.Diagnostic, the
+document model) stay dataclasses. Type checkers see a frozen dataclass (`dataclass_transform`).
 """
 
 from __future__ import annotations
@@ -124,3 +124,12 @@ def record(cls: C) -> C:
     made = type(cls)(cls.__name__, (Record, *(b for b in cls.__bases__ if b is not object)), body)
     made.__qualname__ = cls.__qualname__
     return made
+
+
+R = TypeVar("R")
+
+
+def replace(made: R, **changes: Any) -> R:
+    """A new record of `made`'s class, of its fields with `changes` (as `dataclasses.replace`)."""
+    fields = {name: getattr(made, name) for name in made.__record_fields__}  # type: ignore[attr-defined]
+    return type(made)(**{**fields, **changes})

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from mdl.records import record
+from mdl.records import record, replace
 
 
 @record
@@ -157,3 +157,12 @@ def test_a_record_is_no_dataclass():
     assert not dataclasses.is_dataclass(One(1))
     with pytest.raises(TypeError):
         dataclasses.replace(One(1), x=2)  # type: ignore[type-var]
+
+
+def test_replace_makes_a_new_record_of_the_changed_fields():
+    made = Three(1, "x")
+    again = replace(made, c=2.5)
+    assert again == Three(1, "x", 2.5) and made == Three(1, "x")
+    assert replace(Empty()) == Empty()
+    with pytest.raises(TypeError):
+        replace(made, d=1)

@@ -7,7 +7,6 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
-from mdl.dsl.expr.fields import python_function
 from mdl.ir.build import decode_steps
 from mdl.ir.codec import CodecError, Compiled, Decoder, compile_codec, compile_decoder, parse_value
 from mdl.ir.steps import DecodeStep
@@ -27,7 +26,11 @@ class Evaluator:
     def __init__(self, resolved: ResolvedDevice):
         self.resolved = resolved
         self._compiled: dict[str, Compiled] = {f.name: compile_codec(f.name, f.codec) for f in resolved.functions}
-        self._expressions = {f.name: python_function(f.compiled) for f in resolved.functions if f.compiled is not None}
+        self._expressions: dict[str, Callable[..., Value]] = {}
+        if any(f.compiled is not None for f in resolved.functions):
+            from mdl.dsl.expr.fields import python_function  # the expressions' printer, for a device that has them
+
+            self._expressions = {f.name: python_function(f.compiled) for f in resolved.functions if f.compiled}
         self._orders: dict[tuple[str, ...], list[str]] = {}
 
     def order(self, names: Iterable[str]) -> list[str]:

@@ -11,7 +11,6 @@ drivers return (programs compare it with a driver's value). A NaN or an infinity
 
 from __future__ import annotations
 
-import csv
 import functools
 import io
 import json
@@ -21,7 +20,6 @@ import struct
 from collections import Counter
 from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
-from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext
 from typing import Any, TypedDict, cast
 
 from mdl.exchange.text import aligned
@@ -131,6 +129,8 @@ def _json_values(functions: list[Function], values: dict[str, Value]) -> dict[st
 def _csv_line(cells: list[str]) -> str:
     """One CSV record ending in `\n`; a cell holding a carriage return is quoted too (csv quotes only the
     line terminator's own characters, and a bare `\r` ends a row for most readers)."""
+    import csv  # here: a one-shot read that prints a table starts without it
+
     buf = io.StringIO()
     if any("\r" in cell for cell in cells):
         csv.writer(buf, lineterminator="\n", quoting=csv.QUOTE_ALL).writerow(cells)
@@ -160,6 +160,8 @@ def with_precision(value: int | float, places: int) -> str:
     infinities as they are."""
     if isinstance(value, float) and not math.isfinite(value):
         return str(value)
+    from decimal import ROUND_HALF_EVEN, Context, Decimal, localcontext  # here: as csv above
+
     places = max(min(places, MAX_PLACES), -400)  # a double is below 1e309: 400 places left round it to 0
     with localcontext(Context(prec=1000, rounding=ROUND_HALF_EVEN)):
         rounded = Decimal(value).quantize(Decimal(1).scaleb(-places))

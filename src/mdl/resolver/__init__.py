@@ -10,7 +10,6 @@ derives nothing again.
 from __future__ import annotations
 
 from collections.abc import Callable, Hashable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 from mdl.diagnostics import Diagnostic, MdlError
@@ -55,7 +54,7 @@ class cached_property(Generic[T]):  # noqa: N801 (it stands in for functools.cac
         return value
 
 
-@dataclass(frozen=True)
+@record
 class ResolvedFunction:
     fn: Function
     ident: str  # its identifier in generated code (SPEC 3)
@@ -116,7 +115,7 @@ class PlanGroup:
     offset: int
 
 
-@dataclass(frozen=True)
+@record
 class ResolvedDevice:
     device: Device
     functions: tuple[ResolvedFunction, ...]

@@ -8,12 +8,13 @@ own), and a role's value written back as the function's integer type (bounds and
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from mdl.diagnostics import Diagnostic, MdlError, error
 from mdl.model.layout import integer_range
 from mdl.model.names import CLASS_RESERVED, camel, identifier, unique_identifiers
+from mdl.records import replace
 from mdl.resolver import ResolvedDevice, ResolvedFunction
 from mdl.resolver.checks import position
 from mdl.targets.templating import c_int64
