@@ -296,7 +296,7 @@ def record_header(functions: list[Function], fmt: str) -> str:
 
 _PLAIN, _LABELLED, _FLOAT32_SHOWN, _PRECISION = range(4)  # how a record shows a function's value
 MEMO_MOST = 8  # texts a plan remembers per function (a poll's readings mostly repeat the last polls')
-AFRESH_POLLS = 15  # polls whose json texts are made without the memos once most of a poll's were new
+AFRESH_POLLS = 15  # polls whose texts are made without the memos once most of a poll's were new
 
 
 class _Plan:
@@ -383,8 +383,8 @@ class _Plan:
         self.texty = self.numbers or _STR_TYPES.issuperset(types)
         self.memos = ([{} for _ in types], [{} for _ in types])
         self.floats_at = [i for i, kind in enumerate(types) if kind is float]
-        self.afresh = 0  # json texts to make without the memos, for this many more polls (`_texts`)
-        self.looked_up = False  # whether the json memos hold a poll's texts (the first poll finds none)
+        self.afresh = 0  # texts to make without the memos, for this many more polls (`_texts`)
+        self.looked_up = False  # whether the memos hold a poll's texts (the first poll finds none)
 
     def shown(self, i: int, value: Value) -> Value:
         kind = self.kinds[i]
@@ -443,15 +443,20 @@ def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], b
         plan.remember(types)
     if not (plan.texty if shown else plan.numbers):
         return None
-    if not shown and plan.afresh:  # values mostly new of late: each number's str, made at once
+    if plan.afresh:  # values mostly new of late: each value's str made at once, then each float32's shown
         plan.afresh -= 1
+        texts: list[Any] = list(map(str, got))
+        if shown:
+            for i in plan.float32:
+                if type(got[i]) is float:
+                    texts[i] = str(shortest_float32(got[i]))  # type: ignore[arg-type]
         floats = cast("list[float]", list(map(got.__getitem__, plan.floats_at)))
-        return list(map(str, got)), all(map(math.isfinite, floats))
+        return texts, all(map(math.isfinite, floats))
     memos = plan.memos[shown]
-    texts: list[Any] = list(map(dict.get, memos, got))
+    texts = list(map(dict.get, memos, got))
     finite = True
     if not all(texts):  # some printed afresh (or a text that is empty)
-        if not shown and plan.looked_up and 2 * texts.count(None) > len(texts):
+        if plan.looked_up and 2 * texts.count(None) > len(texts):
             plan.afresh = AFRESH_POLLS  # most are new: looking each up costs more than it saves
         float32 = plan.shows_float32
         i = -1
@@ -479,8 +484,7 @@ def _texts(plan: _Plan, got: Sequence[Value], shown: bool) -> tuple[list[str], b
             if len(memo) >= MEMO_MOST:
                 memo.clear()
             memo[value] = texts[i] = text
-    if not shown:
-        plan.looked_up = True
+    plan.looked_up = True
     return texts, finite
 
 
