@@ -32,7 +32,6 @@ import stat
 import sys
 import threading
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 from typing import TYPE_CHECKING
@@ -120,21 +119,22 @@ def would_change(path: StrPath, content: str) -> bool:
 MAX_LINKS = 40  # symbolic links followed to an output's file, as many as Linux's path lookup follows
 
 
-@dataclass
 class _Staged:
     """One output of a run. `shown`: the path as given, for messages; `path`: where the bytes go (the
     file a link names). Replaced whole: `tmp`, the written temporary file, and while the run is put in
     place `old`, the old file's second name. Written in place: its bytes `data`, and `fd` if it is a
-    descriptor of this process or `socket` if it is a socket."""
+    descriptor of this process or `socket` if it is a socket. (A plain class: a dataclass's methods are
+    compiled as the class is made, by every command that imports this module.)"""
 
-    shown: Path
-    path: Path
-    in_place: bool = False
-    tmp: Path | None = None
-    old: Path | None = None
-    data: bytes = b""
-    fd: int | None = None
-    socket: bool = False
+    __slots__ = ("data", "fd", "in_place", "old", "path", "shown", "socket", "tmp")
+
+    def __init__(
+        self, shown: Path, path: Path, in_place: bool = False, fd: int | None = None, socket: bool = False
+    ) -> None:
+        self.shown, self.path, self.in_place, self.fd, self.socket = shown, path, in_place, fd, socket
+        self.tmp: Path | None = None
+        self.old: Path | None = None
+        self.data = b""
 
 
 _run: list[_Staged] | None = None  # the outputs staged inside all_or_none()

@@ -4,8 +4,9 @@
 Python 3.10 and 3.11 compile six methods from source for each frozen dataclass as its class is made
 (__init__, __repr__, __eq__, __hash__, __setattr__, __delattr__): some 3 M instructions a class, and a
 one-shot `mdl read` made some 50 of them before it read a register, a third of its instructions
-(docs/performance.md). `record` compiles only `__init__` (so that making a record costs what making the
-dataclass cost) and gives each class the rest from one shared base: equality and hash over its fields as
+(docs/performance.md). `record` compiles nothing per class: its `__init__` (as fast as the dataclass's) is
+the code of every record of as many fields, compiled once, with the class's names put in; the rest are
+the same functions on every record: equality and hash over its fields as
 a tuple (only with a record of the same class), the same repr text (`Mask(bits=16)`), fields that cannot be
 assigned or deleted (dataclasses.FrozenInstanceError), `__match_args__`, and `__record_fields__` (the
 field names, in order).
@@ -19,9 +20,11 @@ document model) stay dataclasses. Type checkers see a frozen dataclass (`datacla
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import FrozenInstanceError
 from operator import attrgetter
+from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any, TypeVar
 
 if TYPE_CHECKING:
@@ -38,9 +41,9 @@ _MUTABLE = (list, dict, set, bytearray)
 
 
 class Record:
-    """The methods every record shares, over `_values(record)` (set by `record` per class: `_values`)."""
+    """The methods every record has (`record` puts these functions on each: no record is a Record), over
+    `_values(record)` and `_shown`, which `record` sets per class."""
 
-    __slots__ = ()
     __record_fields__: tuple[str, ...] = ()
     _values: Callable[[Any], Any]
 
@@ -85,13 +88,29 @@ def _names(cls: type) -> tuple[list[str], dict[str, Any]]:
     return names, defaults
 
 
+@functools.cache
+def _init_code(count: int) -> CodeType:
+    """The code of an __init__ of `count` fields, compiled once for every record of as many: it sets each
+    field as a frozen dataclass's __init__ does. Its parameters `_p0`... and the field names it sets, the
+    constants `"_n0"`..., stand for the names `_init` puts in their place."""
+    params = "".join(f", _p{i}" for i in range(count))
+    body = "".join(f"\n    _set(self, '_n{i}', _p{i})" for i in range(count)) or "\n    pass"
+    scope: dict[str, Any] = {}
+    exec(f"def __init__(self{params}) -> None:{body}", scope)  # noqa: S102
+    code: CodeType = scope["__init__"].__code__
+    return code
+
+
 def _init(cls: type, names: list[str], defaults: dict[str, Any]) -> Callable[..., None]:
-    """`__init__(self, <fields>)`, setting each field as a frozen dataclass's does (one small compile)."""
-    params = ", ".join(f"{n}=_d_{n}" if n in defaults else n for n in names)
-    body = "".join(f"\n    _set(self, {n!r}, {n})" for n in names) or "\n    pass"
-    scope: dict[str, Any] = {"_set": object.__setattr__, **{f"_d_{n}": v for n, v in defaults.items()}}
-    exec(f"def __init__(self{', ' if params else ''}{params}) -> None:{body}", scope)  # noqa: S102
-    init: Callable[..., None] = scope["__init__"]
+    """`__init__(self, <fields>)` of the class: _init_code's, its parameters and constants named."""
+    if "self" in names:
+        raise TypeError(f"{cls.__qualname__}: a record has no field named self")
+    code = _init_code(len(names))
+    placed = {f"_n{i}": name for i, name in enumerate(names)}
+    consts = tuple(placed.get(c, c) if isinstance(c, str) else c for c in code.co_consts)
+    code = code.replace(co_varnames=("self", *names, *code.co_varnames[len(names) + 1 :]), co_consts=consts)
+    given = tuple(defaults[name] for name in names if name in defaults) or None
+    init = FunctionType(code, {"_set": object.__setattr__}, "__init__", given)
     init.__qualname__ = f"{cls.__qualname__}.__init__"
     init.__module__ = cls.__module__
     return init
@@ -107,23 +126,29 @@ def _values(names: list[str]) -> Callable[[Any], Any]:
     return attrgetter(*names) if len(names) >= 2 else attrgetter(names[0], names[0])
 
 
+# the methods every record has, Record's own functions
+_SHARED = ("__eq__", "__hash__", "__repr__", "__setattr__", "__delattr__")
+
+
 @dataclass_transform(eq_default=True, frozen_default=True)
 def record(cls: C) -> C:
-    """`cls` as a record: a new class of the same name, bases, body and docstring, with Record's methods."""
-    if any(issubclass(base, Record) for base in cls.__bases__) or "__post_init__" in cls.__dict__:
+    """`cls` made a record, in place: its __init__, Record's methods, its field names."""
+    if any("__record_fields__" in base.__dict__ for base in cls.__mro__[1:]) or "__post_init__" in cls.__dict__:
         raise TypeError(f"{cls.__qualname__}: a record inherits no fields and has no __post_init__")
+    if mine := [name for name in ("__init__", *_SHARED) if name in cls.__dict__]:
+        raise TypeError(f"{cls.__qualname__}: a record's {', '.join(mine)} are its own")
     names, defaults = _names(cls)
-    body = {k: v for k, v in cls.__dict__.items() if k not in ("__dict__", "__weakref__")}
-    body.update(
+    made: dict[str, Any] = {name: Record.__dict__[name] for name in _SHARED}
+    made.update(
         __init__=_init(cls, names, defaults),
         __match_args__=tuple(names),
         __record_fields__=tuple(names),
         _values=_values(names),
         _shown="{}(" + ", ".join(f"{n}={{!r}}" for n in names) + ")",
     )
-    made = type(cls)(cls.__name__, (Record, *(b for b in cls.__bases__ if b is not object)), body)
-    made.__qualname__ = cls.__qualname__
-    return made
+    for name, value in made.items():
+        setattr(cls, name, value)
+    return cls
 
 
 R = TypeVar("R")

@@ -142,6 +142,15 @@ def test_a_record_refuses_what_it_does_not_do():
         class Child(One):
             y: int
 
+    with pytest.raises(TypeError, match="are its own"):
+
+        @record
+        class Compared:
+            x: int
+
+            def __eq__(self, other: object) -> bool:
+                return True
+
     with pytest.raises(TypeError, match="__post_init__"):
 
         @record
@@ -166,3 +175,17 @@ def test_replace_makes_a_new_record_of_the_changed_fields():
     assert replace(Empty()) == Empty()
     with pytest.raises(TypeError):
         replace(made, d=1)
+
+
+class Named(One):
+    """A plain subclass of a record (as mdl.device.connection.Connection of Endpoint): its fields, its methods."""
+
+    def twice(self) -> Any:
+        return self.x * 2
+
+
+def test_a_plain_subclass_keeps_the_fields_and_tells_its_class():
+    made = Named(3)
+    assert made.twice() == 6 and repr(made) == "Named(x=3)"
+    assert made == Named(3) and made != One(3)
+    assert replace(made, x=4) == Named(4)

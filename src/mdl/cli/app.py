@@ -14,15 +14,10 @@ from typing import Any
 import click
 
 from mdl import __version__
+from mdl.cli import GC_THRESHOLDS
 from mdl.cli.options import quiet_option
 from mdl.cli.printer import fail
 from mdl.diagnostics import MdlError
-
-# A model of 10,000 functions is some 10^6 small objects that live until the command ends: with
-# Python's default thresholds (700, 10, 10) the collector walks all of them again and again while
-# they are built (a third of `mdl gen`'s time in resolve). Collections stay on, just rarer (`mdl gen`
-# pauses them: collector_paused).
-GC_THRESHOLDS = (100_000, 50, 100)
 
 
 @contextlib.contextmanager

@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qsl
 
@@ -65,10 +64,9 @@ def split_host(text: str) -> tuple[str, int | None]:
     return host, int(port_text)
 
 
-@dataclass(frozen=True)
 class Connection(Endpoint):
-    """An Endpoint the device commands open: its pymodbus client or server, its serial device checked
-    as pyserial opens it, and what their messages say about it."""
+    """An Endpoint (the same fields; a record) the device commands open: its pymodbus client or server, its
+    serial device checked as pyserial opens it, and what their messages say about it."""
 
     @property
     def framer(self) -> FramerType:

@@ -4,7 +4,7 @@ it a pymodbus client or server."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from mdl.records import record
 
 SIM_HOST, DEVICE_PORT = "127.0.0.1", 502
 SIM_PORT = 5020  # where mdl sim listens unless --port says otherwise
@@ -18,7 +18,7 @@ def host_port(host: str, port: int) -> str:
 LINE_ONLY = ""  # `serial` of a line given by its settings alone (mdl export --to esphome --baud 9600)
 
 
-@dataclass(frozen=True)
+@record
 class Endpoint:
     """Where a device is and how frames travel there. `serial` set: RTU on that serial device;
     otherwise TCP to host:port, with RTU frames when `rtu` is true."""

@@ -23,7 +23,7 @@ import shutil
 import sys
 import time
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 from mdl.device.connection import Connection
 from mdl.device.link import EXCEPTION_NAMES, Link, ModbusExceptionError
@@ -35,6 +35,7 @@ from mdl.diagnostics import DeviceError
 from mdl.model import BIT_TABLES, REGISTER_TYPES
 from mdl.model.layout import MAX_ADDRESS, MAX_BITS, MAX_REGISTERS
 from mdl.plan import Request
+from mdl.records import replace
 
 STRUGGLING = 3  # signs in a row that a unit is struggling before it is left alone
 STRUGGLE_CODES = (4, 5, 6)  # SERVER DEVICE FAILURE, ACKNOWLEDGE, SERVER DEVICE BUSY
