@@ -40,15 +40,44 @@ NEVER = (
     "hashlib",  # only a write of a file (fileio's temporary name, secrets) or a long generated name uses it
     "secrets",
     "shutil",  # only fileio's fallback copy (shutil imports bz2 and lzma)
+    "csv",  # only a csv record
+    "decimal",  # only a value shown with a precision, or a fragment's float literal
+    "fractions",
+    "shlex",  # only the message for a file that is not what it was given as
+    "mdl.formats.wise.sections",  # a file is told from WISE-Agent's and XIF's without their words
+    "mdl.formats.xif.columns",
 )
 # nor, without a description, the expression and fragment compilers (a raw read's functions have neither)
-COMPILERS = ("mdl.dsl.cfrag", "mdl.dsl.expr.parser", "mdl.dsl.expr.lower", "mdl.dsl.expr.nodes", "mdl.dsl.expr.pyemit")
+COMPILERS = (
+    "mdl.dsl.cfrag",
+    "mdl.dsl.expr.fields",
+    "mdl.dsl.expr.parser",
+    "mdl.dsl.expr.lower",
+    "mdl.dsl.expr.nodes",
+    "mdl.dsl.expr.pyemit",
+)
+# the only dataclasses a one-shot command defines: the types the library's users build and change themselves
+# (every other class of its path is a record, mdl.records, or a plain class: a dataclass's methods are
+# compiled as its class is made, 3 M instructions each, docs/performance.md)
+PUBLIC_DATACLASSES = {
+    "mdl.diagnostics.Diagnostic",
+    "mdl.diagnostics.TextSpan",
+    "mdl.model.Device",
+    "mdl.model.Function",
+    "mdl.model.Scenario",
+    "mdl.model.ScenarioInput",
+}
 
 
 _RUN = """
 import atexit, sys
 out = sys.argv.pop(1)
-atexit.register(lambda: open(out, "w").write("\\n".join(sorted(sys.modules))))
+def made():  # the dataclasses of mdl's modules, as `dataclass:MODULE.CLASS`
+    for name, module in list(sys.modules.items()):
+        for value in list(vars(module).values()) if name.startswith("mdl") else ():
+            if isinstance(value, type) and value.__module__ == name and "__dataclass_fields__" in value.__dict__:
+                yield f"dataclass:{name}.{value.__qualname__}"
+atexit.register(lambda: open(out, "w").write("\\n".join(sorted([*sys.modules, *made()]))))
 sys.argv[0] = "mdl"
 from mdl.cli import run
 run()
@@ -80,6 +109,9 @@ def test_a_one_shot_read_or_write_imports_only_what_it_uses(args, tmp_path):
     modules = imported(tmp_path, *args)
     assert "mdl.device.runtime" in modules  # control: the run got as far as the device
     assert not offending(modules)
+    made = {m.removeprefix("dataclass:") for m in modules if m.startswith("dataclass:")}
+    assert "mdl.model.Function" in made  # control: the listing sees dataclasses
+    assert made <= PUBLIC_DATACLASSES
     if "--raw" in args:
         assert not offending(modules, ("lxml", "mdl.formats"))  # no description: no XML
         assert not offending(modules, COMPILERS)

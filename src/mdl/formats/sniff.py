@@ -4,8 +4,6 @@ Asked only when the XML parser has refused a file that does not start with marku
 
 from __future__ import annotations
 
-import json
-import shlex
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -36,6 +34,8 @@ def not_xml(data: bytes, path: StrPath) -> str:
 
 def looks_like(data: bytes, path: StrPath) -> tuple[str, str]:
     """What the file looks like, and advice naming the command that reads it."""
+    import shlex  # here and json below: only a file that is not what it was given as is looked at so
+
     name = "-" if is_stdin(path) else shlex.quote(str(path))
     importable = _importable(path)
     if importable is not None:
@@ -84,6 +84,8 @@ def _importable(path: StrPath) -> str | None:
 
 
 def _is_json(text: str) -> bool:
+    import json
+
     try:
         json.loads(text)
     except ValueError:

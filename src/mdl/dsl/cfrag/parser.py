@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import math
 import re
-from decimal import Decimal
-from fractions import Fraction
 from typing import NamedTuple
 
 from mdl.dsl.cfrag.lexer import FragmentError, Token, tokenize
@@ -71,6 +69,9 @@ def _short(text: str) -> str:
 
 
 def _float_literal(tok: Token, digits: str, single: bool) -> NumNode:
+    from decimal import Decimal  # here and Fraction: the exact value of a float literal, few fragments have one
+    from fractions import Fraction
+
     exact = Decimal(digits)
     kind = "float" if single else "double"
     if exact == 0:

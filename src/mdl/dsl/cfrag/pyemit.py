@@ -16,10 +16,11 @@ FALLIBLE = ("_idiv", "_imod", "_f2i", "_store")
 
 @cache
 def helpers_namespace() -> dict[str, Any]:
-    """The helpers, run: the globals translated fragments are evaluated in (never modified)."""
-    ns: dict[str, Any] = {}
-    exec(compile(HELPERS_SOURCE, "<mdl fragment helpers>", "exec"), ns)
-    return ns
+    """The helpers, run: the globals translated fragments are evaluated in (never modified): pyhelpers.py
+    imported, its compiled code cached as every module's is (HELPERS_SOURCE is the same file's text)."""
+    from mdl.dsl.cfrag import pyhelpers
+
+    return dict(vars(pyhelpers))
 
 
 def _int_target(t: str | IntType) -> IntType:

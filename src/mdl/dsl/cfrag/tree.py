@@ -12,10 +12,12 @@ for shifts, the promoted type of the left operand).
 from __future__ import annotations
 
 import math
-from fractions import Fraction
-from typing import Literal, TypeAlias
+from typing import TYPE_CHECKING, Literal, TypeAlias
 
 from mdl.model.layout import integer_range
+
+if TYPE_CHECKING:
+    from fractions import Fraction
 
 IntType: TypeAlias = tuple[int, bool]  # (bits, signed)
 CastTarget: TypeAlias = IntType | Literal["float", "double"]
@@ -102,6 +104,8 @@ def children(node: CNode) -> list[CNode]:
 
 def round_to_float(q: Fraction) -> float:
     """The IEEE single-precision value nearest to q (ties to even), as a C compiler reads a float literal."""
+    from fractions import Fraction  # here: only float literals need it
+
     if q < 0:
         return -round_to_float(-q)
     if q == 0:

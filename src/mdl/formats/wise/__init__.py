@@ -7,7 +7,9 @@ from __future__ import annotations
 
 def guess(head: str) -> bool:
     """Whether the start of a file is a WISE-Agent Modbus.ini: an INI with a `[Platform]` section."""
-    from mdl.formats.wise.sections import PLATFORM  # here: commands that read no INI start without it
+    if "[" not in head:
+        return False  # before the import: commands that read no INI start without the format's words
+    from mdl.formats.wise.sections import PLATFORM
 
     section = f"[{PLATFORM.lower()}]"
     return any(line.strip().lower() == section for line in head.splitlines())

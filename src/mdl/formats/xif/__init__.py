@@ -9,7 +9,9 @@ from __future__ import annotations
 
 def guess(head: str) -> bool:
     """Whether the start of a file is XIF: a first line `#filetype,Modbus_xif` (any case, spaces ignored)."""
-    from mdl.formats.xif.columns import FILETYPE  # here: commands that read no XIF start without it
-
     first = head.lstrip().split("\n", 1)[0].strip().lower().replace(" ", "")
+    if not first.startswith("#"):
+        return False  # before the import: commands that read no XIF start without the format's words
+    from mdl.formats.xif.columns import FILETYPE
+
     return first.startswith(f"#filetype,{FILETYPE.lower()}")
