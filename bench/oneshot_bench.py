@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """One-shot commands, what a user feels (issue 40): `mdl --help`, `mdl read --raw`, `mdl read FILE` and
 `mdl write FILE NAME=V`, each run once as its own process, beside `import pymodbus`, `import pymodbus.client`,
-a plain pymodbus script reading 4 holding registers, and mbpoll / modbus-cli when installed. In one run:
+a plain pymodbus script reading 4 holding registers, the libraries a read imports (pymodbus's client, click,
+pathlib; lxml for a description), and mbpoll / modbus-cli when installed. In one run:
 
     python3 bench/oneshot_bench.py                    # callgrind instructions and wall, 11 runs each
     python3 bench/oneshot_bench.py --runs 31          # a steadier median
@@ -46,6 +47,7 @@ READ_GOAL = 1.3  # at most, x `import pymodbus.client` (instructions)
 HELP_GOAL = 1.1  # at most, x `import pymodbus` (instructions)
 WALL_GOAL = 0.15  # seconds, under
 
+LIBRARIES = "import pymodbus.client, click, pathlib, lxml.etree"  # and a description's XML reader
 PLAIN = """
 import sys
 from pymodbus.client import ModbusTcpClient
@@ -76,6 +78,13 @@ def cases(host: str, port: int, xml: Path, write: str) -> list[Case]:
         Case("import pymodbus", [py, "-c", "import pymodbus"]),
         Case("import pymodbus.client", [py, "-c", "import pymodbus.client"]),
         Case("plain pymodbus, 4 hr", [py, "-c", PLAIN, host, str(port)], base="import pymodbus.client"),
+        # the libraries a read imports before any of mdl's work: the floor under mdl's own share
+        Case(
+            "import pymodbus.client, click",
+            [py, "-c", "import pymodbus.client, click, pathlib"],
+            "import pymodbus.client",
+        ),
+        Case("... and lxml.etree", [py, "-c", LIBRARIES], "import pymodbus.client"),
         Case("mdl --help", [*mdl, "--help"], base="import pymodbus", goal=HELP_GOAL),
         Case("mdl read --raw hr:0-3", [*mdl, "read", *at, "--raw", "hr:0-3"], "import pymodbus.client", READ_GOAL),
         Case("mdl read FILE", [*mdl, "read", str(xml), *at], "import pymodbus.client", READ_GOAL),
