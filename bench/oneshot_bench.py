@@ -47,7 +47,8 @@ READ_GOAL = 1.3  # at most, x `import pymodbus.client` (instructions)
 HELP_GOAL = 1.1  # at most, x `import pymodbus` (instructions)
 WALL_GOAL = 0.15  # seconds, under
 
-LIBRARIES = "import pymodbus.client, click, pathlib, lxml.etree"  # and a description's XML reader
+CLI_LIBRARIES = "import pymodbus.client, click, pathlib"
+LIBRARIES = CLI_LIBRARIES + ", lxml.etree"  # and a description's XML reader
 PLAIN = """
 import sys
 from pymodbus.client import ModbusTcpClient
