@@ -3,19 +3,20 @@
 
 Python 3.10 and 3.11 compile six methods from source for each frozen dataclass as its class is made
 (__init__, __repr__, __eq__, __hash__, __setattr__, __delattr__): some 3 M instructions a class, and a
-one-shot `mdl read` made some 50 of them before it read a register, a third of its instructions
-(docs/performance.md). `record` compiles nothing per class: its `__init__` (as fast as the dataclass's) is
-the code of every record of as many fields, compiled once, with the class's names put in; the rest are
-the same functions on every record: equality and hash over its fields as
-a tuple (only with a record of the same class), the same repr text (`Mask(bits=16)`), fields that cannot be
-assigned or deleted (dataclasses.FrozenInstanceError), `__match_args__`, and `__record_fields__` (the
-field names, in order).
+one-shot `mdl read` made some 50 of them before it read a register, most of the instructions it spent past
+its libraries' imports (docs/performance.md). `record` compiles nothing per class: its `__init__` (as fast
+as the dataclass's) is the code of every record of as many fields, compiled once, with the class's names put
+in; the rest are the same functions on every record: equality and hash over its fields as a tuple (only
+with a record of the same class), the same repr text (`Mask(bits=16)`), fields that cannot be assigned or
+deleted (dataclasses.FrozenInstanceError), `__match_args__`, and `__record_fields__` (the field names, in
+order).
 
 A record is a class of fields and their defaults, nothing more: no `field(...)`, no `__post_init__`, no
-mutable default, no fields inherited from another record; `record` refuses the rest with a TypeError as the
-class is made. It is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it (`replace`
-below is its own), so the types the library's users build and change themselves (mdl.Diagnostic, the
-document model) stay dataclasses. Type checkers see a frozen dataclass (`dataclass_transform`).
+mutable default, no fields inherited from another record (a plain subclass adding methods is fine), no
+methods of its own among those above; `record` refuses the rest with a TypeError as the class is made. It
+is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it (`replace` below is its own),
+so the types the library's users build and change themselves (mdl.Diagnostic, the document model) stay
+dataclasses. Type checkers see a frozen dataclass (`dataclass_transform`).
 """
 
 from __future__ import annotations
