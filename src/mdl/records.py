@@ -13,15 +13,17 @@ order).
 
 A record is a class of fields and their defaults, nothing more: no `field(...)`, no `__post_init__`, no
 mutable default, no fields inherited from another record (a plain subclass adding methods is fine), no
-methods of its own among those above; `record` refuses the rest with a TypeError as the class is made. It
-is no dataclass: `dataclasses.fields()`, `replace()` and `asdict()` refuse it (`replace` below is its own),
-so the types the library's users build and change themselves (mdl.Diagnostic, the document model) stay
-dataclasses. Type checkers see a frozen dataclass (`dataclass_transform`).
+methods of its own among those above, no field named `self`, `_values` or `_shown`; `record` refuses the
+rest with a TypeError as the class is made. It is no dataclass: `dataclasses.fields()`, `replace()` and
+`asdict()` refuse it (`replace` below is its own), so the types the library's users build and change
+themselves (mdl.Diagnostic, the document model) stay dataclasses. Type checkers see a frozen dataclass
+(`dataclass_transform`).
 """
 
 from __future__ import annotations
 
 import functools
+import inspect
 from collections.abc import Callable
 from dataclasses import FrozenInstanceError
 from operator import attrgetter
@@ -39,6 +41,7 @@ else:
 C = TypeVar("C", bound=type)
 
 _MUTABLE = (list, dict, set, bytearray)
+_RESERVED = ("self", "_values", "_shown", "__record_fields__", "__match_args__")  # names a field cannot have
 
 
 class Record:
@@ -60,8 +63,7 @@ class Record:
         return hash(self._values(self))
 
     def __repr__(self) -> str:
-        values = self._values(self)
-        return self._shown.format(type(self).__qualname__, *(values if self.__record_fields__ else ()))
+        return self._shown.format(type(self).__qualname__, *self._values(self))
 
     def __setattr__(self, name: str, value: Any) -> None:
         raise FrozenInstanceError(f"cannot assign to field {name!r}")
@@ -74,7 +76,9 @@ def _names(cls: type) -> tuple[list[str], dict[str, Any]]:
     """The class's fields in order, and the defaults of those that have one."""
     names: list[str] = []
     defaults: dict[str, Any] = {}
-    for name, note in cls.__dict__.get("__annotations__", {}).items():
+    for name, note in inspect.get_annotations(cls).items():  # its own, as written
+        if name in _RESERVED:
+            raise TypeError(f"{cls.__qualname__}.{name}: a record's own attribute, not a field's name")
         text = note if isinstance(note, str) else getattr(note, "__name__", "")
         if text.startswith(("ClassVar", "typing.ClassVar", "InitVar", "dataclasses.InitVar")):
             raise TypeError(f"{cls.__qualname__}.{name}: a record has no ClassVar or InitVar fields")
@@ -104,8 +108,6 @@ def _init_code(count: int) -> CodeType:
 
 def _init(cls: type, names: list[str], defaults: dict[str, Any]) -> Callable[..., None]:
     """`__init__(self, <fields>)` of the class: _init_code's, its parameters and constants named."""
-    if "self" in names:
-        raise TypeError(f"{cls.__qualname__}: a record has no field named self")
     code = _init_code(len(names))
     placed = {f"_n{i}": name for i, name in enumerate(names)}
     consts = tuple(placed.get(c, c) if isinstance(c, str) else c for c in code.co_consts)
@@ -121,9 +123,9 @@ def _values(names: list[str]) -> Callable[[Any], Any]:
     """The fields' values of a record as one object to compare, hash and show: a C callable, which the
     class holds as it is (no method binding). Several fields: their tuple. One field: it twice (an
     attrgetter of one name gives the bare value, which a tuple-valued field would spread over the repr's
-    format; the format uses the first). No field: the record's class."""
+    format; the format uses the first). No field: its class's empty tuple of field names."""
     if not names:
-        return type
+        return attrgetter("__record_fields__")
     return attrgetter(*names) if len(names) >= 2 else attrgetter(names[0], names[0])
 
 

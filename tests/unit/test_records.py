@@ -95,7 +95,7 @@ def test_records_of_other_classes_or_no_fields():
     assert One(1) != Other(1)
     assert One(1) != (1,)
     assert Empty() == Empty()
-    assert hash(Empty()) == hash(Empty())
+    assert hash(Empty()) == hash(Empty()) == hash(())  # as the dataclass's: the same in every process
     assert repr(Empty()) == "Empty()"
     assert repr(One((1, 2))) == "One(x=(1, 2))"
     assert len({One(1), One(1), One(2)}) == 2
@@ -150,6 +150,12 @@ def test_a_record_refuses_what_it_does_not_do():
 
             def __eq__(self, other: object) -> bool:
                 return True
+
+    with pytest.raises(TypeError, match="own attribute"):
+
+        @record
+        class Shadowing:
+            _values: int
 
     with pytest.raises(TypeError, match="__post_init__"):
 
