@@ -123,7 +123,7 @@ def test_node_red_polls_500_devices_every_value_on_time_and_a_stopped_unit_leave
 
     # Node-RED said nothing but its start, the lone unit's failed polls (the assembling node's warnings) and, as
     # it stopped, a client whose close outlived the request it was waiting on (a line of the lone unit, or one
-    # loaded when the stop came: "Error stopping node: Close timed out", CI of b86a4ac)
+    # loaded when the stop came: "Error stopping node: Close timed out", CI of 533848b)
     lines = [line for line in log.splitlines() if "[warn]" in line or "[error]" in line]
     boring = ("Using unencrypted credentials", "Projects disabled", "Error stopping node: Close timed out")
     problems = [line for line in lines if not any(b in line for b in boring)]
