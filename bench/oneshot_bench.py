@@ -30,7 +30,6 @@ import argparse
 import os
 import re
 import shutil
-import signal
 import statistics
 import subprocess
 import sys
@@ -41,6 +40,10 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+from read_bench import start_server, stop_server  # noqa: E402  (bench/ on the path first)
+
 DEFAULT_XML = ROOT / "examples" / "temco_tstat" / "temco_tstat.xml"
 GRIND = ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"]
 READ_GOAL = 1.3  # at most, x `import pymodbus.client` (instructions)
@@ -146,27 +149,6 @@ def walls(found: list[Case], env: dict[str, str], runs: int) -> dict[str, float 
     return {label: "failed" if label in failed else statistics.median(t) for label, t in times.items()}
 
 
-def start_sim(xml: Path, env: dict[str, str]) -> tuple[subprocess.Popen[str], str, int]:
-    cmd = [sys.executable, "-m", "mdl", "sim", str(xml), "--port", "0"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-    assert proc.stdout is not None and proc.stderr is not None
-    line = proc.stdout.readline()
-    if "mdl sim: serving" not in line:
-        proc.kill()
-        raise SystemExit(f"mdl sim did not start: {line!r} {proc.stderr.read()[-500:]}")
-    host, port = line.split(" on ", 1)[1].split()[0].rsplit(":", 1)
-    return proc, host, int(port)
-
-
-def stop_sim(proc: subprocess.Popen[str]) -> None:
-    proc.send_signal(signal.SIGINT)
-    try:
-        proc.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.communicate()
-
-
 def load() -> str:
     one, five, fifteen = os.getloadavg()
     return f"{one:.2f}, {five:.2f}, {fifteen:.2f}"
@@ -217,7 +199,8 @@ def main() -> int:
             env.pop("PYTHONPYCACHEPREFIX", None)
             where = "bytecode in the tree's and the packages' __pycache__ folders"
         print(where)
-        sim, host, port = start_sim(args.xml, env)
+        serve = [sys.executable, "-m", "mdl", "sim", str(args.xml), "--port", "0"]
+        sim, host, port = start_server(serve, env, "mdl sim: serving")
         try:
             found = cases(host, port, args.xml, args.write)
             present = [case for case in found if case.absent is None]
@@ -233,7 +216,7 @@ def main() -> int:
                     print(f"  {case.label:32} {counts[case.label]} M", file=sys.stderr, flush=True)
             wall = walls(present, env, args.runs)
         finally:
-            stop_sim(sim)
+            stop_server(sim)
 
     print(f"device: mdl sim {args.xml.relative_to(ROOT) if args.xml.is_relative_to(ROOT) else args.xml} on {host}")
     print()
