@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import shutil
 import statistics
 import subprocess
@@ -42,7 +41,7 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(HERE))
 
-from read_bench import start_server, stop_server  # noqa: E402  (bench/ on the path first)
+from read_bench import collected, start_server, stop_server  # noqa: E402  (bench/ on the path first)
 
 DEFAULT_XML = ROOT / "examples" / "temco_tstat" / "temco_tstat.xml"
 GRIND = ["valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null"]
@@ -105,13 +104,6 @@ def cases(host: str, port: int, xml: Path, write: str) -> list[Case]:
     argv = [modbus or "modbus", f"{host}:{port}", "h@0/4H"]
     found.append(Case("modbus-cli, 4 hr", argv, absent=None if modbus else "not installed"))
     return found
-
-
-def collected(err: str) -> int:
-    found = re.search(r"Collected : (\d+)", err)
-    if found is None:
-        raise RuntimeError(f"no instruction count from callgrind: {err[-600:]}")
-    return int(found.group(1))
 
 
 def run(argv: list[str], env: dict[str, str]) -> subprocess.CompletedProcess[str]:
