@@ -200,11 +200,19 @@ def python_source(lowered: Lowered, func_name: str = "_field") -> str:
 
 
 @cache
-def _namespace_for(source: str) -> FieldFunction:
-    from mdl.dsl.expr.pyemit import HELPERS_SOURCE
+def _helpers() -> dict[str, Any]:
+    """The globals a translated expression runs in: the fragment helpers and the expression ones (the two
+    files pyemit.HELPERS_SOURCE joins), imported once as their modules, where their text was compiled again
+    for every expression."""
+    from mdl.dsl.cfrag.pyemit import helpers_namespace
+    from mdl.dsl.expr import pyhelpers
 
-    ns: dict[str, Any] = {}
-    exec(compile(HELPERS_SOURCE, "<mdl expression helpers>", "exec"), ns)
+    return {**helpers_namespace(), **vars(pyhelpers)}
+
+
+@cache
+def _namespace_for(source: str) -> FieldFunction:
+    ns = dict(_helpers())
     exec(compile(source, "<mdl expression>", "exec"), ns)
     field: FieldFunction = ns["_field"]
     return field
