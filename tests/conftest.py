@@ -74,12 +74,12 @@ def pytest_runtest_setup(item):
 
 @pytest.fixture
 def sim_factory():
-    """start(path, *extra, serial=None, port=0) -> a running Sim, stopped when the test ends."""
+    """start(path, *extra, serial=None, port=0, files=None) -> a running Sim, stopped when the test ends."""
     forbid_tier("unit", "a simulated device (sim_factory)", "commands")
     started: list[Sim] = []
 
-    def start(path, *extra, serial: str | None = None, port: int = 0) -> Sim:
-        sim = Sim(path, *extra, serial=serial, port=port)
+    def start(path, *extra, serial: str | None = None, port: int = 0, files: int | None = None) -> Sim:
+        sim = Sim(path, *extra, serial=serial, port=port, files=files)
         started.append(sim)
         return sim
 

@@ -4,7 +4,9 @@
 from __future__ import annotations
 
 import codecs
+import functools
 import os
+import resource
 import selectors
 import shutil
 import signal
@@ -37,19 +39,31 @@ def read_lines(stream, wanted, proc, timeout: float) -> list[str]:
     return lines
 
 
+def limit_files(files: int) -> None:
+    """In a child before it runs: at most `files` open files (the soft limit; the hard one as it was)."""
+    resource.setrlimit(resource.RLIMIT_NOFILE, (files, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+
+
 class Sim:
     """A running `mdl sim` of one device file, or of a list of them (one ready line each, at self.units);
     stops it with SIGTERM and checks it stopped cleanly.
 
     On a free TCP port by default, or on `port` (self.host, self.port); with `serial=DEVICE` on that serial device
     (self.device; the ready lines say `on DEVICE`). self.connection: the CLI options that reach it
-    (on a serial line, `--serial` of the sim's own end: a client needs the other end of the line)."""
+    (on a serial line, `--serial` of the sim's own end: a client needs the other end of the line). With
+    `files=N` it may open N files at most (and so holds fewer connections at once: sim.most_clients)."""
 
-    def __init__(self, path, *extra, timeout: float = 30, serial: str | None = None, port: int = 0):
+    def __init__(
+        self, path, *extra, timeout: float = 30, serial: str | None = None, port: int = 0, files: int | None = None
+    ):
         paths = list(path) if isinstance(path, (list, tuple)) else [path]
         where = ["--serial", serial] if serial else ["--port", str(port)]
         self.proc = subprocess.Popen(
-            mdl_cmd("sim", *paths, *where, *extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+            mdl_cmd("sim", *paths, *where, *extra),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            preexec_fn=None if files is None else functools.partial(limit_files, files),
         )
         lines = read_lines(self.proc.stdout, lambda got: len(got) >= len(paths), self.proc, timeout)
         if len(lines) < len(paths) or not all(line.startswith("mdl sim: serving") for line in lines):

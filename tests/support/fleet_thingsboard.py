@@ -44,6 +44,8 @@ from thingsboard_gateway.connectors.modbus.modbus_connector import AsyncModbusCo
 out = open(out_path, "w", buffering=1)
 lock = threading.Lock()
 client = None
+published = []  # each publish's MQTTMessageInfo: all are acknowledged by the broker before the process ends
+ended = False  # set at the run's end: what the connector hands over later is neither recorded nor published
 if broker:
     import paho.mqtt.client as mqtt
     from paho.mqtt.enums import CallbackAPIVersion
@@ -88,9 +90,13 @@ class Gateway:
         for entry in data.telemetry:
             values.update({key.key: value for key, value in entry.values.items()})
         values.update({key.key: value for key, value in data.attributes.values.items()})
-        write({"t": now, "device": data.device_name, "values": values})
-        if client is not None:
-            client.publish("tb/" + data.device_name, json.dumps({"ts": int(now * 1000), "values": values}), qos=1)
+        with lock:  # recorded and published together, so that the broker gets every arrival recorded
+            if ended:
+                return 0
+            out.write(json.dumps({"t": now, "device": data.device_name, "values": values}) + "\n")
+            if client is not None:
+                message = json.dumps({"ts": int(now * 1000), "values": values})
+                published.append(client.publish("tb/" + data.device_name, message, qos=1))
         return 0  # Status.SUCCESS
 
     def send_rpc_reply(self, *args, **kwargs):
@@ -106,10 +112,14 @@ connector.open()
 time.sleep(seconds)
 t1, c1 = time.time(), os.times()
 usage = resource.getrusage(resource.RUSAGE_SELF)
-write({"t": t1, "event": "stop", "cpu": (c1.user - c0.user) + (c1.system - c0.system), "wall": t1 - t0,
-       "maxrss_kb": usage.ru_maxrss, "threads": threading.active_count()})
+with lock:
+    ended = True
+    out.write(json.dumps({"t": t1, "event": "stop", "cpu": (c1.user - c0.user) + (c1.system - c0.system),
+                          "wall": t1 - t0, "maxrss_kb": usage.ru_maxrss, "threads": threading.active_count()}) + "\n")
 out.flush()
 if client is not None:
+    for info in published:  # paho's loop may be behind on a loaded machine: nothing queued is lost at exit
+        info.wait_for_publish(60)
     client.loop_stop()
 os._exit(0)  # the connector's close() takes 5 s or more (it cancels its tasks after a sleep): not measured
 '''

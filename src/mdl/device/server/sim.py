@@ -12,8 +12,9 @@ control block), so the server's decoder is given a request class of ours that as
 A server on TCP holds at most `most_clients()` connections (CLIENTS_MOST, fewer where the open-file limit is
 low, keeping FILES_KEPT files for the process itself and a gateway's connection to its device): one more
 closes the connection idle the longest, one that never sent a request first, so that clients that ask
-keep being answered. That, and a connection the system refuses to accept (out of open files), is said in
-one line at most every NOTICE_EVERY seconds (`Crowd`), never as a traceback per attempt.
+keep being answered; connections whose clients have left already, unread, make room first (`peers_gone`).
+That, and a connection the system refuses to accept (out of open files), is said in one line at most
+every NOTICE_EVERY seconds (`Crowd`), never as a traceback per attempt.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import functools
 import json
 import logging
 import os
+import select
 import signal
 import struct
 import sys
@@ -458,6 +460,24 @@ def most_clients() -> int:
     return max(1, min(CLIENTS_MOST, (soft - FILES_KEPT) // 2))
 
 
+def peers_gone(handlers: list[ClientHandler]) -> list[ClientHandler]:
+    """Those of `handlers` whose client has closed or reset its connection, though the event loop has not read
+    that yet (asyncio accepts a burst of connections before it reads from any): one poll of their sockets,
+    which reads nothing. None where the system has no poll()."""
+    poll = getattr(select, "poll", None)
+    if poll is None:
+        return []
+    hangup = getattr(select, "POLLRDHUP", 0)  # Linux: the peer closed its side
+    watch, by_fd = poll(), {}
+    for handler in handlers:
+        sock = handler.transport.get_extra_info("socket") if handler.transport is not None else None
+        if sock is not None:
+            by_fd[sock.fileno()] = handler
+            watch.register(sock.fileno(), select.POLLIN | hangup)
+    gone = select.POLLHUP | select.POLLERR | hangup
+    return [by_fd[fd] for fd, events in watch.poll(0) if events & gone]
+
+
 class Crowd:
     """The connections of one server: at most `most`, and what is said when more arrive (connections closed
     for newer ones, connections the system refused to accept), one line at most every NOTICE_EVERY seconds."""
@@ -472,6 +492,11 @@ class Crowd:
         listener = new.listener
         others = [c for c in getattr(listener, "active_connections", {}).values() if c is not new and c.transport]
         if len(others) < self.most:
+            return
+        gone = peers_gone(others)
+        if gone:  # clients that left already, their leaving not yet read: closed, and nothing to say
+            for handler in gone:
+                handler.close()
             return
         oldest = min(others, key=lambda c: (getattr(c, "asked", True), getattr(c, "last", 0.0)))
         oldest.close()
