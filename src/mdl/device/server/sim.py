@@ -471,9 +471,10 @@ def peers_gone(handlers: list[ClientHandler]) -> list[ClientHandler]:
     watch, by_fd = poll(), {}
     for handler in handlers:
         sock = handler.transport.get_extra_info("socket") if handler.transport is not None else None
-        if sock is not None:
-            by_fd[sock.fileno()] = handler
-            watch.register(sock.fileno(), select.POLLIN | hangup)
+        fd = sock.fileno() if sock is not None else -1
+        if fd >= 0:  # -1: its socket closed already
+            by_fd[fd] = handler
+            watch.register(fd, select.POLLIN | hangup)
     gone = select.POLLHUP | select.POLLERR | hangup
     return [by_fd[fd] for fd, events in watch.poll(0) if events & gone]
 
