@@ -463,7 +463,7 @@ def most_clients() -> int:
 def peers_gone(handlers: list[ClientHandler]) -> list[ClientHandler]:
     """Those of `handlers` whose client has closed or reset its connection, though the event loop has not read
     that yet (asyncio accepts a burst of connections before it reads from any): one poll of their sockets,
-    which reads nothing. None where the system has no poll()."""
+    which reads nothing. An empty list where the system has no poll()."""
     poll = getattr(select, "poll", None)
     if poll is None:
         return []
