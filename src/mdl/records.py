@@ -25,7 +25,7 @@ from __future__ import annotations
 import functools
 import inspect
 from collections.abc import Callable
-from dataclasses import FrozenInstanceError
+from dataclasses import Field, FrozenInstanceError
 from operator import attrgetter
 from types import CodeType, FunctionType
 from typing import TYPE_CHECKING, Any, TypeVar
@@ -85,7 +85,7 @@ def _names(cls: type) -> tuple[list[str], dict[str, Any]]:
         names.append(name)
         if name in cls.__dict__:
             default = cls.__dict__[name]
-            if type(default).__name__ == "Field" or isinstance(default, _MUTABLE):
+            if isinstance(default, (Field, *_MUTABLE)):
                 raise TypeError(f"{cls.__qualname__}.{name}: a record's default is a plain immutable value")
             defaults[name] = default
         elif defaults:
