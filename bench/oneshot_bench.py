@@ -82,11 +82,7 @@ def cases(host: str, port: int, xml: Path, write: str) -> list[Case]:
         Case("import pymodbus.client", [py, "-c", "import pymodbus.client"]),
         Case("plain pymodbus, 4 hr", [py, "-c", PLAIN, host, str(port)], base="import pymodbus.client"),
         # the libraries a read imports before any of mdl's work: the floor under mdl's own share
-        Case(
-            "import pymodbus.client, click",
-            [py, "-c", "import pymodbus.client, click, pathlib"],
-            "import pymodbus.client",
-        ),
+        Case("import pymodbus.client, click", [py, "-c", CLI_LIBRARIES], "import pymodbus.client"),  # and pathlib
         Case("... and lxml.etree", [py, "-c", LIBRARIES], "import pymodbus.client"),
         Case("mdl --help", [*mdl, "--help"], base="import pymodbus", goal=HELP_GOAL),
         Case("mdl read --raw hr:0-3", [*mdl, "read", *at, "--raw", "hr:0-3"], "import pymodbus.client", READ_GOAL),
